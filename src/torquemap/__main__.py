@@ -1,0 +1,7 @@
+"""``python -m torquemap``."""
+
+import sys
+
+from torquemap.cli.main import main
+
+sys.exit(main())

@@ -1,0 +1,206 @@
+"""Planar two-link (SCARA A/B) kinematics, Jacobian and the force/torque maps.
+
+Conventions (docs/conventions.md): angles counter-clockwise positive about +z; the external
+force ``F`` is exerted BY the environment ON the end effector, in the base frame; the joint-side
+external torque is ``tau_ext = J(q)^T F``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+
+def _q2(joint_angles: ArrayLike) -> NDArray[np.float64]:
+    q = np.asarray(joint_angles, dtype=np.float64)
+    if q.shape[-1] != 2:
+        raise ValueError(f"joint_angles must have shape (..., 2), got {q.shape}")
+    return q
+
+
+def forward_kinematics(
+    joint_angles: ArrayLike, link_lengths: tuple[float, float]
+) -> NDArray[np.float64]:
+    """End-effector position of a planar 2R arm (Eq 2 of Simpson, Cook & Li).
+
+    Parameters
+    ----------
+    joint_angles
+        Joint angles ``(q1, q2)`` [rad], shape (..., 2).
+    link_lengths
+        ``(l1, l2)`` [m].
+
+    Returns
+    -------
+    ndarray
+        ``(x, y)`` [m], shape (..., 2).
+
+    Notes
+    -----
+    x = l1 cos q1 + l2 cos(q1 + q2), y = l1 sin q1 + l2 sin(q1 + q2).
+
+    Examples
+    --------
+    >>> forward_kinematics([0.0, np.pi / 2], (0.3, 0.2)).round(6)
+    array([0.3, 0.2])
+    """
+    q = _q2(joint_angles)
+    l1, l2 = link_lengths
+    q12 = q[..., 0] + q[..., 1]
+    x = l1 * np.cos(q[..., 0]) + l2 * np.cos(q12)
+    y = l1 * np.sin(q[..., 0]) + l2 * np.sin(q12)
+    return np.stack([x, y], axis=-1)
+
+
+def jacobian(joint_angles: ArrayLike, link_lengths: tuple[float, float]) -> NDArray[np.float64]:
+    """Jacobian d(x, y)/d(q1, q2) of a planar 2R arm.
+
+    Parameters
+    ----------
+    joint_angles
+        Joint angles [rad], shape (..., 2).
+    link_lengths
+        ``(l1, l2)`` [m].
+
+    Returns
+    -------
+    ndarray
+        Shape (..., 2, 2), rows (x, y), columns (q1, q2) [m / rad].
+
+    Examples
+    --------
+    >>> jacobian([0.0, 0.0], (1.0, 1.0)) + 0.0
+    array([[0., 0.],
+           [2., 1.]])
+    """
+    q = _q2(joint_angles)
+    l1, l2 = link_lengths
+    q12 = q[..., 0] + q[..., 1]
+    s1, c1 = np.sin(q[..., 0]), np.cos(q[..., 0])
+    s12, c12 = np.sin(q12), np.cos(q12)
+    out = np.empty((*q.shape[:-1], 2, 2))
+    out[..., 0, 0] = -l1 * s1 - l2 * s12
+    out[..., 0, 1] = -l2 * s12
+    out[..., 1, 0] = l1 * c1 + l2 * c12
+    out[..., 1, 1] = l2 * c12
+    return out
+
+
+def joint_torque_from_force(
+    joint_angles: ArrayLike, force: ArrayLike, link_lengths: tuple[float, float]
+) -> NDArray[np.float64]:
+    """Joint-side torques that an end-effector force produces, ``tau = J(q)^T F``.
+
+    Parameters
+    ----------
+    joint_angles
+        Joint angles [rad], shape (..., 2).
+    force
+        Force on the end effector [N], base frame, shape (..., 2).
+    link_lengths
+        ``(l1, l2)`` [m].
+
+    Returns
+    -------
+    ndarray
+        Joint torques [N m], shape (..., 2), counter-clockwise positive.
+
+    Notes
+    -----
+    Equals Eq 3 of Simpson, Cook & Li: its matrix ``[[-y, x], [-r_b sin(qa+qb),
+    r_b cos(qa+qb)]]`` is ``J(q)^T``.
+
+    Examples
+    --------
+    >>> joint_torque_from_force([0.0, 0.0], [0.0, 1.0], (1.0, 1.0))
+    array([2., 1.])
+    """
+    J = jacobian(joint_angles, link_lengths)
+    F = np.asarray(force, dtype=np.float64)
+    tau: NDArray[np.float64] = np.einsum("...ji,...j->...i", J, F)
+    return tau
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class ForceFromTorque:
+    """Cartesian force recovered from joint torques.
+
+    Attributes
+    ----------
+    force
+        Force on the end effector [N], base frame, shape (n, 2); NaN where ``singular``.
+    singular
+        True where the pose is too close to a singularity to invert ``J^T``, shape (n,).
+    """
+
+    force: NDArray[np.float64]
+    singular: NDArray[np.bool_]
+
+
+def force_from_joint_torque(
+    joint_angles: ArrayLike,
+    joint_torque: ArrayLike,
+    link_lengths: tuple[float, float],
+    *,
+    min_sin_elbow: float = 0.05,
+) -> ForceFromTorque:
+    """End-effector force from joint-side torques, ``F = J(q)^-T tau``, guarded near singularities.
+
+    Parameters
+    ----------
+    joint_angles
+        Joint angles [rad], shape (n, 2).
+    joint_torque
+        Joint-side torques [N m], shape (n, 2).
+    link_lengths
+        ``(l1, l2)`` [m].
+    min_sin_elbow
+        Poses with ``|sin q2|`` below this are flagged singular [-]. ``det J = l1 l2 sin q2``,
+        so the force error per torque error grows as ``1 / |sin q2|``.
+
+    Returns
+    -------
+    ForceFromTorque
+        Force [N] and the singular flag.
+
+    Examples
+    --------
+    >>> r = force_from_joint_torque([[0.0, 1.0]], [[0.5, 0.2]], (0.3, 0.2))
+    >>> bool(r.singular[0])
+    False
+    """
+    q = np.atleast_2d(_q2(joint_angles))
+    tau = np.atleast_2d(np.asarray(joint_torque, dtype=np.float64))
+    J = jacobian(q, link_lengths)
+    singular = np.abs(np.sin(q[:, 1])) < min_sin_elbow
+    force = np.full_like(tau, np.nan)
+    ok = ~singular
+    if ok.any():
+        force[ok] = np.linalg.solve(np.swapaxes(J[ok], -1, -2), tau[ok][..., None])[..., 0]
+    return ForceFromTorque(force=force, singular=singular)
+
+
+def inverse_kinematics(
+    position: ArrayLike, link_lengths: tuple[float, float], *, elbow: int = 1
+) -> NDArray[np.float64]:
+    """Joint angles reaching ``position`` [m]; ``elbow=+1`` gives q2 > 0 (elbow left).
+
+    Raises ValueError when a point is out of reach.
+
+    Examples
+    --------
+    >>> q = inverse_kinematics([0.3, 0.2], (0.3, 0.2))
+    >>> forward_kinematics(q, (0.3, 0.2)).round(6)
+    array([0.3, 0.2])
+    """
+    p = np.asarray(position, dtype=np.float64)
+    l1, l2 = link_lengths
+    r2 = p[..., 0] ** 2 + p[..., 1] ** 2
+    c2 = (r2 - l1**2 - l2**2) / (2 * l1 * l2)
+    if np.any(np.abs(c2) > 1 + 1e-12):
+        raise ValueError("point out of reach")
+    q2 = elbow * np.arccos(np.clip(c2, -1.0, 1.0))
+    q1 = np.arctan2(p[..., 1], p[..., 0]) - np.arctan2(l2 * np.sin(q2), l1 + l2 * np.cos(q2))
+    return np.stack([q1, q2], axis=-1)
