@@ -1,0 +1,293 @@
+"""The identified model of a robot's joints: inertia, friction and PDTV, and its TOML file.
+
+A model file is a robot file plus, per joint, optional ``[joints.<j>.inertia]``,
+``[joints.<j>.friction]`` and ``[[joints.<j>.pdtv]]`` tables, and an optional top-level
+``[identification]`` table of free-form notes. A plain robot file is a valid model with no
+friction and no PDTV. All torques and inertias are motor side (docs/conventions.md).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from torquemap.errors import InputError
+from torquemap.robot import Robot, read_toml, robot_from_dict, robot_to_dict
+
+Direction = Literal["both", "positive", "negative"]
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class InertiaModel:
+    """Motor-side inertia of one joint.
+
+    ``J(q) = constant + cos_elbow * cos(q_2)``: for the first joint of a planar2r arm the
+    reflected link inertia depends on the elbow angle ``q_2`` (Simpson et al.: "the B axis
+    position affects the A axis inertia"); ``cos_elbow`` is 0 for every other joint.
+
+    Attributes
+    ----------
+    constant
+        [kg m^2], motor side.
+    cos_elbow
+        [kg m^2], motor side.
+    """
+
+    constant: float = 0.0
+    cos_elbow: float = 0.0
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class FrictionModel:
+    """Motor-side friction of one joint: Coulomb per direction, viscous, Stribeck.
+
+    For motor velocity ``w`` [rad/s]::
+
+        w > 0:  f(w) = coulomb_positive + stribeck_positive * exp(-(w / stribeck_velocity)**2) + viscous * w
+        w < 0:  f(w) = -coulomb_negative - stribeck_negative * exp(-(w / stribeck_velocity)**2) + viscous * w
+
+    with a linear blend through zero for ``|w| < zero_velocity`` (friction at rest is not
+    determined by the velocity; the blend keeps the model continuous).
+
+    Attributes
+    ----------
+    coulomb_positive, coulomb_negative
+        Coulomb friction magnitudes [N m] for positive and negative motion (both >= 0).
+    viscous
+        Viscous coefficient [N m s / rad].
+    stribeck_positive, stribeck_negative
+        Extra break-away torque at low speed [N m] (0 when the data does not support it).
+    stribeck_velocity
+        Stribeck velocity [rad/s], motor side.
+    zero_velocity
+        Half width of the blend through zero velocity [rad/s], motor side.
+    """
+
+    coulomb_positive: float = 0.0
+    coulomb_negative: float = 0.0
+    viscous: float = 0.0
+    stribeck_positive: float = 0.0
+    stribeck_negative: float = 0.0
+    stribeck_velocity: float = 1.0
+    zero_velocity: float = 1e-3
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class PdtvLine:
+    """One PDTV line: ``amplitude * cos(order * motor_angle + phase)``.
+
+    Attributes
+    ----------
+    order
+        Position frequency in cycles per motor revolution (CPR, Eq 4 of Simpson et al.).
+    amplitude
+        [N m], motor side, >= 0.
+    phase
+        [rad].
+    direction
+        ``"both"``, or the direction of motion in which this line applies.
+    """
+
+    order: float
+    amplitude: float
+    phase: float
+    direction: Direction = "both"
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class JointModel:
+    """Everything identified for one joint (motor side)."""
+
+    inertia: InertiaModel = field(default_factory=InertiaModel)
+    friction: FrictionModel = field(default_factory=FrictionModel)
+    pdtv: tuple[PdtvLine, ...] = ()
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Model:
+    """A robot and its identified joints.
+
+    Attributes
+    ----------
+    robot
+        The robot file's content.
+    joints
+        Joint name to :class:`JointModel`, for every joint of the robot.
+    notes
+        Free-form ``[identification]`` table (logs used, warnings, ...).
+    """
+
+    robot: Robot
+    joints: Mapping[str, JointModel]
+    notes: Mapping[str, Any] = field(default_factory=dict)
+
+
+def friction_torque(velocity: ArrayLike, friction: FrictionModel) -> NDArray[np.float64]:
+    """Friction torque [N m] at motor velocity ``velocity`` [rad/s] (see :class:`FrictionModel`).
+
+    Examples
+    --------
+    >>> f = FrictionModel(coulomb_positive=0.1, coulomb_negative=0.2, viscous=0.01)
+    >>> friction_torque([2.0, -2.0], f).round(6)
+    array([ 0.12, -0.22])
+    """
+    w = np.asarray(velocity, dtype=np.float64)
+    s = np.exp(-((w / friction.stribeck_velocity) ** 2))
+    pos = friction.coulomb_positive + friction.stribeck_positive * s
+    neg = -(friction.coulomb_negative + friction.stribeck_negative * s)
+    w0 = friction.zero_velocity
+    blend = np.clip((w + w0) / (2 * w0), 0.0, 1.0)
+    out: NDArray[np.float64] = blend * pos + (1.0 - blend) * neg + friction.viscous * w
+    return out
+
+
+def pdtv_torque(
+    motor_angle: ArrayLike,
+    lines: tuple[PdtvLine, ...],
+    *,
+    velocity: ArrayLike | None = None,
+) -> NDArray[np.float64]:
+    """PDTV torque [N m] at motor angle ``motor_angle`` [rad].
+
+    Lines with ``direction="both"`` always apply; directional lines apply where the sign of
+    ``velocity`` [rad/s] matches (and are skipped when ``velocity`` is None).
+
+    Examples
+    --------
+    >>> pdtv_torque([0.0, np.pi / 2], (PdtvLine(order=2, amplitude=0.5, phase=0.0),)).round(6)
+    array([ 0.5, -0.5])
+    """
+    theta = np.asarray(motor_angle, dtype=np.float64)
+    out = np.zeros_like(theta)
+    w = None if velocity is None else np.asarray(velocity, dtype=np.float64)
+    for line in lines:
+        term = line.amplitude * np.cos(line.order * theta + line.phase)
+        if line.direction == "both":
+            out += term
+        elif w is not None:
+            mask = w > 0 if line.direction == "positive" else w < 0
+            out += np.where(mask, term, 0.0)
+    return out
+
+
+def inertia_at(joint: JointModel, elbow_angle: ArrayLike) -> NDArray[np.float64]:
+    """Motor-side inertia [kg m^2] at elbow (second joint) angle ``elbow_angle`` [rad]."""
+    q2 = np.asarray(elbow_angle, dtype=np.float64)
+    out: NDArray[np.float64] = joint.inertia.constant + joint.inertia.cos_elbow * np.cos(q2)
+    return out
+
+
+def _floats(table: Mapping[str, Any], cls: type, where: str, path: str | None) -> dict[str, float]:
+    allowed = set(cls.__dataclass_fields__)  # type: ignore[attr-defined]
+    out: dict[str, float] = {}
+    for key, value in table.items():
+        if key not in allowed:
+            raise InputError(
+                f"unknown key {key!r} in {where} (allowed: {', '.join(sorted(allowed))})", path=path
+            )
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int | float)
+            or not math.isfinite(value)
+        ):
+            raise InputError(f"{where} {key} must be a finite number, got {value!r}", path=path)
+        out[key] = float(value)
+    return out
+
+
+def _pdtv_lines(raw: Any, where: str, path: str | None) -> tuple[PdtvLine, ...]:
+    if not isinstance(raw, list):
+        raise InputError(f"{where} must be an array of tables [[...pdtv]]", path=path)
+    lines = []
+    for k, item in enumerate(raw):
+        w = f"{where}[{k}]"
+        if not isinstance(item, Mapping):
+            raise InputError(f"{w} must be a table", path=path)
+        direction = item.get("direction", "both")
+        if direction not in ("both", "positive", "negative"):
+            raise InputError(
+                f"{w} direction must be 'both', 'positive' or 'negative', got {direction!r}",
+                path=path,
+            )
+        nums = _floats({k2: v for k2, v in item.items() if k2 != "direction"}, PdtvLine, w, path)
+        for key in ("order", "amplitude", "phase"):
+            if key not in nums:
+                raise InputError(f"{w} is missing {key}", path=path)
+        if nums["order"] <= 0:
+            raise InputError(f"{w} order must be positive", path=path)
+        lines.append(PdtvLine(direction=direction, **nums))
+    return tuple(lines)
+
+
+def model_from_dict(
+    document: Mapping[str, Any], *, path: str | os.PathLike[str] | None = None
+) -> Model:
+    """Build a :class:`Model` from a parsed model (or plain robot) TOML document."""
+    p = None if path is None else os.fspath(path)
+    robot = robot_from_dict(
+        document,
+        path=p,
+        extra_tables=("identification",),
+        extra_joint_tables=("inertia", "friction", "pdtv"),
+    )
+    joints: dict[str, JointModel] = {}
+    for name, spec in document["joints"].items():
+        where = f"[joints.{name}"
+        inertia = InertiaModel(
+            **_floats(spec.get("inertia", {}), InertiaModel, where + ".inertia]", p)
+        )
+        friction = FrictionModel(
+            **_floats(spec.get("friction", {}), FrictionModel, where + ".friction]", p)
+        )
+        if friction.coulomb_positive < 0 or friction.coulomb_negative < 0:
+            raise InputError(f"{where}.friction] Coulomb magnitudes must be >= 0", path=p)
+        if friction.stribeck_velocity <= 0 or friction.zero_velocity <= 0:
+            raise InputError(
+                f"{where}.friction] stribeck_velocity and zero_velocity must be > 0", path=p
+            )
+        lines = _pdtv_lines(spec.get("pdtv", []), where + ".pdtv]", p)
+        joints[str(name)] = JointModel(inertia=inertia, friction=friction, pdtv=lines)
+    notes = document.get("identification", {})
+    if not isinstance(notes, Mapping):
+        raise InputError("[identification] must be a table", path=p)
+    return Model(robot=robot, joints=joints, notes=dict(notes))
+
+
+def load_model(path: str | os.PathLike[str]) -> Model:
+    """Read a model file (or a plain robot file, which gives no friction and no PDTV).
+
+    Raises
+    ------
+    InputError
+        On a missing, empty or malformed file, or a missing or unknown key.
+    """
+    return model_from_dict(read_toml(path), path=path)
+
+
+def model_to_dict(model: Model) -> dict[str, Any]:
+    """The TOML document of a model, ready for ``tomli_w``; inverse of :func:`model_from_dict`."""
+    doc = robot_to_dict(model.robot)
+    for name, jm in model.joints.items():
+        spec = doc["joints"][name]
+        spec["inertia"] = {"constant": jm.inertia.constant, "cos_elbow": jm.inertia.cos_elbow}
+        f = jm.friction
+        spec["friction"] = {k: float(getattr(f, k)) for k in FrictionModel.__dataclass_fields__}
+        if jm.pdtv:
+            spec["pdtv"] = [
+                {
+                    "order": ln.order,
+                    "amplitude": ln.amplitude,
+                    "phase": ln.phase,
+                    "direction": ln.direction,
+                }
+                for ln in jm.pdtv
+            ]
+    if model.notes:
+        doc["identification"] = dict(model.notes)
+    return doc
