@@ -1,0 +1,1 @@
+"""Torque-linearisation look-up tables (Adept II paper): motor spec, collection, tables, metrics."""

@@ -1,0 +1,1 @@
+"""Figures, built on matplotlib.figure.Figure (no pyplot, no GUI backend)."""

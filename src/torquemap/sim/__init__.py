@@ -1,0 +1,1 @@
+"""Simulated benches: physics written independently of every estimator and table builder."""
