@@ -1,0 +1,218 @@
+"""Time-domain signal tools: noise-aware differentiation and zero-phase low-pass filtering.
+
+Both accept irregular time stamps, as logs polled by a host often have.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from torquemap.errors import InputError
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Derivatives:
+    """A signal smoothed and differentiated by :func:`differentiate`.
+
+    Attributes
+    ----------
+    position
+        The smoothed signal, shape (n,) [unit].
+    velocity
+        Its first derivative, shape (n,) [unit/s].
+    acceleration
+        Its second derivative, shape (n,) [unit/s^2].
+    """
+
+    position: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+    acceleration: NDArray[np.float64]
+
+
+def _time_and_values(t: ArrayLike, x: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    tt = np.asarray(t, dtype=np.float64)
+    xx = np.asarray(x, dtype=np.float64)
+    if tt.ndim != 1 or xx.shape != tt.shape:
+        raise InputError(
+            f"time and values must be 1-D of equal length, got {tt.shape} and {xx.shape}"
+        )
+    if tt.size < 3:
+        raise InputError(f"need at least 3 samples to filter, got {tt.size}")
+    if not (np.all(np.isfinite(tt)) and np.all(np.isfinite(xx))):
+        raise InputError("time or values hold NaN or inf")
+    if not np.all(np.diff(tt) > 0):
+        raise InputError("time is not strictly increasing")
+    return tt, xx
+
+
+def differentiate(t: ArrayLike, x: ArrayLike, *, window: float) -> Derivatives:
+    """Smooth a signal and its first two derivatives by local quadratic least squares.
+
+    Around every sample a parabola is fitted, by least squares, to the samples in a window of
+    ``window`` seconds; its value, slope and curvature at the sample are the smoothed signal,
+    velocity and acceleration. This is the Savitzky-Golay filter generalised to irregular
+    time. Near the ends the window keeps its length and is shifted to stay inside the log.
+
+    Parameters
+    ----------
+    t
+        Time [s], strictly increasing, shape (n,).
+    x
+        Signal [unit], shape (n,).
+    window
+        Window length [s]. Longer windows reduce noise but attenuate fast motion: a sine of
+        period P loses less than 1 % of its velocity when ``window < P / 5``.
+
+    Returns
+    -------
+    Derivatives
+        Smoothed position [unit], velocity [unit/s] and acceleration [unit/s^2], each (n,).
+
+    Raises
+    ------
+    InputError
+        If the log is shorter than the window, a window holds fewer than 3 samples, or the
+        time is not strictly increasing.
+
+    Notes
+    -----
+    For sample ``i`` with ``s = t_j - t_i`` over the window, the fit minimises
+    ``sum_j (x_j - a - b s - c s^2)^2``; then position ``a``, velocity ``b`` and acceleration
+    ``2 c``. For white noise of standard deviation sigma on uniform samples at step h and a
+    window holding m samples, the velocity noise is about ``sigma * sqrt(12 / m) / (m h)``.
+
+    Examples
+    --------
+    >>> t = np.linspace(0.0, 1.0, 101)
+    >>> d = differentiate(t, 3.0 * t**2, window=0.1)
+    >>> float(d.velocity[50]), float(d.acceleration[0])
+    (3.0, 6.0)
+    """
+    tt, xx = _time_and_values(t, x)
+    w = float(window)
+    if not np.isfinite(w) or w <= 0:
+        raise InputError(f"differentiation window must be positive, got {window!r} s")
+    span = tt[-1] - tt[0]
+    if span < w:
+        raise InputError(
+            f"log lasts {span:.6g} s, shorter than the differentiation window {w:.6g} s"
+        )
+    n = tt.size
+    start = np.clip(tt - w / 2, tt[0], tt[-1] - w)
+    lo = np.searchsorted(tt, start, side="left")
+    hi = np.searchsorted(tt, start + w * (1 + 1e-12), side="right")
+    idx = np.arange(n)
+    count = hi - lo
+    if count.min() < 3:
+        raise InputError(
+            f"differentiation window {w:.6g} s holds fewer than 3 samples somewhere "
+            "(samples too sparse for this window)"
+        )
+    scale = w / 2
+    s_sum = np.zeros((5, n))
+    sx_sum = np.zeros((3, n))
+    for k in range(int((lo - idx).min()), int((hi - 1 - idx).max()) + 1):
+        j = idx + k
+        inside = (j >= lo) & (j < hi)
+        jj = np.clip(j, 0, n - 1)
+        s = np.where(inside, (tt[jj] - tt) / scale, 0.0)
+        m = inside.astype(np.float64)
+        xs = np.where(inside, xx[jj] - xx, 0.0)
+        p = m.copy()
+        for power in range(5):
+            s_sum[power] += p
+            if power < 3:
+                sx_sum[power] += p * xs
+            p = p * s
+    # Normal equations (3x3 per sample), solved in scaled time for conditioning.
+    a = np.stack(
+        [
+            np.stack([s_sum[0], s_sum[1], s_sum[2]], axis=-1),
+            np.stack([s_sum[1], s_sum[2], s_sum[3]], axis=-1),
+            np.stack([s_sum[2], s_sum[3], s_sum[4]], axis=-1),
+        ],
+        axis=-2,
+    )
+    coef = np.linalg.solve(a, sx_sum.T[..., None])[..., 0]
+    position = xx + coef[:, 0]
+    velocity = coef[:, 1] / scale
+    acceleration = 2.0 * coef[:, 2] / scale**2
+    return Derivatives(position=position, velocity=velocity, acceleration=acceleration)
+
+
+def uniform_step(t: NDArray[np.float64]) -> float:
+    """Median sampling step [s] of ``t`` (the grid :func:`lowpass` resamples to)."""
+    return float(np.median(np.diff(t)))
+
+
+def lowpass(t: ArrayLike, x: ArrayLike, *, cutoff: float, order: int = 2) -> NDArray[np.float64]:
+    """Zero-phase Butterworth low-pass filter.
+
+    The signal is filtered forwards and backwards (``scipy.signal.sosfiltfilt``), so the
+    magnitude response is the Butterworth's squared, ``1 / (1 + (f / cutoff)^(2 order))``, and
+    there is no phase lag. Irregular time is handled by linear resampling to a uniform grid
+    at the median step and back.
+
+    Parameters
+    ----------
+    t
+        Time [s], strictly increasing, shape (n,).
+    x
+        Signal, shape (n,).
+    cutoff
+        Cut-off frequency [Hz] of the single-pass Butterworth (-3 dB; -6 dB after the
+        forward-backward pass). Must be below the Nyquist frequency of the median step.
+    order
+        Butterworth order (of the single pass).
+
+    Returns
+    -------
+    ndarray
+        The filtered signal at the original times, shape (n,).
+
+    Raises
+    ------
+    InputError
+        If the cut-off is not below Nyquist or the log is shorter than the filter's padding.
+
+    Examples
+    --------
+    >>> t = np.arange(1000) * 1e-3
+    >>> y = lowpass(t, np.ones(1000), cutoff=10.0)
+    >>> bool(np.allclose(y, 1.0))
+    True
+    """
+    from scipy import signal
+
+    tt, xx = _time_and_values(t, x)
+    if order < 1:
+        raise InputError(f"filter order must be >= 1, got {order}")
+    h = uniform_step(tt)
+    nyquist = 0.5 / h
+    if not (0 < cutoff < nyquist):
+        raise InputError(
+            f"low-pass cut-off {cutoff:.6g} Hz must be in (0, {nyquist:.6g}) Hz (Nyquist of the "
+            "median sampling step)"
+        )
+    regular = bool(np.allclose(np.diff(tt), h, rtol=1e-6, atol=0.0))
+    if regular:
+        grid, values = tt, xx
+    else:
+        m = round((tt[-1] - tt[0]) / h) + 1
+        grid = tt[0] + h * np.arange(m)
+        grid[-1] = min(grid[-1], tt[-1])
+        values = np.interp(grid, tt, xx)
+    sos = signal.butter(order, cutoff, btype="low", fs=1.0 / h, output="sos")
+    padlen = 3 * (2 * len(sos) + 1 - min(int((sos[:, 2] == 0).sum()), int((sos[:, 5] == 0).sum())))
+    if grid.size <= padlen:
+        raise InputError(
+            f"log of {grid.size} samples is shorter than the low-pass filter's padding "
+            f"({padlen + 1} samples needed)"
+        )
+    y = signal.sosfiltfilt(sos, values)
+    if regular:
+        return np.asarray(y, dtype=np.float64)
+    return np.asarray(np.interp(tt, grid, y), dtype=np.float64)
