@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -190,3 +191,375 @@ def notch_position_signal(
     if periodic:
         y = y[pad : y.size - pad]
     return np.asarray(y, dtype=np.float64)
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Spectrum:
+    """Position-frequency spectrum of a position-domain signal.
+
+    Attributes
+    ----------
+    order
+        Position frequency [CPR], shape (m,), from ``1 / revolutions`` up.
+    amplitude
+        Line amplitude [signal unit]: a line ``A cos(order * theta + phase)`` shows ``A``.
+    phase
+        [rad], referred to motor angle 0.
+    revolutions
+        Motor revolutions the spectrum was computed over (its resolution is 1 / revolutions).
+    """
+
+    order: NDArray[np.float64]
+    amplitude: NDArray[np.float64]
+    phase: NDArray[np.float64]
+    revolutions: float = 1.0
+
+
+def position_spectrum(signal: PositionSignal, *, max_order: float | None = None) -> Spectrum:
+    """Spectrum in CPR of a position-domain signal over a whole number of motor revolutions.
+
+    The first ``floor(revolutions)`` revolutions are used, so that every integer order falls
+    exactly on a frequency bin (no leakage). A signal covering less than one revolution but at
+    least half of one is used whole (resolution ``1 / revolutions`` CPR, a little coarser
+    than 1).
+
+    Parameters
+    ----------
+    signal
+        From :func:`discrete_position_signal`; ``2 pi / bin_width`` should be an integer.
+    max_order
+        Highest order to return [CPR]; default: every order below the position Nyquist.
+
+    Returns
+    -------
+    Spectrum
+        Orders, amplitudes and phases (``value ~ sum A cos(order * theta + phase)``).
+
+    Raises
+    ------
+    InputError
+        If the signal covers less than half a motor revolution.
+
+    Examples
+    --------
+    >>> bw = 2 * np.pi / 64
+    >>> theta = (np.arange(128) + 0.5) * bw
+    >>> s = discrete_position_signal(theta, 0.3 * np.cos(5 * theta + 1.0), bin_width=bw)
+    >>> sp = position_spectrum(s)
+    >>> k = int(np.argmax(sp.amplitude))
+    >>> float(sp.order[k]), round(float(sp.amplitude[k]), 6), round(float(sp.phase[k]), 6)
+    (5.0, 0.3, 1.0)
+    """
+    per_rev = signal.samples_per_rev
+    nb = signal.value.size
+    revs = nb / per_rev
+    if revs < 0.5:
+        raise InputError(
+            f"position signal covers {revs:.3g} motor revolutions; at least half of one is "
+            "needed for a spectrum"
+        )
+    whole = math.floor(revs + 1e-9)
+    m = round(whole * per_rev) if whole >= 1 else nb
+    m = min(m, nb)
+    span = m / per_rev
+    x = np.fft.rfft(signal.value[:m]) / m
+    k = np.arange(x.size)
+    order = k / span
+    amplitude = 2.0 * np.abs(x)
+    phase = np.angle(x) - order * signal.angle[0]
+    keep = (k >= 1) & (2 * k < m)  # the Nyquist bin cannot tell amplitude from phase
+    if max_order is not None:
+        keep &= order <= max_order + 1e-9
+    phase = np.mod(phase + np.pi, TWO_PI) - np.pi
+    return Spectrum(
+        order=order[keep].astype(np.float64),
+        amplitude=amplitude[keep],
+        phase=phase[keep],
+        revolutions=span,
+    )
+
+
+def noise_floor(spectrum: Spectrum, *, window: int = 31) -> NDArray[np.float64]:
+    """Robust local noise floor of a spectrum: the Rayleigh scale sigma at every order.
+
+    A running median over ``window`` neighbouring orders, divided by ``sqrt(2 ln 2)`` (the
+    median of a Rayleigh variable of scale 1). Sparse lines barely move a median, so this
+    follows coloured noise without being lifted by the lines it must reveal.
+
+    Returns
+    -------
+    ndarray
+        Rayleigh scale [signal unit] per order, shape (m,).
+    """
+    from scipy.ndimage import median_filter
+
+    a = spectrum.amplitude
+    if a.size == 0:
+        return np.zeros(0)
+    w = max(3, min(window, a.size) | 1)
+    med = median_filter(a, size=w, mode="reflect")
+    floor = np.asarray(med / math.sqrt(2.0 * math.log(2.0)), dtype=np.float64)
+    tiny = np.finfo(np.float64).tiny
+    return np.maximum(floor, max(float(np.median(floor)) * 1e-3, tiny))
+
+
+def rayleigh_threshold(candidates: int, *, false_alarm: float = 0.01) -> float:
+    """Multiple of the Rayleigh scale that pure noise exceeds with ``false_alarm`` probability.
+
+    Over ``candidates`` independent orders: ``P(A > t sigma) = exp(-t^2 / 2)`` per order, so
+    ``t = sqrt(2 ln(candidates / false_alarm))``.
+
+    Examples
+    --------
+    >>> round(rayleigh_threshold(1000), 3)
+    4.799
+    """
+    return math.sqrt(2.0 * math.log(max(candidates, 1) / false_alarm))
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class LinePicks:
+    """Lines picked from a spectrum by :func:`pick_lines`.
+
+    Attributes
+    ----------
+    order
+        Picked orders [CPR], shape (p,), strongest first.
+    amplitude
+        Their spectrum amplitudes, shape (p,).
+    floor
+        Noise floor (Rayleigh scale) at every spectrum order, shape (m,).
+    threshold
+        Detection threshold at every spectrum order [signal unit], shape (m,).
+    multiple
+        The threshold in multiples of the floor.
+    """
+
+    order: NDArray[np.float64]
+    amplitude: NDArray[np.float64]
+    floor: NDArray[np.float64]
+    threshold: NDArray[np.float64]
+    multiple: float
+
+
+def pick_lines(
+    spectrum: Spectrum,
+    *,
+    false_alarm: float = 0.01,
+    fractional: Literal["auto", "never", "always"] = "auto",
+    floor_window: int = 31,
+) -> LinePicks:
+    """Pick the significant lines of a spectrum automatically.
+
+    A line is an order whose amplitude exceeds ``t`` times the local noise floor
+    (:func:`noise_floor`), ``t = rayleigh_threshold(m, false_alarm)`` for the ``m`` orders
+    searched, so that pure noise yields a spurious line with probability ``false_alarm`` per
+    spectrum; and that is a local maximum of the amplitude. Non-integer orders are kept only
+    when the spectrum resolves them (``fractional="auto"``: at least 4 revolutions, so the
+    resolution is 0.25 CPR or finer); otherwise only orders at an integer are searched.
+
+    Parameters
+    ----------
+    spectrum
+        From :func:`position_spectrum`.
+    false_alarm
+        Probability that noise alone produces one or more picked lines.
+    fractional
+        ``"auto"``, ``"never"`` (integers only) or ``"always"``.
+    floor_window
+        Running-median window of the floor [orders].
+
+    Returns
+    -------
+    LinePicks
+        The orders, strongest first, and the floor and threshold used.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> bw = 2 * np.pi / 512
+    >>> theta = (np.arange(512 * 4) + 0.5) * bw
+    >>> y = 0.5 * np.cos(7 * theta) + 0.2 * np.cos(30 * theta + 1) + rng.normal(0, 0.1, theta.size)
+    >>> pick_lines(position_spectrum(discrete_position_signal(theta, y, bin_width=bw))).order
+    array([ 7., 30.])
+    """
+    order = spectrum.order
+    amp = spectrum.amplitude
+    floor = noise_floor(spectrum, window=floor_window)
+    integer = np.abs(order - np.round(order)) < 0.5 / max(spectrum.revolutions, 1.0)
+    if fractional == "always" or (fractional == "auto" and spectrum.revolutions >= 4.0):
+        searched = np.ones(order.size, dtype=bool)
+    else:
+        searched = integer
+    multiple = rayleigh_threshold(int(searched.sum()), false_alarm=false_alarm)
+    threshold = multiple * floor
+    left = np.concatenate(([-np.inf], amp[:-1]))
+    right = np.concatenate((amp[1:], [-np.inf]))
+    is_peak = (amp >= left) & (amp >= right)
+    if not (fractional == "always" or searched.all()):
+        is_peak = np.ones(order.size, dtype=bool)
+    hit = searched & is_peak & (amp > threshold)
+    picked = order[hit]
+    if not searched.all():
+        picked = np.round(picked)
+    rank = np.argsort(-amp[hit], kind="stable")
+    return LinePicks(
+        order=picked[rank].astype(np.float64),
+        amplitude=amp[hit][rank],
+        floor=floor,
+        threshold=threshold,
+        multiple=multiple,
+    )
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class HarmonicFit:
+    """Least-squares fit of ``sum_k A_k cos(order_k theta + phase_k)`` plus group offsets.
+
+    Attributes
+    ----------
+    order, amplitude, phase
+        Per line [CPR], [signal unit], [rad]; shape (p,).
+    amplitude_se
+        Standard error of each amplitude (white-noise assumption), shape (p,).
+    cos_sin
+        Coefficients ``(a_k, b_k)`` of ``a cos + b sin``, shape (p, 2).
+    covariance
+        Covariance of ``(a_k, b_k)`` per line, shape (p, 2, 2).
+    offsets
+        Fitted offset per group, shape (g,).
+    residual_rms
+        RMS of the residual [signal unit].
+    """
+
+    order: NDArray[np.float64]
+    amplitude: NDArray[np.float64]
+    phase: NDArray[np.float64]
+    amplitude_se: NDArray[np.float64]
+    cos_sin: NDArray[np.float64]
+    covariance: NDArray[np.float64]
+    offsets: NDArray[np.float64]
+    residual_rms: float
+
+
+def fit_harmonics(
+    motor_angle: ArrayLike,
+    values: ArrayLike,
+    *,
+    orders: Sequence[float],
+    groups: ArrayLike | None = None,
+    chunk: int = 20000,
+) -> HarmonicFit:
+    """Fit harmonics of the motor angle to all samples by linear least squares.
+
+    Unlike averaging in bins, every sample counts with its exact angle, so no resolution is
+    lost to the bin width and noise averages over all samples.
+
+    Parameters
+    ----------
+    motor_angle
+        Motor angle [rad], shape (n,).
+    values
+        Signal, shape (n,).
+    orders
+        Orders to fit [CPR], distinct and positive.
+    groups
+        Integer group label per sample (for example the pass it comes from), shape (n,); each
+        group gets its own offset. Default: one offset for all.
+    chunk
+        Rows per block when accumulating the normal equations (bounds memory).
+
+    Returns
+    -------
+    HarmonicFit
+        Amplitudes, phases, their standard errors, offsets.
+
+    Raises
+    ------
+    InputError
+        On mismatched shapes or fewer samples than unknowns.
+
+    Examples
+    --------
+    >>> theta = np.linspace(0.0, 20.0, 2000)
+    >>> fit = fit_harmonics(theta, 2.0 + 0.5 * np.cos(3 * theta - 0.4), orders=[3.0])
+    >>> round(float(fit.amplitude[0]), 6), round(float(fit.phase[0]), 6), round(float(fit.offsets[0]), 6)
+    (0.5, -0.4, 2.0)
+    """
+    theta = np.asarray(motor_angle, dtype=np.float64)
+    y = np.asarray(values, dtype=np.float64)
+    if theta.ndim != 1 or theta.shape != y.shape:
+        raise InputError("motor angle and values must be 1-D of equal length")
+    ords = np.asarray(list(orders), dtype=np.float64)
+    if ords.size and (np.any(ords <= 0) or np.unique(ords).size != ords.size):
+        raise InputError("harmonic orders must be positive and distinct")
+    if groups is None:
+        g = np.zeros(theta.size, dtype=np.int64)
+    else:
+        _, g = np.unique(np.asarray(groups), return_inverse=True)
+        g = g.astype(np.int64).ravel()
+    ng = int(g.max()) + 1 if g.size else 1
+    p = ords.size
+    ncol = 2 * p + ng
+    if theta.size < ncol + 1:
+        raise InputError(f"{theta.size} samples cannot fit {ncol} unknowns")
+    ata = np.zeros((ncol, ncol))
+    aty = np.zeros(ncol)
+    for s in range(0, theta.size, chunk):
+        a = _design(theta[s : s + chunk], ords, g[s : s + chunk], ng)
+        ata += a.T @ a
+        aty += a.T @ y[s : s + chunk]
+    inv = np.linalg.pinv(ata)
+    coef = inv @ aty
+    ss = 0.0
+    for s in range(0, theta.size, chunk):
+        a = _design(theta[s : s + chunk], ords, g[s : s + chunk], ng)
+        ss += float(np.sum((y[s : s + chunk] - a @ coef) ** 2))
+    dof = max(theta.size - ncol, 1)
+    sigma2 = ss / dof
+    ab = coef[: 2 * p].reshape(p, 2)
+    cov = np.empty((p, 2, 2))
+    for k in range(p):
+        cov[k] = sigma2 * inv[2 * k : 2 * k + 2, 2 * k : 2 * k + 2]
+    amplitude = np.hypot(ab[:, 0], ab[:, 1])
+    phase = np.arctan2(-ab[:, 1], ab[:, 0])
+    se = np.sqrt(np.maximum(0.5 * (cov[:, 0, 0] + cov[:, 1, 1]), 0.0))
+    return HarmonicFit(
+        order=ords,
+        amplitude=amplitude,
+        phase=phase,
+        amplitude_se=se,
+        cos_sin=ab,
+        covariance=cov,
+        offsets=coef[2 * p :],
+        residual_rms=math.sqrt(ss / theta.size),
+    )
+
+
+def _design(
+    theta: NDArray[np.float64], orders: NDArray[np.float64], groups: NDArray[np.int64], ng: int
+) -> NDArray[np.float64]:
+    arg = np.outer(theta, orders)
+    a = np.empty((theta.size, 2 * orders.size + ng))
+    a[:, 0 : 2 * orders.size : 2] = np.cos(arg)
+    a[:, 1 : 2 * orders.size : 2] = np.sin(arg)
+    a[:, 2 * orders.size :] = 0.0
+    a[np.arange(theta.size), 2 * orders.size + groups] = 1.0
+    return a
+
+
+def bins_per_revolution(samples_per_rev: float, *, margin: float = 1.5) -> int:
+    """Largest power of two of bins per motor revolution the data fills.
+
+    ``samples_per_rev / margin`` rounded down to a power of two: with ``margin`` samples per bin
+    on average, speed ripple leaves few bins empty. The position Nyquist is half of it.
+
+    Examples
+    --------
+    >>> bins_per_revolution(14700.0)
+    8192
+    """
+    n = samples_per_rev / margin
+    if n < 4:
+        return 2
+    return int(2 ** math.floor(math.log2(n)))
