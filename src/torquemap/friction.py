@@ -18,7 +18,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from torquemap.errors import InputError
-from torquemap.filters import lowpass
 from torquemap.model import FrictionModel, InertiaModel, friction_torque
 
 TWO_PI = 2.0 * math.pi
@@ -109,7 +108,7 @@ def segment_motion(
     *,
     allowed: ArrayLike | None = None,
     speed_threshold: float | None = None,
-    steady_tolerance: float = 0.1,
+    steady_tolerance: float = 0.2,
     min_revolutions: float = 0.25,
 ) -> Segmentation:
     """Cut one joint's motion into constant-speed passes and accelerating ramps.
@@ -118,10 +117,11 @@ def segment_motion(
        ``|velocity|``) and ``allowed`` (for example: the other joints still).
     2. Runs: maximal stretches moving in one direction; short interruptions (under 1 s and
        under 0.02 revolution of travel, such as speed ripple dipping through zero) are bridged.
-    3. In each run the velocity is low-passed at half the run's mean speed in revolutions per
-       second, which removes every PDTV ripple of order 1 CPR and above; the pass is the span
-       from the first to the last sample whose smoothed speed lies within ``steady_tolerance``
-       of the run's median smoothed speed. The rest of the run is ramps.
+    3. In each run the velocity is averaged over a centred window of one motor revolution
+       (shrinking symmetrically at the run's ends), which cancels PDTV ripple of every integer
+       order; the pass is the span from the first to the last sample whose averaged speed is
+       at least ``1 - steady_tolerance`` times the run's median averaged speed. The rest of
+       the run is ramps.
 
     Parameters
     ----------
@@ -138,7 +138,7 @@ def segment_motion(
     speed_threshold
         Moving threshold [rad/s].
     steady_tolerance
-        Relative speed band of a pass.
+        Relative speed drop that ends a pass.
     min_revolutions
         Passes covering fewer motor revolutions are dropped (their samples count as ramps).
 
@@ -174,14 +174,9 @@ def segment_motion(
         if travel / TWO_PI < min_revolutions:
             continue
         mean_speed = travel / (tt[b - 1] - tt[a])
-        cutoff = 0.5 * mean_speed / TWO_PI
-        seg_t = tt[a:b]
-        try:
-            smooth = np.abs(lowpass(seg_t, w[a:b], cutoff=cutoff))
-        except InputError:
-            smooth = np.full(b - a, mean_speed)
+        smooth = np.abs(_revolution_average(tt[a:b], theta[a:b], w[a:b], mean_speed))
         level = float(np.median(smooth))
-        band = np.flatnonzero(np.abs(smooth - level) <= steady_tolerance * level)
+        band = np.flatnonzero(smooth >= (1.0 - steady_tolerance) * level)
         if band.size < 5:
             accelerating[a:b] = True
             continue
@@ -208,6 +203,25 @@ def segment_motion(
     return Segmentation(passes=tuple(passes), accelerating=accelerating, speed_threshold=thr)
 
 
+def _revolution_average(
+    t: NDArray[np.float64], theta: NDArray[np.float64], w: NDArray[np.float64], speed: float
+) -> NDArray[np.float64]:
+    """Velocity averaged over a centred window of one motor revolution at ``speed``.
+
+    The window (at most half the run) shrinks symmetrically at the ends of the run, so ramps
+    stay visible; averaging over a revolution cancels PDTV ripple of every integer order.
+    """
+    big = min(TWO_PI / speed, 0.5 * (t[-1] - t[0]))
+    half = np.minimum(np.minimum(0.5 * big, t - t[0]), t[-1] - t)
+    lo = np.searchsorted(t, t - half, side="left")
+    hi = np.searchsorted(t, t + half, side="right") - 1
+    dt = t[hi] - t[lo]
+    wide = dt > 0
+    out = w.copy()
+    out[wide] = (theta[hi[wide]] - theta[lo[wide]]) / dt[wide]
+    return out
+
+
 def _runs(label: NDArray[np.int64]) -> list[tuple[int, int, int]]:
     change = np.flatnonzero(np.diff(label)) + 1
     edges = np.concatenate(([0], change, [label.size]))
@@ -217,18 +231,33 @@ def _runs(label: NDArray[np.int64]) -> list[tuple[int, int, int]]:
 def _bridge(
     runs: list[tuple[int, int, int]], t: NDArray[np.float64], theta: NDArray[np.float64]
 ) -> list[tuple[int, int, int]]:
-    """Merge runs of one direction separated by a short, small interruption."""
-    out = list(runs)
-    k = 1
-    while k < len(out) - 1:
-        a, b, s = out[k]
-        before, after = out[k - 1], out[k + 1]
-        short = (t[b - 1] - t[a]) < 1.0 and abs(theta[b - 1] - theta[a]) < 0.02 * TWO_PI
-        if before[2] != 0 and before[2] == after[2] and s != before[2] and short:
-            out[k - 1 : k + 2] = [(before[0], after[1], before[2])]
-            k = max(k - 1, 1)
+    """Merge runs of one direction separated by short, small interruptions.
+
+    A run is significant if it moves and lasts at least 1 s or travels 0.02 revolution. Between
+    two significant runs of the same direction, everything is bridged when it lasts under 1 s
+    and travels under 0.02 revolution in all (speed ripple dipping through zero).
+    """
+
+    def small(a: int, b: int) -> bool:
+        return bool((t[b - 1] - t[a]) < 1.0 and abs(theta[b - 1] - theta[a]) < 0.02 * TWO_PI)
+
+    big = [i for i, (a, b, s) in enumerate(runs) if s != 0 and not small(a, b)]
+    if not big:
+        return runs
+    out: list[tuple[int, int, int]] = list(runs[: big[0]])
+    current = runs[big[0]]
+    for prev, nxt in itertools.pairwise(big):
+        a, b, s = runs[nxt]
+        gap_a, gap_b = runs[prev][1], a
+        bridged = s == current[2] and (gap_b <= gap_a or small(gap_a - 1, gap_b + 1))
+        if bridged:
+            current = (current[0], b, s)
         else:
-            k += 1
+            out.append(current)
+            out.extend(runs[prev + 1 : nxt])
+            current = runs[nxt]
+    out.append(current)
+    out.extend(runs[big[-1] + 1 :])
     return out
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
@@ -430,6 +430,8 @@ class HarmonicFit:
         Fitted offset per group, shape (g,).
     residual_rms
         RMS of the residual [signal unit].
+    extra, extra_se
+        Coefficients of the ``extra`` regressors and their standard errors, shape (e,).
     """
 
     order: NDArray[np.float64]
@@ -440,6 +442,8 @@ class HarmonicFit:
     covariance: NDArray[np.float64]
     offsets: NDArray[np.float64]
     residual_rms: float
+    extra: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    extra_se: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
 
 
 def fit_harmonics(
@@ -448,6 +452,7 @@ def fit_harmonics(
     *,
     orders: Sequence[float],
     groups: ArrayLike | None = None,
+    extra: ArrayLike | None = None,
     chunk: int = 20000,
 ) -> HarmonicFit:
     """Fit harmonics of the motor angle to all samples by linear least squares.
@@ -466,6 +471,9 @@ def fit_harmonics(
     groups
         Integer group label per sample (for example the pass it comes from), shape (n,); each
         group gets its own offset. Default: one offset for all.
+    extra
+        Further regressors fitted jointly, shape (n, e) (for example a torque rate whose
+        coefficient is a measurement lag).
     chunk
         Rows per block when accumulating the normal equations (bounds memory).
 
@@ -499,21 +507,31 @@ def fit_harmonics(
         _, g = np.unique(np.asarray(groups), return_inverse=True)
         g = g.astype(np.int64).ravel()
     ng = int(g.max()) + 1 if g.size else 1
+    ex = np.zeros((theta.size, 0)) if extra is None else np.asarray(extra, dtype=np.float64)
+    if ex.ndim == 1:
+        ex = ex[:, None]
+    if ex.shape[0] != theta.size:
+        raise InputError("extra regressors must have one row per sample")
+    ne = ex.shape[1]
     p = ords.size
-    ncol = 2 * p + ng
+    ncol = 2 * p + ng + ne
     if theta.size < ncol + 1:
         raise InputError(f"{theta.size} samples cannot fit {ncol} unknowns")
     ata = np.zeros((ncol, ncol))
     aty = np.zeros(ncol)
     for s in range(0, theta.size, chunk):
-        a = _design(theta[s : s + chunk], ords, g[s : s + chunk], ng)
+        a = np.hstack(
+            (_design(theta[s : s + chunk], ords, g[s : s + chunk], ng), ex[s : s + chunk])
+        )
         ata += a.T @ a
         aty += a.T @ y[s : s + chunk]
     inv = np.linalg.pinv(ata)
     coef = inv @ aty
     ss = 0.0
     for s in range(0, theta.size, chunk):
-        a = _design(theta[s : s + chunk], ords, g[s : s + chunk], ng)
+        a = np.hstack(
+            (_design(theta[s : s + chunk], ords, g[s : s + chunk], ng), ex[s : s + chunk])
+        )
         ss += float(np.sum((y[s : s + chunk] - a @ coef) ** 2))
     dof = max(theta.size - ncol, 1)
     sigma2 = ss / dof
@@ -531,8 +549,10 @@ def fit_harmonics(
         amplitude_se=se,
         cos_sin=ab,
         covariance=cov,
-        offsets=coef[2 * p :],
+        offsets=coef[2 * p : 2 * p + ng],
         residual_rms=math.sqrt(ss / theta.size),
+        extra=coef[2 * p + ng :],
+        extra_se=np.sqrt(np.maximum(sigma2 * np.diag(inv)[2 * p + ng :], 0.0)),
     )
 
 

@@ -1,0 +1,606 @@
+"""Identify a robot's joints from no-load logs: friction, inertia and PDTV (docs/identification.md).
+
+Per joint (Simpson, Cook & Li, Eq 5, motor side)::
+
+    torque = J(q_elbow) * acceleration + friction(velocity) + PDTV(motor_angle)
+
+is identified from the samples where that joint moves and the others are still: friction from
+constant-speed passes, inertia from the ramps between them, PDTV from the residual of the
+slow passes in the position domain (spectrum, automatic line picking, least-squares harmonic
+fit on all samples).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from torquemap.errors import InputError
+from torquemap.filters import Derivatives, differentiate
+from torquemap.friction import (
+    FrictionFit,
+    InertiaFit,
+    Pass,
+    angle_mean,
+    fit_friction,
+    fit_inertia,
+    segment_motion,
+)
+from torquemap.io import Log
+from torquemap.model import (
+    InertiaModel,
+    JointModel,
+    Model,
+    PdtvLine,
+    friction_torque,
+    pdtv_torque,
+)
+from torquemap.pdtv import (
+    HarmonicFit,
+    LinePicks,
+    PositionSignal,
+    Spectrum,
+    bins_per_revolution,
+    discrete_position_signal,
+    fit_harmonics,
+    pick_lines,
+    position_spectrum,
+)
+from torquemap.robot import Robot
+
+TWO_PI = 2.0 * math.pi
+BIN_MARGIN = 1.5  # samples per bin on average that a pass must provide to be used for PDTV
+LAG_SIGNIFICANCE = 4.0  # a torque lag is kept only when it exceeds this many standard errors
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class JointIdentification:
+    """Diagnostics of one joint's identification.
+
+    Attributes
+    ----------
+    name
+        Joint name.
+    passes
+        ``(log index, Pass)`` for every constant-speed pass found.
+    pdtv_passes
+        Indices into ``passes`` of those slow enough to be used for the PDTV.
+    friction
+        The friction fit (None when the joint never moved).
+    inertia
+        The inertia fit (None when the joint never moved).
+    signal
+        Position-domain PDTV residual (None when no PDTV was identified).
+    spectrum
+        Its spectrum in CPR.
+    picks
+        Lines picked from it.
+    harmonics
+        The least-squares harmonic fit of the kept lines (both directions together).
+    bins_per_rev
+        Position bins per motor revolution (0 when none).
+    max_order
+        Highest order searched [CPR].
+    torque_lag
+        Lag of the torque channel [s] found (0 when none).
+    warnings
+        One line each: what the data did not allow and what was assumed.
+    """
+
+    name: str
+    passes: tuple[tuple[int, Pass], ...] = ()
+    pdtv_passes: tuple[int, ...] = ()
+    friction: FrictionFit | None = None
+    inertia: InertiaFit | None = None
+    signal: PositionSignal | None = None
+    spectrum: Spectrum | None = None
+    picks: LinePicks | None = None
+    harmonics: HarmonicFit | None = None
+    bins_per_rev: int = 0
+    max_order: float = 0.0
+    torque_lag: float = 0.0
+    warnings: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Identification:
+    """Result of :func:`identify_model`.
+
+    Attributes
+    ----------
+    model
+        The identified model (joints not identified keep their input model).
+    joints
+        Diagnostics per identified joint.
+    warnings
+        Every joint's warnings, in order.
+    """
+
+    model: Model
+    joints: Mapping[str, JointIdentification] = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class _Samples:
+    """Pass samples of one joint gathered over logs."""
+
+    angle: NDArray[np.float64]
+    torque: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+    acceleration: NDArray[np.float64]
+    group: NDArray[np.int64]
+
+
+def _derivatives(log: Log, robot: Robot, window: float) -> list[Derivatives]:
+    out = []
+    for k, joint in enumerate(robot.joints):
+        try:
+            out.append(differentiate(log.t, joint.gear_ratio * log.q[:, k], window=window))
+        except InputError as exc:
+            raise InputError(exc.message, path=log.path) from None
+    return out
+
+
+def _still_mask(deriv: Sequence[Derivatives], k: int, p99: Sequence[float]) -> NDArray[np.bool_]:
+    """Samples where every joint but ``k`` is still (slower than 5 % of joint k's speed)."""
+    ok = np.ones(deriv[0].velocity.size, dtype=bool)
+    for m, d in enumerate(deriv):
+        if m != k:
+            ok &= np.abs(d.velocity) < max(0.02 * p99[m], 0.05 * p99[k])
+    return ok
+
+
+def identify_model(
+    robot: Robot | Model,
+    logs: Sequence[Log],
+    *,
+    joints: Sequence[str] | None = None,
+    max_order: float | None = None,
+    window: float = 0.05,
+    false_alarm: float = 0.01,
+    stribeck: Literal["auto", "never", "always"] = "auto",
+    direction_significance: float = 0.001,
+    torque_lag: float | Literal["auto"] = 0.0,
+) -> Identification:
+    """Identify inertia, friction and PDTV of a robot's joints from no-load logs.
+
+    Parameters
+    ----------
+    robot
+        The robot, or a model whose non-identified joints are kept.
+    logs
+        No-load logs read with :func:`torquemap.io.read_log` for this robot.
+    joints
+        Joint names to identify; default all.
+    max_order
+        Highest PDTV order [CPR]; default the resolvable limit of the slowest pass.
+    window
+        Differentiation window [s] (:func:`torquemap.filters.differentiate`).
+    false_alarm
+        Probability that noise alone yields a spurious PDTV line, per joint.
+    stribeck
+        Stribeck term: ``"auto"`` (F test), ``"never"`` or ``"always"``.
+    direction_significance
+        Level of the test that a line differs between directions (Bonferroni over lines).
+    torque_lag
+        Time constant [s] of a first-order lag of the torque (current) channel behind the
+        position (a drive's current-report filter), default 0. ``"auto"`` fits it jointly
+        with the PDTV harmonics (experimental: the estimate depends on the torque-rate noise;
+        see docs/identification.md). The torque is corrected by ``tau + lag * dtau/dt``
+        before PDTV and inertia.
+
+    Returns
+    -------
+    Identification
+        The model and per-joint diagnostics.
+
+    Raises
+    ------
+    InputError
+        No log, an unknown joint, a log shorter than the differentiation window, no motion at
+        all, or ``max_order`` beyond what the slowest pass resolves.
+    """
+    model_in = robot if isinstance(robot, Model) else None
+    rb = robot.robot if isinstance(robot, Model) else robot
+    if not logs:
+        raise InputError("no log given")
+    names = list(rb.joint_names) if joints is None else list(joints)
+    for name in names:
+        rb.joint(name)
+    derivs = [_derivatives(log, rb, window) for log in logs]
+    p99 = [
+        float(np.percentile(np.concatenate([np.abs(d[k].velocity) for d in derivs]), 99))
+        for k in range(len(rb.joints))
+    ]
+    results: dict[str, JointIdentification] = {}
+    new_joints: dict[str, JointModel] = (
+        dict(model_in.joints) if model_in else {j.name: JointModel() for j in rb.joints}
+    )
+    for name in names:
+        k = rb.joint_names.index(name)
+        res, jm = _identify_joint(
+            rb,
+            k,
+            logs,
+            derivs,
+            p99,
+            max_order=max_order,
+            false_alarm=false_alarm,
+            stribeck=stribeck,
+            direction_significance=direction_significance,
+            window=window,
+            torque_lag=torque_lag,
+        )
+        results[name] = res
+        if jm is not None:
+            new_joints[name] = jm
+    if not any(r.passes for r in results.values()):
+        raise InputError(
+            "no joint moves at a steady speed in the logs; identification needs "
+            "constant-speed sweeps",
+            path=logs[0].path if len(logs) == 1 else None,
+        )
+    warnings = tuple(w for r in results.values() for w in r.warnings)
+    notes = _notes(logs, results, window=window, false_alarm=false_alarm, warnings=warnings)
+    model = Model(robot=rb, joints=new_joints, notes=notes)
+    return Identification(model=model, joints=results, warnings=warnings)
+
+
+def _identify_joint(
+    rb: Robot,
+    k: int,
+    logs: Sequence[Log],
+    derivs: Sequence[Sequence[Derivatives]],
+    p99: Sequence[float],
+    *,
+    max_order: float | None,
+    false_alarm: float,
+    stribeck: Literal["auto", "never", "always"],
+    direction_significance: float,
+    window: float,
+    torque_lag: float | Literal["auto"],
+) -> tuple[JointIdentification, JointModel | None]:
+    joint = rb.joints[k]
+    name = joint.name
+    warnings: list[str] = []
+    passes: list[tuple[int, Pass]] = []
+    ramps: list[tuple[int, NDArray[np.bool_]]] = []
+    thresholds = []
+    for li, (log, d) in enumerate(zip(logs, derivs, strict=True)):
+        allowed = _still_mask(d, k, p99)
+        seg = segment_motion(
+            log.t,
+            d[k].position,
+            d[k].velocity,
+            log.motor_torque[:, k],
+            allowed=allowed,
+            speed_threshold=0.02 * p99[k],
+        )
+        passes.extend((li, p) for p in seg.passes)
+        ramps.append((li, seg.accelerating & allowed & (np.abs(d[k].velocity) > 0.02 * p99[k])))
+        thresholds.append(seg.speed_threshold)
+    if not passes:
+        warnings.append(f"joint {name} never moves at a steady speed: left unidentified")
+        return JointIdentification(name=name, warnings=tuple(warnings)), None
+    speeds = np.array([p.speed for _, p in passes])
+    means = np.array([p.mean_torque for _, p in passes])
+    zero_velocity = max(0.5 * min(thresholds), 1e-6)
+    ff = fit_friction(speeds, means, stribeck=stribeck, zero_velocity=zero_velocity, joint=name)
+    warnings.extend(ff.warnings)
+    friction = ff.friction
+
+    elbow_k = 1 if (rb.kinematics == "planar2r" and k == 0 and len(rb.joints) > 1) else None
+
+    rates = [differentiate(log.t, log.motor_torque[:, k], window=window).velocity for log in logs]
+
+    def inertia_fit(pdtv: tuple[PdtvLine, ...], lag: float) -> InertiaFit:
+        acc, y, elbow = [], [], []
+        for li, mask in ramps:
+            d = derivs[li][k]
+            tau = logs[li].motor_torque[mask, k] + lag * rates[li][mask]
+            w = d.velocity[mask]
+            pd = pdtv_torque(d.position[mask], pdtv, velocity=w)
+            acc.append(d.acceleration[mask])
+            y.append(tau - friction_torque(w, friction) - pd)
+            if elbow_k is not None:
+                elbow.append(logs[li].q[mask, elbow_k])
+        return fit_inertia(
+            np.concatenate(acc),
+            np.concatenate(y),
+            elbow_angle=np.concatenate(elbow) if elbow_k is not None else None,
+            joint=name,
+        )
+
+    inertia = inertia_fit((), 0.0)
+    lines: tuple[PdtvLine, ...] = ()
+    pd = _identify_pdtv(
+        rb,
+        k,
+        logs,
+        derivs,
+        passes,
+        friction_model=friction,
+        inertia_model=inertia.inertia,
+        elbow_k=elbow_k,
+        max_order=max_order,
+        false_alarm=false_alarm,
+        direction_significance=direction_significance,
+        torque_rates=rates,
+        torque_lag=torque_lag,
+    )
+    lines = pd.lines
+    warnings.extend(pd.warnings)
+    if inertia.samples >= 3 and (lines or pd.torque_lag):
+        inertia = inertia_fit(lines, pd.torque_lag)
+    warnings.extend(inertia.warnings)
+    jm = JointModel(inertia=inertia.inertia, friction=friction, pdtv=lines)
+    res = JointIdentification(
+        name=name,
+        passes=tuple(passes),
+        pdtv_passes=pd.used,
+        friction=ff,
+        inertia=inertia,
+        signal=pd.signal,
+        spectrum=pd.spectrum,
+        picks=pd.picks,
+        harmonics=pd.harmonics,
+        bins_per_rev=pd.bins_per_rev,
+        max_order=pd.max_order,
+        torque_lag=pd.torque_lag,
+        warnings=tuple(warnings),
+    )
+    return res, jm
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class _PdtvResult:
+    lines: tuple[PdtvLine, ...] = ()
+    used: tuple[int, ...] = ()
+    signal: PositionSignal | None = None
+    spectrum: Spectrum | None = None
+    picks: LinePicks | None = None
+    harmonics: HarmonicFit | None = None
+    bins_per_rev: int = 0
+    max_order: float = 0.0
+    torque_lag: float = 0.0
+    warnings: tuple[str, ...] = ()
+
+
+def resolvable_order(samples_per_rev: float) -> int:
+    """Highest order [CPR] a pass with ``samples_per_rev`` samples per motor revolution resolves.
+
+    Examples
+    --------
+    >>> resolvable_order(14700.0)
+    4095
+    """
+    return bins_per_revolution(samples_per_rev, margin=BIN_MARGIN) // 2 - 1
+
+
+def _identify_pdtv(
+    rb: Robot,
+    k: int,
+    logs: Sequence[Log],
+    derivs: Sequence[Sequence[Derivatives]],
+    passes: Sequence[tuple[int, Pass]],
+    *,
+    friction_model: Any,
+    inertia_model: InertiaModel,
+    elbow_k: int | None,
+    max_order: float | None,
+    false_alarm: float,
+    direction_significance: float,
+    torque_rates: Sequence[NDArray[np.float64]],
+    torque_lag: float | Literal["auto"],
+) -> _PdtvResult:
+    name = rb.joints[k].name
+    best = max(p.samples_per_rev for _, p in passes)
+    limit = resolvable_order(best)
+    if max_order is not None:
+        if max_order > limit:
+            slowest = min(abs(p.speed) for _, p in passes)
+            raise InputError(
+                f"joint {name}: the slowest pass ({slowest:.4g} rad/s at the motor) gives "
+                f"{best:.0f} samples per motor revolution, which resolves PDTV orders up to "
+                f"{limit} CPR; max order {max_order:g} needs a slower sweep (at most "
+                f"{slowest * (limit + 1) / (max_order + 1):.4g} rad/s)",
+                path=logs[0].path if len(logs) == 1 else None,
+            )
+        nb = 2 ** math.ceil(math.log2(2 * (math.floor(max_order) + 1)))
+        top = float(max_order)
+    else:
+        nb = bins_per_revolution(best, margin=BIN_MARGIN)
+        top = float(limit)
+    if top < 1:
+        return _PdtvResult(
+            warnings=(f"joint {name}: the sweep is too fast to resolve any PDTV order",)
+        )
+    used = tuple(i for i, (_, p) in enumerate(passes) if p.samples_per_rev >= BIN_MARGIN * nb)
+    if not used:
+        used = (int(np.argmax([p.samples_per_rev for _, p in passes])),)
+    angle, resid, group, direction, rates = [], [], [], [], []
+    for i in used:
+        li, p = passes[i]
+        d = derivs[li][k]
+        s = slice(p.start, p.stop)
+        j: float | NDArray[np.float64] = inertia_model.constant
+        if elbow_k is not None:
+            j = inertia_model.constant + inertia_model.cos_elbow * np.cos(logs[li].q[s, elbow_k])
+        r = (
+            logs[li].motor_torque[s, k]
+            - j * d.acceleration[s]
+            - friction_torque(d.velocity[s], friction_model)
+        )
+        r = r - angle_mean(d.position[s], r)[0]
+        angle.append(d.position[s])
+        resid.append(r)
+        group.append(np.full(r.size, i))
+        rates.append(torque_rates[li][s])
+        direction.append(np.full(r.size, 1 if p.direction == "positive" else -1))
+    theta = np.concatenate(angle)
+    res = np.concatenate(resid)
+    grp = np.concatenate(group)
+    sgn = np.concatenate(direction)
+    rate = np.concatenate(rates)
+    signal = discrete_position_signal(theta, res, bin_width=TWO_PI / nb)
+    revs = signal.value.size / nb
+    if revs < 0.5:
+        return _PdtvResult(
+            used=used,
+            signal=signal,
+            bins_per_rev=nb,
+            max_order=top,
+            warnings=(
+                f"joint {name}: the slow passes cover {revs:.2g} motor revolutions, under the "
+                "half revolution a PDTV spectrum needs: no PDTV identified",
+            ),
+        )
+    lag = 0.0 if torque_lag == "auto" else float(torque_lag)
+    raw = res
+    for _ in range(3):
+        res = raw + lag * rate
+        signal = discrete_position_signal(theta, res, bin_width=TWO_PI / nb)
+        spectrum = position_spectrum(signal, max_order=top)
+        picks = pick_lines(spectrum, false_alarm=false_alarm)
+        if torque_lag != "auto" or picks.order.size == 0:
+            break
+        # measured = true - T d(measured)/dt (a first-order lag T): fit T with the lines
+        # every integer order up to the highest line, so the lag cannot stand in for lines
+        # the first pick missed
+        dense = [float(o) for o in range(1, int(np.ceil(picks.order.max())) + 1)]
+        dense += [float(o) for o in picks.order if o != round(o)]
+        lf = fit_harmonics(theta, raw, orders=dense, groups=grp, extra=-rate)
+        new = float(lf.extra[0])
+        new = new if new > LAG_SIGNIFICANCE * float(lf.extra_se[0]) else 0.0
+        if abs(new - lag) <= 0.01 * max(abs(new), 1e-12):
+            lag = new
+            break
+        lag = new
+    res = raw + lag * rate
+    signal = discrete_position_signal(theta, res, bin_width=TWO_PI / nb)
+    spectrum = position_spectrum(signal, max_order=top)
+    picks = pick_lines(spectrum, false_alarm=false_alarm)
+    orders = [float(o) for o in picks.order]
+    fit = None
+    if orders:
+        fit = fit_harmonics(theta, res, orders=orders, groups=grp)
+        thr = np.interp(fit.order, spectrum.order, picks.threshold)
+        keep = fit.amplitude > thr
+        if not keep.all() and keep.any():
+            fit = fit_harmonics(theta, res, orders=list(fit.order[keep]), groups=grp)
+        elif not keep.any():
+            fit = None
+    if fit is None:
+        return _PdtvResult(
+            used=used,
+            signal=signal,
+            spectrum=spectrum,
+            picks=picks,
+            bins_per_rev=nb,
+            max_order=top,
+            torque_lag=lag,
+        )
+    lines = _directional_lines(theta, res, grp, sgn, fit, direction_significance)
+    return _PdtvResult(
+        lines=lines,
+        used=used,
+        signal=signal,
+        spectrum=spectrum,
+        picks=picks,
+        harmonics=fit,
+        bins_per_rev=nb,
+        max_order=top,
+        torque_lag=lag,
+    )
+
+
+def _directional_lines(
+    theta: NDArray[np.float64],
+    res: NDArray[np.float64],
+    grp: NDArray[np.int64],
+    sgn: NDArray[np.int64],
+    fit: HarmonicFit,
+    significance: float,
+) -> tuple[PdtvLine, ...]:
+    """Lines per direction where the two directions differ significantly, else "both".
+
+    A line differs when the chi-square of the difference of its cosine/sine coefficients
+    (2 degrees of freedom, covariances of the two independent fits) exceeds the
+    ``1 - significance / p`` quantile (Bonferroni over the p lines) and the amplitudes differ
+    by more than 10 % of the larger: statistically and practically significant.
+    """
+    from scipy import stats
+
+    both = tuple(
+        PdtvLine(order=float(o), amplitude=float(a), phase=float(ph))
+        for o, a, ph in zip(fit.order, fit.amplitude, fit.phase, strict=True)
+    )
+    pos, neg = sgn > 0, sgn < 0
+    n_unknown = 2 * fit.order.size + np.unique(grp).size + 1
+    if pos.sum() < n_unknown or neg.sum() < n_unknown:
+        return both
+    orders = list(fit.order)
+    fp = fit_harmonics(theta[pos], res[pos], orders=orders, groups=grp[pos])
+    fn = fit_harmonics(theta[neg], res[neg], orders=orders, groups=grp[neg])
+    crit = stats.chi2.ppf(1.0 - significance / fit.order.size, 2)
+    lines: list[PdtvLine] = []
+    for i, line in enumerate(both):
+        delta = fp.cos_sin[i] - fn.cos_sin[i]
+        cov = fp.covariance[i] + fn.covariance[i]
+        chi = float(delta @ np.linalg.pinv(cov) @ delta)
+        big = max(fp.amplitude[i], fn.amplitude[i])
+        if chi > crit and np.hypot(*delta) > 0.1 * big:
+            for f, direction in ((fp, "positive"), (fn, "negative")):
+                lines.append(
+                    PdtvLine(
+                        order=line.order,
+                        amplitude=float(f.amplitude[i]),
+                        phase=float(f.phase[i]),
+                        direction=direction,  # type: ignore[arg-type]
+                    )
+                )
+        else:
+            lines.append(line)
+    return tuple(lines)
+
+
+def _notes(
+    logs: Sequence[Log],
+    results: Mapping[str, JointIdentification],
+    *,
+    window: float,
+    false_alarm: float,
+    warnings: tuple[str, ...],
+) -> dict[str, Any]:
+    joints: dict[str, Any] = {}
+    for name, r in results.items():
+        entry: dict[str, Any] = {
+            "passes": len(r.passes),
+            "speeds": [round(p.speed, 6) for _, p in r.passes],
+            "pdtv_speeds": [round(r.passes[i][1].speed, 6) for i in r.pdtv_passes],
+            "bins_per_rev": r.bins_per_rev,
+            "max_order": r.max_order,
+            "torque_lag": r.torque_lag,
+        }
+        if r.friction is not None:
+            entry["stribeck"] = r.friction.stribeck_used
+        if r.spectrum is not None:
+            entry["spectrum_revolutions"] = round(r.spectrum.revolutions, 6)
+        if r.picks is not None:
+            entry["threshold_multiple"] = round(r.picks.multiple, 4)
+        if r.inertia is not None:
+            entry["inertia_samples"] = r.inertia.samples
+        joints[name] = entry
+    return {
+        "logs": [log.path for log in logs],
+        "differentiation_window": window,
+        "false_alarm": false_alarm,
+        "warnings": list(warnings),
+        "joints": joints,
+    }
