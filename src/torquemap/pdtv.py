@@ -279,7 +279,7 @@ def position_spectrum(signal: PositionSignal, *, max_order: float | None = None)
     )
 
 
-def noise_floor(spectrum: Spectrum, *, window: int = 31) -> NDArray[np.float64]:
+def noise_floor(spectrum: Spectrum, *, window: int = 101) -> NDArray[np.float64]:
     """Robust local noise floor of a spectrum: the Rayleigh scale sigma at every order.
 
     A running median over ``window`` neighbouring orders, divided by ``sqrt(2 ln 2)`` (the
@@ -347,7 +347,7 @@ def pick_lines(
     *,
     false_alarm: float = 0.01,
     fractional: Literal["auto", "never", "always"] = "auto",
-    floor_window: int = 31,
+    floor_window: int = 101,
 ) -> LinePicks:
     """Pick the significant lines of a spectrum automatically.
 

@@ -1,0 +1,66 @@
+"""filters: differentiation against closed forms, low-pass gain against the Butterworth formula."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from torquemap.errors import InputError
+from torquemap.filters import differentiate, lowpass
+
+
+def test_quadratic_is_exact_on_irregular_time() -> None:
+    rng = np.random.default_rng(1)
+    t = np.cumsum(rng.uniform(0.5e-3, 1.5e-3, 2000))
+    x = 1.0 + 2.0 * t - 3.0 * t**2
+    d = differentiate(t, x, window=0.02)
+    # a local quadratic fit reproduces a quadratic exactly, ends included (rounding only)
+    assert_allclose(d.position, x, atol=1e-9)
+    assert_allclose(d.velocity, 2.0 - 6.0 * t, atol=1e-6)
+    assert_allclose(d.acceleration, -6.0, atol=1e-3)
+
+
+def test_noisy_sine_matches_closed_form_derivatives() -> None:
+    rng = np.random.default_rng(2)
+    t = np.arange(0.0, 4.0, 1e-3)
+    w = 2 * np.pi * 0.5
+    x = np.sin(w * t) + rng.normal(0.0, 1e-4, t.size)
+    d = differentiate(t, x, window=0.1)
+    inner = slice(100, -100)
+    # window 0.1 s is 1/20 of the period: quadratic-fit bias ~ (w*window)^2/40 ~ 2.5e-3 relative;
+    # the noise adds ~ 1e-4*sqrt(12/100)/0.1 = 3.5e-4 to the velocity
+    assert_allclose(d.velocity[inner], w * np.cos(w * t[inner]), atol=0.01 * w)
+    assert_allclose(d.acceleration[inner], -(w**2) * np.sin(w * t[inner]), atol=0.05 * w**2)
+
+
+def test_differentiate_errors() -> None:
+    t = np.linspace(0.0, 0.01, 11)
+    with pytest.raises(InputError, match="shorter than the differentiation window"):
+        differentiate(t, t, window=0.1)
+    with pytest.raises(InputError, match="fewer than 3 samples"):
+        differentiate(np.array([0.0, 1.0, 2.0, 10.0]), np.zeros(4), window=0.5)
+    with pytest.raises(InputError, match="strictly increasing"):
+        differentiate(np.array([0.0, 1.0, 1.0]), np.zeros(3), window=0.5)
+
+
+@pytest.mark.parametrize("f", [2.0, 10.0, 30.0])
+def test_lowpass_gain_is_squared_butterworth(f: float) -> None:
+    t = np.arange(0.0, 4.0, 1e-3)
+    y = lowpass(t, np.sin(2 * np.pi * f * t), cutoff=10.0, order=2)
+    inner = slice(1000, -1000)
+    gain = np.sqrt(2 * np.mean(y[inner] ** 2))
+    # forward-backward Butterworth: |H|^2 = 1 / (1 + (f/fc)^(2n)); 1 % for the bilinear warp
+    assert_allclose(gain, 1.0 / (1.0 + (f / 10.0) ** 4), rtol=0.02, atol=1e-3)
+
+
+def test_lowpass_irregular_time_and_errors() -> None:
+    rng = np.random.default_rng(3)
+    t = np.cumsum(rng.uniform(0.5e-3, 1.5e-3, 3000))
+    y = lowpass(t, np.sin(2 * np.pi * 1.0 * t), cutoff=20.0)
+    # 1 Hz is far below the 20 Hz cut-off: passes with < 1 % change (interpolation error only)
+    assert_allclose(y[300:-300], np.sin(2 * np.pi * t[300:-300]), atol=0.01)
+    with pytest.raises(InputError, match="Nyquist"):
+        lowpass(t, t, cutoff=1e4)
+    with pytest.raises(InputError, match="shorter than the low-pass filter"):
+        lowpass(np.arange(5) * 1e-3, np.zeros(5), cutoff=10.0)
