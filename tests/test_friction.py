@@ -1,0 +1,84 @@
+"""friction: segmentation, friction and inertia fits on data simulated here."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from numpy.testing import assert_allclose
+
+from torquemap.errors import InputError
+from torquemap.friction import angle_mean, fit_friction, fit_inertia, segment_motion
+from torquemap.model import FrictionModel, friction_torque
+
+
+def test_angle_mean_cancels_whole_revolutions_of_pdtv() -> None:
+    theta = np.linspace(0.0, 2.7 * 2 * np.pi, 20000)
+    m, revs = angle_mean(theta, 0.3 + 0.1 * np.cos(5 * theta + 1.0))
+    # 2 whole revolutions are used: the order-5 term integrates to 0, up to the end landing on
+    # the first sample past 2 revolutions (step 5.4e-3 rad: error < 0.1*step/(4 pi) = 4e-5)
+    assert_allclose(m, 0.3, atol=5e-5)
+    assert_allclose(revs, 2.7, rtol=1e-6)
+
+
+def test_stribeck_found_when_present_and_refused_when_absent() -> None:
+    rng = np.random.default_rng(0)
+    speeds = np.array([0.2, 0.4, 0.8, 1.6, 3.2, 6.4])
+    w = np.concatenate([speeds, -speeds, speeds, -speeds])
+    true = FrictionModel(
+        coulomb_positive=0.05,
+        coulomb_negative=0.05,
+        viscous=0.002,
+        stribeck_positive=0.03,
+        stribeck_negative=0.03,
+        stribeck_velocity=0.5,
+    )
+    tau = friction_torque(w, true) + rng.normal(0.0, 2e-4, w.size)
+    fit = fit_friction(w, tau)
+    assert fit.stribeck_used
+    # noise 0.2 mN m on 24 pass means: parameters to a few percent
+    assert_allclose(fit.friction.stribeck_positive, 0.03, rtol=0.1)
+    assert_allclose(fit.friction.coulomb_positive, 0.05, rtol=0.05)
+    plain = FrictionModel(coulomb_positive=0.05, coulomb_negative=0.05, viscous=0.002)
+    fit2 = fit_friction(w, friction_torque(w, plain) + rng.normal(0.0, 2e-4, w.size))
+    assert not fit2.stribeck_used
+    with pytest.raises(InputError, match="no constant-speed pass"):
+        fit_friction([], [])
+
+
+@given(st.floats(0.01, 0.5), st.floats(0.01, 0.5), st.floats(0.0, 0.05))
+def test_friction_fit_exact_on_exact_data(cp: float, cn: float, b: float) -> None:
+    w = np.array([1.0, 3.0, -1.0, -3.0])
+    tau = np.where(w > 0, cp, -cn) + b * w
+    f = fit_friction(w, tau, stribeck="never").friction
+    # exact data, 3 unknowns, 4 equations: recovered to rounding
+    assert_allclose([f.coulomb_positive, f.coulomb_negative, f.viscous], [cp, cn, b], atol=1e-9)
+
+
+def test_inertia_with_elbow_term_and_without() -> None:
+    rng = np.random.default_rng(1)
+    acc = rng.normal(0.0, 50.0, 5000)
+    elbow = rng.uniform(-2.0, 2.0, 5000)
+    y = (3e-4 + 1e-4 * np.cos(elbow)) * acc + rng.normal(0.0, 1e-3, 5000)
+    fit = fit_inertia(acc, y, elbow_angle=elbow)
+    # SE ~ 1e-3 / (50 * sqrt(5000)) = 3e-7: 1e-6 is 3 standard errors
+    assert_allclose([fit.inertia.constant, fit.inertia.cos_elbow], [3e-4, 1e-4], atol=2e-6)
+    one = fit_inertia(acc, y, elbow_angle=np.full(5000, 0.5))
+    assert one.inertia.cos_elbow == 0.0
+    assert "one elbow angle" in one.warnings[0]
+    assert "no accelerating segment" in fit_inertia([], []).warnings[0]
+
+
+def test_segmentation_bridges_ripple_and_finds_ramps() -> None:
+    t = np.arange(0.0, 20.0, 1e-3)
+    v = np.clip(t, 0.0, 1.0) * np.clip(20.0 - t, 0.0, 1.0) * 2.0  # 1 s ramps, 2 rad/s
+    v = v * (1 + 0.8 * np.sin(2 * np.pi * 30 * t))  # strong ripple
+    theta = np.concatenate(([0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * 1e-3)))
+    seg = segment_motion(t, theta, v, np.ones_like(t))
+    assert len(seg.passes) == 1
+    p = seg.passes[0]
+    assert p.direction == "positive"
+    # the pass starts after the 1 s ramp (within the revolution-average window) and ends before
+    assert 0.8 < t[p.start] < 2.5 and 17.5 < t[p.stop - 1] < 19.2
+    assert seg.accelerating[:500].sum() > 0
