@@ -10,7 +10,7 @@ from numpy.testing import assert_allclose
 
 from torquemap.errors import InputError
 from torquemap.identify import identify_model
-from torquemap.io import Log, write_table, write_toml
+from torquemap.io import Log, write_toml
 from torquemap.model import FrictionModel, PdtvLine, friction_torque, load_model, model_to_dict
 from torquemap.robot import robot_from_dict
 
@@ -131,10 +131,3 @@ def test_model_file_reloads(result, tmp_path: Path) -> None:  # type: ignore[no-
     ]
     assert back.joints["m"].friction.viscous == result.model.joints["m"].friction.viscous
     assert back.notes["joints"]["m"]["passes"] == 8
-
-
-def write_bench(tmp_path: Path) -> tuple[Path, Path]:
-    t, q, tau = simulate(np.random.default_rng(10), speeds=(1.0, 4.0))
-    write_toml(tmp_path / "robot.toml", ROBOT)
-    write_table(tmp_path / "sweep.csv", {"t": t, "q_m": q, "tau_m": tau})
-    return tmp_path / "robot.toml", tmp_path / "sweep.csv"

@@ -1,0 +1,69 @@
+"""pdtv_map: table against the closed form of the lines, exports and their scales."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from torquemap.errors import InputError
+from torquemap.io import read_table
+from torquemap.model import JointModel, Model, PdtvLine
+from torquemap.pdtv_map import pdtv_map, quantise, write_pdtv_map
+from torquemap.robot import robot_from_dict
+
+RB = robot_from_dict(
+    {"robot": {"kinematics": "none"}, "joints": {"m": {"gear_ratio": 1, "torque_constant": 0.5}}}
+)
+LINES = (
+    PdtvLine(order=3, amplitude=0.2, phase=0.5),
+    PdtvLine(order=5, amplitude=0.1, phase=0.0, direction="positive"),
+    PdtvLine(order=5, amplitude=0.3, phase=0.0, direction="negative"),
+)
+MODEL = Model(robot=RB, joints={"m": JointModel(pdtv=LINES)})
+
+
+def test_map_is_the_closed_form_at_bin_centres() -> None:
+    table = pdtv_map(MODEL, "m", bins=360)
+    theta = (np.arange(360) + 0.5) * 2 * np.pi / 360
+    expected = 0.2 * np.cos(3 * theta + 0.5) + 0.5 * (0.1 + 0.3) * np.cos(5 * theta)
+    assert_allclose(table.motor_angle, theta)
+    assert_allclose(table.torque, expected, atol=1e-12)  # same formula evaluated twice
+    assert_allclose(table.current, expected / 0.5, atol=1e-12)
+    up = pdtv_map(MODEL, "m", bins=360, direction="positive")
+    assert_allclose(up.torque, 0.2 * np.cos(3 * theta + 0.5) + 0.1 * np.cos(5 * theta), atol=1e-12)
+    with pytest.raises(InputError, match="unknown joint"):
+        pdtv_map(MODEL, "x")
+    with pytest.raises(InputError, match="at least 2"):
+        pdtv_map(MODEL, "m", bins=1)
+
+
+@pytest.mark.parametrize("int_type,full", [("int16", 32767), ("int8", 127)])
+def test_quantised_table_uses_full_range(int_type: str, full: int) -> None:
+    v = np.array([0.25, -1.5, 0.75])
+    q, scale = quantise(v, int_type=int_type)  # type: ignore[arg-type]
+    assert int(np.abs(q).max()) == full
+    assert_allclose(q * scale, v, atol=scale / 2)  # rounding to the nearest count
+
+
+def test_exports(tmp_path: Path) -> None:
+    table = pdtv_map(MODEL, "m", bins=64)
+    write_pdtv_map(tmp_path / "m.json", table, file_format="json")
+    doc = json.loads((tmp_path / "m.json").read_text())
+    assert doc["bins"] == 64 and doc["units"]["current"] == "A"
+    assert_allclose(doc["current"], table.current)
+    write_pdtv_map(tmp_path / "m.h", table, file_format="c-header", int_type="int8")
+    text = (tmp_path / "m.h").read_text()
+    scale = float(re.search(r"PDTV_M_SCALE_A ([0-9.e+-]+)f", text).group(1))  # type: ignore[union-attr]
+    body = text.split("{", 1)[1].split("}", 1)[0]
+    counts = np.array([int(x) for x in body.replace("\n", " ").split(",")])
+    assert counts.size == 64 and np.abs(counts).max() == 127
+    assert_allclose(counts * scale, table.current, atol=scale)
+    write_pdtv_map(tmp_path / "m.csv", table)
+    cols = read_table(tmp_path / "m.csv")
+    assert list(cols) == ["motor_angle", "torque", "current"]
+    assert_allclose(cols["current"], table.current)
