@@ -241,10 +241,13 @@ def write_scara_bench(
     Raises
     ------
     InputError
-        When ``out_dir`` exists and is not a folder, or cannot be created.
+        On a negative seed, or when ``out_dir`` exists and is not a folder or cannot be
+        created.
     """
     from torquemap.io import write_table, write_toml
 
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise InputError(f"seed must be a non-negative integer, got {seed!r}")
     bench = default_bench() if bench is None else bench
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
