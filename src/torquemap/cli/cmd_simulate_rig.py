@@ -1,4 +1,7 @@
-"""CLI: placeholder for the `simulate_rig` sub-commands; filled in by its issue."""
+"""CLI: ``simulate rig``, a full characterisation run on the simulated bench (motor.toml, data.csv).
+
+Registered into the ``simulate`` group by :mod:`torquemap.cli.cmd_simulate`.
+"""
 
 from __future__ import annotations
 
@@ -7,4 +10,45 @@ from typing import Any
 
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
-    """Add this module's sub-commands to subparsers (a command group's sub-parsers)."""
+    """Add ``rig`` to the ``simulate`` group's sub-parsers."""
+    rig = subparsers.add_parser(
+        "rig",
+        help="a motor characterisation bench (Adept II paper): motor.toml and data.csv",
+        description="Simulate the torque-linearisation data collection of the Adept II paper "
+        "(Fig 12) on a variable reluctance or brushless DC motor and write DIR/motor.toml and "
+        "DIR/data.csv (docs/linearize-collect.md). The defaults subsample the cycle: every 4th "
+        "table position and every 4th pulse width, 10 readings per row.",
+    )
+    rig.add_argument("--motor", choices=("vr", "bldc"), required=True, help="motor type")
+    rig.add_argument("--out", metavar="DIR", required=True, help="output folder (created)")
+    rig.add_argument("--seed", type=int, default=0, help="noise seed, >= 0 (default 0)")
+    rig.add_argument(
+        "--ramping", choices=("narrow", "wide"), default="wide", help="ramping (default wide)"
+    )
+    rig.add_argument("--readings", type=int, default=10, help="readings per row (default 10)")
+    rig.add_argument("--pulse-step", type=int, default=4, help="pulse-width step (default 4)")
+    rig.add_argument(
+        "--position-step", type=int, default=4, help="table positions between targets (default 4)"
+    )
+    rig.add_argument("--no-progress", action="store_true", help="no progress bar")
+    rig.set_defaults(handler=_rig)
+
+
+def _rig(args: argparse.Namespace) -> int:
+    from torquemap.sim.rig import write_rig_data
+
+    result = write_rig_data(
+        args.out,
+        motor=args.motor,
+        seed=args.seed,
+        ramping=args.ramping,
+        readings=args.readings,
+        pulse_step=args.pulse_step,
+        position_step=args.position_step,
+        progress=not args.no_progress,
+    )
+    print(
+        f"wrote motor.toml and data.csv ({result.rows} rows, {result.targets.size} positions, "
+        f"{result.saturated_targets} stopped at sensor saturation) to {args.out}"
+    )
+    return 0

@@ -428,3 +428,40 @@ def collect_verification(
         saturation=saturation,
         progress=progress,
     )
+
+
+def read_tables_npz(path: str | os.PathLike[str], spec: MotorSpec) -> dict[str, NDArray[np.int64]]:
+    """Read phase tables from ``.npz`` for :func:`collect_verification`.
+
+    Parameters
+    ----------
+    path
+        A numpy ``.npz`` with integer arrays ``phase_1 .. phase_m`` of shape
+        ``(P, 2**command_bits)``, entry ``[p, c mod 2**bits]``.
+    spec
+        The motor the tables are for.
+
+    Returns
+    -------
+    dict of str to ndarray
+        ``phase_k`` to its table.
+
+    Raises
+    ------
+    InputError
+        On a missing or unreadable file, a missing table, a wrong shape, or entries that are
+        not integers in ``0 .. actuation_max``.
+    """
+    p = os.fspath(path)
+    try:
+        with np.load(p, allow_pickle=False) as npz:
+            tables = {name: np.asarray(npz[name]) for name in npz.files}
+    except FileNotFoundError:
+        raise InputError("file not found", path=p) from None
+    except (OSError, ValueError) as exc:
+        raise InputError(f"cannot read tables ({exc})", path=p) from None
+    try:
+        stack = _phase_tables(spec, tables)
+    except InputError as exc:
+        raise InputError(exc.message, path=p) from None
+    return {f"phase_{k + 1}": stack[k] for k in range(spec.phases)}

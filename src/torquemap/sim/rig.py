@@ -22,13 +22,23 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from torquemap.linearize.motor import MotorSpec, RampKind, motor_spec
+from torquemap.errors import InputError
+from torquemap.io import atomic_output, write_toml
+from torquemap.linearize.collect import (
+    CollectResult,
+    collect_characterisation,
+    collect_verification,
+    read_tables_npz,
+)
+from torquemap.linearize.motor import MotorSpec, RampKind, motor_spec, motor_to_dict
 from torquemap.sim.motors import (
     Amplifier,
     BrushlessDcMotor,
@@ -298,3 +308,193 @@ def brushless_dc_rig(*, rng: np.random.Generator | int | None = None, **override
         ``motor``, ``amplifier``, ``name`` or any :class:`RigSettings` field.
     """
     return _build("bldc", rng, overrides)
+
+
+def sim_rig(
+    kind: Literal["vr", "bldc"], *, rng: np.random.Generator | int | None = None, **overrides: Any
+) -> SimRig:
+    """:func:`variable_reluctance_rig` (``"vr"``) or :func:`brushless_dc_rig` (``"bldc"``)."""
+    if kind not in ("vr", "bldc"):
+        raise InputError(f"unknown simulated motor {kind!r} (use vr or bldc)")
+    return _build(kind, rng, overrides)
+
+
+def _check_seed(seed: int) -> None:
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise InputError(f"seed must be a non-negative integer, got {seed!r}")
+
+
+def _positions(spec: MotorSpec, position_step: int) -> int:
+    if isinstance(position_step, bool) or not isinstance(position_step, int) or position_step < 1:
+        raise InputError(f"position step must be a positive integer, got {position_step!r}")
+    return -(-spec.positions_per_cycle // position_step)
+
+
+def collect_on_sim(
+    spec: MotorSpec,
+    out_csv: str | os.PathLike[str],
+    *,
+    sim: Literal["vr", "bldc"],
+    seed: int = 0,
+    tables: str | os.PathLike[str] | None = None,
+    readings: int = 10,
+    step: int = 4,
+    position_step: int = 4,
+    progress: bool = True,
+) -> CollectResult:
+    """Run ``linearize collect`` against a simulated rig (resuming ``out_csv`` if it exists).
+
+    Parameters
+    ----------
+    spec
+        The motor file; its phases and cycle length must match the simulated motor's.
+    out_csv
+        DATA.csv (characterisation) or the verification data (with ``tables``).
+    sim
+        ``"vr"`` or ``"bldc"``.
+    seed
+        Sensor noise seed (>= 0).
+    tables
+        TABLES.npz (``phase_1 .. phase_m``, shape ``(P, 2**bits)``) for a verification run.
+    readings
+        Readings averaged per row.
+    step
+        Pulse-width step (characterisation) or command step (verification).
+    position_step
+        Spacing of the target positions [table positions]: ``ceil(P / position_step)`` targets.
+    progress
+        Show a progress bar.
+
+    Returns
+    -------
+    CollectResult
+        What was collected.
+
+    Raises
+    ------
+    InputError
+        On a bad seed or step, a spec that does not match the rig, a bad tables file, or a
+        data file that cannot be resumed.
+    """
+    _check_seed(seed)
+    rig = sim_rig(sim, rng=seed)
+    if (spec.phases, spec.positions_per_cycle) != (rig.phases, rig.positions_per_cycle):
+        raise InputError(
+            f"the motor file has {spec.phases} phases and {spec.positions_per_cycle} positions "
+            f"per cycle; the simulated {sim} motor has {rig.phases} and "
+            f"{rig.positions_per_cycle}",
+            path=spec.path,
+        )
+    if spec.actuation_max != rig.amplifier.actuation_max:
+        raise InputError(
+            f"actuation_max {spec.actuation_max} does not match the simulated amplifier's "
+            f"{rig.amplifier.actuation_max}",
+            path=spec.path,
+        )
+    if step < 1:
+        raise InputError(f"step must be >= 1, got {step}")
+    if readings < 1:
+        raise InputError(f"readings must be >= 1, got {readings}")
+    positions = _positions(spec, position_step)
+    if tables is None:
+        return collect_characterisation(
+            rig,
+            spec,
+            out_csv,
+            readings=readings,
+            pulse_step=step,
+            positions=positions,
+            progress=progress,
+        )
+    return collect_verification(
+        rig,
+        spec,
+        read_tables_npz(tables, spec),
+        out_csv,
+        readings=readings,
+        command_step=step,
+        positions=positions,
+        progress=progress,
+    )
+
+
+def write_rig_data(
+    out_dir: str | os.PathLike[str],
+    *,
+    motor: Literal["vr", "bldc"] = "vr",
+    seed: int = 0,
+    ramping: RampKind = "wide",
+    readings: int = 10,
+    pulse_step: int = 4,
+    position_step: int = 4,
+    progress: bool = False,
+) -> CollectResult:
+    """A full characterisation run on a simulated rig: ``motor.toml`` and ``data.csv`` in a folder.
+
+    The data is collected into a temporary file and renamed onto ``data.csv`` at the end, so an
+    existing ``data.csv`` is replaced whole or not at all.
+
+    Parameters
+    ----------
+    out_dir
+        Output folder (created).
+    motor
+        ``"vr"`` or ``"bldc"``.
+    seed
+        Sensor noise seed (>= 0); the output is a function of the arguments alone.
+    ramping
+        Ramping function written into motor.toml and used for the collection.
+    readings
+        Readings averaged per row.
+    pulse_step
+        Pulse-width step.
+    position_step
+        Spacing of the target positions [table positions].
+    progress
+        Show a progress bar.
+
+    Returns
+    -------
+    CollectResult
+        What was collected (its ``path`` is the final data.csv).
+
+    Raises
+    ------
+    InputError
+        On a bad seed, ramping or step, or an output path that is not a folder.
+    """
+    _check_seed(seed)
+    if ramping not in ("narrow", "wide"):
+        raise InputError(f"ramping must be narrow or wide, got {ramping!r}")
+    if isinstance(pulse_step, bool) or not isinstance(pulse_step, int) or pulse_step < 1:
+        raise InputError(f"pulse step must be a positive integer, got {pulse_step!r}")
+    if isinstance(readings, bool) or not isinstance(readings, int) or readings < 1:
+        raise InputError(f"readings must be a positive integer, got {readings!r}")
+    rig = sim_rig(motor, rng=seed)
+    spec = rig.motor_spec(ramping=ramping)
+    positions = _positions(spec, position_step)
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise InputError("output path exists and is not a folder", path=out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create output folder ({exc.strerror})", path=out) from None
+    target = out / "data.csv"
+    with atomic_output(target) as tmp:
+        partial = tmp.with_suffix(".csv")
+        try:
+            result = collect_characterisation(
+                rig,
+                spec,
+                partial,
+                readings=readings,
+                pulse_step=pulse_step,
+                positions=positions,
+                progress=progress,
+            )
+            os.replace(partial, tmp)
+        finally:
+            partial.unlink(missing_ok=True)
+    write_toml(out / "motor.toml", motor_to_dict(spec))
+    return dataclasses.replace(result, path=os.fspath(target))
