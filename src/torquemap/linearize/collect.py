@@ -8,7 +8,8 @@ full scale or until the sensor saturates; at each level it consults the ramping 
 tables) at the CURRENT position, applies the per-phase actuations, lets the position settle,
 averages ``readings`` sensor readings, subtracts the bias and appends the row, stored under the
 current position. If the position moves while settling (compliance), the actuation is looked up
-again at the new position before measuring, so every row satisfies the DATA.csv contract.
+again at the new position before measuring (up to 8 times), and the row is stored under the
+position the actuation was looked up at, so every row satisfies the DATA.csv contract.
 
 Rows are appended and flushed as they are measured. Run the same call again on the same file to
 resume: complete position blocks are kept, the last block (possibly cut short) is measured
@@ -238,18 +239,18 @@ def _collect(
             for level in levels:
                 position = rig.read_position()
                 for _ in range(8):
-                    rig.apply(actuation(level, position))
+                    consulted = position
+                    rig.apply(actuation(level, consulted))
                     rig.settle()
-                    moved = rig.read_position()
-                    if moved == position:
+                    position = rig.read_position()
+                    if position == consulted:
                         break
-                    position = moved
                 values = [rig.read_torque() for _ in range(readings)]
                 if limit is not None and max(abs(v) for v in values) >= limit:
                     saturated += 1
                     break
                 torque = float(np.mean(values)) - bias
-                handle.write(f"{position},{level},{torque:.10g}\n")
+                handle.write(f"{consulted},{level},{torque:.10g}\n")
                 handle.flush()
                 new_rows += 1
             bar.update(task, advance=1, description=f"position {int(target)}/{n}")
