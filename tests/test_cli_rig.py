@@ -1,0 +1,165 @@
+"""CLI: ``simulate rig`` and ``linearize collect``."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.testing import assert_array_equal
+
+from torquemap.cli import cmd_linearize_collect
+from torquemap.cli.main import build_parser, main
+from torquemap.errors import InputError
+from torquemap.io import read_table, write_toml
+from torquemap.linearize.motor import load_motor, motor_to_dict
+from torquemap.sim.rig import brushless_dc_rig
+
+FAST = ["--readings", "2", "--position-step", "32", "--no-progress"]
+
+
+def _collect(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
+    """Run ``linearize collect`` through main() once cmd_linearize registers it, else alone."""
+    try:
+        build_parser().parse_args(["linearize", "collect", "--help"])
+    except SystemExit as stop:
+        capsys.readouterr()
+        if stop.code == 0:
+            status = main(["linearize", "collect", *argv])
+            return status, capsys.readouterr().err
+    parser = argparse.ArgumentParser(prog="torquemap linearize")
+    cmd_linearize_collect.register(parser.add_subparsers())
+    args = parser.parse_args(["collect", *argv])
+    try:
+        status = args.handler(args)
+    except InputError as exc:  # what main() does with it
+        return 2, f"torquemap: error: {exc}\n"
+    return status, capsys.readouterr().err
+
+
+def test_simulate_rig_writes_motor_and_data(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "bench"
+    status = main(
+        ["simulate", "rig", "--motor", "bldc", "--out", str(out), "--pulse-step", "32", *FAST]
+    )
+    assert status == 0
+    assert "data.csv" in capsys.readouterr().out
+    spec = load_motor(out / "motor.toml")
+    rig = brushless_dc_rig(rng=0)
+    assert spec.positions_per_cycle == 256 and spec.ramping == "wide"
+    assert spec.equilibrium_positions == rig.equilibrium_positions()
+    data = read_table(out / "data.csv")
+    assert list(data) == ["position", "pulse_width", "torque"]
+    assert_array_equal(np.unique(data["pulse_width"]), [*range(0, 255, 32), 255])
+    assert sorted({int(p) // 32 for p in data["position"]}) == list(range(8))
+    # same seed, same file; the output is a function of the arguments
+    again = tmp_path / "again"
+    main(["simulate", "rig", "--motor", "bldc", "--out", str(again), "--pulse-step", "32", *FAST])
+    assert (again / "data.csv").read_bytes() == (out / "data.csv").read_bytes()
+    assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary files left
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--seed", "-1"], "seed must be a non-negative integer"),
+        (["--pulse-step", "0"], "pulse step must be a positive integer"),
+        (["--position-step", "0"], "position step must be a positive integer"),
+        (["--readings", "0"], "readings must be a positive integer"),
+    ],
+)
+def test_simulate_rig_bad_options(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], extra: list[str], message: str
+) -> None:
+    status = main(
+        ["simulate", "rig", "--motor", "vr", "--out", str(tmp_path / "o"), "--no-progress", *extra]
+    )
+    err = capsys.readouterr().err
+    assert status == 2 and message in err and err.count("\n") == 1
+
+
+def test_simulate_rig_out_is_a_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "f").write_text("x")
+    status = main(["simulate", "rig", "--motor", "vr", "--out", str(tmp_path / "f"), *FAST])
+    err = capsys.readouterr().err
+    assert status == 2 and "not a folder" in err and err.count("\n") == 1
+
+
+def _motor_file(tmp_path: Path) -> Path:
+    path = tmp_path / "motor.toml"
+    write_toml(path, motor_to_dict(brushless_dc_rig(rng=0).motor_spec()))
+    return path
+
+
+def test_linearize_collect_resumes(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    motor = _motor_file(tmp_path)
+    data = tmp_path / "data.csv"
+    argv = [str(motor), "-o", str(data), "--sim", "bldc", "--step", "64", *FAST]
+    status, _ = _collect(argv, capsys)
+    assert status == 0
+    first = data.read_bytes()
+    rows = read_table(data)
+    assert rows["torque"].size == 8 * 5  # 8 positions x pulse widths 0, 64, 128, 192, 255
+    status, _ = _collect(argv, capsys)  # resume a complete file: only the last block again
+    assert status == 0
+    before, now = first.decode().splitlines(), data.read_text().splitlines()
+    assert len(now) == len(before) and now[:-5] == before[:-5]  # new noise in the last block
+
+
+def test_linearize_collect_verification(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    motor = _motor_file(tmp_path)
+    spec = load_motor(motor)
+    c = np.arange(256)
+    inverse = np.where(c < 128, 2 * c, 0)
+    np.savez(
+        tmp_path / "tables.npz",
+        **{
+            f"phase_{k + 1}": np.rint(inverse * spec.ramp[:, k : k + 1]).astype(np.int64)
+            for k in range(3)
+        },
+    )
+    after = tmp_path / "after.csv"
+    argv = [
+        str(motor),
+        "-o",
+        str(after),
+        "--sim",
+        "bldc",
+        "--tables",
+        str(tmp_path / "tables.npz"),
+        "--step",
+        "32",
+        *FAST,
+    ]
+    status, _ = _collect(argv, capsys)
+    assert status == 0
+    rows = read_table(after)
+    assert list(rows) == ["position", "command", "torque"]
+    assert_array_equal(np.unique(rows["command"]), [0, 32, 64, 96, 127])
+
+
+def test_linearize_collect_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    motor = _motor_file(tmp_path)
+    status, err = _collect(
+        [str(motor), "-o", str(tmp_path / "d.csv"), "--sim", "vr", *FAST], capsys
+    )
+    assert status == 2 and "simulated vr motor has 3 and 512" in err and str(motor) in err
+    status, err = _collect([str(tmp_path / "none.toml"), "-o", "d.csv", "--sim", "vr"], capsys)
+    assert status == 2 and "file not found" in err
+    np.savez(tmp_path / "t.npz", phase_1=np.zeros((256, 256), dtype=np.int64))
+    argv = [
+        str(motor),
+        "-o",
+        str(tmp_path / "a.csv"),
+        "--sim",
+        "bldc",
+        "--tables",
+        str(tmp_path / "t.npz"),
+        *FAST,
+    ]
+    status, err = _collect(argv, capsys)
+    assert status == 2 and "t.npz: tables lack 'phase_2'" in err
+    assert not (tmp_path / "a.csv").exists()
