@@ -1,0 +1,804 @@
+"""Torque-linearisation look-up tables from characterisation data (Adept II paper, §3 and §4.3).
+
+The builder turns DATA.csv rows (table position, base pulse width, torque) into one table per
+phase: entry ``[p, c mod 2**bits]`` is the actuation, already ramped, that the phase receives at
+table position ``p`` for the signed torque command ``c``. The steps (docs/linearize.md):
+
+1. Torque scaling: the largest position-independent torque ``t_pi`` (the deepest valley of the
+   torque surface: the minimum over positions of the largest torque reachable there) divided by
+   the largest positive command gives ``torque_per_count``; every positive command is then
+   reachable at every position. The reachable torque per position comes from the forward model
+   (step 3 of ``"interp"``), so positions whose rows were split by the rig's compliance do not
+   count as valleys.
+2. ``method="paper"``: each row's torque is quantised to a torque index; where several pulse
+   widths land on one (position, index) cell, the median is kept. ``method="interp"``: rows
+   are averaged per (position, pulse width) cell and made monotone in pulse width per position
+   (isotonic regression), a forward model ``torque(position, pulse width)``.
+3. Voids are filled by linear interpolation along constant-position and constant-torque (or
+   constant-pulse-width) contours, smaller voids first; the position axis is cyclic. For
+   ``"interp"`` the filled forward model is then inverted at the exact target torque of each
+   command (linear interpolation between the two bracketing pulse widths).
+4. Phase ``k`` entry ``= rint(base * ramp[p, k])`` (:func:`torquemap.linearize.motor.ramped_actuation`).
+5. :func:`monotonic_filter` (paper §5.6).
+6. Negative commands by reflection about each phase's equilibrium position ``e_i``: for command
+   ``-c`` at position ``p``, phase ``i`` gets its entry for ``+c`` at ``(2 e_i - p) mod P``. The
+   most negative command ``-2**(bits-1)`` has no positive twin and reuses ``+(2**(bits-1) - 1)``.
+7. Command 0 gives 0 actuation.
+
+This module never imports the simulator.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import isotonic_regression
+
+from torquemap.errors import InputError
+from torquemap.io import numeric_column, read_table
+from torquemap.linearize.motor import MotorSpec
+
+CommandScaling = Literal["linear", "log"]
+Method = Literal["interp", "paper"]
+DataKind = Literal["characterisation", "verification"]
+
+DEFAULT_LOG_CURVATURE = 4.0
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class LinearizeData:
+    """Rows of DATA.csv (characterisation) or of a verification run.
+
+    Attributes
+    ----------
+    position
+        Table position of each row, ``0 .. P - 1``, shape (n,).
+    level
+        Base pulse width (characterisation) or signed torque command (verification), shape (n,).
+    torque
+        Measured torque [N m], shape (n,).
+    kind
+        ``"characterisation"`` or ``"verification"``.
+    path
+        The file, or None.
+    """
+
+    position: NDArray[np.int64]
+    level: NDArray[np.int64]
+    torque: NDArray[np.float64]
+    kind: DataKind
+    path: str | None
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class TableSet:
+    """Per-phase look-up tables and how they were built.
+
+    Attributes
+    ----------
+    phases
+        Actuation per phase, shape (m, P, 2**command_bits), int64; column ``c mod 2**bits``
+        holds the signed command ``c`` (two's complement).
+    torque_per_count
+        Torque per command unit [N m]: command ``c`` asks for ``c * torque_per_count`` (linear
+        scaling); with log scaling, the mean slope ``torque_max / command_max``.
+    torque_max
+        Torque of the largest positive command [N m] (the position-independent torque).
+    command_scaling
+        ``"linear"`` or ``"log"`` (see :func:`torque_from_command`).
+    log_curvature
+        ``k`` of the log law (0 for linear).
+    base
+        The inverse model before ramping: base pulse width [motor actuation units] for
+        position ``p`` and command ``c = 0 .. command_max``, shape (P, command_max + 1).
+    ramp
+        The ramping function used, shape (P, m).
+    motor_name, ramping, method
+        Metadata.
+    command_bits
+        Width of the signed command [bits].
+    actuation_max
+        Largest table entry (full scale of the table's actuation units).
+    motor_actuation_max
+        Full-scale pulse width of the characterisation data (the motor file's).
+    positions_per_cycle
+        ``P``.
+    equilibrium_positions
+        One per phase.
+    monotonic
+        Whether :func:`monotonic_filter` was applied.
+    voids_filled
+        Cells of the working grid filled by interpolation.
+    median_cells
+        Cells where several rows landed (median for ``"paper"``, mean for ``"interp"``).
+    monotonic_fixes
+        Table entries raised by the monotonic filter.
+    """
+
+    phases: NDArray[np.int64]
+    torque_per_count: float
+    torque_max: float
+    command_scaling: CommandScaling
+    log_curvature: float
+    base: NDArray[np.float64]
+    ramp: NDArray[np.float64]
+    motor_name: str
+    ramping: str
+    method: str
+    command_bits: int
+    actuation_max: int
+    motor_actuation_max: int
+    positions_per_cycle: int
+    equilibrium_positions: tuple[int, ...]
+    monotonic: bool
+    voids_filled: int
+    median_cells: int
+    monotonic_fixes: int
+
+    @property
+    def command_max(self) -> int:
+        """Largest positive command, ``2**(command_bits - 1) - 1``."""
+        return (1 << (self.command_bits - 1)) - 1
+
+    def as_mapping(self) -> dict[str, NDArray[np.int64]]:
+        """``phase_1 .. phase_m`` to their tables (for collect_verification)."""
+        return {f"phase_{k + 1}": self.phases[k] for k in range(self.phases.shape[0])}
+
+
+# -- reading data ---------------------------------------------------------------------------
+
+
+def _integer_column(
+    columns: dict[str, NDArray[np.generic]], name: str, path: str, low: int, high: int
+) -> NDArray[np.int64]:
+    values = numeric_column(columns, name, path)
+    bad = values != np.round(values)
+    if bad.any():
+        row = int(np.argmax(bad))
+        raise InputError(
+            f"column {name!r} must hold integers (data row {row + 1}: {values[row]:g})", path=path
+        )
+    out = values.astype(np.int64)
+    bad = (out < low) | (out > high)
+    if bad.any():
+        row = int(np.argmax(bad))
+        raise InputError(
+            f"{name} {out[row]} at data row {row + 1} is outside {low} .. {high}", path=path
+        )
+    return out
+
+
+def read_data(path: str | os.PathLike[str], spec: MotorSpec, *, kind: DataKind) -> LinearizeData:
+    """Read DATA.csv (``position, pulse_width, torque``) or verification data (``position,
+    command, torque``), CSV or Parquet.
+
+    Parameters
+    ----------
+    path
+        The file.
+    spec
+        The motor: positions must be in ``0 .. P - 1``, pulse widths in ``0 .. actuation_max``,
+        commands in ``-2**(bits-1) .. 2**(bits-1) - 1``.
+    kind
+        ``"characterisation"`` or ``"verification"``.
+
+    Returns
+    -------
+    LinearizeData
+        The rows.
+
+    Raises
+    ------
+    InputError
+        On a missing file or column, NaN, non-integer or out-of-range positions and levels.
+    """
+    p = os.fspath(path)
+    columns = read_table(p)
+    n = spec.positions_per_cycle
+    position = _integer_column(columns, "position", p, 0, n - 1)
+    if kind == "characterisation":
+        level = _integer_column(columns, "pulse_width", p, 0, spec.actuation_max)
+    else:
+        half = 1 << (spec.command_bits - 1)
+        level = _integer_column(columns, "command", p, -half, half - 1)
+    torque = numeric_column(columns, "torque", p)
+    return LinearizeData(position=position, level=level, torque=torque, kind=kind, path=p)
+
+
+# -- the command law --------------------------------------------------------------------------
+
+
+def torque_from_command(
+    command: ArrayLike,
+    *,
+    torque_max: float,
+    command_max: int,
+    scaling: CommandScaling = "linear",
+    log_curvature: float = DEFAULT_LOG_CURVATURE,
+) -> NDArray[np.float64]:
+    """Torque [N m] a signed command asks for.
+
+    Linear: ``tau = c torque_max / C``. Log (paper §6.2): ``tau = sign(c) torque_max
+    expm1(k |c| / C) / expm1(k)``, fine steps at low torque and coarse ones at high torque;
+    ``C`` is ``command_max``, ``k`` the curvature.
+
+    Examples
+    --------
+    >>> torque_from_command([-127, 0, 1, 127], torque_max=12.7, command_max=127).tolist()
+    [-12.7, 0.0, 0.1, 12.7]
+    >>> t = torque_from_command([1, 127], torque_max=12.7, command_max=127, scaling="log")
+    >>> bool(t[0] < 0.1 / 5) and bool(abs(t[1] - 12.7) < 1e-12)
+    True
+    """
+    c = np.asarray(command, dtype=np.float64)
+    if scaling == "linear":
+        out: NDArray[np.float64] = c * (torque_max / command_max)
+        return out
+    k = float(log_curvature)
+    return np.sign(c) * torque_max * np.expm1(k * np.abs(c) / command_max) / math.expm1(k)
+
+
+def command_from_torque(
+    torque: ArrayLike,
+    *,
+    torque_max: float,
+    command_max: int,
+    scaling: CommandScaling = "linear",
+    log_curvature: float = DEFAULT_LOG_CURVATURE,
+) -> NDArray[np.float64]:
+    """The (real-valued) command for a torque [N m]; the inverse of :func:`torque_from_command`.
+
+    Round it to the nearest integer before sending it to the tables.
+
+    Examples
+    --------
+    >>> command_from_torque([0.1, 12.7], torque_max=12.7, command_max=127).tolist()
+    [1.0, 127.0]
+    """
+    t = np.asarray(torque, dtype=np.float64)
+    if scaling == "linear":
+        out: NDArray[np.float64] = t * (command_max / torque_max)
+        return out
+    k = float(log_curvature)
+    return np.sign(t) * command_max / k * np.log1p(np.abs(t) / torque_max * math.expm1(k))
+
+
+# -- grid helpers ---------------------------------------------------------------------------
+
+
+def _neighbours(valid: NDArray[np.bool_]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Index of the previous and next valid cell along the last axis (-1 / n when none)."""
+    n = valid.shape[-1]
+    idx = np.broadcast_to(np.arange(n), valid.shape)
+    prev = np.maximum.accumulate(np.where(valid, idx, -1), axis=-1)
+    nxt = np.minimum.accumulate(np.where(valid, idx, n)[..., ::-1], axis=-1)[..., ::-1]
+    return prev, nxt
+
+
+def _axis_fill(
+    grid: NDArray[np.float64], *, cyclic: bool, coords: NDArray[np.float64] | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Linear interpolation of every NaN along the last axis, and its gap length (inf if open).
+
+    ``coords`` (non-cyclic only) are the coordinates of the columns; default their indices.
+    """
+    n = grid.shape[-1]
+    work = np.concatenate([grid, grid, grid], axis=-1) if cyclic else grid
+    offset = n if cyclic else 0
+    prev, nxt = _neighbours(~np.isnan(work))
+    prev, nxt = prev[..., offset : offset + n], nxt[..., offset : offset + n]
+    m = work.shape[-1]
+    bounded = (prev >= 0) & (nxt < m)
+    pc = np.clip(prev, 0, m - 1)
+    nc = np.clip(nxt, 0, m - 1)
+    lo = np.take_along_axis(work, pc, axis=-1)
+    hi = np.take_along_axis(work, nc, axis=-1)
+    x: NDArray[np.float64]
+    if coords is None:
+        x = (np.arange(n) + offset).astype(np.float64)
+        xp, xn = pc.astype(np.float64), nc.astype(np.float64)
+    else:
+        x, xp, xn = coords, coords[pc], coords[nc]
+    span = np.where(xn > xp, xn - xp, 1)
+    value = lo + (hi - lo) * (x - xp) / span
+    length = np.where(bounded, (nc - pc - 1).astype(np.float64), np.inf)
+    return value, length
+
+
+def fill_voids(
+    grid: ArrayLike,
+    *,
+    max_position_gap: int | None = None,
+    levels: ArrayLike | None = None,
+) -> NDArray[np.float64]:
+    """Fill NaN cells of a (position, level) grid by linear interpolation, smaller voids first.
+
+    Every pass measures, for each NaN cell, the gap it lies in along the level axis (axis 1,
+    bounded on both sides) and along the position axis (axis 0, cyclic), and fills the cells
+    whose shorter gap is the shortest of all (the mean of both axes where they tie). Cells left
+    open (no data above them at any position in reach) keep NaN.
+
+    Parameters
+    ----------
+    grid
+        Shape (P, n), NaN where there is no data.
+    max_position_gap
+        Longest gap [positions] interpolated along the position axis (None: no limit).
+    levels
+        Level of each column, increasing, shape (n,) (default ``0 .. n - 1``): interpolation
+        along the level axis is linear in it.
+
+    Returns
+    -------
+    ndarray
+        The filled grid (a copy).
+
+    Examples
+    --------
+    >>> g = np.array([[0.0, np.nan, 2.0], [np.nan, np.nan, np.nan], [0.0, 1.0, np.nan]])
+    >>> fill_voids(g).tolist()
+    [[0.0, 1.0, 2.0], [0.0, 1.0, 2.0], [0.0, 1.0, 2.0]]
+    """
+    out = np.array(grid, dtype=np.float64)
+    coords = None if levels is None else np.asarray(levels, dtype=np.float64)
+    limit = np.inf if max_position_gap is None else float(max_position_gap)
+    while True:
+        missing = np.isnan(out)
+        if not missing.any():
+            return out
+        v_level, l_level = _axis_fill(out, cyclic=False, coords=coords)
+        v_pos_t, l_pos_t = _axis_fill(out.T, cyclic=True)
+        v_pos, l_pos = v_pos_t.T, l_pos_t.T
+        l_pos = np.where(l_pos <= limit, l_pos, np.inf)
+        length = np.where(missing, np.minimum(l_level, l_pos), np.inf)
+        shortest = length.min()
+        if not np.isfinite(shortest):
+            return out
+        take = missing & (length == shortest)
+        both = take & (l_level == shortest) & (l_pos == shortest)
+        value = np.where(l_level == shortest, v_level, v_pos)
+        value = np.where(both, 0.5 * (v_level + v_pos), value)
+        out[take] = value[take]
+
+
+def monotonic_filter(table: ArrayLike, *, command_bits: int | None = None) -> NDArray[np.int64]:
+    """Make every position's entries non-decreasing in the command magnitude (paper §5.6).
+
+    Scanning the commands upward at each position, an entry smaller than the previous one is
+    replaced by the previous one (a running maximum).
+
+    Parameters
+    ----------
+    table
+        Integer table(s), shape (..., P, n). Without ``command_bits`` the last axis is scanned
+        in order (pass the positive half, columns ``0 .. C``). With ``command_bits`` the last axis
+        holds ``2**command_bits`` two's-complement columns: the positive half is scanned
+        ``0, 1, ..., C`` and the negative half ``-1, -2, ..., -(C + 1)``.
+    command_bits
+        Command width when ``table`` holds both directions.
+
+    Returns
+    -------
+    ndarray of int64
+        The filtered table, same shape.
+
+    Examples
+    --------
+    >>> monotonic_filter([[0, 5, 3, 7, 6]]).tolist()
+    [[0, 5, 5, 7, 7]]
+    >>> monotonic_filter([[0, 5, 1, 3]], command_bits=2).tolist()  # columns 0, 1, -2, -1
+    [[0, 5, 3, 3]]
+    """
+    t = np.asarray(table).astype(np.int64)
+    if command_bits is None:
+        out: NDArray[np.int64] = np.maximum.accumulate(t, axis=-1)
+        return out
+    width = 1 << command_bits
+    if t.shape[-1] != width:
+        raise ValueError(f"table has {t.shape[-1]} columns, expected 2**{command_bits}")
+    half = width // 2
+    out = t.copy()
+    out[..., :half] = np.maximum.accumulate(t[..., :half], axis=-1)
+    neg = t[..., half:][..., ::-1]  # -1, -2, ..., -half
+    out[..., half:] = np.maximum.accumulate(neg, axis=-1)[..., ::-1]
+    return out
+
+
+def reflect_negative(
+    positive: ArrayLike, *, equilibrium: int, command_bits: int
+) -> NDArray[np.int64]:
+    """One phase's full two's-complement table from its positive half (paper §4.3).
+
+    For ``-c`` at position ``p`` the phase gets its ``+c`` entry at ``(2 e - p) mod P``; ``-2**(b-1)``
+    reuses ``+(2**(b-1) - 1)``.
+
+    Parameters
+    ----------
+    positive
+        Entries for commands ``0 .. 2**(b-1) - 1``, shape (P, 2**(b-1)).
+    equilibrium
+        The phase's equilibrium position ``e``.
+    command_bits
+        ``b``.
+
+    Returns
+    -------
+    ndarray of int64
+        Shape (P, 2**b).
+
+    Examples
+    --------
+    >>> pos = np.arange(8).reshape(4, 2)  # P = 4, b = 2: commands 0, 1
+    >>> reflect_negative(pos, equilibrium=1, command_bits=2)[3].tolist()  # p = 3 mirrors to 3
+    [6, 7, 7, 7]
+    """
+    pos = np.asarray(positive).astype(np.int64)
+    n, half = pos.shape
+    if half != 1 << (command_bits - 1):
+        raise ValueError(f"positive half has {half} columns, expected 2**{command_bits - 1}")
+    mirror = (2 * int(equilibrium) - np.arange(n)) % n
+    c = np.arange(1, half + 1)  # magnitudes of -1 .. -half
+    neg = pos[mirror][:, np.minimum(c, half - 1)]
+    out = np.empty((n, 2 * half), dtype=np.int64)
+    out[:, :half] = pos
+    out[:, 2 * half - c] = neg
+    return out
+
+
+# -- building -------------------------------------------------------------------------------
+
+
+def _check_rows(
+    spec: MotorSpec,
+    position: ArrayLike,
+    pulse_width: ArrayLike,
+    torque: ArrayLike,
+    path: str | None,
+) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+    pos = np.asarray(position)
+    pw = np.asarray(pulse_width, dtype=np.float64)
+    tau = np.asarray(torque, dtype=np.float64)
+    if not (pos.ndim == pw.ndim == tau.ndim == 1 and pos.size == pw.size == tau.size):
+        raise ValueError("position, pulse_width and torque must be 1-D arrays of one length")
+    if pos.size == 0:
+        raise InputError("no data rows", path=path)
+    for name, values in (
+        ("position", pos.astype(np.float64)),
+        ("pulse_width", pw),
+        ("torque", tau),
+    ):
+        if not np.isfinite(values).all():
+            row = int(np.argmax(~np.isfinite(values)))
+            raise InputError(f"{name} holds NaN or inf (data row {row + 1})", path=path)
+    n = spec.positions_per_cycle
+    bad = (pos < 0) | (pos > n - 1) | (pos != np.round(pos))
+    if bad.any():
+        row = int(np.argmax(bad))
+        raise InputError(
+            f"position {pos[row]} at data row {row + 1} is outside 0 .. {n - 1}", path=path
+        )
+    bad = (pw < 0) | (pw > spec.actuation_max) | (pw != np.round(pw))
+    if bad.any():
+        row = int(np.argmax(bad))
+        raise InputError(
+            f"pulse_width {pw[row]:g} at data row {row + 1} is outside 0 .. {spec.actuation_max}",
+            path=path,
+        )
+    return pos.astype(np.int64), pw, tau
+
+
+def _noise_floor(pw: NDArray[np.float64], tau: NDArray[np.float64]) -> float:
+    """Torque below which a reading is indistinguishable from no torque [N m]."""
+    zero = tau[pw == 0]
+    sigma = float(np.std(zero)) if zero.size >= 2 else 0.0
+    return max(4.0 * sigma, 0.02 * float(np.max(np.abs(tau))), 1e-12)
+
+
+def _check_phases(
+    spec: MotorSpec,
+    pos: NDArray[np.int64],
+    pw: NDArray[np.float64],
+    tau: NDArray[np.float64],
+    floor: float,
+    path: str | None,
+) -> None:
+    ramp = spec.ramp[pos]
+    for k in range(spec.phases):
+        others = np.delete(ramp, k, axis=1)
+        alone = (ramp[:, k] > 0) & (others.max(axis=1, initial=0.0) == 0) & (pw > 0)
+        if not alone.any():
+            alone = (ramp[:, k] >= others.max(axis=1, initial=0.0)) & (ramp[:, k] > 0) & (pw > 0)
+        if not alone.any():
+            raise InputError(
+                f"phase {k + 1} was never energised in the data (no rows where it leads)",
+                path=path,
+            )
+        best = float(tau[alone].max())
+        if best <= floor:
+            raise InputError(
+                f"phase {k + 1} never produced torque (largest {best:.3g} N m over "
+                f"{int(alone.sum())} rows where it leads; noise floor {floor:.3g} N m)",
+                path=path,
+            )
+
+
+def _check_coverage(
+    spec: MotorSpec, pos: NDArray[np.int64], max_gap: int, path: str | None
+) -> None:
+    n = spec.positions_per_cycle
+    has = np.zeros(n, dtype=bool)
+    has[pos] = True
+    tripled = np.concatenate([has, has, has])
+    prev, nxt = _neighbours(tripled)
+    i = np.arange(n) + n
+    distance = np.minimum(i - prev[n : 2 * n], nxt[n : 2 * n] - i)
+    far = distance > max_gap
+    if far.any():
+        p = int(np.argmax(far))
+        raise InputError(
+            f"no data at position {p} and none within {max_gap} positions to interpolate from "
+            f"({int(far.sum())} positions affected)",
+            path=path,
+        )
+
+
+def _cells(
+    pos: NDArray[np.int64],
+    col: NDArray[np.int64],
+    values: NDArray[np.float64],
+    shape: tuple[int, int],
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Mean of ``values`` per (position, column) cell (NaN where empty) and the row counts."""
+    flat = pos * shape[1] + col
+    count = np.bincount(flat, minlength=shape[0] * shape[1])
+    total = np.bincount(flat, weights=values, minlength=shape[0] * shape[1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.where(count > 0, total / np.maximum(count, 1), np.nan)
+    return mean.reshape(shape), count.reshape(shape)
+
+
+def _forward_model(
+    spec: MotorSpec,
+    pos: NDArray[np.int64],
+    pw: NDArray[np.float64],
+    tau: NDArray[np.float64],
+    max_gap: int,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], int, int]:
+    """Torque on the (position, measured pulse width) grid, monotone in pulse width.
+
+    Returns the grid (P, n_levels), the levels, the cells filled and the cells averaged.
+    """
+    levels, col = np.unique(pw, return_inverse=True)
+    n = spec.positions_per_cycle
+    mean, count = _cells(pos, col.astype(np.int64), tau, (n, levels.size))
+    for p in np.flatnonzero(count.sum(axis=1)):
+        have = count[p] > 0
+        mean[p, have] = isotonic_regression(mean[p, have], weights=count[p, have]).x
+    filled = fill_voids(mean, max_position_gap=max_gap, levels=levels)
+    voids = int(np.isnan(mean).sum() - np.isnan(filled).sum())
+    forward = np.fmax.accumulate(filled, axis=1)
+    return forward, levels, voids, int((count > 1).sum())
+
+
+def _invert(
+    forward: NDArray[np.float64], levels: NDArray[np.float64], target: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Pulse width at which each position's monotone torque curve reaches each target."""
+    out = np.empty((forward.shape[0], target.size))
+    for p, row in enumerate(forward):
+        curve = np.where(np.isnan(row), -np.inf, row)
+        j = np.searchsorted(curve, target, side="left")
+        j = np.clip(j, 0, levels.size - 1)
+        lo = np.maximum(j - 1, 0)
+        t0, t1 = curve[lo], curve[j]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            frac = np.where((j > 0) & (t1 > t0) & np.isfinite(t0), (target - t0) / (t1 - t0), 1.0)
+        out[p] = levels[lo] + np.clip(frac, 0.0, 1.0) * (levels[j] - levels[lo])
+    return out
+
+
+def _paper_inverse(
+    spec: MotorSpec,
+    pos: NDArray[np.int64],
+    pw: NDArray[np.float64],
+    tau: NDArray[np.float64],
+    index: NDArray[np.float64],
+    command_max: int,
+    max_gap: int,
+) -> tuple[NDArray[np.float64], int, int]:
+    """The paper's inverse model: median pulse width per (position, torque index) cell, voids
+    filled by interpolation. Returns the base table (P, C + 1), cells filled, median cells."""
+    k = np.rint(index).astype(np.int64)
+    keep = k >= 0
+    pos, pw, k = pos[keep], pw[keep], k[keep]
+    n = spec.positions_per_cycle
+    width = max(int(k.max()), command_max) + 1
+    cell = pos * width + k
+    order = np.lexsort((pw, cell))
+    cell_sorted, pw_sorted = cell[order], pw[order]
+    first, start, count = np.unique(cell_sorted, return_index=True, return_counts=True)
+    median = 0.5 * (pw_sorted[start + (count - 1) // 2] + pw_sorted[start + count // 2])
+    flat = np.full(n * width, np.nan)
+    flat[first] = median
+    grid = flat.reshape(n, width)
+    filled = fill_voids(grid, max_position_gap=max_gap)
+    voids = int(np.isnan(grid).sum() - np.isnan(filled).sum())
+    filled = np.fmax.accumulate(filled, axis=1)  # open cells above the data: the last value
+    filled = np.where(np.isnan(filled), 0.0, filled)
+    return filled[:, : command_max + 1], voids, int((count > 1).sum())
+
+
+def build_tables(
+    spec: MotorSpec,
+    position: ArrayLike,
+    pulse_width: ArrayLike,
+    torque: ArrayLike,
+    *,
+    command_scaling: CommandScaling = "linear",
+    method: Method = "interp",
+    monotonic: bool = True,
+    log_curvature: float = DEFAULT_LOG_CURVATURE,
+    actuation_bits: int | None = None,
+    max_gap: int | None = None,
+    path: str | os.PathLike[str] | None = None,
+) -> TableSet:
+    """Build the per-phase torque-linearisation tables from characterisation data (paper §4.3).
+
+    Parameters
+    ----------
+    spec
+        The motor: phases, positions per cycle, command width, full-scale pulse width,
+        equilibrium positions, ramp.
+    position
+        Table position of each row, ``0 .. P - 1``, shape (n,).
+    pulse_width
+        Base pulse width of each row (before ramping), ``0 .. actuation_max``, shape (n,).
+    torque
+        Measured torque [N m], positive direction, shape (n,).
+    command_scaling
+        ``"linear"``: command ``c`` asks for ``c * torque_per_count``; ``"log"``: the law of
+        :func:`torque_from_command` (paper §6.2).
+    method
+        ``"interp"``: invert the monotone forward model at the exact target torques;
+        ``"paper"``: medians of quantised (position, torque index) cells and void filling.
+    monotonic
+        Apply :func:`monotonic_filter` (paper §5.6).
+    log_curvature
+        ``k`` of the log law.
+    actuation_bits
+        Width of the table entries [bits]: entries are rescaled so that ``2**bits - 1`` is the
+        motor's full-scale pulse width. None: entries in the motor's own units
+        (``0 .. actuation_max``).
+    max_gap
+        Longest run of positions without data that may be interpolated across
+        (default ``P // (4 m)``).
+    path
+        The data file, named in error messages.
+
+    Returns
+    -------
+    TableSet
+        Tables, scale and reports.
+
+    Raises
+    ------
+    InputError
+        On positions or pulse widths out of range, NaN, a phase that never produced torque,
+        positions without data and no data near them, or a position where no torque is
+        reachable.
+
+    Notes
+    -----
+    Rows at one (position, pulse width) cell are averaged (``"interp"``), or their pulse
+    widths are reduced to the median per (position, torque index) cell (``"paper"``).
+
+    Examples
+    --------
+    >>> from torquemap.linearize.motor import motor_spec
+    >>> spec = motor_spec("m", phases=1, positions_per_cycle=8, equilibrium_positions=(0,),
+    ...                   command_bits=4, actuation_max=100)
+    >>> p, w = np.meshgrid(np.arange(8), np.arange(0, 101, 5), indexing="ij")
+    >>> t = (1 + 0.5 * np.cos(2 * np.pi * p / 8)) * w / 100.0
+    >>> tab = build_tables(spec, p.ravel(), w.ravel(), t.ravel())
+    >>> round(tab.torque_max, 3), tab.phases.shape
+    (0.5, (1, 8, 16))
+    """
+    src = None if path is None else os.fspath(path)
+    if command_scaling not in ("linear", "log"):
+        raise ValueError(f"command_scaling must be 'linear' or 'log', got {command_scaling!r}")
+    if method not in ("interp", "paper"):
+        raise ValueError(f"method must be 'interp' or 'paper', got {method!r}")
+    if command_scaling == "log" and not log_curvature > 0:
+        raise ValueError(f"log_curvature must be > 0, got {log_curvature}")
+    if actuation_bits is not None and not 1 <= actuation_bits <= 32:
+        raise ValueError(f"actuation_bits must be in 1 .. 32, got {actuation_bits}")
+    pos, pw, tau = _check_rows(spec, position, pulse_width, torque, src)
+    n, m = spec.positions_per_cycle, spec.phases
+    gap = max(1, n // (4 * m)) if max_gap is None else int(max_gap)
+    floor = _noise_floor(pw, tau)
+    _check_phases(spec, pos, pw, tau, floor, src)
+    _check_coverage(spec, pos, gap, src)
+
+    forward, levels, voids, averaged = _forward_model(spec, pos, pw, tau, gap)
+    reach = np.nanmax(np.where(np.isnan(forward), -np.inf, forward), axis=1)
+    if (reach <= floor).any():
+        p = int(np.argmax(reach <= floor))
+        raise InputError(
+            f"no torque is reachable at position {p} (largest {reach[p]:.3g} N m; noise floor "
+            f"{floor:.3g} N m)",
+            path=src,
+        )
+    torque_max = float(reach.min())
+    cmax = (1 << (spec.command_bits - 1)) - 1
+    law = {
+        "torque_max": torque_max,
+        "command_max": cmax,
+        "scaling": command_scaling,
+        "log_curvature": log_curvature,
+    }
+    if method == "interp":
+        target = torque_from_command(np.arange(cmax + 1), **law)  # type: ignore[arg-type]
+        base = _invert(forward, levels, target)
+    else:
+        index = command_from_torque(tau, **law)  # type: ignore[arg-type]
+        base, voids, averaged = _paper_inverse(spec, pos, pw, tau, index, cmax, gap)
+    base[:, 0] = 0.0
+    base = np.clip(base, 0.0, float(spec.actuation_max))
+
+    top = spec.actuation_max if actuation_bits is None else (1 << actuation_bits) - 1
+    scale = top / spec.actuation_max
+    positive = np.rint(base[None, :, :] * spec.ramp.T[:, :, None] * scale)
+    positive = np.clip(positive, 0, top).astype(np.int64)
+    fixes = 0
+    if monotonic:
+        filtered = monotonic_filter(positive)
+        fixes = int((filtered != positive).sum())
+        positive = filtered
+    positive[:, :, 0] = 0
+    phases = np.stack(
+        [
+            reflect_negative(
+                positive[k],
+                equilibrium=spec.equilibrium_positions[k],
+                command_bits=spec.command_bits,
+            )
+            for k in range(m)
+        ]
+    )
+    return TableSet(
+        phases=phases,
+        torque_per_count=torque_max / cmax,
+        torque_max=torque_max,
+        command_scaling=command_scaling,
+        log_curvature=float(log_curvature) if command_scaling == "log" else 0.0,
+        base=base,
+        ramp=np.array(spec.ramp, dtype=np.float64),
+        motor_name=spec.name,
+        ramping=spec.ramping,
+        method=method,
+        command_bits=spec.command_bits,
+        actuation_max=top,
+        motor_actuation_max=spec.actuation_max,
+        positions_per_cycle=n,
+        equilibrium_positions=tuple(spec.equilibrium_positions),
+        monotonic=monotonic,
+        voids_filled=voids,
+        median_cells=averaged,
+        monotonic_fixes=fixes,
+    )
+
+
+def table_torque_law(tables: TableSet, command: ArrayLike) -> NDArray[np.float64]:
+    """The torque [N m] command(s) ask for under the tables' stored law."""
+    return torque_from_command(
+        command,
+        torque_max=tables.torque_max,
+        command_max=tables.command_max,
+        scaling=tables.command_scaling,
+        log_curvature=tables.log_curvature or DEFAULT_LOG_CURVATURE,
+    )
