@@ -1,0 +1,311 @@
+"""Table files: TABLES.npz, raw EPROM images, Intel HEX and a C header (docs/linearize.md).
+
+Addressing (the paper's joint interface board, §4.2): the table position ``p`` and the signed
+torque command ``c`` (two's complement, ``mask = 2**bits - 1``) are concatenated into the word
+address ``(p << bits) | (c & mask)``; with 9 position bits and 8 command bits that is the
+128K x 8 EPROM of one phase. Entries wider than 8 bits are stored as little-endian words of
+``w = ceil(entry_bits / 8)`` bytes at byte address ``w * word_address``.
+
+Every writer renders its bytes in memory first; :func:`write_outputs` renders all requested
+outputs before writing any, then writes each through a temporary file and a rename.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from torquemap.errors import InputError
+from torquemap.io import atomic_output
+from torquemap.linearize.tables import TableSet
+
+_META = (
+    "torque_per_count",
+    "torque_max",
+    "command_scaling",
+    "log_curvature",
+    "motor_name",
+    "ramping",
+    "method",
+    "command_bits",
+    "actuation_max",
+    "motor_actuation_max",
+    "positions_per_cycle",
+    "equilibrium_positions",
+    "monotonic",
+    "voids_filled",
+    "median_cells",
+    "monotonic_fixes",
+)
+
+
+def entry_bytes(tables: TableSet) -> int:
+    """Bytes per table entry: ``ceil(bits(actuation_max) / 8)``.
+
+    Examples
+    --------
+    >>> import types
+    >>> entry_bytes(types.SimpleNamespace(actuation_max=255)), entry_bytes(
+    ...     types.SimpleNamespace(actuation_max=65535))
+    (1, 2)
+    """
+    return max(1, (int(tables.actuation_max).bit_length() + 7) // 8)
+
+
+def _dtype(tables: TableSet) -> np.dtype[Any]:
+    return np.dtype({1: "<u1", 2: "<u2"}.get(entry_bytes(tables), "<u4"))
+
+
+def npz_arrays(tables: TableSet) -> dict[str, NDArray[Any]]:
+    """The arrays of TABLES.npz: ``phase_1 .. phase_m``, ``base``, ``ramp`` and 0-d metadata."""
+    out: dict[str, NDArray[Any]] = {
+        f"phase_{k + 1}": tables.phases[k].astype(_dtype(tables))
+        for k in range(tables.phases.shape[0])
+    }
+    out["base"] = tables.base
+    out["ramp"] = tables.ramp
+    for name in _META:
+        value = getattr(tables, name)
+        out[name] = np.asarray(list(value) if isinstance(value, tuple) else value)
+    return out
+
+
+def _npz_bytes(tables: TableSet, tmp: Path) -> None:
+    with tmp.open("wb") as handle:
+        np.savez_compressed(handle, **npz_arrays(tables))  # type: ignore[arg-type]
+
+
+def save_tables(path: str | os.PathLike[str], tables: TableSet) -> None:
+    """Write TABLES.npz atomically."""
+    with atomic_output(path) as tmp:
+        _npz_bytes(tables, tmp)
+
+
+def load_tables(path: str | os.PathLike[str]) -> TableSet:
+    """Read TABLES.npz.
+
+    Raises
+    ------
+    InputError
+        On a missing, corrupt or truncated file, a missing array, or inconsistent shapes.
+    """
+    p = os.fspath(path)
+    if not Path(p).exists():
+        raise InputError("file not found", path=p)
+    try:
+        with np.load(p, allow_pickle=False) as npz:
+            data = {name: np.asarray(npz[name]) for name in npz.files}
+    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile) as exc:
+        raise InputError(f"cannot read tables, corrupt or truncated ({exc})", path=p) from None
+    for name in (*_META, "base", "ramp", "phase_1"):
+        if name not in data:
+            raise InputError(f"tables file lacks {name!r}", path=p)
+    m = 0
+    while f"phase_{m + 1}" in data:
+        m += 1
+    try:
+        phases = np.stack([data[f"phase_{k + 1}"].astype(np.int64) for k in range(m)])
+        meta = {name: data[name].item() if data[name].ndim == 0 else data[name] for name in _META}
+        tables = TableSet(
+            phases=phases,
+            torque_per_count=float(meta["torque_per_count"]),
+            torque_max=float(meta["torque_max"]),
+            command_scaling=str(meta["command_scaling"]),  # type: ignore[arg-type]
+            log_curvature=float(meta["log_curvature"]),
+            base=np.asarray(data["base"], dtype=np.float64),
+            ramp=np.asarray(data["ramp"], dtype=np.float64),
+            motor_name=str(meta["motor_name"]),
+            ramping=str(meta["ramping"]),
+            method=str(meta["method"]),
+            command_bits=int(meta["command_bits"]),
+            actuation_max=int(meta["actuation_max"]),
+            motor_actuation_max=int(meta["motor_actuation_max"]),
+            positions_per_cycle=int(meta["positions_per_cycle"]),
+            equilibrium_positions=tuple(
+                int(e) for e in np.atleast_1d(meta["equilibrium_positions"])
+            ),
+            monotonic=bool(meta["monotonic"]),
+            voids_filled=int(meta["voids_filled"]),
+            median_cells=int(meta["median_cells"]),
+            monotonic_fixes=int(meta["monotonic_fixes"]),
+        )
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"tables file has malformed contents ({exc})", path=p) from None
+    shape = (m, tables.positions_per_cycle, 1 << tables.command_bits)
+    if tables.phases.shape != shape or len(tables.equilibrium_positions) != m:
+        raise InputError(
+            f"tables have shape {tables.phases.shape}, the metadata says {shape}", path=p
+        )
+    if tables.command_scaling not in ("linear", "log"):
+        raise InputError(f"unknown command_scaling {tables.command_scaling!r}", path=p)
+    return tables
+
+
+def eprom_image(tables: TableSet, phase: int) -> bytes:
+    """The raw image of one phase (1-based): entry ``[p, c]`` at word ``(p << bits) | c``.
+
+    Examples
+    --------
+    >>> import types
+    >>> t = types.SimpleNamespace(phases=np.arange(8).reshape(1, 2, 4), actuation_max=255)
+    >>> eprom_image(t, 1).hex()
+    '0001020304050607'
+    """
+    table = np.asarray(tables.phases[phase - 1])
+    return table.astype(_dtype(tables)).tobytes(order="C")
+
+
+def _record(kind: int, address: int, payload: bytes) -> str:
+    body = bytes([len(payload), (address >> 8) & 0xFF, address & 0xFF, kind]) + payload
+    checksum = (-sum(body)) & 0xFF
+    return ":" + (body + bytes([checksum])).hex().upper()
+
+
+def intel_hex(image: bytes, *, record_size: int = 16) -> str:
+    """Intel HEX text of an image starting at address 0.
+
+    Data records (type 00) of ``record_size`` bytes, an extended linear address record (type 04)
+    before the first record of every 64 KiB segment above the first, and the EOF record (01).
+
+    Examples
+    --------
+    >>> print(intel_hex(bytes([1, 2, 3])))
+    :03000000010203F7
+    :00000001FF
+    """
+    lines: list[str] = []
+    segment = 0
+    for start in range(0, len(image), record_size):
+        upper = start >> 16
+        if upper != segment:
+            lines.append(_record(4, 0, upper.to_bytes(2, "big")))
+            segment = upper
+        chunk = image[start : min(start + record_size, (upper + 1) << 16, len(image))]
+        lines.append(_record(0, start & 0xFFFF, chunk))
+    lines.append(_record(1, 0, b""))
+    return "\n".join(lines) + "\n"
+
+
+def _identifier(text: str) -> str:
+    name = re.sub(r"[^0-9A-Za-z_]", "_", text).strip("_").lower() or "motor"
+    return name if not name[0].isdigit() else f"m_{name}"
+
+
+def c_header(tables: TableSet, *, prefix: str | None = None) -> str:
+    """A C header with the phase tables as const arrays and the torque scale."""
+    name = prefix or _identifier(tables.motor_name)
+    upper = name.upper()
+    m, n, width = tables.phases.shape
+    ctype = {1: "uint8_t", 2: "uint16_t"}.get(entry_bytes(tables), "uint32_t")
+    guard = f"TORQUEMAP_{upper}_TABLES_H"
+    lines = [
+        f"/* Torque-linearisation tables for motor {tables.motor_name!r}, written by torquemap.",
+        f" * {m} phases x {n} positions x {width} commands ({tables.command_bits}-bit signed).",
+        f" * Lookup: {name}_phase_k[p][c & {width - 1}] for table position p (0..{n - 1}) and",
+        " * torque command c (two's complement, so c = -1 is the last column); as one flat",
+        f" * EPROM image the entry sits at word address (p << {tables.command_bits}) | (c & "
+        f"{width - 1}).",
+        f" * Command scaling: {tables.command_scaling}"
+        + (
+            f", torque = sign(c) * TORQUE_MAX * expm1({tables.log_curvature:g} * |c| / "
+            f"{tables.command_max}) / expm1({tables.log_curvature:g})."
+            if tables.command_scaling == "log"
+            else ", torque = c * TORQUE_PER_COUNT."
+        ),
+        " */",
+        f"#ifndef {guard}",
+        f"#define {guard}",
+        "",
+        "#include <stdint.h>",
+        "",
+        f"#define {upper}_PHASES {m}",
+        f"#define {upper}_POSITIONS {n}",
+        f"#define {upper}_COMMAND_BITS {tables.command_bits}",
+        f"#define {upper}_ACTUATION_MAX {tables.actuation_max}",
+        f"#define {upper}_TORQUE_PER_COUNT {tables.torque_per_count!r} /* N m per command unit */",
+        f"#define {upper}_TORQUE_MAX {tables.torque_max!r} /* N m at the largest command */",
+        "",
+    ]
+    for k in range(m):
+        lines.append(f"static const {ctype} {name}_phase_{k + 1}[{n}][{width}] = {{")
+        for row in tables.phases[k]:
+            lines.append("    {" + ",".join(map(str, row.tolist())) + "},")
+        lines.append("};")
+        lines.append("")
+    lines.append(f"#endif /* {guard} */")
+    return "\n".join(lines) + "\n"
+
+
+def write_outputs(
+    tables: TableSet,
+    *,
+    npz: str | os.PathLike[str] | None = None,
+    bin_dir: str | os.PathLike[str] | None = None,
+    hex_dir: str | os.PathLike[str] | None = None,
+    c_header_path: str | os.PathLike[str] | None = None,
+) -> list[str]:
+    """Write every requested output; nothing is written unless all could be rendered.
+
+    Parameters
+    ----------
+    tables
+        The tables.
+    npz
+        TABLES.npz.
+    bin_dir
+        Folder (created) for ``phase_1.bin`` .. ``phase_m.bin``.
+    hex_dir
+        Folder (created) for ``phase_1.hex`` .. ``phase_m.hex``.
+    c_header_path
+        The C header.
+
+    Returns
+    -------
+    list of str
+        The files written.
+
+    Raises
+    ------
+    InputError
+        If an output folder (of npz or the header) does not exist, or a folder path is a file.
+    """
+    m = tables.phases.shape[0]
+    for target in (npz, c_header_path):
+        if target is not None and not Path(target).resolve().parent.is_dir():
+            raise InputError("output folder does not exist", path=Path(target).parent)
+    for folder in (bin_dir, hex_dir):
+        if folder is not None and Path(folder).exists() and not Path(folder).is_dir():
+            raise InputError("output folder is a file", path=folder)
+    rendered: dict[Path, bytes | str | None] = {}
+    if npz is not None:
+        rendered[Path(npz)] = None
+    images = [eprom_image(tables, k + 1) for k in range(m)] if (bin_dir or hex_dir) else []
+    if bin_dir is not None:
+        for k, image in enumerate(images):
+            rendered[Path(bin_dir) / f"phase_{k + 1}.bin"] = image
+    if hex_dir is not None:
+        for k, image in enumerate(images):
+            rendered[Path(hex_dir) / f"phase_{k + 1}.hex"] = intel_hex(image)
+    if c_header_path is not None:
+        rendered[Path(c_header_path)] = c_header(tables)
+    for folder in (bin_dir, hex_dir):
+        if folder is not None:
+            Path(folder).mkdir(parents=True, exist_ok=True)
+    written = []
+    for path, content in rendered.items():
+        with atomic_output(path) as tmp:
+            if content is None:
+                _npz_bytes(tables, tmp)
+            elif isinstance(content, bytes):
+                tmp.write_bytes(content)
+            else:
+                tmp.write_text(content)
+        written.append(os.fspath(path))
+    return written
+
