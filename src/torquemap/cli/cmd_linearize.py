@@ -1,10 +1,157 @@
-"""CLI: placeholder for the `linearize` command(s); filled in by its issue."""
+"""CLI: the ``linearize`` group: ``build``, ``evaluate``, ``figures`` (and ``collect``).
+
+``collect`` is added by :mod:`torquemap.cli.cmd_linearize_collect`. See docs/linearize.md.
+"""
 
 from __future__ import annotations
 
 import argparse
+import json
 from typing import Any
 
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
-    """Add this module's sub-commands to subparsers."""
+    """Add the ``linearize`` group and its sub-commands."""
+    from torquemap.cli import cmd_linearize_collect
+
+    group = subparsers.add_parser(
+        "linearize",
+        help="torque-linearisation look-up tables (Adept II paper)",
+        description="Build and evaluate per-phase torque-linearisation tables from motor "
+        "characterisation data (docs/linearize.md).",
+    )
+    sub = group.add_subparsers(dest="linearize_command", metavar="SUBCOMMAND")
+    sub.required = True
+
+    build = sub.add_parser(
+        "build",
+        help="build the phase tables from DATA.csv",
+        description="Build TABLES.npz (and optionally raw EPROM images, Intel HEX, a C header) "
+        "from characterisation data. Nothing is written unless everything could be built.",
+    )
+    build.add_argument("motor", metavar="MOTOR.toml", help="the motor file")
+    build.add_argument("data", metavar="DATA.csv", help="characterisation data")
+    build.add_argument("-o", "--out", metavar="TABLES.npz", required=True, help="tables file")
+    build.add_argument("--bin", metavar="DIR", help="write raw images phase_k.bin here")
+    build.add_argument("--hex", metavar="DIR", help="write Intel HEX phase_k.hex here")
+    build.add_argument("--c-header", metavar="FILE", help="write a C header")
+    build.add_argument(
+        "--command-scaling", choices=("linear", "log"), default="linear", help="command law"
+    )
+    build.add_argument(
+        "--log-curvature",
+        type=float,
+        default=4.0,
+        help="k of the log law tau = tmax expm1(k|c|/C)/expm1(k) (default 4)",
+    )
+    build.add_argument(
+        "--method",
+        choices=("interp", "paper"),
+        default="interp",
+        help="interp: invert the monotone torque curves; paper: medians of quantised cells",
+    )
+    build.add_argument(
+        "--actuation-bits",
+        type=int,
+        help="table entry width [bits], rescaled to the motor's full scale (default: motor units)",
+    )
+    build.add_argument(
+        "--no-monotonic", action="store_true", help="skip the monotonic filter (paper 5.6)"
+    )
+    build.set_defaults(handler=_build)
+
+    evaluate = sub.add_parser(
+        "evaluate",
+        help="APMD, CAPMD, PAPMD of characterisation or verification data",
+        description="Linearity measures of the paper (Eqs 1-3, Table 2). Without --tables, "
+        "DATA.csv is characterisation data (command = pulse width); with --tables it is a "
+        "verification run (position, command, torque).",
+    )
+    evaluate.add_argument("motor", metavar="MOTOR.toml", help="the motor file")
+    evaluate.add_argument("data", metavar="DATA.csv", help="characterisation or verification data")
+    evaluate.add_argument("--tables", metavar="TABLES.npz", help="tables of a verification run")
+    evaluate.add_argument("-o", "--out", metavar="REPORT.json", help="write the report as JSON")
+    evaluate.set_defaults(handler=_evaluate)
+
+    figures = sub.add_parser(
+        "figures",
+        help="figures: torque surfaces, tables, ramps, PMD, CAPMD, PAPMD",
+        description="Write PNG figures of characterisation data, tables and (with --verification) "
+        "the compensated run.",
+    )
+    figures.add_argument("motor", metavar="MOTOR.toml", help="the motor file")
+    figures.add_argument("data", metavar="DATA.csv", help="characterisation data")
+    figures.add_argument("--tables", metavar="TABLES.npz", help="tables to draw")
+    figures.add_argument("--verification", metavar="VERIFY.csv", help="verification data")
+    figures.add_argument("-o", "--out", metavar="DIR", required=True, help="output folder")
+    figures.set_defaults(handler=_figures)
+
+    cmd_linearize_collect.register(sub)
+
+
+def _build(args: argparse.Namespace) -> int:
+    from torquemap.linearize.export import write_outputs
+    from torquemap.linearize.motor import load_motor
+    from torquemap.linearize.tables import build_tables, read_data
+
+    spec = load_motor(args.motor)
+    data = read_data(args.data, spec, kind="characterisation")
+    tables = build_tables(
+        spec,
+        data.position,
+        data.level,
+        data.torque,
+        command_scaling=args.command_scaling,
+        method=args.method,
+        monotonic=not args.no_monotonic,
+        log_curvature=args.log_curvature,
+        actuation_bits=args.actuation_bits,
+        path=args.data,
+    )
+    written = write_outputs(
+        tables, npz=args.out, bin_dir=args.bin, hex_dir=args.hex, c_header_path=args.c_header
+    )
+    print(
+        f"largest position-independent torque {tables.torque_max:.6g} N m; torque_per_count "
+        f"{tables.torque_per_count:.6g} N m ({tables.command_scaling} scaling, {tables.method})"
+    )
+    print(
+        f"cells filled by interpolation {tables.voids_filled}, cells with several rows "
+        f"{tables.median_cells}, entries raised by the monotonic filter {tables.monotonic_fixes}"
+    )
+    print("wrote " + ", ".join(written))
+    return 0
+
+
+def _evaluate(args: argparse.Namespace) -> int:
+    from torquemap.io import atomic_output
+    from torquemap.linearize.export import load_tables
+    from torquemap.linearize.metrics import evaluate_linearity, format_report, report_to_dict
+    from torquemap.linearize.motor import load_motor
+    from torquemap.linearize.tables import DataKind, read_data
+
+    spec = load_motor(args.motor)
+    tables = None if args.tables is None else load_tables(args.tables)
+    kind: DataKind = "characterisation" if tables is None else "verification"
+    data = read_data(args.data, spec, kind=kind)
+    report = evaluate_linearity(spec, data, tables=tables)
+    print(format_report(report, title=f"{kind} data {args.data}"))
+    if args.out:
+        with atomic_output(args.out) as tmp:
+            tmp.write_text(json.dumps(report_to_dict(report), indent=2) + "\n")
+        print(f"wrote {args.out}")
+    return 0
+
+
+def _figures(args: argparse.Namespace) -> int:
+    from torquemap.plots.linearize import write_linearize_figures
+
+    written = write_linearize_figures(
+        args.motor,
+        args.data,
+        args.out,
+        tables_path=args.tables,
+        verification_path=args.verification,
+    )
+    print(f"wrote {len(written)} figures to {args.out}")
+    return 0
