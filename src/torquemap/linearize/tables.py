@@ -533,16 +533,19 @@ def _check_coverage(
     n = spec.positions_per_cycle
     has = np.zeros(n, dtype=bool)
     has[pos] = True
+    if not has.any():
+        raise InputError("no data rows", path=path)
     tripled = np.concatenate([has, has, has])
     prev, nxt = _neighbours(tripled)
-    i = np.arange(n) + n
-    distance = np.minimum(i - prev[n : 2 * n], nxt[n : 2 * n] - i)
-    far = distance > max_gap
+    gap = nxt[n : 2 * n] - prev[n : 2 * n] - 1
+    far = ~has & (gap > max_gap)
     if far.any():
         p = int(np.argmax(far))
+        first = (int(prev[n + p]) + 1) % n
+        last = (int(nxt[n + p]) - 1) % n
         raise InputError(
-            f"no data at position {p} and none within {max_gap} positions to interpolate from "
-            f"({int(far.sum())} positions affected)",
+            f"no data at positions {first} .. {last} ({int(gap[p])} positions; at most "
+            f"{max_gap} can be interpolated)",
             path=path,
         )
 
