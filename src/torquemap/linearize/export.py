@@ -99,7 +99,7 @@ def load_tables(path: str | os.PathLike[str]) -> TableSet:
     if not Path(p).exists():
         raise InputError("file not found", path=p)
     try:
-        with np.load(p, allow_pickle=False) as npz:
+        with open(p, "rb") as handle, np.load(handle, allow_pickle=False) as npz:
             data = {name: np.asarray(npz[name]) for name in npz.files}
     except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile) as exc:
         raise InputError(f"cannot read tables, corrupt or truncated ({exc})", path=p) from None
@@ -308,4 +308,3 @@ def write_outputs(
                 tmp.write_text(content)
         written.append(os.fspath(path))
     return written
-
