@@ -24,7 +24,10 @@ from torquemap.linearize.tables import TableSet, build_tables
 
 def make_tables(n: int = 512, actuation_bits: int | None = None) -> TableSet:
     spec = motor_spec(
-        "J 2/x", phases=3, positions_per_cycle=n, equilibrium_positions=(10, 180, 350)
+        "J 2/x",
+        phases=3,
+        positions_per_cycle=n,
+        equilibrium_positions=(10 * n // 512, 180 * n // 512, 350 * n // 512),
     )
     p, w = np.meshgrid(np.arange(0, n, max(1, n // 64)), np.arange(0, 256, 8), indexing="ij")
     t = (2 + np.cos(6 * np.pi * p / n)) * (w / 255.0) ** 2
