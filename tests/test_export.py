@@ -86,7 +86,7 @@ def test_wide_entries_little_endian() -> None:
     t = make_tables(64, actuation_bits=16)
     image = eprom_image(t, 1)
     assert len(image) == 64 * 256 * 2
-    p, c = 40, 100
+    p, c = 10, 100  # phase 1 at full ramp
     word = (p << 8) | c
     assert int.from_bytes(image[2 * word : 2 * word + 2], "little") == t.phases[0, p, c]
     assert t.phases[0, p, c] > 255
