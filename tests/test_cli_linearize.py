@@ -1,0 +1,189 @@
+"""The ``linearize build/evaluate/figures`` CLI: files, one-line errors, no partial outputs."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from torquemap.cli.main import build_parser, main
+from torquemap.io import write_table, write_toml
+from torquemap.linearize.export import load_tables
+
+N = 48
+
+
+def write_case(tmp_path: Path, *, torque_scale: tuple[float, float, float] = (1, 1, 1)) -> None:
+    """motor.toml and data.csv: tau = g(p) (pw / 255)^2 with phase gains, noise free."""
+    write_toml(
+        tmp_path / "motor.toml",
+        {
+            "motor": {
+                "name": "synthetic",
+                "phases": 3,
+                "positions_per_cycle": N,
+                "equilibrium_positions": [8, 24, 40],
+                "ramping": "wide",
+            }
+        },
+    )
+    p, w = np.meshgrid(np.arange(N), np.arange(0, 256, 5), indexing="ij")
+    lead = (p * 3) // N  # the phase that owns the position
+    g = (2.0 + np.cos(2 * np.pi * 3 * p / N)) * np.asarray(torque_scale)[lead]
+    write_table(
+        tmp_path / "data.csv",
+        {"position": p.ravel(), "pulse_width": w.ravel(), "torque": (g * (w / 255) ** 2).ravel()},
+    )
+
+
+def test_build_evaluate_and_figures(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    write_case(tmp_path)
+    d = str(tmp_path)
+    status = main(
+        [
+            "linearize", "build", f"{d}/motor.toml", f"{d}/data.csv", "-o", f"{d}/t.npz",
+            "--bin", f"{d}/bin", "--hex", f"{d}/hex", "--c-header", f"{d}/t.h",
+        ]
+    )  # fmt: skip
+    assert status == 0
+    out = capsys.readouterr().out
+    assert "largest position-independent torque 1 N m" in out  # min of g(p) at full scale
+    tables = load_tables(tmp_path / "t.npz")
+    assert tables.phases.shape == (3, N, 256)
+    assert (tmp_path / "bin" / "phase_2.bin").stat().st_size == N * 256
+    assert (tmp_path / "hex" / "phase_3.hex").read_text().endswith(":00000001FF\n")
+    # a verification run written in the test: the torque the tables ask for, 5 % ripple
+    p, c = np.meshgrid(np.arange(N), np.arange(128), indexing="ij")
+    ripple = 1 + 0.05 * np.cos(2 * np.pi * p / N)
+    write_table(
+        tmp_path / "v.csv",
+        {"position": p.ravel(), "command": c.ravel(), "torque": (c * 0.01 * ripple).ravel()},
+    )
+    status = main(
+        ["linearize", "evaluate", f"{d}/motor.toml", f"{d}/v.csv", "--tables", f"{d}/t.npz",
+         "-o", f"{d}/r.json"]
+    )  # fmt: skip
+    assert status == 0
+    report = json.loads((tmp_path / "r.json").read_text())
+    expected = 0.05 * np.mean(np.abs(np.cos(2 * np.pi * np.arange(N) / N)))
+    assert report["apmd"] == pytest.approx(expected, rel=1e-9)  # closed form, as in test_metrics
+    assert main(["linearize", "evaluate", f"{d}/motor.toml", f"{d}/data.csv"]) == 0
+    assert "overall APMD" in capsys.readouterr().out
+    status = main(
+        ["linearize", "figures", f"{d}/motor.toml", f"{d}/data.csv", "--tables", f"{d}/t.npz",
+         "--verification", f"{d}/v.csv", "-o", f"{d}/figs"]
+    )  # fmt: skip
+    assert status == 0
+    assert {f.name for f in (tmp_path / "figs").iterdir()} >= {"pmd.png", "tables.png"}
+
+
+def test_log_paper_and_wide_options(tmp_path: Path) -> None:
+    write_case(tmp_path)
+    d = str(tmp_path)
+    args = ["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv", "-o", f"{d}/t.npz"]
+    assert (
+        main([*args, "--command-scaling", "log", "--method", "paper", "--actuation-bits", "12"])
+        == 0
+    )
+    tables = load_tables(tmp_path / "t.npz")
+    assert (tables.command_scaling, tables.method, tables.actuation_max) == ("log", "paper", 4095)
+
+
+def test_collect_is_registered() -> None:
+    args = build_parser().parse_args(
+        ["linearize", "collect", "m.toml", "-o", "d.csv", "--sim", "vr"]
+    )
+    assert args.handler.__module__ == "torquemap.cli.cmd_linearize_collect"
+
+
+def bad(tmp_path: Path, capsys: pytest.CaptureFixture[str], argv: list[str]) -> str:
+    status = main(argv)
+    err = capsys.readouterr().err
+    assert status == 2
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert not (tmp_path / "t.npz").exists() and not (tmp_path / "bin").exists()
+    return err
+
+
+@pytest.mark.parametrize(
+    ("column", "values", "message"),
+    [
+        ("position", lambda p: np.where(p == 3, N, p), "position 48 at data row"),
+        ("pulse_width", lambda w: np.where(w == 255, 256, w), "pulse_width 256 at data row"),
+        ("pulse_width", lambda w: np.where(w == 5, -5, w), "pulse_width -5 at data row"),
+        ("torque", lambda t: np.where(t > 2.5, np.nan, t), "column 'torque' holds NaN"),
+        ("torque", None, "missing column 'torque'"),
+    ],
+)
+def test_bad_data(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], column, values, message
+) -> None:  # type: ignore[no-untyped-def]
+    write_case(tmp_path)
+    from torquemap.io import read_table
+
+    cols = read_table(tmp_path / "data.csv")
+    if values is None:
+        del cols[column]
+    else:
+        cols[column] = values(cols[column])
+    write_table(tmp_path / "data.csv", cols)
+    d = str(tmp_path)
+    err = bad(
+        tmp_path,
+        capsys,
+        [
+            "linearize",
+            "build",
+            f"{d}/motor.toml",
+            f"{d}/data.csv",
+            "-o",
+            f"{d}/t.npz",
+            "--bin",
+            f"{d}/bin",
+        ],
+    )
+    assert message in err and "data.csv" in err
+
+
+def test_dead_phase_and_gaps(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    write_case(tmp_path, torque_scale=(1.0, 0.0, 1.0))
+    d = str(tmp_path)
+    argv = ["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv", "-o", f"{d}/t.npz"]
+    err = bad(tmp_path, capsys, argv)
+    assert "data.csv: phase 2 never produced torque" in err
+    write_case(tmp_path)
+    from torquemap.io import read_table
+
+    cols = read_table(tmp_path / "data.csv")
+    keep = cols["position"] < 30
+    write_table(tmp_path / "data.csv", {k: v[keep] for k, v in cols.items()})
+    err = bad(tmp_path, capsys, argv)
+    assert "data.csv: no data at positions 30 .. 47" in err
+
+
+def test_corrupt_tables_for_evaluate(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    write_case(tmp_path)
+    (tmp_path / "bad.npz").write_bytes(b"PK\x03\x04 truncated")
+    d = str(tmp_path)
+    err = bad(
+        tmp_path,
+        capsys,
+        ["linearize", "evaluate", f"{d}/motor.toml", f"{d}/data.csv", "--tables", f"{d}/bad.npz"],
+    )
+    assert "bad.npz: cannot read tables" in err
+
+
+def test_missing_output_folder_writes_nothing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    write_case(tmp_path)
+    d = str(tmp_path)
+    err = bad(
+        tmp_path,
+        capsys,
+        ["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv", "-o", f"{d}/t.npz",
+         "--c-header", f"{d}/nowhere/t.h"],
+    )  # fmt: skip
+    assert "output folder does not exist" in err
