@@ -1,0 +1,175 @@
+"""Torque linearisation on four simulated joints beside the Adept II paper's Table 2.
+
+Run: ``.venv/bin/python benchmarks/linearize.py`` (about 3 minutes on 2 cores).
+
+For each joint: collect characterisation data on the simulated rig (every 4th pulse width, every
+4th table position, 10 readings a row, wide ramping) -> ``build_tables`` (both methods) ->
+collect a verification run through the tables on a rig with fresh sensor noise (every command,
+every 4th position) -> evaluate (paper Eq 1). The FLOOR is the best APMD any table of the same
+widths could reach: for every cell (p, c) the base pulse width 0..actuation_max whose ramped
+actuation gives, on the noise-free ``rig.true_torque``, the torque closest to
+``c * t_pi / 127`` (``t_pi`` the true deepest valley), evaluated the same way (Eq 1, plane fit,
+all cells). "tables, noise-free" evaluates the built tables on ``rig.true_torque`` at every cell
+(no friction, no sensor noise: the measurement's own error is removed). Build time: median of 7
+calls of ``build_tables`` on joint 1's data (3 phases x 512 positions x 256 commands).
+"""
+
+from __future__ import annotations
+
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from torquemap.linearize.collect import collect_characterisation, collect_verification
+from torquemap.linearize.metrics import LinearityReport, apmd_report, evaluate_linearity
+from torquemap.linearize.motor import MotorSpec, ramped_actuation
+from torquemap.linearize.tables import TableSet, build_tables, read_data
+from torquemap.sim.motors import BrushlessDcMotor, VariableReluctanceMotor
+from torquemap.sim.rig import SimRig, brushless_dc_rig, variable_reluctance_rig
+
+PAPER = {  # Table 2: uncompensated and compensated overall APMD [%], above 10 % command
+    "J1 VR": (76.1, 4.2, 1.7),
+    "J2 VR": (58.3, 2.4, 1.4),
+    "J3 BLDC": (36.0, 13.1, 12.8),
+    "J4 BLDC": (9.1, 4.6, 2.3),
+}
+
+
+def joints() -> dict[str, tuple[SimRig, SimRig]]:
+    """Two rigs per joint (characterisation and verification noise), motors like Table 2's."""
+    vr2 = VariableReluctanceMotor(
+        peak_torque=55.0, second_harmonic=0.25, phase_gain=(1.0, 1.06, 0.97)
+    )
+    bldc4 = BrushlessDcMotor(harmonics=(0.08, 0.02), cogging=0.04)
+    return {
+        "J1 VR": (variable_reluctance_rig(rng=1), variable_reluctance_rig(rng=101)),
+        "J2 VR": (
+            variable_reluctance_rig(rng=2, motor=vr2),
+            variable_reluctance_rig(rng=102, motor=vr2),
+        ),
+        "J3 BLDC": (brushless_dc_rig(rng=3), brushless_dc_rig(rng=103)),
+        "J4 BLDC": (brushless_dc_rig(rng=4, motor=bldc4), brushless_dc_rig(rng=104, motor=bldc4)),
+    }
+
+
+def full_grid_report(torque: np.ndarray) -> LinearityReport:
+    """Eq 1 over every cell of a (P, C + 1) torque grid, c = 0 .. C."""
+    n, width = torque.shape
+    p, c = np.meshgrid(np.arange(n), np.arange(width), indexing="ij")
+    return apmd_report(
+        p.ravel(), c.ravel(), torque.ravel(), command_max=width - 1, positions_per_cycle=n
+    )
+
+
+def floor(rig: SimRig, spec: MotorSpec) -> LinearityReport:
+    """Best table of the same widths on the noise-free motor, with the same ramp."""
+    n, top = spec.positions_per_cycle, spec.actuation_max
+    p = np.arange(n)[:, None]
+    act = ramped_actuation(np.arange(top + 1)[None, :], p, spec.ramp)
+    surface = rig.true_torque(p, act)  # (P, A + 1)
+    t_pi = surface.max(axis=1).min()
+    target = np.arange(128) * t_pi / 127
+    best = np.abs(surface[:, :, None] - target[None, None, :]).argmin(axis=1)  # (P, 128)
+    return full_grid_report(np.take_along_axis(surface, best, axis=1))
+
+
+def noise_free(rig: SimRig, tables: TableSet) -> LinearityReport:
+    n = tables.positions_per_cycle
+    act = np.moveaxis(tables.phases[:, :, :128], 0, -1)  # (P, 128, m)
+    return full_grid_report(rig.true_torque(np.arange(n)[:, None], act))
+
+
+def main() -> int:
+    rows: dict[str, dict[str, float]] = {}
+    build_data = None
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, (rig, verify_rig) in joints().items():
+            spec = rig.motor_spec(ramping="wide")
+            n = spec.positions_per_cycle
+            data_csv = Path(tmp) / f"{name}.csv"
+            collect_characterisation(
+                rig, spec, data_csv, pulse_step=4, positions=n // 4, progress=False
+            )
+            data = read_data(data_csv, spec, kind="characterisation")
+            if build_data is None:
+                build_data = (spec, data)
+            before = evaluate_linearity(spec, data)
+            row = {"uncomp": before.apmd, "t_pi_data": before.position_independent_torque}
+            for method in ("interp", "paper"):
+                tables = build_tables(spec, data.position, data.level, data.torque, method=method)
+                out = Path(tmp) / f"{name}-{method}-verify.csv"
+                collect_verification(
+                    verify_rig,
+                    spec,
+                    tables.as_mapping(),
+                    out,
+                    command_step=1,
+                    positions=n // 4,
+                    progress=False,
+                )
+                after = evaluate_linearity(
+                    spec, read_data(out, spec, kind="verification"), tables=tables
+                )
+                row[f"{method}"] = after.apmd
+                row[f"{method}_10"] = after.apmd_above_10
+                row[f"{method}_nf"] = noise_free(rig, tables).apmd
+                row["t_pi"] = tables.torque_max
+            f = floor(rig, spec)
+            row["floor"], row["floor_10"] = f.apmd, f.apmd_above_10
+            row["density"] = before.data_density
+            rows[name] = row
+            print(f"  {name} done", file=sys.stderr)
+    assert build_data is not None
+    spec, data = build_data
+    times = {}
+    for method in ("interp", "paper"):
+        runs = []
+        for _ in range(7):
+            start = time.perf_counter()
+            build_tables(spec, data.position, data.level, data.torque, method=method)  # type: ignore[arg-type]
+            runs.append(time.perf_counter() - start)
+        times[method] = statistics.median(runs)
+
+    names = list(rows)
+
+    def line(label: str, values: list[str]) -> str:
+        return f"{label:<44}" + "".join(f"{v:>10}" for v in values)
+
+    def pct(key: str) -> list[str]:
+        return [f"{100 * rows[k][key]:.2f}" for k in names]
+
+    print(line("APMD [%] (paper Eq 1)", names))
+    print(line("paper: uncompensated", [f"{PAPER[k][0]:.1f}" for k in names]))
+    print(line("paper: compensated", [f"{PAPER[k][1]:.1f}" for k in names]))
+    print(line("paper: compensated above 10 % command", [f"{PAPER[k][2]:.1f}" for k in names]))
+    print(line("uncompensated (characterisation data)", pct("uncomp")))
+    print(line("compensated, interp (measured)", pct("interp")))
+    print(line("  above 10 % command", pct("interp_10")))
+    print(line("compensated, paper method (measured)", pct("paper")))
+    print(line("  above 10 % command", pct("paper_10")))
+    print(line("tables on noise-free motor, interp", pct("interp_nf")))
+    print(line("tables on noise-free motor, paper", pct("paper_nf")))
+    print(line("FLOOR (best table, noise-free)", pct("floor")))
+    print(line("  FLOOR above 10 % command", pct("floor_10")))
+    print(
+        line(
+            "interp measured / floor",
+            [f"{rows[k]['interp'] / rows[k]['floor']:.2f}" for k in names],
+        )
+    )
+    print(line("position-independent torque [N m]", [f"{rows[k]['t_pi']:.2f}" for k in names]))
+    print(line("data density [%]", pct("density")))
+    print(
+        f"build_tables, 3 phases x {spec.positions_per_cycle} x {2**spec.command_bits}, "
+        f"{data.position.size} rows: interp {times['interp'] * 1e3:.0f} ms, "
+        f"paper {times['paper'] * 1e3:.0f} ms (median of 7)"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
