@@ -233,7 +233,9 @@ def test_uncovered_positions_and_zero_torque_raise() -> None:
     spec = one_phase()
     p, w, t = quadratic_data(spec)
     keep = p < 30  # 18 positions without data: beyond the default gap P // 4 = 12
-    with pytest.raises(InputError, match=r"no data at positions 30 \.\. 47 \(18 positions; at most 12"):
+    with pytest.raises(
+        InputError, match=r"no data at positions 30 \.\. 47 \(18 positions; at most 12"
+    ):
         build_tables(spec, p[keep], w[keep], t[keep])
     t0 = np.where(p == 5, 0.0, t)
     with pytest.raises(InputError, match="no torque is reachable at position 5"):
