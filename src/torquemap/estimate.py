@@ -1,0 +1,451 @@
+"""Sensorless estimation of external joint torques and end-effector forces (Simpson et al., Eq 7).
+
+From a log of motor currents (or torques) and encoder positions and an identified model, the
+estimation signal of Eq 7 is formed per joint, motor side::
+
+    T_est = T_motor - J(q) d2theta/dt2 - f(dtheta/dt)
+
+(inertia, and the identified Coulomb, viscous and Stribeck friction ``f``). By Eq 8 it holds
+the external torque, the PDTV and noise. Four methods take it further:
+
+``raw``
+    ``T_est`` as it is.
+``lowpass``
+    ``T_est`` through a zero-phase time-domain low-pass filter (first stage of the paper).
+``paper``
+    Low-pass, then each monotonic pass of the joint is turned into the discrete-position signal,
+    notched at every identified PDTV order, and interpolated back to its samples (the paper's
+    section 4). Passes are processed separately: a joint that reverses would otherwise average
+    both directions into one curve.
+``model`` (default)
+    The identified PDTV model is subtracted at each sample's motor angle, then the low-pass.
+    Works at any speed and at standstill, since it does not need a pass to filter.
+
+The motor supplies the external load, so the joint-side torque exerted BY the environment is
+``tau_ext = -gear_ratio * T_ext`` (docs/conventions.md), and for a planar2r arm the force on the
+end effector is ``F = J(q)^-T tau_ext``, flagged near singular poses.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from torquemap.errors import InputError
+from torquemap.filters import differentiate, lowpass
+from torquemap.io import Log
+from torquemap.kinematics import force_from_joint_torque
+from torquemap.model import Model, friction_torque, inertia_at, pdtv_torque
+from torquemap.pdtv import bins_per_revolution, discrete_position_signal, notch_position_signal
+
+Method = Literal["model", "paper", "lowpass", "raw"]
+METHODS: tuple[Method, ...] = ("model", "paper", "lowpass", "raw")
+
+TWO_PI = 2.0 * math.pi
+
+#: Flag bits of :attr:`ForceEstimate.flag`.
+FLAG_SINGULAR = 1
+"""The pose is too close to a singularity to invert ``J^T``: force is NaN."""
+FLAG_LOW_SPEED = 2
+"""A joint moves slower than its friction model's zero-velocity band: friction at rest is not
+determined by the velocity, so the estimate there carries up to the Coulomb friction as error."""
+FLAG_NO_PASS = 4
+"""``paper`` method only: the sample lies outside every monotonic pass long enough for the
+position-domain filter, so it holds the low-pass value with its PDTV."""
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Pass:
+    """A monotonic pass of one joint: samples ``start:stop`` moving in one direction.
+
+    Attributes
+    ----------
+    start, stop
+        Sample slice.
+    direction
+        +1 or -1.
+    revolutions
+        Motor revolutions travelled.
+    """
+
+    start: int
+    stop: int
+    direction: int
+    revolutions: float
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class ForceEstimate:
+    """External torques and forces estimated from one log.
+
+    Attributes
+    ----------
+    t
+        Time [s], shape (n,).
+    joint_names
+        Joint names in the robot file's order.
+    q
+        Joint angles [rad], shape (n, nj).
+    motor_angle
+        Motor angles [rad] (``gear_ratio * q``), shape (n, nj).
+    velocity
+        Smoothed motor velocity [rad/s], shape (n, nj).
+    t_est
+        The estimation signal of Eq 7 [N m, motor side], shape (n, nj).
+    filtered
+        ``t_est`` after the time-domain low-pass [N m, motor side], shape (n, nj) (equal to
+        ``t_est`` for ``raw``).
+    motor_external
+        The processed estimate of the motor torque that balances the external load [N m,
+        motor side], shape (n, nj): the method's output before the sign and gear ratio.
+    tau_ext
+        External torque exerted by the environment on each joint [N m, joint side], shape (n, nj).
+    force
+        Force exerted by the environment on the end effector [N], base frame, shape (n, 2);
+        NaN at singular poses. None unless the robot is planar2r.
+    flag
+        Bitwise OR of ``FLAG_*`` per sample, shape (n,); 0 where the estimate is sound.
+    passes
+        Monotonic passes per joint (used by ``paper``; found for every method).
+    method
+        The method used.
+    cutoff
+        The low-pass cut-off [Hz] (NaN for ``raw``).
+    warnings
+        One line each.
+    """
+
+    t: NDArray[np.float64]
+    joint_names: tuple[str, ...]
+    q: NDArray[np.float64]
+    motor_angle: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+    t_est: NDArray[np.float64]
+    filtered: NDArray[np.float64]
+    motor_external: NDArray[np.float64]
+    tau_ext: NDArray[np.float64]
+    force: NDArray[np.float64] | None
+    flag: NDArray[np.int64]
+    passes: tuple[tuple[Pass, ...], ...]
+    method: Method
+    cutoff: float
+    warnings: tuple[str, ...] = ()
+
+
+def estimation_signal(
+    model: Model,
+    log: Log,
+    *,
+    window: float = 0.05,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The estimation signal of Eq 7, per joint.
+
+    Parameters
+    ----------
+    model
+        Identified model (a plain robot file gives ``T_est = T_motor``).
+    log
+        The log.
+    window
+        Length [s] of the local-quadratic differentiator's window
+        (:func:`torquemap.filters.differentiate`).
+
+    Returns
+    -------
+    (t_est, motor_angle, velocity)
+        Each shape (n, nj): ``T_est`` [N m, motor side], motor angle [rad] (as measured) and
+        smoothed motor velocity [rad/s].
+
+    Raises
+    ------
+    InputError
+        When the log is shorter than the differentiator's window.
+    """
+    robot = model.robot
+    n = log.t.size
+    nj = len(robot.joints)
+    t_est = np.empty((n, nj))
+    angle = np.empty((n, nj))
+    velocity = np.empty((n, nj))
+    elbow = log.q[:, 1] if robot.kinematics == "planar2r" and nj >= 2 else np.zeros(n)
+    span = float(log.t[-1] - log.t[0])
+    if span < window:
+        raise InputError(
+            f"log lasts {span:.3g} s, shorter than the {window:.3g} s differentiator window",
+            path=log.path,
+        )
+    for k, joint in enumerate(robot.joints):
+        theta = joint.gear_ratio * log.q[:, k]
+        try:
+            d = differentiate(log.t, theta, window=window)
+        except InputError as exc:
+            raise InputError(exc.message, path=log.path) from None
+        jm = model.joints[joint.name]
+        inertia = inertia_at(jm, elbow) if k == 0 else inertia_at(jm, np.zeros(n))
+        t_est[:, k] = (
+            log.motor_torque[:, k]
+            - inertia * d.acceleration
+            - friction_torque(d.velocity, jm.friction)
+        )
+        angle[:, k] = theta
+        velocity[:, k] = d.velocity
+    return t_est, angle, velocity
+
+
+def monotonic_passes(
+    t: NDArray[np.float64],
+    motor_angle: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    *,
+    speed_threshold: float,
+    min_revolutions: float = 1.0,
+) -> tuple[Pass, ...]:
+    """Cut one joint's motion into monotonic passes (one direction between reversals).
+
+    Samples move when ``|velocity| > speed_threshold``; stretches of one direction separated only
+    by slow samples (no reversal of the angle) are one pass. Passes shorter than
+    ``min_revolutions`` motor revolutions are dropped.
+
+    Parameters
+    ----------
+    t
+        Time [s], shape (n,).
+    motor_angle
+        Motor angle [rad], shape (n,).
+    velocity
+        Smoothed motor velocity [rad/s], shape (n,).
+    speed_threshold
+        [rad/s], > 0.
+    min_revolutions
+        Shortest pass kept [motor revolutions].
+
+    Returns
+    -------
+    tuple of Pass
+
+    Examples
+    --------
+    >>> t = np.linspace(0.0, 2.0, 2001)
+    >>> theta = 40.0 * np.sin(np.pi * t)
+    >>> w = 40.0 * np.pi * np.cos(np.pi * t)
+    >>> [(p.direction, round(p.revolutions, 1)) for p in monotonic_passes(t, theta, w, speed_threshold=1.0)]
+    [(1, 6.4), (-1, 12.7), (1, 6.4)]
+    """
+    sign = np.where(velocity > speed_threshold, 1, np.where(velocity < -speed_threshold, -1, 0))
+    moving = np.flatnonzero(sign)
+    passes: list[Pass] = []
+    if moving.size == 0:
+        return ()
+    # consecutive moving samples with the same sign belong together, slow samples between
+    # them too; a change of sign ends the pass
+    s = sign[moving]
+    breaks = np.flatnonzero(np.diff(s)) + 1
+    for chunk in np.split(np.arange(moving.size), breaks):
+        a, b = int(moving[chunk[0]]), int(moving[chunk[-1]]) + 1
+        revs = abs(float(motor_angle[b - 1] - motor_angle[a])) / TWO_PI
+        if revs >= min_revolutions and b - a >= 8:
+            passes.append(Pass(start=a, stop=b, direction=int(s[chunk[0]]), revolutions=revs))
+    return tuple(passes)
+
+
+def _position_filter(
+    angle: NDArray[np.float64],
+    values: NDArray[np.float64],
+    orders: list[float],
+    *,
+    width: float,
+    samples_per_rev: float,
+) -> tuple[NDArray[np.float64], list[float]]:
+    """Notch one pass in the position domain and interpolate back to its samples."""
+    bins = max(bins_per_revolution(samples_per_rev), 4)
+    usable = [f for f in orders if f < bins / 2]
+    skipped = [f for f in orders if f >= bins / 2]
+    if not usable:
+        return values.copy(), skipped
+    signal = discrete_position_signal(angle, values, bin_width=TWO_PI / bins)
+    notched = notch_position_signal(signal, orders=usable, width=width)
+    return np.interp(angle, signal.angle, notched), skipped
+
+
+def estimate_forces(
+    model: Model,
+    log: Log,
+    *,
+    method: Method = "model",
+    cutoff: float = 2.0,
+    window: float = 0.05,
+    notch_width: float = 0.5,
+    min_revolutions: float = 1.0,
+    min_sin_elbow: float = 0.05,
+) -> ForceEstimate:
+    """Estimate the external joint torques and end-effector force from a log.
+
+    Parameters
+    ----------
+    model
+        Identified model (:func:`torquemap.identify.identify_model` or a model file).
+    log
+        The log (:func:`torquemap.io.read_log` with ``model.robot``).
+    method
+        ``"model"`` (default), ``"paper"``, ``"lowpass"`` or ``"raw"`` (module docstring).
+    cutoff
+        Time-domain low-pass cut-off [Hz]: the bandwidth of the external force that is kept.
+        Encoder quantisation, made worse by the double differentiation, and current noise lie
+        above it.
+    window
+        Differentiator window [s] for velocity and acceleration.
+    notch_width
+        -3 dB width of each position-domain notch [CPR] (``paper``).
+    min_revolutions
+        Shortest monotonic pass the position-domain filter processes [motor revolutions]
+        (``paper``); a notch of width ``w`` needs a few ``1 / w`` revolutions to settle.
+    min_sin_elbow
+        Singular-pose guard for planar2r (:func:`torquemap.kinematics.force_from_joint_torque`).
+
+    Returns
+    -------
+    ForceEstimate
+
+    Raises
+    ------
+    InputError
+        On an unknown method, a log shorter than the filters, or, for ``paper``, a log in
+        which no joint with PDTV lines ever makes a monotonic pass of ``min_revolutions``.
+    """
+    if method not in METHODS:
+        raise InputError(f"unknown method {method!r} (choose from {', '.join(METHODS)})")
+    if not (math.isfinite(cutoff) and cutoff > 0):
+        raise InputError(f"cut-off must be a positive frequency, got {cutoff!r} Hz")
+    robot = model.robot
+    t_est, angle, velocity = estimation_signal(model, log, window=window)
+    n, nj = t_est.shape
+    warnings: list[str] = []
+    flag = np.zeros(n, dtype=np.int64)
+    all_passes: list[tuple[Pass, ...]] = []
+    for k, joint in enumerate(robot.joints):
+        jm = model.joints[joint.name]
+        w0 = max(jm.friction.zero_velocity, 1e-9)
+        if jm.friction.coulomb_positive > 0 or jm.friction.coulomb_negative > 0:
+            flag[np.abs(velocity[:, k]) < w0] |= FLAG_LOW_SPEED
+        all_passes.append(
+            monotonic_passes(
+                log.t,
+                angle[:, k],
+                velocity[:, k],
+                speed_threshold=w0,
+                min_revolutions=min_revolutions,
+            )
+        )
+
+    def smooth(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        try:
+            return lowpass(log.t, x, cutoff=cutoff)
+        except InputError as exc:
+            raise InputError(exc.message, path=log.path) from None
+
+    filtered = t_est.copy()
+    external = t_est.copy()
+    if method != "raw":
+        for k in range(nj):
+            filtered[:, k] = smooth(t_est[:, k])
+    if method == "lowpass":
+        external = filtered.copy()
+    elif method == "model":
+        for k, joint in enumerate(robot.joints):
+            lines = model.joints[joint.name].pdtv
+            residual = t_est[:, k] - pdtv_torque(angle[:, k], lines, velocity=velocity[:, k])
+            external[:, k] = smooth(residual) if lines else filtered[:, k]
+    elif method == "paper":
+        external = filtered.copy()
+        any_pass = False
+        for k, joint in enumerate(robot.joints):
+            orders = sorted({line.order for line in model.joints[joint.name].pdtv})
+            if not orders:
+                continue
+            covered = np.zeros(n, dtype=bool)
+            skipped: set[float] = set()
+            for p in all_passes[k]:
+                sl = slice(p.start, p.stop)
+                spr = (p.stop - p.start) / p.revolutions
+                external[sl, k], skip = _position_filter(
+                    angle[sl, k], filtered[sl, k], orders, width=notch_width, samples_per_rev=spr
+                )
+                skipped.update(skip)
+                covered[sl] = True
+                any_pass = True
+            flag[~covered] |= FLAG_NO_PASS
+            if skipped:
+                warnings.append(
+                    f"joint {joint.name}: PDTV orders {', '.join(f'{f:g}' for f in sorted(skipped))} "
+                    "CPR lie above the position Nyquist of some passes (too fast for the "
+                    "sampling rate) and were not notched there"
+                )
+            if (~covered).any():
+                warnings.append(
+                    f"joint {joint.name}: {np.mean(~covered):.0%} of samples lie outside monotonic "
+                    f"passes of {min_revolutions:g} motor revolutions and keep their PDTV"
+                )
+        if not any_pass:
+            raise InputError(
+                "no joint with PDTV lines makes a monotonic pass of at least "
+                f"{min_revolutions:g} motor revolutions: the paper method needs motion "
+                "(use --method model)",
+                path=log.path,
+            )
+    gear = np.array([j.gear_ratio for j in robot.joints])
+    tau_ext = -external * gear
+    force = None
+    if robot.kinematics == "planar2r":
+        l1, l2 = robot.link_lengths[0], robot.link_lengths[1]
+        f = force_from_joint_torque(
+            log.q[:, :2], tau_ext[:, :2], (l1, l2), min_sin_elbow=min_sin_elbow
+        )
+        force = f.force
+        flag[f.singular] |= FLAG_SINGULAR
+        if f.singular.any():
+            warnings.append(
+                f"{int(f.singular.sum())} samples near a singular pose (|sin q2| < "
+                f"{min_sin_elbow:g}): force not estimated there"
+            )
+    if (flag & FLAG_LOW_SPEED).any():
+        warnings.append(
+            f"{np.mean((flag & FLAG_LOW_SPEED) > 0):.1%} of samples have a joint slower than its "
+            "friction model's zero-velocity band (friction at rest undetermined)"
+        )
+    return ForceEstimate(
+        t=log.t,
+        joint_names=robot.joint_names,
+        q=log.q,
+        motor_angle=angle,
+        velocity=velocity,
+        t_est=t_est,
+        filtered=filtered,
+        motor_external=external,
+        tau_ext=tau_ext,
+        force=force,
+        flag=flag,
+        passes=tuple(all_passes),
+        method=method,
+        cutoff=float("nan") if method == "raw" else float(cutoff),
+        warnings=tuple(warnings),
+    )
+
+
+def forces_columns(estimate: ForceEstimate) -> dict[str, NDArray[Any]]:
+    """Output columns of ``torquemap estimate`` (docs/formats.md).
+
+    ``t``, ``tau_ext_<j>`` per joint [N m, joint side, exerted by the environment], ``fx``, ``fy``
+    [N, base frame] for planar2r, and ``flag`` (bits ``FLAG_*``; 0 = sound).
+    """
+    cols: dict[str, NDArray[Any]] = {"t": estimate.t}
+    for k, name in enumerate(estimate.joint_names):
+        cols[f"tau_ext_{name}"] = estimate.tau_ext[:, k]
+    if estimate.force is not None:
+        cols["fx"] = estimate.force[:, 0]
+        cols["fy"] = estimate.force[:, 1]
+    cols["flag"] = estimate.flag
+    return cols
