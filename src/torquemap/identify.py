@@ -290,7 +290,7 @@ def _identify_joint(
         return JointIdentification(name=name, warnings=tuple(warnings)), None
     speeds = np.array([p.speed for _, p in passes])
     means = np.array([p.mean_torque for _, p in passes])
-    zero_velocity = max(0.5 * min(thresholds), 1e-6)
+    zero_velocity = _velocity_resolution(logs, joint.gear_ratio, k, window)
     ff = fit_friction(speeds, means, stribeck=stribeck, zero_velocity=zero_velocity, joint=name)
     warnings.extend(ff.warnings)
     friction = ff.friction
@@ -318,6 +318,18 @@ def _identify_joint(
         )
 
     inertia = inertia_fit((), 0.0)
+    if inertia.samples >= 3:
+        # A pass is never perfectly steady: remove the inertia torque from its mean and fit
+        # the friction again (pass means otherwise carry J * mean acceleration).
+        means = np.array(
+            [
+                _steady_mean(derivs[li][k], logs[li], k, p, inertia.inertia, elbow_k)
+                for li, p in passes
+            ]
+        )
+        ff = fit_friction(speeds, means, stribeck=stribeck, zero_velocity=zero_velocity, joint=name)
+        friction = ff.friction
+        inertia = inertia_fit((), 0.0)
     lines: tuple[PdtvLine, ...] = ()
     pd = _identify_pdtv(
         rb,
@@ -356,6 +368,35 @@ def _identify_joint(
         warnings=tuple(warnings),
     )
     return res, jm
+
+
+def _steady_mean(
+    d: Derivatives, log: Log, k: int, p: Pass, inertia: InertiaModel, elbow_k: int | None
+) -> float:
+    """Angle-averaged ``torque - J(q) * acceleration`` over one pass [N m]."""
+    sl = slice(p.start, p.stop)
+    elbow = log.q[sl, elbow_k] if elbow_k is not None else np.zeros(p.stop - p.start)
+    j = inertia.constant + inertia.cos_elbow * np.cos(elbow)
+    mean, _ = angle_mean(d.position[sl], log.motor_torque[sl, k] - j * d.acceleration[sl])
+    return mean
+
+
+def _velocity_resolution(logs: Sequence[Log], gear_ratio: float, k: int, window: float) -> float:
+    """Half width of the friction blend through zero velocity [rad/s], motor side.
+
+    Friction at rest is not a function of velocity, and below the velocity the differentiator
+    resolves the sign of motion is unknown: one position quantum (the smallest step of the
+    motor angle in the logs, the encoder count) per differentiator window.
+    """
+    quantum = math.inf
+    for log in logs:
+        step = np.abs(np.diff(gear_ratio * log.q[:, k]))
+        step = step[step > 1e-12]
+        if step.size:
+            quantum = min(quantum, float(np.min(step)))
+    if not math.isfinite(quantum):
+        return 1e-3
+    return max(quantum / window, 1e-6)
 
 
 @dataclass(frozen=True, slots=True, eq=False)
