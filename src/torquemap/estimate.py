@@ -40,7 +40,12 @@ from torquemap.filters import differentiate, lowpass
 from torquemap.io import Log
 from torquemap.kinematics import force_from_joint_torque
 from torquemap.model import Model, friction_torque, inertia_at, pdtv_torque
-from torquemap.pdtv import bins_per_revolution, discrete_position_signal, notch_position_signal
+from torquemap.pdtv import (
+    PositionSignal,
+    bins_per_revolution,
+    discrete_position_signal,
+    notch_position_signal,
+)
 
 Method = Literal["model", "paper", "lowpass", "raw"]
 METHODS: tuple[Method, ...] = ("model", "paper", "lowpass", "raw")
@@ -267,7 +272,20 @@ def _position_filter(
     if not usable:
         return values.copy(), skipped
     signal = discrete_position_signal(angle, values, bin_width=TWO_PI / bins)
-    notched = notch_position_signal(signal, orders=usable, width=width)
+    # The external load drifts along a pass while the PDTV repeats every revolution: remove a
+    # cubic trend first, so that extending the pass by whole revolutions (what the notch does to
+    # keep its start-up transient outside the data) does not put a step at the pass's ends.
+    x = (signal.angle - signal.angle.mean()) / max(float(np.ptp(signal.angle)), 1e-12)
+    trend = np.polynomial.polynomial.polyval(
+        x, np.polynomial.polynomial.polyfit(x, signal.value, min(3, signal.value.size - 1))
+    )
+    detrended = PositionSignal(
+        angle=signal.angle,
+        value=signal.value - trend,
+        count=signal.count,
+        bin_width=signal.bin_width,
+    )
+    notched = notch_position_signal(detrended, orders=usable, width=width) + trend
     return np.interp(angle, signal.angle, notched), skipped
 
 
