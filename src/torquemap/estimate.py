@@ -404,7 +404,7 @@ def estimate_forces(
                 )
             if (~covered).any():
                 warnings.append(
-                    f"joint {joint.name}: {np.mean(~covered):.0%} of samples lie outside monotonic "
+                    f"joint {joint.name}: {np.mean(~covered):.1%} of samples lie outside monotonic "
                     f"passes of {min_revolutions:g} motor revolutions and keep their PDTV"
                 )
         if not any_pass:
