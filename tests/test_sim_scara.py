@@ -249,7 +249,9 @@ def test_constant_speed_torque_is_the_friction_law(
     for start, stop in zip(edges[::2] + 1, edges[1::2] + 1, strict=True):
         a = start + 400  # skip 0.2 s of transient after the ramp
         speed = ref.qd[start, joint] * RATIOS[joint]
-        theta = sweep_log[f"q_{name}"][a:stop] * RATIOS[joint]
+        # the commanded angle (smooth): the quantised encoder angle would weight the
+        # trapezoid by count changes, which alias with the 300 Hz ripple at slow speeds
+        theta = ref.q[a:stop, joint] * RATIOS[joint]
         torque = sweep_log[f"i_{name}"][a:stop] * kt
         got = _angle_mean(theta, torque)
         expected = float(friction_torque(speed, truth.joints[name].friction))
@@ -362,7 +364,9 @@ def test_pdtv_visible_at_its_order(sweep_log: dict[str, np.ndarray], truth: Mode
             if ln.order <= 4:
                 assert amp[i] == pytest.approx(ln.amplitude, abs=3 * floor), (name, ln.order)
                 dphase = abs(np.angle(np.exp(1j * (phase[i] - ln.phase))))
-                assert dphase < 3 * floor / ln.amplitude, (name, ln.order)
+                # plus the servo's lag at the line's frequency, about f / f_bandwidth rad
+                lag = ln.order * 1.5 / (2 * math.pi) / default_bench().controller.bandwidth
+                assert dphase < 3 * floor / ln.amplitude + lag, (name, ln.order)
             else:
                 assert amp[i] > 5 * floor, (name, ln.order)
 

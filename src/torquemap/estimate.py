@@ -28,6 +28,7 @@ end effector is ``F = J(q)^-T tau_ext``, flagged near singular poses.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -257,6 +258,68 @@ def monotonic_passes(
     return tuple(passes)
 
 
+def reversal_mask(
+    t: NDArray[np.float64], velocity: NDArray[np.float64], *, band: float, window: float
+) -> NDArray[np.bool_]:
+    """Samples where friction is undetermined: slower than ``band`` [rad/s], widened by half the
+    differentiator ``window`` [s] on each side (the velocity estimate is smeared over the window,
+    so its sign is unreliable that close to a reversal).
+
+    Examples
+    --------
+    >>> t = np.arange(11) * 0.01
+    >>> reversal_mask(t, t - 0.05, band=0.001, window=0.041).astype(int).tolist()
+    [0, 0, 0, 1, 1, 1, 1, 1, 0, 0, 0]
+    """
+    slow = np.abs(velocity) < band
+    if not slow.any():
+        return slow
+    idx = np.flatnonzero(slow)
+    lo = np.searchsorted(t, t[idx] - 0.5 * window, side="left")
+    hi = np.searchsorted(t, t[idx] + 0.5 * window, side="right")
+    edges = np.zeros(t.size + 1, dtype=np.int64)
+    np.add.at(edges, lo, 1)
+    np.add.at(edges, hi, -1)
+    return np.cumsum(edges[:-1]) > 0
+
+
+def bridge_gaps(
+    t: NDArray[np.float64],
+    values: NDArray[np.float64],
+    gaps: NDArray[np.bool_],
+    *,
+    longest: float,
+    support: float = 0.0,
+) -> NDArray[np.float64]:
+    """Replace each run of ``gaps`` lasting at most ``longest`` [s] by a straight line.
+
+    The line joins the means of the samples within ``support`` [s] before and after the run
+    (at least the one neighbour each side), so that noise on a single neighbour does not tilt
+    it. Runs at the ends of the log or longer than ``longest`` are left as they are.
+
+    Examples
+    --------
+    >>> t = np.arange(6.0)
+    >>> gaps = np.array([0, 1, 1, 0, 0, 0], bool)
+    >>> bridge_gaps(t, np.array([0.0, 9, 9, 3, 4, 5]), gaps, longest=5).tolist()
+    [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]
+    """
+    out = values.copy()
+    if not gaps.any():
+        return out
+    change = np.flatnonzero(np.diff(gaps.astype(np.int8))) + 1
+    edges = np.concatenate(([0], change, [gaps.size]))
+    for a, b in itertools.pairwise(edges):
+        if not gaps[a] or a == 0 or b == gaps.size or t[b - 1] - t[a] > longest:
+            continue
+        a0 = min(int(np.searchsorted(t, t[a - 1] - support, side="left")), a - 1)
+        b1 = max(int(np.searchsorted(t, t[b] + support, side="right")), b + 1)
+        left, right = values[a0:a][~gaps[a0:a]], values[b:b1][~gaps[b:b1]]
+        ta, tb = t[a0:a][~gaps[a0:a]], t[b:b1][~gaps[b:b1]]
+        out[a:b] = np.interp(t[a:b], [ta.mean(), tb.mean()], [left.mean(), right.mean()])
+    return out
+
+
 def _position_filter(
     angle: NDArray[np.float64],
     values: NDArray[np.float64],
@@ -299,6 +362,7 @@ def estimate_forces(
     notch_width: float = 0.5,
     min_revolutions: float = 1.0,
     min_sin_elbow: float = 0.05,
+    bridge_reversals: float = 0.5,
 ) -> ForceEstimate:
     """Estimate the external joint torques and end-effector force from a log.
 
@@ -323,6 +387,13 @@ def estimate_forces(
         (``paper``); a notch of width ``w`` needs a few ``1 / w`` revolutions to settle.
     min_sin_elbow
         Singular-pose guard for planar2r (:func:`torquemap.kinematics.force_from_joint_torque`).
+    bridge_reversals
+        Longest stretch [s] of undetermined friction (:func:`reversal_mask`: a joint slower
+        than its friction model's ``zero_velocity``, widened by half the differentiator window)
+        that is bridged by a straight line in ``T_est`` before any filtering; 0 turns bridging
+        off. Friction at a reversal lies anywhere between the two Coulomb levels, so the model
+        cannot say what the motor torque there was spent on; the external force varies
+        smoothly across the short gap. Bridged samples are flagged ``FLAG_LOW_SPEED``.
 
     Returns
     -------
@@ -344,11 +415,15 @@ def estimate_forces(
     warnings: list[str] = []
     flag = np.zeros(n, dtype=np.int64)
     all_passes: list[tuple[Pass, ...]] = []
+    rests: list[NDArray[np.bool_]] = []
     for k, joint in enumerate(robot.joints):
         jm = model.joints[joint.name]
         w0 = max(jm.friction.zero_velocity, 1e-9)
+        rest = np.zeros(n, dtype=bool)
         if jm.friction.coulomb_positive > 0 or jm.friction.coulomb_negative > 0:
-            flag[np.abs(velocity[:, k]) < w0] |= FLAG_LOW_SPEED
+            rest = reversal_mask(log.t, velocity[:, k], band=w0, window=window)
+            flag[rest] |= FLAG_LOW_SPEED
+        rests.append(rest)
         all_passes.append(
             monotonic_passes(
                 log.t,
@@ -359,7 +434,9 @@ def estimate_forces(
             )
         )
 
-    def smooth(x: NDArray[np.float64]) -> NDArray[np.float64]:
+    def smooth(x: NDArray[np.float64], k: int) -> NDArray[np.float64]:
+        if bridge_reversals > 0:
+            x = bridge_gaps(log.t, x, rests[k], longest=bridge_reversals, support=window)
         try:
             return lowpass(log.t, x, cutoff=cutoff)
         except InputError as exc:
@@ -369,14 +446,14 @@ def estimate_forces(
     external = t_est.copy()
     if method != "raw":
         for k in range(nj):
-            filtered[:, k] = smooth(t_est[:, k])
+            filtered[:, k] = smooth(t_est[:, k], k)
     if method == "lowpass":
         external = filtered.copy()
     elif method == "model":
         for k, joint in enumerate(robot.joints):
             lines = model.joints[joint.name].pdtv
             residual = t_est[:, k] - pdtv_torque(angle[:, k], lines, velocity=velocity[:, k])
-            external[:, k] = smooth(residual) if lines else filtered[:, k]
+            external[:, k] = smooth(residual, k) if lines else filtered[:, k]
     elif method == "paper":
         external = filtered.copy()
         any_pass = False

@@ -272,6 +272,10 @@ def _identify_joint(
     passes: list[tuple[int, Pass]] = []
     ramps: list[tuple[int, NDArray[np.bool_]]] = []
     thresholds = []
+    # moving: faster than 2 % of the top speed, or than five velocity quanta when that is
+    # lower (so that slow passes of a sweep that also runs fast are kept)
+    resolution = _velocity_resolution(logs, joint.gear_ratio, k, window)
+    moving = {k: min(0.02 * p99[k], 5.0 * resolution)}
     for li, (log, d) in enumerate(zip(logs, derivs, strict=True)):
         allowed = _still_mask(d, k, p99)
         seg = segment_motion(
@@ -280,17 +284,18 @@ def _identify_joint(
             d[k].velocity,
             log.motor_torque[:, k],
             allowed=allowed,
-            speed_threshold=0.02 * p99[k],
+            speed_threshold=moving[k],
         )
         passes.extend((li, p) for p in seg.passes)
-        ramps.append((li, seg.accelerating & allowed & (np.abs(d[k].velocity) > 0.02 * p99[k])))
+        ramps.append((li, seg.accelerating & allowed & (np.abs(d[k].velocity) > moving[k])))
         thresholds.append(seg.speed_threshold)
     if not passes:
         warnings.append(f"joint {name} never moves at a steady speed: left unidentified")
         return JointIdentification(name=name, warnings=tuple(warnings)), None
     speeds = np.array([p.speed for _, p in passes])
     means = np.array([p.mean_torque for _, p in passes])
-    zero_velocity = _velocity_resolution(logs, joint.gear_ratio, k, window)
+    # the sign of motion is trusted from two encoder counts per differentiator window on
+    zero_velocity = 2.0 * resolution
     ff = fit_friction(speeds, means, stribeck=stribeck, zero_velocity=zero_velocity, joint=name)
     warnings.extend(ff.warnings)
     friction = ff.friction
@@ -381,12 +386,27 @@ def _steady_mean(
     return mean
 
 
-def _velocity_resolution(logs: Sequence[Log], gear_ratio: float, k: int, window: float) -> float:
-    """Half width of the friction blend through zero velocity [rad/s], motor side.
+def _counts_per_rev(logs: Sequence[Log], gear_ratio: float, k: int, declared: int | None) -> int:
+    """Encoder counts per motor revolution: the robot file's, else 2 pi / the smallest step."""
+    if declared:
+        return int(declared)
+    quantum = math.inf
+    for log in logs:
+        step = np.abs(np.diff(gear_ratio * log.q[:, k]))
+        step = step[step > 1e-12]
+        if step.size:
+            quantum = min(quantum, float(np.min(step)))
+    if not math.isfinite(quantum):
+        return 1 << 30
+    return max(round(2 * math.pi / quantum), 1)
 
-    Friction at rest is not a function of velocity, and below the velocity the differentiator
-    resolves the sign of motion is unknown: one position quantum (the smallest step of the
-    motor angle in the logs, the encoder count) per differentiator window.
+
+def _velocity_resolution(logs: Sequence[Log], gear_ratio: float, k: int, window: float) -> float:
+    """Velocity resolution of the differentiator [rad/s], motor side.
+
+    One position quantum (the smallest step of the motor angle in the logs, the encoder count)
+    per differentiator window. Friction at rest is not a function of velocity, and below a few
+    of these the sign of motion is unknown: the friction blend through zero spans two.
     """
     quantum = math.inf
     for log in logs:
@@ -442,7 +462,10 @@ def _identify_pdtv(
 ) -> _PdtvResult:
     name = rb.joints[k].name
     best = max(p.samples_per_rev for _, p in passes)
-    limit = resolvable_order(best)
+    # Position ripple finer than a few encoder counts is quantisation, not torque: its lines sit
+    # at the count rate and its harmonics. Search at most an eighth of the counts per revolution.
+    counts = _counts_per_rev(logs, rb.joints[k].gear_ratio, k, rb.joints[k].encoder_counts_per_rev)
+    limit = min(resolvable_order(best), max(counts // 8, 1))
     if max_order is not None:
         if max_order > limit:
             slowest = min(abs(p.speed) for _, p in passes)

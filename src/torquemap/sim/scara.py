@@ -244,9 +244,12 @@ class Sweep:
     Attributes
     ----------
     speeds
-        Cruise speeds [rad/s], motor side. The slowest, 1.5 rad/s, gives 8400 samples per motor
-        revolution at 2 kHz (orders far above 100 CPR resolve); the fastest, 45 rad/s, still
-        gives 279 (Nyquist 140 CPR) and covers the motor speeds of the circle (A: up to 44 rad/s).
+        Cruise speeds [rad/s], motor side. The slowest, 0.5 rad/s, gives 25000 samples per
+        motor revolution at 2 kHz and, with 1.5 rad/s, places the Stribeck curve (a friction
+        law is only known at the speeds it was measured at: the circle's reversals pass through
+        every speed below 1.5 rad/s); the fastest, 45 rad/s, still gives 279 samples per
+        revolution (Nyquist 140 CPR) and covers the motor speeds of the circle (A: up to
+        44 rad/s).
     revolutions
         Motor revolutions at cruise speed per pass.
     acceleration
@@ -259,7 +262,7 @@ class Sweep:
         Rest between passes [s].
     """
 
-    speeds: tuple[float, ...] = (1.5, 5.0, 15.0, 45.0)
+    speeds: tuple[float, ...] = (0.5, 1.5, 5.0, 15.0, 45.0)
     revolutions: float = 3.0
     acceleration: float = 200.0
     elbow_angles: tuple[float, ...] = (0.6, 1.6, 2.6)
