@@ -1,6 +1,7 @@
 """CLI: the ``simulate`` command group; ``simulate scara`` writes the simulated SCARA bench.
 
-``simulate rig`` is registered by :mod:`torquemap.cli.cmd_simulate_rig`.
+``simulate figures`` draws the paper's Figs 3-8 from a bench folder; ``simulate rig`` is
+registered by :mod:`torquemap.cli.cmd_simulate_rig`.
 """
 
 from __future__ import annotations
@@ -27,6 +28,18 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     scara.add_argument("--out", metavar="DIR", required=True, help="output folder (created)")
     scara.add_argument("--seed", type=int, default=0, help="noise seed, >= 0 (default 0)")
     scara.set_defaults(handler=_scara)
+    figures = benches.add_parser(
+        "figures",
+        help="draw the paper's Figs 3-8 from a simulated SCARA bench folder",
+        description="Identify the bench's sweeps, estimate on its circle with the paper method, "
+        "and write fig3..fig8 PNG files (Simpson, Cook & Li) into --out.",
+    )
+    figures.add_argument("bench_dir", metavar="BENCH_DIR", help="folder of `simulate scara`")
+    figures.add_argument("--out", metavar="DIR", required=True, help="output folder (created)")
+    figures.add_argument(
+        "--model", metavar="MODEL.toml", default=None, help="use this model, not a new one"
+    )
+    figures.set_defaults(handler=_figures)
     cmd_simulate_rig.register(benches)
 
 
@@ -35,4 +48,12 @@ def _scara(args: argparse.Namespace) -> int:
 
     write_scara_bench(args.out, seed=args.seed)
     print(f"wrote {', '.join(_FILES)} to {args.out}")
+    return 0
+
+
+def _figures(args: argparse.Namespace) -> int:
+    from torquemap.sim.paper_figures import write_paper_figures
+
+    paths = write_paper_figures(args.bench_dir, args.out, model_path=args.model)
+    print(f"wrote {', '.join(p.name for p in paths)} to {args.out}")
     return 0
