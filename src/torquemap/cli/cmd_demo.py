@@ -1,10 +1,29 @@
-"""CLI: placeholder for the `demo` command(s); filled in by its issue."""
+"""CLI: ``demo``, everything torquemap does on the built-in simulated benches (what ``make demo`` runs)."""
 
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
-    """Add this module's sub-commands to subparsers."""
+    """Add ``demo`` to subparsers."""
+    p = subparsers.add_parser(
+        "demo",
+        help="simulate both benches, identify, estimate, build tables, write a report",
+        description="Run torquemap end to end on the built-in simulated benches (the SCARA of "
+        "Simpson, Cook & Li and the Adept II linearisation rig) and write DIR/report.html.",
+    )
+    p.add_argument("--out", metavar="DIR", default="demo-out", help="output folder (demo-out)")
+    p.add_argument("--seed", type=int, default=0, help="noise seed, >= 0 (default 0)")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.set_defaults(handler=_demo)
+
+
+def _demo(args: argparse.Namespace) -> int:
+    from torquemap.demo import format_summary, run_demo
+
+    summary = run_demo(args.out, seed=args.seed, progress=not args.quiet and sys.stderr.isatty())
+    print(format_summary(summary))
+    return 0
