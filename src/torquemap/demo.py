@@ -428,7 +428,7 @@ def run_demo(
     InputError
         If ``out_dir`` cannot be created or the seed is invalid.
     """
-    from torquemap.plots.linearize import ramps_figure, summary_figure
+    from torquemap.plots.linearize import ramps_figure
 
     start = time.perf_counter()
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
@@ -449,22 +449,6 @@ def run_demo(
         row, section = _rig(out, motor, seed, steps)
         apmd_rows.append(row)
         rig_sections.append(section)
-    paper = list(PAPER_TABLE_2.items())
-    cols = [name for name, _ in paper] + [r.motor + " (ours)" for r in apmd_rows]
-    summary = summary_figure(
-        cols,
-        [
-            (
-                "uncompensated APMD [%]",
-                [f"{v[0]:.1f}" for _, v in paper] + [f"{100 * r.before:.1f}" for r in apmd_rows],
-            ),
-            (
-                "compensated APMD [%]",
-                [f"{v[1]:.1f}" for _, v in paper] + [f"{100 * r.after:.2f}" for r in apmd_rows],
-            ),
-        ],
-        title="Table 2 of the Adept II paper beside the simulated motors",
-    )
     overview = Section(
         "Summary",
         paragraphs=(
@@ -507,7 +491,6 @@ def run_demo(
             ),
         ),
         figures=(
-            embed(summary, "Table 2 of the Adept II paper beside the simulated motors."),
             embed(ramps_figure(), "The narrow and wide ramping functions (Adept II Figs 7, 13)."),
         ),
     )

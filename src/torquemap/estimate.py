@@ -506,11 +506,12 @@ def estimate_forces(
                 f"{int(f.singular.sum())} samples near a singular pose (|sin q2| < "
                 f"{min_sin_elbow:g}): force not estimated there"
             )
-    if (flag & FLAG_LOW_SPEED).any():
-        warnings.append(
-            f"{np.mean((flag & FLAG_LOW_SPEED) > 0):.1%} of samples have a joint slower than its "
-            "friction model's zero-velocity band (friction at rest undetermined)"
-        )
+    for k, joint in enumerate(robot.joints):
+        if rests[k].any():
+            warnings.append(
+                f"joint {joint.name}: {np.mean(rests[k]):.1%} of samples at or near zero "
+                "velocity, where friction is undetermined (flagged)"
+            )
     return ForceEstimate(
         t=log.t,
         joint_names=robot.joint_names,
