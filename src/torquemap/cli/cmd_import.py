@@ -1,10 +1,66 @@
-"""CLI: placeholder for the `import` command(s); filled in by its issue."""
+"""CLI: the ``import`` group; ``import rosbag`` converts JointState messages into a log (docs/rosbag.md)."""
 
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
-    """Add this module's sub-commands to subparsers."""
+    """Add the ``import`` group and its ``rosbag`` sub-command."""
+    group = subparsers.add_parser("import", help="convert recordings into torquemap logs")
+    kinds = group.add_subparsers(dest="kind", metavar="KIND")
+    kinds.required = True
+    p = kinds.add_parser(
+        "rosbag",
+        help="sensor_msgs/JointState from a ROS 1 bag or a ROS 2 bag (sqlite3 or MCAP)",
+        description="Convert the JointState messages of one topic into the log format "
+        "(t, q_<j>, tau_<j> or i_<j>); no ROS installation needed.",
+    )
+    p.add_argument("bag", metavar="BAG", help="ROS 1 .bag file or ROS 2 bag folder")
+    p.add_argument("--robot", metavar="ROBOT.toml", required=True)
+    p.add_argument("--topic", default="/joint_states", help="JointState topic (/joint_states)")
+    p.add_argument("-o", "--output", metavar="LOG.parquet|LOG.csv", required=True)
+    p.add_argument(
+        "--map",
+        metavar="NAME=JOINT",
+        action="append",
+        default=None,
+        help="message joint NAME is robot joint JOINT (repeat; default: same names)",
+    )
+    p.add_argument(
+        "--effort",
+        choices=("torque", "current"),
+        default="torque",
+        help="effort is the joint-side torque [N m] (ROS convention; divided by the gear ratio "
+        "into tau_<j>) or the motor current [A] (into i_<j>)",
+    )
+    p.set_defaults(handler=_rosbag)
+
+
+def _rosbag(args: argparse.Namespace) -> int:
+    from torquemap.robot import load_robot
+    from torquemap.rosbag import import_rosbag
+
+    robot = load_robot(args.robot)
+    states = import_rosbag(
+        args.bag, robot, args.topic, args.output, mapping=args.map, effort=args.effort
+    )
+    if states.skipped:
+        print(
+            f"torquemap: warning: {states.skipped} messages on {args.topic} lacked a robot joint "
+            "and were skipped",
+            file=sys.stderr,
+        )
+    if states.duplicates:
+        print(
+            f"torquemap: warning: {states.duplicates} messages repeated the previous stamp and "
+            "were dropped",
+            file=sys.stderr,
+        )
+    print(
+        f"wrote {args.output}: {states.t.size} samples over {states.t[-1]:.6g} s from "
+        f"{args.topic} (first stamp {states.start:.9f} s)"
+    )
+    return 0
