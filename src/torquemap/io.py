@@ -145,7 +145,14 @@ def write_table(path: str | os.PathLike[str], columns: Mapping[str, ArrayLike]) 
     table = pa.table(arrays)
     with atomic_output(p) as tmp:
         if kind == ".csv":
-            pacsv.write_csv(table, tmp, write_options=pacsv.WriteOptions(quoting_style="none"))
+            # a plain header line (pyarrow would quote the names)
+            with tmp.open("wb") as handle:
+                handle.write((",".join(arrays) + "\n").encode())
+                pacsv.write_csv(
+                    table,
+                    handle,
+                    write_options=pacsv.WriteOptions(include_header=False, quoting_style="none"),
+                )
         else:
             pq.write_table(table, tmp)
 
