@@ -100,9 +100,12 @@ class _Steps:
         self.show = show
 
     @contextmanager
-    def step(self, label: str) -> Iterator[None]:
+    def step(self, label: str, *, own_bar: bool = False) -> Iterator[None]:
         start = time.perf_counter()
-        if self.show:
+        if self.show and own_bar:
+            self.console.print(f"[cyan]...[/cyan] {label}")
+            yield
+        elif self.show:
             from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
             with Progress(
@@ -119,8 +122,8 @@ class _Steps:
         if self.show:
             self.console.print(f"[green]done[/green] {label} ({time.perf_counter() - start:.1f} s)")
 
-    def run(self, label: str, fn: Callable[[], T]) -> T:
-        with self.step(label):
+    def run(self, label: str, fn: Callable[[], T], *, own_bar: bool = False) -> T:
+        with self.step(label, own_bar=own_bar):
             return fn()
 
 
@@ -332,7 +335,8 @@ def _rig(
         (d / "verify.csv").unlink()  # a new run, not a resumed one
     steps.run(
         f"characterise the {kind} motor on the simulated rig",
-        lambda: write_rig_data(d, motor=motor, seed=seed),
+        lambda: write_rig_data(d, motor=motor, seed=seed, progress=steps.show),
+        own_bar=True,
     )
     spec = load_motor(d / "motor.toml")
     data = read_data(d / "data.csv", spec, kind="characterisation")
@@ -350,8 +354,9 @@ def _rig(
             seed=seed + 100,
             tables=d / "TABLES.npz",
             step=2,
-            progress=False,
+            progress=steps.show,
         ),
+        own_bar=True,
     )
     verify = read_data(d / "verify.csv", spec, kind="verification")
     before = evaluate_linearity(spec, data)
