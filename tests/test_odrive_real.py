@@ -68,14 +68,16 @@ def test_identified_map_tracks_quasistatic_map(odrive: dict[str, object]) -> Non
     orders = {round(ln.order) for ln in model.joints["m"].pdtv}
     # the dominant cogging orders of a 12-slot 14-pole motor, seen in the reference map
     assert {7, 14, 28} <= orders
-    assert _correlation(odrive) > 0.70  # measured 0.73; see the strict target below
+    # measured 0.914 (a 512-bin average of the raw sweep: 0.928); see the strict target below
+    assert _correlation(odrive) > 0.90
 
 
 @pytest.mark.xfail(
     strict=True,
-    reason="brief target 0.95 not reached: the sweep's current lags the quasi-static map by a "
-    "phase growing with order (a torque-channel lag, not identifiable from one one-direction "
-    "pass); docs/identification.md",
+    reason="issue target 0.95 not reached (0.914): against the quasi-static map the sweep's "
+    "lines are shifted by about 0.025 rad of motor angle (phase growing with order), a time lag "
+    "or an angle offset that one pass in one direction at one speed cannot tell apart from the "
+    "map itself; docs/identification.md",
 )
 def test_identified_map_reaches_brief_target(odrive: dict[str, object]) -> None:
     assert _correlation(odrive) >= 0.95

@@ -387,10 +387,13 @@ def pick_lines(
     amp = spectrum.amplitude
     floor = noise_floor(spectrum, window=floor_window)
     integer = np.abs(order - np.round(order)) < 0.5 / max(spectrum.revolutions, 1.0)
-    if fractional == "always" or (fractional == "auto" and spectrum.revolutions >= 4.0):
-        searched = np.ones(order.size, dtype=bool)
-    else:
+    integer_only = not (
+        fractional == "always" or (fractional == "auto" and spectrum.revolutions >= 4.0)
+    )
+    if integer_only:
         searched = integer
+    else:
+        searched = np.ones(order.size, dtype=bool)
     multiple = rayleigh_threshold(int(searched.sum()), false_alarm=false_alarm)
     threshold = multiple * floor
     left = np.concatenate(([-np.inf], amp[:-1]))
@@ -400,7 +403,9 @@ def pick_lines(
         is_peak = np.ones(order.size, dtype=bool)
     hit = searched & is_peak & (amp > threshold)
     picked = order[hit]
-    if not searched.all():
+    if integer_only:
+        # a spectrum of under a whole number of revolutions puts integer orders slightly off
+        # its bins (order k / revolutions); the lines of a motor-angle PDTV are at integers
         picked = np.round(picked)
     rank = np.argsort(-amp[hit], kind="stable")
     return LinePicks(
