@@ -67,20 +67,24 @@ def test_identified_map_tracks_quasistatic_map(odrive: dict[str, object]) -> Non
     model = load_model(Path(str(odrive["dir"])) / "model.toml")
     orders = {round(ln.order) for ln in model.joints["m"].pdtv}
     # the dominant cogging orders of a 12-slot 14-pole motor, seen in the reference map
-    assert {7, 14, 28} <= orders
-    # measured 0.914 (a 512-bin average of the raw sweep: 0.928); see the strict target below
-    assert _correlation(odrive) > 0.90
+    assert {7, 14, 28, 84} <= orders
+    assert all(ln.order == round(ln.order) for ln in model.joints["m"].pdtv)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="issue target 0.95 not reached (0.914): against the quasi-static map the sweep's "
-    "lines are shifted by about 0.025 rad of motor angle (phase growing with order), a time lag "
-    "or an angle offset that one pass in one direction at one speed cannot tell apart from the "
-    "map itself; docs/identification.md",
-)
-def test_identified_map_reaches_brief_target(odrive: dict[str, object]) -> None:
+def test_identified_map_reaches_the_target(odrive: dict[str, object]) -> None:
+    # issue 3: from the sweep alone, correlation with the independent map at least 0.95
+    # (a 512-bin average of the raw sweep: 0.928)
     assert _correlation(odrive) >= 0.95
+
+
+def test_channel_delay_found_and_recorded(odrive: dict[str, object]) -> None:
+    # the speed ripples by about 100 % in this sweep, so a delay of the current channel is not
+    # an angle offset: identify estimates it (docs/identification.md); the ramps do not stand
+    # out of that ripple, so no inertia is claimed
+    model = load_model(Path(str(odrive["dir"])) / "model.toml")
+    delay = model.notes["joints"]["m"]["channel_delay"]
+    assert 0.02 < delay < 0.25
+    assert model.joints["m"].inertia.constant == 0.0
 
 
 def test_one_direction_warning_recorded(odrive: dict[str, object]) -> None:

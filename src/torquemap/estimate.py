@@ -28,8 +28,10 @@ end effector is ``F = J(q)^-T tau_ext``, flagged near singular poses.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -363,6 +365,7 @@ def estimate_forces(
     min_revolutions: float = 1.0,
     min_sin_elbow: float = 0.05,
     bridge_reversals: float = 0.5,
+    channel_delay: Mapping[str, float] | None = None,
 ) -> ForceEstimate:
     """Estimate the external joint torques and end-effector force from a log.
 
@@ -394,6 +397,10 @@ def estimate_forces(
         off. Friction at a reversal lies anywhere between the two Coulomb levels, so the model
         cannot say what the motor torque there was spent on; the external force varies
         smoothly across the short gap. Bridged samples are flagged ``FLAG_LOW_SPEED``.
+    channel_delay
+        Delay [s] of each joint's torque channel behind its position, undone before anything
+        else; default: the delays identification found (``[identification.joints.<j>]
+        channel_delay`` of the model file), as the same logging set-up delays every log alike.
 
     Returns
     -------
@@ -410,6 +417,15 @@ def estimate_forces(
     if not (math.isfinite(cutoff) and cutoff > 0):
         raise InputError(f"cut-off must be a positive frequency, got {cutoff!r} Hz")
     robot = model.robot
+    delays = identified_delays(model) if channel_delay is None else dict(channel_delay)
+    if any(delays.values()):
+        from torquemap.delay import shift_channel
+
+        tau = log.motor_torque.copy()
+        for k, name in enumerate(robot.joint_names):
+            if delays.get(name, 0.0):
+                tau[:, k] = shift_channel(log.t, tau[:, k], delays[name])
+        log = dataclasses.replace(log, motor_torque=tau)
     t_est, angle, velocity = estimation_signal(model, log, window=window)
     n, nj = t_est.shape
     warnings: list[str] = []
@@ -529,6 +545,19 @@ def estimate_forces(
         cutoff=float("nan") if method == "raw" else float(cutoff),
         warnings=tuple(warnings),
     )
+
+
+def identified_delays(model: Model) -> dict[str, float]:
+    """Per joint, the torque channel delay [s] identification recorded in the model's notes."""
+    out: dict[str, float] = {}
+    joints = model.notes.get("joints", {})
+    if isinstance(joints, Mapping):
+        for name, entry in joints.items():
+            if isinstance(entry, Mapping):
+                value = entry.get("channel_delay", 0.0)
+                if isinstance(value, int | float) and math.isfinite(value):
+                    out[str(name)] = float(value)
+    return out
 
 
 def forces_columns(estimate: ForceEstimate) -> dict[str, NDArray[Any]]:

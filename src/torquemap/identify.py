@@ -12,6 +12,7 @@ fit on all samples).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -88,6 +89,9 @@ class JointIdentification:
         Highest order searched [CPR].
     torque_lag
         Lag of the torque channel [s] found (0 when none).
+    channel_delay
+        Delay of the torque channel behind the position [s] undone before identification
+        (0 when none; see ``identify_model(channel_delay=...)``).
     warnings
         One line each: what the data did not allow and what was assumed.
     """
@@ -104,6 +108,7 @@ class JointIdentification:
     bins_per_rev: int = 0
     max_order: float = 0.0
     torque_lag: float = 0.0
+    channel_delay: float = 0.0
     warnings: tuple[str, ...] = ()
 
 
@@ -167,6 +172,7 @@ def identify_model(
     stribeck: Literal["auto", "never", "always"] = "auto",
     direction_significance: float = 0.001,
     torque_lag: float | Literal["auto"] = 0.0,
+    channel_delay: float | Literal["auto"] = "auto",
 ) -> Identification:
     """Identify inertia, friction and PDTV of a robot's joints from no-load logs.
 
@@ -194,6 +200,13 @@ def identify_model(
         with the PDTV harmonics (experimental: the estimate depends on the torque-rate noise;
         see docs/identification.md). The torque is corrected by ``tau + lag * dtau/dt``
         before PDTV and inertia.
+    channel_delay
+        Pure time delay [s] of the torque (current) channel behind the position channel
+        (host polling, a drive's report latency): each joint's torque is read ``delay``
+        later before anything is identified. ``"auto"`` (default) estimates it per joint with
+        :func:`torquemap.delay.estimate_delay` where the data make it identifiable (the speed
+        varies along the slow passes, so a delay is not just an angle offset of the PDTV) and
+        significant; otherwise 0.
 
     Returns
     -------
@@ -246,10 +259,86 @@ def identify_model(
             "constant-speed sweeps",
             path=logs[0].path if len(logs) == 1 else None,
         )
+    if channel_delay == "auto" or channel_delay != 0:
+        delays = {}
+        for name, res in results.items():
+            k = rb.joint_names.index(name)
+            jm = new_joints.get(name)
+            if channel_delay != "auto":
+                delays[name] = float(channel_delay)
+            elif jm is not None and jm.pdtv and res.pdtv_passes:
+                delays[name] = _estimate_joint_delay(rb, k, logs, derivs, res, jm, window)
+        if any(d != 0 for d in delays.values()):
+            shifted = [_shift_log(log, rb, delays) for log in logs]
+            again = identify_model(
+                model_in if model_in is not None else rb,
+                shifted,
+                joints=joints,
+                max_order=max_order,
+                window=window,
+                false_alarm=false_alarm,
+                stribeck=stribeck,
+                direction_significance=direction_significance,
+                torque_lag=torque_lag,
+                channel_delay=0.0,
+            )
+            joints_out = {
+                n: dataclasses.replace(r, channel_delay=delays.get(n, 0.0))
+                for n, r in again.joints.items()
+            }
+            warnings = again.warnings
+            notes = _notes(
+                logs, joints_out, window=window, false_alarm=false_alarm, warnings=warnings
+            )
+            model = Model(robot=rb, joints=again.model.joints, notes=notes)
+            return Identification(model=model, joints=joints_out, warnings=warnings)
     warnings = tuple(w for r in results.values() for w in r.warnings)
     notes = _notes(logs, results, window=window, false_alarm=false_alarm, warnings=warnings)
     model = Model(robot=rb, joints=new_joints, notes=notes)
     return Identification(model=model, joints=results, warnings=warnings)
+
+
+def _estimate_joint_delay(
+    rb: Robot,
+    k: int,
+    logs: Sequence[Log],
+    derivs: Sequence[Sequence[Derivatives]],
+    res: JointIdentification,
+    jm: JointModel,
+    window: float,
+) -> float:
+    """The torque channel's delay of joint ``k`` [s], or 0 when not identifiable."""
+    from torquemap.delay import estimate_delay
+
+    elbow_k = 1 if (rb.kinematics == "planar2r" and k == 0 and len(rb.joints) > 1) else None
+    ts, angles, torques = [], [], []
+    for li, log in enumerate(logs):
+        d = derivs[li][k]
+        elbow = log.q[:, elbow_k] if elbow_k is not None else np.zeros(log.t.size)
+        j = jm.inertia.constant + jm.inertia.cos_elbow * np.cos(elbow)
+        ts.append(log.t)
+        angles.append(d.position)
+        torques.append(
+            log.motor_torque[:, k] - j * d.acceleration - friction_torque(d.velocity, jm.friction)
+        )
+    spans = [
+        (res.passes[i][0], res.passes[i][1].start, res.passes[i][1].stop) for i in res.pdtv_passes
+    ]
+    orders = sorted({ln.order for ln in jm.pdtv})
+    est = estimate_delay(ts, angles, torques, spans, orders, max_delay=max(0.25, 4 * window))
+    return est.delay
+
+
+def _shift_log(log: Log, rb: Robot, delays: Mapping[str, float]) -> Log:
+    """The log with each joint's torque channel read ``delays[joint]`` later."""
+    from torquemap.delay import shift_channel
+
+    tau = log.motor_torque.copy()
+    for k, name in enumerate(rb.joint_names):
+        d = delays.get(name, 0.0)
+        if d != 0:
+            tau[:, k] = shift_channel(log.t, tau[:, k], d)
+    return dataclasses.replace(log, motor_torque=tau)
 
 
 def _identify_joint(
@@ -292,6 +381,19 @@ def _identify_joint(
     if not passes:
         warnings.append(f"joint {name} never moves at a steady speed: left unidentified")
         return JointIdentification(name=name, warnings=tuple(warnings)), None
+    # Ramps identify inertia only where their acceleration stands out of the speed ripple of
+    # the passes (PDTV makes the speed ripple, so ripple-driven acceleration is correlated with
+    # the PDTV torque and would bias the inertia).
+    ripple = float(
+        np.sqrt(
+            np.mean(
+                np.concatenate(
+                    [derivs[li][k].acceleration[p.start : p.stop] ** 2 for li, p in passes]
+                )
+            )
+        )
+    )
+    ramps = [(li, m & (np.abs(derivs[li][k].acceleration) > 3.0 * ripple)) for li, m in ramps]
     speeds = np.array([p.speed for _, p in passes])
     means = np.array([p.mean_torque for _, p in passes])
     # the sign of motion is trusted from two encoder counts per differentiator window on
@@ -651,6 +753,7 @@ def _notes(
             "bins_per_rev": r.bins_per_rev,
             "max_order": r.max_order,
             "torque_lag": r.torque_lag,
+            "channel_delay": r.channel_delay,
         }
         if r.friction is not None:
             entry["stribeck"] = r.friction.stribeck_used
