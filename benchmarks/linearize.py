@@ -1,21 +1,28 @@
 """Torque linearisation on four simulated joints beside the Adept II paper's Table 2.
 
-Run: ``.venv/bin/python benchmarks/linearize.py`` (about 3 minutes on 2 cores).
+Run: ``.venv/bin/python benchmarks/linearize.py`` (about 4 minutes on 2 cores).
 
 For each joint: collect characterisation data on the simulated rig (every 4th pulse width, every
 4th table position, 10 readings a row, wide ramping) -> ``build_tables`` (both methods) ->
 collect a verification run through the tables on a rig with fresh sensor noise (every command,
-every 4th position) -> evaluate (paper Eq 1). The FLOOR is the best APMD any table of the same
-widths could reach: for every cell (p, c) the base pulse width 0..actuation_max whose ramped
-actuation gives, on the noise-free ``rig.true_torque``, the torque closest to
-``c * t_pi / 127`` (``t_pi`` the true deepest valley), evaluated the same way (Eq 1, plane fit,
-all cells). "tables, noise-free" evaluates the built tables on ``rig.true_torque`` at every cell
-(no friction, no sensor noise: the measurement's own error is removed). Build time: median of 7
-calls of ``build_tables`` on joint 1's data (3 phases x 512 positions x 256 commands).
+every 4th position) -> evaluate (paper Eq 1).
+
+The FLOOR is the best APMD any table of the same widths could reach on that rig. What the
+force sensor sees, noise aside, when the motor sits at table position ``p`` with actuation
+``a`` and the torque has risen from zero, is ``max(true_torque(p, a) - friction, 0)`` (the
+rig's static friction band; compliance only moves which position the motor sits at, and every
+table is looked up at the position the encoder reads). For every cell (p, c) the floor table
+holds the base pulse width 0..actuation_max whose ramped actuation gives the sensed torque
+closest to ``c * t_pi / 127`` (``t_pi`` the deepest valley of that surface). It is evaluated
+twice, like the built tables: noise-free (Eq 1 over every cell of the sensed-torque surface)
+and measured, through the same verification run with the same sensor-noise seed. Build time:
+median of 7 calls of ``build_tables`` on joint 1's data (3 phases x 512 positions x 256
+commands).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import statistics
 import sys
 import tempfile
@@ -65,29 +72,55 @@ def full_grid_report(torque: np.ndarray) -> LinearityReport:
     )
 
 
-def floor(rig: SimRig, spec: MotorSpec) -> LinearityReport:
-    """Best table of the same widths on the noise-free motor, with the same ramp."""
+def sensed(rig: SimRig, position: np.ndarray, actuation: np.ndarray) -> np.ndarray:
+    """Noise-free sensed torque [N m] at the motor's table position: motor minus friction."""
+    return np.maximum(rig.true_torque(position, actuation) - rig.settings.friction, 0.0)
+
+
+def floor_tables(rig: SimRig, spec: MotorSpec, like: TableSet) -> TableSet:
+    """The best table of the same widths, searched exhaustively over every base pulse width."""
     n, top = spec.positions_per_cycle, spec.actuation_max
     p = np.arange(n)[:, None]
-    act = ramped_actuation(np.arange(top + 1)[None, :], p, spec.ramp)
-    surface = rig.true_torque(p, act)  # (P, A + 1)
-    t_pi = surface.max(axis=1).min()
-    target = np.arange(128) * t_pi / 127
-    best = np.abs(surface[:, :, None] - target[None, None, :]).argmin(axis=1)  # (P, 128)
-    return full_grid_report(np.take_along_axis(surface, best, axis=1))
+    surface = sensed(rig, p, ramped_actuation(np.arange(top + 1)[None, :], p, spec.ramp))
+    cmax = like.command_max
+    per_count = surface.max(axis=1).min() / cmax
+    target = np.arange(cmax + 1) * per_count
+    best = np.abs(surface[:, :, None] - target[None, None, :]).argmin(axis=1)  # (P, C + 1)
+    phases = np.zeros_like(like.phases)
+    phases[:, :, : cmax + 1] = np.moveaxis(ramped_actuation(best, p, spec.ramp), -1, 0)
+    return dataclasses.replace(like, phases=phases, torque_per_count=float(per_count))
 
 
 def noise_free(rig: SimRig, tables: TableSet) -> LinearityReport:
-    n = tables.positions_per_cycle
-    act = np.moveaxis(tables.phases[:, :, :128], 0, -1)  # (P, 128, m)
-    return full_grid_report(rig.true_torque(np.arange(n)[:, None], act))
+    """Eq 1 over every cell (p, c >= 0) of the sensed torque through the tables, no noise."""
+    n, cmax = tables.positions_per_cycle, tables.command_max
+    act = np.moveaxis(tables.phases[:, :, : cmax + 1], 0, -1)  # (P, C + 1, m)
+    return full_grid_report(sensed(rig, np.arange(n)[:, None], act))
+
+
+def measured(
+    rig: SimRig, spec: MotorSpec, tables: TableSet, out: Path, seed: int
+) -> LinearityReport:
+    """APMD of a verification run through ``tables`` (every command, every 4th position)."""
+    rig.rng = np.random.default_rng(seed)  # the same sensor noise for every table set
+    collect_verification(
+        rig,
+        spec,
+        tables.as_mapping(),
+        out,
+        command_step=1,
+        positions=spec.positions_per_cycle // 4,
+        progress=False,
+    )
+    data = read_data(out, spec, kind="verification")
+    return evaluate_linearity(spec, data, tables=tables)
 
 
 def main() -> int:
     rows: dict[str, dict[str, float]] = {}
     build_data = None
     with tempfile.TemporaryDirectory() as tmp:
-        for name, (rig, verify_rig) in joints().items():
+        for index, (name, (rig, verify_rig)) in enumerate(joints().items()):
             spec = rig.motor_spec(ramping="wide")
             n = spec.positions_per_cycle
             data_csv = Path(tmp) / f"{name}.csv"
@@ -98,29 +131,21 @@ def main() -> int:
             if build_data is None:
                 build_data = (spec, data)
             before = evaluate_linearity(spec, data)
-            row = {"uncomp": before.apmd, "t_pi_data": before.position_independent_torque}
+            row = {"uncomp": before.apmd, "density": before.data_density}
+            seed = 101 + index
             for method in ("interp", "paper"):
                 tables = build_tables(spec, data.position, data.level, data.torque, method=method)
                 out = Path(tmp) / f"{name}-{method}-verify.csv"
-                collect_verification(
-                    verify_rig,
-                    spec,
-                    tables.as_mapping(),
-                    out,
-                    command_step=1,
-                    positions=n // 4,
-                    progress=False,
-                )
-                after = evaluate_linearity(
-                    spec, read_data(out, spec, kind="verification"), tables=tables
-                )
-                row[f"{method}"] = after.apmd
+                after = measured(verify_rig, spec, tables, out, seed)
+                row[method] = after.apmd
                 row[f"{method}_10"] = after.apmd_above_10
                 row[f"{method}_nf"] = noise_free(rig, tables).apmd
                 row["t_pi"] = tables.torque_max
-            f = floor(rig, spec)
+            best = floor_tables(rig, spec, tables)
+            f = noise_free(rig, best)
             row["floor"], row["floor_10"] = f.apmd, f.apmd_above_10
-            row["density"] = before.data_density
+            out = Path(tmp) / f"{name}-floor-verify.csv"
+            row["floor_meas"] = measured(verify_rig, spec, best, out, seed).apmd
             rows[name] = row
             print(f"  {name} done", file=sys.stderr)
     assert build_data is not None
@@ -142,6 +167,9 @@ def main() -> int:
     def pct(key: str) -> list[str]:
         return [f"{100 * rows[k][key]:.2f}" for k in names]
 
+    def ratio(a: str, b: str) -> list[str]:
+        return [f"{rows[k][a] / rows[k][b]:.2f}" for k in names]
+
     print(line("APMD [%] (paper Eq 1)", names))
     print(line("paper: uncompensated", [f"{PAPER[k][0]:.1f}" for k in names]))
     print(line("paper: compensated", [f"{PAPER[k][1]:.1f}" for k in names]))
@@ -151,16 +179,13 @@ def main() -> int:
     print(line("  above 10 % command", pct("interp_10")))
     print(line("compensated, paper method (measured)", pct("paper")))
     print(line("  above 10 % command", pct("paper_10")))
-    print(line("tables on noise-free motor, interp", pct("interp_nf")))
-    print(line("tables on noise-free motor, paper", pct("paper_nf")))
-    print(line("FLOOR (best table, noise-free)", pct("floor")))
+    print(line("FLOOR, measured (same verification run)", pct("floor_meas")))
+    print(line("FLOOR, noise-free (best table, sensed torque)", pct("floor")))
     print(line("  FLOOR above 10 % command", pct("floor_10")))
-    print(
-        line(
-            "interp measured / floor",
-            [f"{rows[k]['interp'] / rows[k]['floor']:.2f}" for k in names],
-        )
-    )
+    print(line("tables noise-free, interp", pct("interp_nf")))
+    print(line("tables noise-free, paper", pct("paper_nf")))
+    print(line("interp / floor, measured", ratio("interp", "floor_meas")))
+    print(line("interp / floor, noise-free", ratio("interp_nf", "floor")))
     print(line("position-independent torque [N m]", [f"{rows[k]['t_pi']:.2f}" for k in names]))
     print(line("data density [%]", pct("density")))
     print(
