@@ -1,0 +1,65 @@
+"""identify on the simulated SCARA bench's sweeps, against the simulator's true parameters.
+
+The simulator (torquemap.sim) integrates the dynamics at the servo rate with a PD controller,
+quantised encoders, current noise and inverter ripple; identify sees only sweep.csv and
+robot.toml. truth.toml holds what the simulator used. The model forms differ where the
+simulator is richer than the identified model (its Coulomb friction is blended over a
+0.05 rad/s band, its inertia of joint a depends on the elbow, the servo adds ripple), so the
+tolerances below allow a few per cent of modelling error on friction and inertia, and are tight
+on the PDTV lines, whose form is the same on both sides.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from torquemap.identify import Identification, identify_model
+from torquemap.io import read_log
+from torquemap.model import Model, load_model
+from torquemap.robot import load_robot
+
+
+@pytest.fixture(scope="module")
+def identified(scara_bench: Path) -> tuple[Identification, Model]:
+    robot = load_robot(scara_bench / "robot.toml")
+    log = read_log(scara_bench / "sweep.csv", robot)
+    return identify_model(robot, [log]), load_model(scara_bench / "truth.toml")
+
+
+@pytest.mark.parametrize("joint", ["a", "b"])
+def test_friction_against_truth(identified: tuple[Identification, Model], joint: str) -> None:
+    got = identified[0].model.joints[joint].friction
+    true = identified[1].joints[joint].friction
+    # pass means over whole motor revolutions: PDTV and noise average out; the blend band is
+    # below every sweep speed, so Coulomb and viscous are direct (3 % and 5 %)
+    assert_allclose(got.coulomb_positive, true.coulomb_positive, rtol=0.03)
+    assert_allclose(got.coulomb_negative, true.coulomb_negative, rtol=0.03)
+    assert_allclose(got.viscous, true.viscous, rtol=0.05)
+    # the Stribeck hump rests on the slowest two of five speeds: 15 %
+    assert_allclose(got.stribeck_positive, true.stribeck_positive, rtol=0.15)
+    assert_allclose(got.stribeck_negative, true.stribeck_negative, rtol=0.15)
+    assert_allclose(got.stribeck_velocity, true.stribeck_velocity, rtol=0.15)
+
+
+@pytest.mark.parametrize("joint", ["a", "b"])
+def test_inertia_against_truth(identified: tuple[Identification, Model], joint: str) -> None:
+    got = identified[0].model.joints[joint].inertia
+    true = identified[1].joints[joint].inertia
+    # only the trapezoids' ramps carry J*acc, against servo ripple of similar size: 10 %
+    assert_allclose(got.constant, true.constant, rtol=0.10)
+
+
+@pytest.mark.parametrize("joint", ["a", "b"])
+def test_pdtv_lines_against_truth(identified: tuple[Identification, Model], joint: str) -> None:
+    got = {ln.order: ln for ln in identified[0].model.joints[joint].pdtv}
+    true = {ln.order: ln for ln in identified[1].joints[joint].pdtv}
+    assert sorted(got) == sorted(true)  # every true line, no spurious one
+    for order, ln in true.items():
+        # the smallest line (0.8 mN m) stands ~10x above its amplitude standard error
+        assert_allclose(got[order].amplitude, ln.amplitude, rtol=0.05)
+        d = np.angle(np.exp(1j * (got[order].phase - ln.phase)))
+        assert abs(d) < 0.05, f"{joint} {order} CPR phase off by {d:.3f} rad"
