@@ -1,6 +1,6 @@
 """Torque linearisation on four simulated joints beside the Adept II paper's Table 2.
 
-Run: ``.venv/bin/python benchmarks/linearize.py`` (about 4 minutes on 2 cores).
+Run: ``.venv/bin/python benchmarks/linearize.py`` (about 6 minutes on 2 cores).
 
 For each joint: collect characterisation data on the simulated rig (every 4th pulse width, every
 4th table position, 10 readings a row, wide ramping) -> ``build_tables`` (both methods) ->
@@ -14,8 +14,10 @@ rig's static friction band; compliance only moves which position the motor sits 
 table is looked up at the position the encoder reads). For every cell (p, c) the floor table
 holds the base pulse width 0..actuation_max whose ramped actuation gives the sensed torque
 closest to ``c * t_pi / 127`` (``t_pi`` the deepest valley of that surface). It is evaluated
-twice, like the built tables: noise-free (Eq 1 over every cell of the sensed-torque surface)
-and measured, through the same verification run with the same sensor-noise seed. Build time:
+three times, like the built tables: noise-free (Eq 1 over every cell of the sensed-torque
+surface), measured through the same verification run with the same sensor-noise seed, and
+through the same verification loop on a noise-free twin of the rig (friction, compliance and
+bias kept; only the sensor noise removed), the like-for-like noise-free comparison. Build time:
 median of 7 calls of ``build_tables`` on joint 1's data (3 phases x 512 positions x 256
 commands).
 """
@@ -141,11 +143,25 @@ def main() -> int:
                 row[f"{method}_10"] = after.apmd_above_10
                 row[f"{method}_nf"] = noise_free(rig, tables).apmd
                 row["t_pi"] = tables.torque_max
+                if method == "interp":
+                    tables_interp = tables
             best = floor_tables(rig, spec, tables)
             f = noise_free(rig, best)
             row["floor"], row["floor_10"] = f.apmd, f.apmd_above_10
             out = Path(tmp) / f"{name}-floor-verify.csv"
             row["floor_meas"] = measured(verify_rig, spec, best, out, seed).apmd
+            # the same verification loop on a noise-free twin of the rig (friction, compliance
+            # and bias kept): the like-for-like noise-free comparison
+            twin = SimRig(
+                rig.motor,
+                rig.amplifier,
+                dataclasses.replace(rig.settings, noise=0.0),
+                rng=0,
+                name=rig.name,
+            )
+            for label, t in (("interp_twin", tables_interp), ("floor_twin", best)):
+                out = Path(tmp) / f"{name}-{label}.csv"
+                row[label] = measured(twin, spec, t, out, 0).apmd
             rows[name] = row
             print(f"  {name} done", file=sys.stderr)
     assert build_data is not None
@@ -185,6 +201,9 @@ def main() -> int:
     print(line("tables noise-free, interp", pct("interp_nf")))
     print(line("tables noise-free, paper", pct("paper_nf")))
     print(line("interp / floor, measured", ratio("interp", "floor_meas")))
+    print(line("interp, noise-free twin of the loop", pct("interp_twin")))
+    print(line("FLOOR, noise-free twin of the loop", pct("floor_twin")))
+    print(line("interp / floor, noise-free twin", ratio("interp_twin", "floor_twin")))
     print(line("interp / floor, noise-free", ratio("interp_nf", "floor")))
     print(line("position-independent torque [N m]", [f"{rows[k]['t_pi']:.2f}" for k in names]))
     print(line("data density [%]", pct("density")))
