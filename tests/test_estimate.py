@@ -8,6 +8,7 @@ PDTV does to low-pass only, what the notches remove) can be checked independentl
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 
@@ -23,6 +24,7 @@ from torquemap.estimate import (
     estimation_signal,
     forces_columns,
     monotonic_passes,
+    reversal_mask,
 )
 from torquemap.io import Log
 from torquemap.kinematics import jacobian
@@ -235,3 +237,50 @@ def test_bad_options_and_short_logs(model: Model) -> None:
     )
     with pytest.raises(InputError, match=r"s\.csv"):
         estimate_forces(model, short)
+
+
+def _hold_then_move(model: Model, offset: float) -> Log:
+    """A log that holds still for 2 s (motor torque ``offset`` above the model's: friction at
+    rest is undetermined), then starts a smooth motion from rest."""
+    log, _, _ = synthetic_log(model, seconds=10.0)
+    t = log.t
+    start = 2.0
+    s = np.clip(t - start, 0.0, None)
+    q = log.q[0] + 0.3 * np.c_[1.0 - np.cos(1.5 * s), 1.0 - np.cos(1.2 * s)]
+    tau = log.motor_torque.copy()
+    tau[t < start] += offset
+    return Log(t=t, q=q, motor_torque=tau, joint_names=("a", "b"), path="hold.csv")
+
+
+def test_an_undetermined_hold_does_not_leak_into_sound_samples(model: Model) -> None:
+    # the same log twice, differing only in the motor torque during the initial hold: every
+    # sample the estimator calls sound must come out the same (before the fix the 2 Hz
+    # low-pass spread the hold's value over the first few tenths of a second of motion)
+    a = estimate_forces(model, _hold_then_move(model, 0.0))
+    b = estimate_forces(model, _hold_then_move(model, 0.02))
+    sound = a.flag == 0
+    assert sound.mean() > 0.5
+    assert np.array_equal(sound, b.flag == 0)
+    assert np.max(np.abs(a.tau_ext[sound] - b.tau_ext[sound])) < 1e-9
+    held = a.t < 2.0
+    # where friction is undetermined the model's value is kept (flagged), so it differs there
+    assert np.max(np.abs(a.tau_ext[held] - b.tau_ext[held])) > 0.1
+
+
+def test_reversal_band_defaults_to_the_slowest_identified_speed(model: Model) -> None:
+    log, _, _ = synthetic_log(model)
+    notes = {"joints": {"a": {"speeds": [3.0, -1.2, 0.8]}, "b": {"speeds": [2.0, -2.5]}}}
+    noted = dataclasses.replace(model, notes=notes)
+    est = estimate_forces(noted, log)
+    # above both joints' zero_velocity (1e-3): the slowest pass of each joint sets its band
+    low = [
+        reversal_mask(log.t, est.velocity[:, k], band=b, window=0.05)
+        for k, b in ((0, 0.8), (1, 2.0))
+    ]
+    assert low[0].any() and low[1].any()
+    assert np.array_equal((est.flag & FLAG_LOW_SPEED) > 0, low[0] | low[1])
+    explicit = estimate_forces(noted, log, reversal_band=1e-3)
+    plain = estimate_forces(model, log)
+    assert np.array_equal(explicit.flag, plain.flag)
+    with pytest.raises(InputError, match="reversal band"):
+        estimate_forces(model, log, reversal_band=-1.0)

@@ -47,6 +47,29 @@ def test_stribeck_found_when_present_and_refused_when_absent() -> None:
         fit_friction([], [])
 
 
+@pytest.mark.parametrize("vs", [0.37, 1.5, 2.9])
+def test_stribeck_velocity_between_grid_points_is_recovered(vs: float) -> None:
+    # exact pass means at the five speeds of a typical sweep: the grid over Stribeck velocities
+    # only brackets the minimum, the bounded search must land on it
+    speeds = np.array([0.5, 1.5, 5.0, 15.0, 43.0])
+    w = np.concatenate([speeds, -speeds])
+    true = FrictionModel(
+        coulomb_positive=0.045,
+        coulomb_negative=0.05,
+        viscous=3e-4,
+        stribeck_positive=0.012,
+        stribeck_negative=0.01,
+        stribeck_velocity=vs,
+    )
+    f = fit_friction(w, friction_torque(w, true), stribeck="always").friction
+    assert_allclose(f.stribeck_velocity, vs, rtol=1e-3)
+    assert_allclose(
+        [f.coulomb_positive, f.coulomb_negative, f.stribeck_positive, f.stribeck_negative],
+        [0.045, 0.05, 0.012, 0.01],
+        rtol=1e-3,
+    )
+
+
 @given(st.floats(0.01, 0.5), st.floats(0.01, 0.5), st.floats(0.0, 0.05))
 def test_friction_fit_exact_on_exact_data(cp: float, cn: float, b: float) -> None:
     w = np.array([1.0, 3.0, -1.0, -3.0])

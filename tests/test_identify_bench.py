@@ -35,22 +35,23 @@ def test_friction_against_truth(identified: tuple[Identification, Model], joint:
     got = identified[0].model.joints[joint].friction
     true = identified[1].joints[joint].friction
     # pass means over whole motor revolutions: PDTV and noise average out; the blend band is
-    # below every sweep speed, so Coulomb and viscous are direct (3 % and 5 %)
-    assert_allclose(got.coulomb_positive, true.coulomb_positive, rtol=0.03)
-    assert_allclose(got.coulomb_negative, true.coulomb_negative, rtol=0.03)
-    assert_allclose(got.viscous, true.viscous, rtol=0.05)
-    # the Stribeck hump rests on the slowest two of five speeds: 15 %
-    assert_allclose(got.stribeck_positive, true.stribeck_positive, rtol=0.15)
-    assert_allclose(got.stribeck_negative, true.stribeck_negative, rtol=0.15)
-    assert_allclose(got.stribeck_velocity, true.stribeck_velocity, rtol=0.15)
+    # below every sweep speed, so Coulomb and viscous are direct (1 % and 3 %)
+    assert_allclose(got.coulomb_positive, true.coulomb_positive, rtol=0.01)
+    assert_allclose(got.coulomb_negative, true.coulomb_negative, rtol=0.01)
+    assert_allclose(got.viscous, true.viscous, rtol=0.03)
+    # the Stribeck hump rests on the slowest two of five speeds: 3 %
+    assert_allclose(got.stribeck_positive, true.stribeck_positive, rtol=0.03)
+    assert_allclose(got.stribeck_negative, true.stribeck_negative, rtol=0.03)
+    assert_allclose(got.stribeck_velocity, true.stribeck_velocity, rtol=0.03)
 
 
 @pytest.mark.parametrize("joint", ["a", "b"])
 def test_inertia_against_truth(identified: tuple[Identification, Model], joint: str) -> None:
     got = identified[0].model.joints[joint].inertia
     true = identified[1].joints[joint].inertia
-    # only the trapezoids' ramps carry J*acc, against servo ripple of similar size: 10 %
-    assert_allclose(got.constant, true.constant, rtol=0.10)
+    # only the trapezoids' ramps carry J*acc, against servo ripple; the torque is smoothed with
+    # the differentiator's own acceleration kernel, so the ramps' edges do not bias it: 3 %
+    assert_allclose(got.constant, true.constant, rtol=0.03)
 
 
 @pytest.mark.parametrize("joint", ["a", "b"])

@@ -292,12 +292,14 @@ def bridge_gaps(
     *,
     longest: float,
     support: float = 0.0,
+    ends: bool = False,
 ) -> NDArray[np.float64]:
     """Replace each run of ``gaps`` lasting at most ``longest`` [s] by a straight line.
 
     The line joins the means of the samples within ``support`` [s] before and after the run
     (at least the one neighbour each side), so that noise on a single neighbour does not tilt
-    it. Runs at the ends of the log or longer than ``longest`` are left as they are.
+    it. Runs longer than ``longest`` are left as they are, and so are runs at the ends of the
+    log unless ``ends`` is true: then they hold the mean of their one neighbouring side.
 
     Examples
     --------
@@ -305,20 +307,56 @@ def bridge_gaps(
     >>> gaps = np.array([0, 1, 1, 0, 0, 0], bool)
     >>> bridge_gaps(t, np.array([0.0, 9, 9, 3, 4, 5]), gaps, longest=5).tolist()
     [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]
+    >>> gaps = np.array([1, 1, 0, 0, 0, 1], bool)
+    >>> bridge_gaps(t, np.array([9.0, 9, 2, 3, 4, 9]), gaps, longest=5, ends=True).tolist()
+    [2.0, 2.0, 2.0, 3.0, 4.0, 4.0]
     """
     out = values.copy()
+    if not gaps.any() or gaps.all():
+        return out
+    change = np.flatnonzero(np.diff(gaps.astype(np.int8))) + 1
+    edges = np.concatenate(([0], change, [gaps.size]))
+    for a, b in itertools.pairwise(edges):
+        if not gaps[a] or t[b - 1] - t[a] > longest:
+            continue
+        if (a == 0 or b == gaps.size) and not ends:
+            continue
+        sides_t, sides_v = [], []
+        if a > 0:
+            a0 = min(int(np.searchsorted(t, t[a - 1] - support, side="left")), a - 1)
+            keep = ~gaps[a0:a]
+            sides_t.append(t[a0:a][keep].mean())
+            sides_v.append(values[a0:a][keep].mean())
+        if b < gaps.size:
+            b1 = max(int(np.searchsorted(t, t[b] + support, side="right")), b + 1)
+            keep = ~gaps[b:b1]
+            sides_t.append(t[b:b1][keep].mean())
+            sides_v.append(values[b:b1][keep].mean())
+        out[a:b] = np.interp(t[a:b], sides_t, sides_v)
+    return out
+
+
+def bridged_runs(
+    t: NDArray[np.float64], gaps: NDArray[np.bool_], *, longest: float
+) -> NDArray[np.bool_]:
+    """The samples of the runs of ``gaps`` that :func:`bridge_gaps` bridges (``ends=False``):
+    runs inside the log lasting at most ``longest`` [s].
+
+    Examples
+    --------
+    >>> t = np.arange(8.0)
+    >>> gaps = np.array([1, 0, 1, 1, 0, 1, 1, 1], bool)
+    >>> bridged_runs(t, gaps, longest=5).astype(int).tolist()
+    [0, 0, 1, 1, 0, 0, 0, 0]
+    """
+    out = np.zeros(gaps.size, dtype=bool)
     if not gaps.any():
         return out
     change = np.flatnonzero(np.diff(gaps.astype(np.int8))) + 1
     edges = np.concatenate(([0], change, [gaps.size]))
     for a, b in itertools.pairwise(edges):
-        if not gaps[a] or a == 0 or b == gaps.size or t[b - 1] - t[a] > longest:
-            continue
-        a0 = min(int(np.searchsorted(t, t[a - 1] - support, side="left")), a - 1)
-        b1 = max(int(np.searchsorted(t, t[b] + support, side="right")), b + 1)
-        left, right = values[a0:a][~gaps[a0:a]], values[b:b1][~gaps[b:b1]]
-        ta, tb = t[a0:a][~gaps[a0:a]], t[b:b1][~gaps[b:b1]]
-        out[a:b] = np.interp(t[a:b], [ta.mean(), tb.mean()], [left.mean(), right.mean()])
+        if gaps[a] and a > 0 and b < gaps.size and t[b - 1] - t[a] <= longest:
+            out[a:b] = True
     return out
 
 
@@ -366,6 +404,7 @@ def estimate_forces(
     min_sin_elbow: float = 0.05,
     bridge_reversals: float = 0.5,
     channel_delay: Mapping[str, float] | None = None,
+    reversal_band: float | Mapping[str, float] | None = None,
 ) -> ForceEstimate:
     """Estimate the external joint torques and end-effector force from a log.
 
@@ -401,6 +440,14 @@ def estimate_forces(
         Delay [s] of each joint's torque channel behind its position, undone before anything
         else; default: the delays identification found (``[identification.joints.<j>]
         channel_delay`` of the model file), as the same logging set-up delays every log alike.
+    reversal_band
+        Motor speed [rad/s] (one for all joints, or per joint name) below which a joint's
+        friction counts as undetermined (:func:`reversal_mask`). Default, per joint: the larger
+        of the friction model's ``zero_velocity`` and the slowest steady speed identification
+        measured friction at (:func:`identified_slowest_speeds`): below it the friction law is
+        an extrapolation, and how it blends through zero (stiction, creep) is not observable
+        in constant-speed passes. Too wide costs a few flagged samples; too narrow lets a
+        wrong friction value into the estimate.
 
     Returns
     -------
@@ -432,9 +479,25 @@ def estimate_forces(
     flag = np.zeros(n, dtype=np.int64)
     all_passes: list[tuple[Pass, ...]] = []
     rests: list[NDArray[np.bool_]] = []
+    if reversal_band is None:
+        slowest = identified_slowest_speeds(model)
+        bands = {
+            j.name: max(model.joints[j.name].friction.zero_velocity, slowest.get(j.name, 0.0))
+            for j in robot.joints
+        }
+    elif isinstance(reversal_band, Mapping):
+        bands = {
+            j.name: float(reversal_band.get(j.name, model.joints[j.name].friction.zero_velocity))
+            for j in robot.joints
+        }
+    else:
+        bands = {j.name: float(reversal_band) for j in robot.joints}
+    for name, band in bands.items():
+        if not (math.isfinite(band) and band >= 0):
+            raise InputError(f"reversal band of joint {name} must be >= 0, got {band!r} rad/s")
     for k, joint in enumerate(robot.joints):
         jm = model.joints[joint.name]
-        w0 = max(jm.friction.zero_velocity, 1e-9)
+        w0 = max(bands[joint.name], 1e-9)
         rest = np.zeros(n, dtype=bool)
         if jm.friction.coulomb_positive > 0 or jm.friction.coulomb_negative > 0:
             rest = reversal_mask(log.t, velocity[:, k], band=w0, window=window)
@@ -451,10 +514,20 @@ def estimate_forces(
         )
 
     def smooth(x: NDArray[np.float64], k: int) -> NDArray[np.float64]:
-        if bridge_reversals > 0:
-            x = bridge_gaps(log.t, x, rests[k], longest=bridge_reversals, support=window)
         try:
-            return lowpass(log.t, x, cutoff=cutoff)
+            if bridge_reversals <= 0 or not rests[k].any():
+                return lowpass(log.t, x, cutoff=cutoff)
+            gaps = rests[k]
+            bridged = bridge_gaps(log.t, x, gaps, longest=bridge_reversals, support=window)
+            y = lowpass(log.t, bridged, cutoff=cutoff)
+            held = gaps & ~bridged_runs(log.t, gaps, longest=bridge_reversals)
+            if held.any():
+                # Stretches too long to bridge (a hold, the log's ends) keep the model's value,
+                # flagged; they must not leak into sound samples through the filter, which
+                # therefore sees them filled from their sound neighbours.
+                filled = bridge_gaps(log.t, x, gaps, longest=math.inf, support=window, ends=True)
+                y = np.where(held, y, lowpass(log.t, filled, cutoff=cutoff))
+            return y
         except InputError as exc:
             raise InputError(exc.message, path=log.path) from None
 
@@ -545,6 +618,31 @@ def estimate_forces(
         cutoff=float("nan") if method == "raw" else float(cutoff),
         warnings=tuple(warnings),
     )
+
+
+def identified_slowest_speeds(model: Model) -> dict[str, float]:
+    """Per joint, the slowest steady motor speed [rad/s] identification measured friction at
+    (the smallest ``|speed|`` of ``[identification.joints.<j>] speeds`` in the model's notes);
+    joints without such notes are left out.
+
+    Examples
+    --------
+    >>> notes = {"joints": {"a": {"speeds": [2.0, -0.5, 1.0]}}}
+    >>> m = Model(robot=None, joints={}, notes=notes)  # only the notes matter here
+    >>> identified_slowest_speeds(m)
+    {'a': 0.5}
+    """
+    out: dict[str, float] = {}
+    joints = model.notes.get("joints", {})
+    if isinstance(joints, Mapping):
+        for name, entry in joints.items():
+            speeds = entry.get("speeds") if isinstance(entry, Mapping) else None
+            if isinstance(speeds, list | tuple):
+                values = [abs(float(v)) for v in speeds if isinstance(v, int | float)]
+                values = [v for v in values if math.isfinite(v) and v > 0]
+                if values:
+                    out[str(name)] = min(values)
+    return out
 
 
 def identified_delays(model: Model) -> dict[str, float]:

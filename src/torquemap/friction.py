@@ -387,15 +387,30 @@ def fit_friction(
     used, fstat = False, math.nan
     enough = _distinct(np.abs(w[pos])) >= 3 and _distinct(np.abs(w[neg])) >= 3
     if stribeck != "never" and enough and w.size >= 8:
-        best = None
-        lo, hi = float(np.min(np.abs(w))), float(np.max(np.abs(w)))
-        for vs in np.geomspace(lo / 2.0, hi, 40):
+        from scipy import optimize
+
+        def stribeck_fit(vs: float) -> tuple[NDArray[np.float64], float]:
             e = np.exp(-((w / vs) ** 2))
-            c2, rss2 = _linear_fit(w, tau, [*basis, pos * e, -(neg * e)])
-            if best is None or rss2 < best[1]:
-                best = (c2, rss2, float(vs))
-        assert best is not None
-        c2, rss2, vs = best
+            return _linear_fit(w, tau, [*basis, pos.astype(float) * e, -neg.astype(float) * e])
+
+        lo, hi = float(np.min(np.abs(w))), float(np.max(np.abs(w)))
+        grid = np.geomspace(lo / 2.0, hi, 40)
+        rss_grid = [stribeck_fit(float(vs))[1] for vs in grid]
+        i = int(np.argmin(rss_grid))
+        # variable projection: the grid brackets the best Stribeck velocity, a bounded scalar
+        # search on its logarithm refines it (the linear terms are refitted at every trial)
+        bounds = (math.log(grid[max(i - 1, 0)]), math.log(grid[min(i + 1, grid.size - 1)]))
+        vs = float(grid[i])
+        if bounds[1] > bounds[0]:
+            res = optimize.minimize_scalar(
+                lambda x: stribeck_fit(math.exp(x))[1],
+                bounds=bounds,
+                method="bounded",
+                options={"xatol": 1e-4},
+            )
+            if float(res.fun) <= rss_grid[i]:
+                vs = math.exp(float(res.x))
+        c2, rss2 = stribeck_fit(vs)
         dof = w.size - 6
         fstat = ((rss - rss2) / 3.0) / max(rss2 / dof, np.finfo(float).tiny) if dof > 0 else 0.0
         passes_test = dof > 0 and fstat > stats.f.ppf(1.0 - significance, 3, dof)

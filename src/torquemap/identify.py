@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from torquemap.errors import InputError
-from torquemap.filters import Derivatives, differentiate
+from torquemap.filters import Derivatives, differentiate, smooth_as_acceleration
 from torquemap.friction import (
     FrictionFit,
     InertiaFit,
@@ -410,11 +410,20 @@ def _identify_joint(
         acc, y, elbow = [], [], []
         for li, mask in ramps:
             d = derivs[li][k]
-            tau = logs[li].motor_torque[mask, k] + lag * rates[li][mask]
-            w = d.velocity[mask]
-            pd = pdtv_torque(d.position[mask], pdtv, velocity=w)
+            if not mask.any():
+                acc.append(d.acceleration[mask])
+                y.append(d.acceleration[mask])
+                if elbow_k is not None:
+                    elbow.append(logs[li].q[mask, elbow_k])
+                continue
+            tau = logs[li].motor_torque[:, k] + lag * rates[li]
+            rest = tau - friction_torque(d.velocity, friction)
+            rest -= pdtv_torque(d.position, pdtv, velocity=d.velocity)
+            # the differentiated acceleration is the true one smoothed over the window: smooth
+            # the torque alike, or the fit is biased at every ramp's start and end
+            rest = smooth_as_acceleration(logs[li].t, rest, window=window)
             acc.append(d.acceleration[mask])
-            y.append(tau - friction_torque(w, friction) - pd)
+            y.append(rest[mask])
             if elbow_k is not None:
                 elbow.append(logs[li].q[mask, elbow_k])
         return fit_inertia(

@@ -46,6 +46,15 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         help="-3 dB width of each position-domain notch [CPR] (paper method, default 0.5)",
     )
     p.add_argument(
+        "--reversal-band",
+        type=float,
+        default=None,
+        metavar="RAD_S",
+        help="motor speed [rad/s] below which friction counts as undetermined (bridged, "
+        "flagged); default per joint: the slowest speed identification measured friction at, "
+        "or the model's zero_velocity if larger",
+    )
+    p.add_argument(
         "--figure",
         metavar="FIG.png",
         default=None,
@@ -70,6 +79,7 @@ def _estimate(args: argparse.Namespace) -> int:
         cutoff=args.cutoff,
         window=args.window,
         notch_width=args.notch_width,
+        reversal_band=args.reversal_band,
     )
     write_table(args.output, forces_columns(est))
     if args.figure:
