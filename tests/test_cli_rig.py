@@ -69,6 +69,7 @@ def test_simulate_rig_writes_motor_and_data(
         (["--pulse-step", "0"], "pulse step must be a positive integer"),
         (["--position-step", "0"], "position step must be a positive integer"),
         (["--readings", "0"], "readings must be a positive integer"),
+        (["--bias-readings", "0"], "bias readings must be a positive integer"),
     ],
 )
 def test_simulate_rig_bad_options(

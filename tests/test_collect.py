@@ -173,7 +173,13 @@ def test_resume_after_interruption_gives_the_same_file(tmp_path: Path, cut: int)
         return variable_reluctance_rig(rng=0, noise=0.0)
 
     spec = rig().motor_spec()  # type: ignore[attr-defined]
-    options = {"readings": 2, "pulse_step": 32, "positions": 16, "progress": False}
+    options = {
+        "readings": 2,
+        "bias_readings": 2,
+        "pulse_step": 32,
+        "positions": 16,
+        "progress": False,
+    }
     whole = tmp_path / "whole.csv"
     first = collect_characterisation(rig(), spec, whole, **options)  # type: ignore[arg-type]
     part = tmp_path / "part.csv"
@@ -268,3 +274,27 @@ def test_tables_validation_and_npz(tmp_path: Path) -> None:
     (tmp_path / "junk.npz").write_text("junk")
     with pytest.raises(InputError, match="cannot read tables"):
         read_tables_npz(tmp_path / "junk.npz", SPEC)
+
+
+@pytest.mark.parametrize(("bias_readings", "expected"), [(None, 30), (7, 7)])
+def test_bias_is_averaged_over_its_own_readings(
+    tmp_path: Path, bias_readings: int | None, expected: int
+) -> None:
+    # every reading is counted: per target, the bias readings, then `readings` per level
+    counter = InterruptingRig(FakeRig(), limit=10**9)
+    result = collect_characterisation(
+        counter,  # type: ignore[arg-type]
+        SPEC,
+        tmp_path / "d.csv",
+        readings=3,
+        bias_readings=bias_readings,
+        pulse_step=50,
+        positions=2,
+        progress=False,
+    )
+    assert result.saturated_targets == 0
+    assert counter.count == 2 * expected + 3 * result.rows  # default: 10 x readings
+    with pytest.raises(ValueError, match="bias_readings must be >= 1"):
+        collect_characterisation(
+            FakeRig(), SPEC, tmp_path / "e.csv", bias_readings=0, progress=False
+        )

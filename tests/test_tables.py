@@ -257,3 +257,48 @@ def test_read_data_errors(tmp_path) -> None:  # type: ignore[no-untyped-def]
     write_table(f, {"position": [0, 1], "pulse_width": [0, 10], "torque": [0.0, 1.0]})
     d = read_data(f, spec, kind="characterisation")
     assert_array_equal(d.level, [0, 10])
+
+
+def _reference_fill(grid: np.ndarray, limit: float, levels: np.ndarray) -> np.ndarray:
+    """fill_voids written out cell by cell: every pass, each void's gap along the levels (bounded)
+    and along the cyclic positions, then the voids of the shortest gap filled."""
+    out = grid.copy()
+    n, w = out.shape
+    while np.isnan(out).any():
+        cand = {}
+        for p, c in zip(*np.nonzero(np.isnan(out)), strict=True):
+            lo = next((j for j in range(c - 1, -1, -1) if not np.isnan(out[p, j])), None)
+            hi = next((j for j in range(c + 1, w) if not np.isnan(out[p, j])), None)
+            lv = ll = None
+            if lo is not None and hi is not None:
+                ll = hi - lo - 1
+                f = (levels[c] - levels[lo]) / (levels[hi] - levels[lo])
+                lv = out[p, lo] + f * (out[p, hi] - out[p, lo])
+            back = next((k for k in range(1, n + 1) if not np.isnan(out[(p - k) % n, c])), None)
+            fwd = next((k for k in range(1, n + 1) if not np.isnan(out[(p + k) % n, c])), None)
+            pv = pl = None
+            if back is not None and fwd is not None and back + fwd - 1 <= limit:
+                pl = back + fwd - 1
+                a, b = out[(p - back) % n, c], out[(p + fwd) % n, c]
+                pv = a + (b - a) * back / (back + fwd)
+            cand[(p, c)] = (ll, lv, pl, pv)
+        lengths = [x for v in cand.values() for x in (v[0], v[2]) if x is not None]
+        if not lengths:
+            break
+        s = min(lengths)
+        for (p, c), (ll, lv, pl, pv) in cand.items():
+            vals = [v for length, v in ((ll, lv), (pl, pv)) if length == s]
+            if vals:
+                out[p, c] = float(np.mean(vals))
+    return out
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 10_000), st.floats(0.1, 0.7), st.sampled_from([1.0, 2.0, np.inf]))
+def test_fill_voids_matches_a_cell_by_cell_reference(seed: int, share: float, limit: float) -> None:
+    rng = np.random.default_rng(seed)
+    grid = rng.normal(size=(9, 7))
+    grid[rng.random(grid.shape) < share] = np.nan
+    levels = np.cumsum(rng.uniform(0.5, 2.0, 7))
+    got = fill_voids(grid, max_position_gap=None if np.isinf(limit) else int(limit), levels=levels)
+    assert_allclose(got, _reference_fill(grid, limit, levels), rtol=1e-12, atol=1e-12)

@@ -599,7 +599,8 @@ def estimate_forces(
         if rests[k].any():
             warnings.append(
                 f"joint {joint.name}: {np.mean(rests[k]):.1%} of samples at or near zero "
-                "velocity, where friction is undetermined (flagged)"
+                f"velocity (motor slower than {bands[joint.name]:.3g} rad/s, the reversal band), "
+                "where friction is undetermined (flagged)"
             )
     return ForceEstimate(
         t=log.t,

@@ -28,6 +28,12 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     )
     collect.add_argument("--readings", type=int, default=10, help="readings per row (default 10)")
     collect.add_argument(
+        "--bias-readings",
+        type=int,
+        default=None,
+        help="readings averaged for the sensor bias at each position (default 10x --readings)",
+    )
+    collect.add_argument(
         "--step", type=int, default=4, help="pulse-width or command step (default 4)"
     )
     collect.add_argument(
@@ -49,6 +55,7 @@ def _collect(args: argparse.Namespace) -> int:
         seed=args.seed,
         tables=args.tables,
         readings=args.readings,
+        bias_readings=args.bias_readings,
         step=args.step,
         position_step=args.position_step,
         progress=not args.no_progress,

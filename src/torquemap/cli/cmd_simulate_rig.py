@@ -26,6 +26,12 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         "--ramping", choices=("narrow", "wide"), default="wide", help="ramping (default wide)"
     )
     rig.add_argument("--readings", type=int, default=10, help="readings per row (default 10)")
+    rig.add_argument(
+        "--bias-readings",
+        type=int,
+        default=None,
+        help="readings averaged for the sensor bias at each position (default 10x --readings)",
+    )
     rig.add_argument("--pulse-step", type=int, default=4, help="pulse-width step (default 4)")
     rig.add_argument(
         "--position-step", type=int, default=4, help="table positions between targets (default 4)"
@@ -43,6 +49,7 @@ def _rig(args: argparse.Namespace) -> int:
         seed=args.seed,
         ramping=args.ramping,
         readings=args.readings,
+        bias_readings=args.bias_readings,
         pulse_step=args.pulse_step,
         position_step=args.position_step,
         progress=not args.no_progress,

@@ -6,7 +6,8 @@ target, with all phases off, it measures the force-sensor bias. The inner loop s
 (the base pulse width for characterisation, the torque command for verification) from 0 up to
 full scale or until the sensor saturates; at each level it consults the ramping function (or the
 tables) at the CURRENT position, applies the per-phase actuations, lets the position settle,
-averages ``readings`` sensor readings, subtracts the bias and appends the row, stored under the
+averages ``readings`` sensor readings, subtracts the bias (itself the mean of ``bias_readings``,
+by default ten times as many, since its error is common to the whole block) and appends the row, stored under the
 current position. If the position moves while settling (compliance), the actuation is looked up
 again at the new position before measuring (up to 8 times), and the row is stored under the
 position the actuation was looked up at, so every row satisfies the DATA.csv contract.
@@ -37,6 +38,8 @@ from torquemap.linearize.motor import MotorSpec, ramped_actuation
 
 CHARACTERISATION_COLUMNS = ("position", "pulse_width", "torque")
 VERIFICATION_COLUMNS = ("position", "command", "torque")
+#: Default bias readings per target, in multiples of the readings per row.
+BIAS_READINGS_FACTOR = 10
 
 
 @runtime_checkable
@@ -203,6 +206,7 @@ def _collect(
     levels: list[int],
     actuation: Callable[[int, int], Sequence[int]],
     readings: int,
+    bias_readings: int | None,
     positions: int | None,
     saturation: float | None,
     progress: bool,
@@ -210,6 +214,9 @@ def _collect(
     start = time.perf_counter()
     if readings < 1:
         raise ValueError(f"readings must be >= 1, got {readings}")
+    bias_count = BIAS_READINGS_FACTOR * readings if bias_readings is None else bias_readings
+    if bias_count < 1:
+        raise ValueError(f"bias_readings must be >= 1, got {bias_count}")
     path = Path(out_csv)
     if not path.parent.exists():
         raise InputError("output folder does not exist", path=path.parent)
@@ -235,7 +242,7 @@ def _collect(
         task = bar.add_task("collecting", total=int(targets.size), completed=done)
         for target in targets[done:]:
             _move_to(rig, int(target), n, off, max_steps=100 * n)
-            bias = float(np.mean([rig.read_torque() for _ in range(readings)]))
+            bias = float(np.mean([rig.read_torque() for _ in range(bias_count)]))
             for level in levels:
                 position = rig.read_position()
                 for _ in range(8):
@@ -311,6 +318,7 @@ def collect_characterisation(
     out_csv: str | os.PathLike[str],
     *,
     readings: int = 10,
+    bias_readings: int | None = None,
     pulse_step: int = 1,
     positions: int | None = None,
     saturation: float | None = None,
@@ -329,6 +337,10 @@ def collect_characterisation(
         resumed if it exists.
     readings
         Sensor readings averaged per row.
+    bias_readings
+        Sensor readings averaged for the bias at each target (default ``10 * readings``). The
+        bias is subtracted from every row of the target's block, so its error is common to all
+        of them and no later averaging removes it: it is measured more precisely than a row.
     pulse_step
         Step of the base pulse width (``0, k, 2k, ...`` and finally ``actuation_max``).
     positions
@@ -358,6 +370,7 @@ def collect_characterisation(
         levels=_levels(spec.actuation_max, pulse_step, "pulse_step"),
         actuation=lambda level, position: ramped_actuation(level, position, ramp).tolist(),
         readings=readings,
+        bias_readings=bias_readings,
         positions=positions,
         saturation=saturation,
         progress=progress,
@@ -389,6 +402,7 @@ def collect_verification(
     out_csv: str | os.PathLike[str],
     *,
     readings: int = 10,
+    bias_readings: int | None = None,
     command_step: int = 1,
     positions: int | None = None,
     saturation: float | None = None,
@@ -425,6 +439,7 @@ def collect_verification(
             :, position % spec.positions_per_cycle, level % width
         ].tolist(),
         readings=readings,
+        bias_readings=bias_readings,
         positions=positions,
         saturation=saturation,
         progress=progress,

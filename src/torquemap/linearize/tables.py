@@ -286,27 +286,35 @@ def _axis_fill(
     """Linear interpolation of every NaN along the last axis, and its gap length (inf if open).
 
     ``coords`` (non-cyclic only) are the coordinates of the columns; default their indices.
+    On a cyclic axis a gap may wrap around the end: the neighbours are then taken from the
+    other end, one period away.
     """
     n = grid.shape[-1]
-    work = np.concatenate([grid, grid, grid], axis=-1) if cyclic else grid
-    offset = n if cyclic else 0
-    prev, nxt = _neighbours(~np.isnan(work))
-    prev, nxt = prev[..., offset : offset + n], nxt[..., offset : offset + n]
-    m = work.shape[-1]
-    bounded = (prev >= 0) & (nxt < m)
-    pc = np.clip(prev, 0, m - 1)
-    nc = np.clip(nxt, 0, m - 1)
-    lo = np.take_along_axis(work, pc, axis=-1)
-    hi = np.take_along_axis(work, nc, axis=-1)
+    valid = ~np.isnan(grid)
+    prev, nxt = _neighbours(valid)
+    if cyclic:
+        last = prev[..., -1:]
+        first = nxt[..., :1]
+        prev = np.where(prev < 0, last - n, prev)  # still < 0 where the row has no data
+        nxt = np.where(nxt >= n, first + n, nxt)  # still >= n ... where the row has no data
+        bounded = valid.any(axis=-1, keepdims=True) & np.ones_like(valid)
+    else:
+        bounded = (prev >= 0) & (nxt < n)
+    pc = np.mod(prev, n) if cyclic else np.clip(prev, 0, n - 1)
+    nc = np.mod(nxt, n) if cyclic else np.clip(nxt, 0, n - 1)
+    lo = np.take_along_axis(grid, pc, axis=-1)
+    hi = np.take_along_axis(grid, nc, axis=-1)
     x: NDArray[np.float64]
-    if coords is None:
-        x = (np.arange(n) + offset).astype(np.float64)
-        xp, xn = pc.astype(np.float64), nc.astype(np.float64)
+    if coords is None or cyclic:
+        x = np.arange(n, dtype=np.float64)
+        xp = prev.astype(np.float64) if cyclic else pc.astype(np.float64)
+        xn = nxt.astype(np.float64) if cyclic else nc.astype(np.float64)
     else:
         x, xp, xn = coords, coords[pc], coords[nc]
     span = np.where(xn > xp, xn - xp, 1)
     value = lo + (hi - lo) * (x - xp) / span
-    length = np.where(bounded, (nc - pc - 1).astype(np.float64), np.inf)
+    gap = (nxt - prev - 1) if cyclic else (nc - pc - 1)
+    length = np.where(bounded, gap.astype(np.float64), np.inf)
     return value, length
 
 
@@ -347,23 +355,35 @@ def fill_voids(
     out = np.array(grid, dtype=np.float64)
     coords = None if levels is None else np.asarray(levels, dtype=np.float64)
     limit = np.inf if max_position_gap is None else float(max_position_gap)
-    while True:
-        missing = np.isnan(out)
-        if not missing.any():
-            return out
-        v_level, l_level = _axis_fill(out, cyclic=False, coords=coords)
-        v_pos_t, l_pos_t = _axis_fill(out.T, cyclic=True)
-        v_pos, l_pos = v_pos_t.T, l_pos_t.T
-        l_pos = np.where(l_pos <= limit, l_pos, np.inf)
+    missing = np.isnan(out)
+    v_level = np.zeros_like(out)
+    l_level = np.full(out.shape, np.inf)
+    v_pos = np.zeros_like(out)
+    l_pos = np.full(out.shape, np.inf)
+
+    def measure(rows: NDArray[np.int64], cols: NDArray[np.int64]) -> None:
+        # gaps change only in the rows and columns where cells were just filled
+        if rows.size:
+            v, g = _axis_fill(out[rows], cyclic=False, coords=coords)
+            v_level[rows], l_level[rows] = v, g
+        if cols.size:
+            v, g = _axis_fill(np.ascontiguousarray(out[:, cols].T), cyclic=True)
+            v_pos[:, cols], l_pos[:, cols] = v.T, np.where(g <= limit, g, np.inf).T
+
+    measure(np.flatnonzero(missing.any(axis=1)), np.flatnonzero(missing.any(axis=0)))
+    while missing.any():
         length = np.where(missing, np.minimum(l_level, l_pos), np.inf)
         shortest = length.min()
         if not np.isfinite(shortest):
-            return out
+            break
         take = missing & (length == shortest)
         both = take & (l_level == shortest) & (l_pos == shortest)
         value = np.where(l_level == shortest, v_level, v_pos)
         value = np.where(both, 0.5 * (v_level + v_pos), value)
         out[take] = value[take]
+        missing &= ~take
+        measure(np.flatnonzero(take.any(axis=1)), np.flatnonzero(take.any(axis=0)))
+    return out
 
 
 def monotonic_filter(table: ArrayLike, *, command_bits: int | None = None) -> NDArray[np.int64]:

@@ -338,6 +338,7 @@ def collect_on_sim(
     seed: int = 0,
     tables: str | os.PathLike[str] | None = None,
     readings: int = 10,
+    bias_readings: int | None = None,
     step: int = 4,
     position_step: int = 4,
     progress: bool = True,
@@ -358,6 +359,8 @@ def collect_on_sim(
         TABLES.npz (``phase_1 .. phase_m``, shape ``(P, 2**bits)``) for a verification run.
     readings
         Readings averaged per row.
+    bias_readings
+        Readings averaged for the bias at each target (default ``10 * readings``).
     step
         Pulse-width step (characterisation) or command step (verification).
     position_step
@@ -395,6 +398,8 @@ def collect_on_sim(
         raise InputError(f"step must be >= 1, got {step}")
     if readings < 1:
         raise InputError(f"readings must be >= 1, got {readings}")
+    if bias_readings is not None and bias_readings < 1:
+        raise InputError(f"bias readings must be >= 1, got {bias_readings}")
     positions = _positions(spec, position_step)
     if tables is None:
         return collect_characterisation(
@@ -402,6 +407,7 @@ def collect_on_sim(
             spec,
             out_csv,
             readings=readings,
+            bias_readings=bias_readings,
             pulse_step=step,
             positions=positions,
             progress=progress,
@@ -412,6 +418,7 @@ def collect_on_sim(
         read_tables_npz(tables, spec),
         out_csv,
         readings=readings,
+        bias_readings=bias_readings,
         command_step=step,
         positions=positions,
         progress=progress,
@@ -425,6 +432,7 @@ def write_rig_data(
     seed: int = 0,
     ramping: RampKind = "wide",
     readings: int = 10,
+    bias_readings: int | None = None,
     pulse_step: int = 4,
     position_step: int = 4,
     progress: bool = False,
@@ -446,6 +454,8 @@ def write_rig_data(
         Ramping function written into motor.toml and used for the collection.
     readings
         Readings averaged per row.
+    bias_readings
+        Readings averaged for the bias at each target (default ``10 * readings``).
     pulse_step
         Pulse-width step.
     position_step
@@ -470,6 +480,10 @@ def write_rig_data(
         raise InputError(f"pulse step must be a positive integer, got {pulse_step!r}")
     if isinstance(readings, bool) or not isinstance(readings, int) or readings < 1:
         raise InputError(f"readings must be a positive integer, got {readings!r}")
+    if bias_readings is not None and (
+        isinstance(bias_readings, bool) or not isinstance(bias_readings, int) or bias_readings < 1
+    ):
+        raise InputError(f"bias readings must be a positive integer, got {bias_readings!r}")
     rig = sim_rig(motor, rng=seed)
     spec = rig.motor_spec(ramping=ramping)
     positions = _positions(spec, position_step)
@@ -489,6 +503,7 @@ def write_rig_data(
                 spec,
                 partial,
                 readings=readings,
+                bias_readings=bias_readings,
                 pulse_step=pulse_step,
                 positions=positions,
                 progress=progress,
