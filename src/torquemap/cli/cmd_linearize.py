@@ -58,6 +58,11 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     build.add_argument(
         "--no-monotonic", action="store_true", help="skip the monotonic filter (paper 5.6)"
     )
+    build.add_argument(
+        "--no-denoise",
+        action="store_true",
+        help="interp: use the rows as measured, no low-rank denoising of the collection's blocks",
+    )
     build.set_defaults(handler=_build)
 
     evaluate = sub.add_parser(
@@ -104,6 +109,7 @@ def _build(args: argparse.Namespace) -> int:
         command_scaling=args.command_scaling,
         method=args.method,
         monotonic=not args.no_monotonic,
+        denoise=not args.no_denoise,
         log_curvature=args.log_curvature,
         actuation_bits=args.actuation_bits,
         path=args.data,
@@ -119,6 +125,8 @@ def _build(args: argparse.Namespace) -> int:
         f"cells filled by interpolation {tables.voids_filled}, cells with several rows "
         f"{tables.median_cells}, entries raised by the monotonic filter {tables.monotonic_fixes}"
     )
+    if tables.denoise_rank:
+        print(f"rows denoised: low-rank fit of the collection's blocks, rank {tables.denoise_rank}")
     print("wrote " + ", ".join(written))
     return 0
 

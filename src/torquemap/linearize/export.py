@@ -73,6 +73,7 @@ def npz_arrays(tables: TableSet) -> dict[str, NDArray[Any]]:
     for name in _META:
         value = getattr(tables, name)
         out[name] = np.asarray(list(value) if isinstance(value, tuple) else value)
+    out["denoise_rank"] = np.asarray(tables.denoise_rank)  # optional on reading (added later)
     return out
 
 
@@ -134,6 +135,7 @@ def load_tables(path: str | os.PathLike[str]) -> TableSet:
             voids_filled=int(meta["voids_filled"]),
             median_cells=int(meta["median_cells"]),
             monotonic_fixes=int(meta["monotonic_fixes"]),
+            denoise_rank=int(data["denoise_rank"].item()) if "denoise_rank" in data else 0,
         )
     except (TypeError, ValueError) as exc:
         raise InputError(f"tables file has malformed contents ({exc})", path=p) from None

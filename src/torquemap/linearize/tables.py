@@ -41,6 +41,7 @@ from scipy.optimize import isotonic_regression
 
 from torquemap.errors import InputError
 from torquemap.io import numeric_column, read_table
+from torquemap.linearize.denoise import denoise_blocks
 from torquemap.linearize.motor import MotorSpec
 
 CommandScaling = Literal["linear", "log"]
@@ -118,6 +119,9 @@ class TableSet:
         Cells where several rows landed (median for ``"paper"``, mean for ``"interp"``).
     monotonic_fixes
         Table entries raised by the monotonic filter.
+    denoise_rank
+        Singular values kept by :func:`torquemap.linearize.denoise.denoise_blocks` (0: the
+        rows were used as measured).
     """
 
     phases: NDArray[np.int64]
@@ -139,6 +143,7 @@ class TableSet:
     voids_filled: int
     median_cells: int
     monotonic_fixes: int
+    denoise_rank: int = 0
 
     @property
     def command_max(self) -> int:
@@ -668,6 +673,7 @@ def build_tables(
     log_curvature: float = DEFAULT_LOG_CURVATURE,
     actuation_bits: int | None = None,
     max_gap: int | None = None,
+    denoise: bool = True,
     path: str | os.PathLike[str] | None = None,
 ) -> TableSet:
     """Build the per-phase torque-linearisation tables from characterisation data (paper §4.3).
@@ -700,6 +706,10 @@ def build_tables(
     max_gap
         Longest run of positions without data that may be interpolated across
         (default ``P // (4 m)``).
+    denoise
+        ``"interp"`` only: replace the rows by the low-rank fit of their (block x level) matrix
+        (:func:`torquemap.linearize.denoise.denoise_blocks`), when the row order holds the
+        collection's blocks. The paper's method always uses the rows as measured.
     path
         The data file, named in error messages.
 
@@ -747,6 +757,10 @@ def build_tables(
     _check_phases(spec, pos, pw, tau, floor, src)
     _check_coverage(spec, pos, gap, src)
 
+    rank = 0
+    if denoise and method == "interp":
+        cleaned = denoise_blocks(pw, tau)
+        tau, rank = cleaned.torque, cleaned.rank
     forward, levels, voids, averaged = _forward_model(spec, pos, pw, tau, gap)
     reach = np.nanmax(np.where(np.isnan(forward), -np.inf, forward), axis=1)
     if (reach <= floor).any():
@@ -813,6 +827,7 @@ def build_tables(
         voids_filled=voids,
         median_cells=averaged,
         monotonic_fixes=fixes,
+        denoise_rank=rank,
     )
 
 
