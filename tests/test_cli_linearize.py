@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from torquemap.cli.main import build_parser, main
-from torquemap.io import write_table, write_toml
+from torquemap.io import read_table, write_table, write_toml
 from torquemap.linearize.export import load_tables
 
 N = 48
@@ -187,3 +187,20 @@ def test_missing_output_folder_writes_nothing(
          "--c-header", f"{d}/nowhere/t.h"],
     )  # fmt: skip
     assert "output folder does not exist" in err
+
+
+def test_denoise_option(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    write_case(tmp_path)
+    data = tmp_path / "data.csv"
+    cols = read_table(data)
+    rng = np.random.default_rng(0)
+    cols["torque"] = np.asarray(cols["torque"]) + rng.normal(0.0, 0.01, len(cols["torque"]))
+    write_table(data, cols)
+    d = str(tmp_path)
+    args = ["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv"]
+    assert main([*args, "-o", f"{d}/a.npz"]) == 0
+    assert "rows denoised: low-rank fit of the collection's blocks, rank" in capsys.readouterr().out
+    assert load_tables(tmp_path / "a.npz").denoise_rank >= 1
+    assert main([*args, "-o", f"{d}/b.npz", "--no-denoise"]) == 0
+    assert "rows denoised" not in capsys.readouterr().out
+    assert load_tables(tmp_path / "b.npz").denoise_rank == 0
