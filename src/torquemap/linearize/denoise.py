@@ -6,7 +6,8 @@ sensor readings. Stacked as a matrix (blocks x levels), the torque is smooth in 
 and of low rank, while the sensor noise is spread over every singular value. Truncating the SVD
 at the optimal hard threshold for a matrix with unknown noise level (Gavish & Donoho, "The optimal
 hard threshold for singular values is 4/sqrt(3)", IEEE Trans. Inf. Theory 60(8), 2014) keeps the
-torque and drops most of the noise; no smoothing width is chosen by hand. Levels a block did not
+torque and drops most of the noise; the rank then grows while the residual still holds structure
+(neighbouring residuals correlated), so no smoothing width is chosen by hand. Levels a block did not
 reach (the sensor saturated) are imputed by iterating the truncated SVD with the measured entries
 held fixed, and only the measured entries are replaced.
 
@@ -83,10 +84,56 @@ def _blocks(level: NDArray[np.int64]) -> NDArray[np.int64] | None:
     return block.astype(np.int64)
 
 
+def _impute(
+    matrix: NDArray[np.float64],
+    measured: NDArray[np.bool_],
+    estimate: NDArray[np.float64],
+    rank: int,
+    iterations: int,
+    tol: float,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Rank-``rank`` fit with the unmeasured entries imputed (hard impute, warm started).
+    Returns (fit, estimate)."""
+    low = estimate
+    for _ in range(iterations):
+        u, sv, vt = np.linalg.svd(estimate, full_matrices=False)
+        low = (u[:, :rank] * sv[:rank]) @ vt[:rank]
+        change = float(np.linalg.norm((low - estimate)[~measured]))
+        estimate = np.where(measured, matrix, low)
+        if change <= tol * float(np.linalg.norm(estimate)):
+            break
+    return low, estimate
+
+
+def level_correlation(residual: NDArray[np.float64]) -> tuple[float, int]:
+    """Lag-one correlation of a (blocks x levels) residual along its last axis (NaN =
+    unmeasured), and the number of neighbouring pairs it rests on.
+
+    Examples
+    --------
+    >>> r = np.array([[1.0, 1.0, 1.0, 1.0], [-1.0, -1.0, -1.0, -1.0]])
+    >>> level_correlation(r)
+    (1.0, 6)
+    """
+    a, b = residual[:, :-1], residual[:, 1:]
+    ok = np.isfinite(a) & np.isfinite(b)
+    den = float(np.sqrt(np.sum(a[ok] ** 2) * np.sum(b[ok] ** 2)))
+    return (float(np.sum(a[ok] * b[ok])) / den if den > 0 else 0.0), int(ok.sum())
+
+
 def denoise_blocks(
-    level: ArrayLike, torque: ArrayLike, *, iterations: int = 200, tol: float = 1e-10
+    level: ArrayLike, torque: ArrayLike, *, iterations: int = 100, tol: float = 1e-9
 ) -> Denoised:
     """Replace each row's torque by the low-rank fit of the (block x level) matrix.
+
+    The rank starts at Gavish and Donoho's threshold (:func:`optimal_rank`, from the levels
+    every block reached) and grows until the residual holds no structure: sensor noise leaves
+    residuals uncorrelated from one level to the next and from one block to the next, while
+    torque the fit misses is smooth in both and correlates neighbours positively (a spectrum
+    alone cannot tell signal from noise near the noise level, for example the sharp phase
+    hand-over of narrow ramping). The first rank whose lag-one correlations along the levels
+    and along the blocks are both below ``2 / sqrt(pairs)`` is kept; when none up to half the
+    matrix's short side qualifies, the rows are left as measured.
 
     Parameters
     ----------
@@ -95,9 +142,10 @@ def denoise_blocks(
     torque
         Measured torque of each row [N m], shape (n,).
     iterations
-        Most imputation rounds (missing levels above a block's saturation).
+        Most imputation rounds per rank (levels above a block's saturation are imputed).
     tol
-        Stop when the imputed entries change by less than this, relative to the matrix norm.
+        Stop imputing when the imputed entries change by less than this, relative to the
+        matrix norm.
 
     Returns
     -------
@@ -128,23 +176,17 @@ def denoise_blocks(
     measured = np.isfinite(matrix)
     fill = np.nanmean(matrix, axis=0)
     estimate = np.where(measured, matrix, np.where(np.isfinite(fill), fill, 0.0)[None, :])
-    # the rank from the levels every block reached (imputed entries would add spurious rank),
-    # or, when too few are complete, from the first imputations
     complete = measured.all(axis=0)
-    rank = -1
     if complete.sum() >= MIN_LEVELS:
         sv = np.linalg.svd(matrix[:, complete], compute_uv=False)
-        rank = optimal_rank(sv, (nb, int(complete.sum())))
-    low = estimate
-    for it in range(iterations):
-        u, sv, vt = np.linalg.svd(estimate, full_matrices=False)
-        if rank < 0 or (it < 3 and complete.sum() < MIN_LEVELS):
-            rank = optimal_rank(sv, estimate.shape)
-        if rank == 0 or rank >= min(estimate.shape):
-            return Denoised(tau.copy(), 0, nb, "no singular value stands out of the noise")
-        low = (u[:, :rank] * sv[:rank]) @ vt[:rank]
-        change = float(np.linalg.norm((low - estimate)[~measured]))
-        estimate = np.where(measured, matrix, low)
-        if it >= 3 and change <= tol * float(np.linalg.norm(estimate)):
-            break
-    return Denoised(low[block, col], rank, nb)
+        start = optimal_rank(sv, (nb, int(complete.sum())))
+    else:
+        start = optimal_rank(np.linalg.svd(estimate, compute_uv=False), estimate.shape)
+    for rank in range(max(start, 1), min(estimate.shape) // 2 + 1):
+        low, estimate = _impute(matrix, measured, estimate, rank, iterations, tol)
+        residual = np.where(measured, matrix - low, np.nan)
+        along_levels = level_correlation(residual)
+        along_blocks = level_correlation(residual.T)
+        if all(n and rho <= 2.0 / np.sqrt(n) for rho, n in (along_levels, along_blocks)):
+            return Denoised(low[block, col], rank, nb)
+    return Denoised(tau.copy(), 0, nb, "the residual stays structured at every rank tried")
