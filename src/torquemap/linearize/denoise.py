@@ -122,7 +122,7 @@ def level_correlation(residual: NDArray[np.float64]) -> tuple[float, int]:
 
 
 def denoise_blocks(
-    level: ArrayLike, torque: ArrayLike, *, iterations: int = 100, tol: float = 1e-9
+    level: ArrayLike, torque: ArrayLike, *, iterations: int = 30, tol: float = 1e-6
 ) -> Denoised:
     """Replace each row's torque by the low-rank fit of the (block x level) matrix.
 
