@@ -3,9 +3,9 @@
 Run: ``.venv/bin/python benchmarks/linearize.py`` (about 6 minutes on 2 cores).
 
 For each joint: collect characterisation data on the simulated rig (every 4th pulse width, every
-4th table position, 10 readings a row, the bias of each position over 100, wide ramping) -> ``build_tables`` (both methods) ->
-collect a verification run through the tables on a rig with fresh sensor noise (every command,
-every 4th position) -> evaluate (paper Eq 1).
+4th table position, 10 readings a row, the bias of each position over 100, wide ramping) ->
+``build_tables`` (both methods) -> collect a verification run through the tables on a rig with
+fresh sensor noise (every command, every 4th position) -> evaluate (paper Eq 1).
 
 The FLOOR is the best APMD any table of the same widths could reach on that rig. What the
 force sensor sees, noise aside, when the motor sits at table position ``p`` with actuation

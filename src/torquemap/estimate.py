@@ -285,6 +285,13 @@ def reversal_mask(
     return np.cumsum(edges[:-1]) > 0
 
 
+def _gap_runs(gaps: NDArray[np.bool_]) -> list[tuple[int, int]]:
+    """``(start, stop)`` of every run of True in ``gaps``."""
+    change = np.flatnonzero(np.diff(gaps.astype(np.int8))) + 1
+    edges = np.concatenate(([0], change, [gaps.size]))
+    return [(int(a), int(b)) for a, b in itertools.pairwise(edges) if b > a and gaps[a]]
+
+
 def bridge_gaps(
     t: NDArray[np.float64],
     values: NDArray[np.float64],
@@ -312,14 +319,10 @@ def bridge_gaps(
     [2.0, 2.0, 2.0, 3.0, 4.0, 4.0]
     """
     out = values.copy()
-    if not gaps.any() or gaps.all():
+    if gaps.all():
         return out
-    change = np.flatnonzero(np.diff(gaps.astype(np.int8))) + 1
-    edges = np.concatenate(([0], change, [gaps.size]))
-    for a, b in itertools.pairwise(edges):
-        if not gaps[a] or t[b - 1] - t[a] > longest:
-            continue
-        if (a == 0 or b == gaps.size) and not ends:
+    for a, b in _gap_runs(gaps):
+        if t[b - 1] - t[a] > longest or ((a == 0 or b == gaps.size) and not ends):
             continue
         sides_t, sides_v = [], []
         if a > 0:
@@ -350,12 +353,8 @@ def bridged_runs(
     [0, 0, 1, 1, 0, 0, 0, 0]
     """
     out = np.zeros(gaps.size, dtype=bool)
-    if not gaps.any():
-        return out
-    change = np.flatnonzero(np.diff(gaps.astype(np.int8))) + 1
-    edges = np.concatenate(([0], change, [gaps.size]))
-    for a, b in itertools.pairwise(edges):
-        if gaps[a] and a > 0 and b < gaps.size and t[b - 1] - t[a] <= longest:
+    for a, b in _gap_runs(gaps):
+        if a > 0 and b < gaps.size and t[b - 1] - t[a] <= longest:
             out[a:b] = True
     return out
 

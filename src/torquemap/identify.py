@@ -409,13 +409,9 @@ def _identify_joint(
     def inertia_fit(pdtv: tuple[PdtvLine, ...], lag: float) -> InertiaFit:
         acc, y, elbow = [], [], []
         for li, mask in ramps:
-            d = derivs[li][k]
             if not mask.any():
-                acc.append(d.acceleration[mask])
-                y.append(d.acceleration[mask])
-                if elbow_k is not None:
-                    elbow.append(logs[li].q[mask, elbow_k])
                 continue
+            d = derivs[li][k]
             tau = logs[li].motor_torque[:, k] + lag * rates[li]
             rest = tau - friction_torque(d.velocity, friction)
             rest -= pdtv_torque(d.position, pdtv, velocity=d.velocity)
@@ -426,10 +422,11 @@ def _identify_joint(
             y.append(rest[mask])
             if elbow_k is not None:
                 elbow.append(logs[li].q[mask, elbow_k])
+        none = np.empty(0)
         return fit_inertia(
-            np.concatenate(acc),
-            np.concatenate(y),
-            elbow_angle=np.concatenate(elbow) if elbow_k is not None else None,
+            np.concatenate([none, *acc]),
+            np.concatenate([none, *y]),
+            elbow_angle=np.concatenate([none, *elbow]) if elbow_k is not None else None,
             joint=name,
         )
 

@@ -7,10 +7,11 @@ target, with all phases off, it measures the force-sensor bias. The inner loop s
 full scale or until the sensor saturates; at each level it consults the ramping function (or the
 tables) at the CURRENT position, applies the per-phase actuations, lets the position settle,
 averages ``readings`` sensor readings, subtracts the bias (itself the mean of ``bias_readings``,
-by default ten times as many, since its error is common to the whole block) and appends the row, stored under the
-current position. If the position moves while settling (compliance), the actuation is looked up
-again at the new position before measuring (up to 8 times), and the row is stored under the
-position the actuation was looked up at, so every row satisfies the DATA.csv contract.
+by default ten times as many, since its error is common to the whole block) and appends the
+row, stored under the current position. If the position moves while settling (compliance), the
+actuation is looked up again at the new position before measuring (up to 8 times), and the row
+is stored under the position the actuation was looked up at, so every row satisfies the DATA.csv
+contract.
 
 Rows are appended and flushed as they are measured. Run the same call again on the same file to
 resume: complete position blocks are kept, the last block (possibly cut short) is measured

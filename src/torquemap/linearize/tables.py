@@ -300,9 +300,9 @@ def _axis_fill(
     if cyclic:
         last = prev[..., -1:]
         first = nxt[..., :1]
-        prev = np.where(prev < 0, last - n, prev)  # still < 0 where the row has no data
-        nxt = np.where(nxt >= n, first + n, nxt)  # still >= n ... where the row has no data
-        bounded = valid.any(axis=-1, keepdims=True) & np.ones_like(valid)
+        prev = np.where(prev < 0, last - n, prev)  # wrap to the last valid cell, a period back
+        nxt = np.where(nxt >= n, first + n, nxt)  # wrap to the first, a period on
+        bounded = np.broadcast_to(valid.any(axis=-1, keepdims=True), valid.shape)
     else:
         bounded = (prev >= 0) & (nxt < n)
     pc = np.mod(prev, n) if cyclic else np.clip(prev, 0, n - 1)
