@@ -2,14 +2,20 @@
 
 The collection loop (:mod:`torquemap.linearize.collect`, the paper's Fig 12) measures one block
 of rows per target position: levels ``0, k, 2k, ...`` in order, each row the mean of a few noisy
-sensor readings. Stacked as a matrix (blocks x levels), the torque is smooth in both directions
-and of low rank, while the sensor noise is spread over every singular value. Truncating the SVD
-at the optimal hard threshold for a matrix with unknown noise level (Gavish & Donoho, "The optimal
-hard threshold for singular values is 4/sqrt(3)", IEEE Trans. Inf. Theory 60(8), 2014) keeps the
-torque and drops most of the noise; the rank then grows while the residual still holds structure
-(neighbouring residuals correlated), so no smoothing width is chosen by hand. Levels a block did not
-reach (the sensor saturated) are imputed by iterating the truncated SVD with the measured entries
-held fixed, and only the measured entries are replaced.
+sensor readings. Stacked as a matrix (blocks x levels), the motor's torque is smooth in both
+directions and of low rank, while the sensor noise is spread over every singular value: a
+truncated SVD keeps the torque and drops most of the noise. The rank is the smallest whose
+residual holds no structure (neighbouring residuals uncorrelated), so no smoothing width is
+chosen by hand.
+
+What the sensor reads is not the motor's torque but ``max(torque - friction, 0)``: zero until
+the torque overcomes the dead band and the friction, a knee whose pulse width moves from block
+to block, which no matrix of low rank holds. So the fit is censored (a Tobit model): a reading
+where the fit is negative only says that the torque there is at most zero, and is imputed like
+a level a block did not reach (the sensor saturated), by iterating the truncated SVD with the
+other readings held fixed; the rows get the fit clipped at zero. The knee then follows from the
+low-rank torque of every block instead of from the few noisy rows around it, which is where the
+relative deviation of the low commands is decided.
 
 The blocks are recognised from the row order of DATA.csv, which the collection writes: every
 block starts at level 0 and its levels increase. Data without that structure (rows shuffled,
@@ -23,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-#: Fewest blocks and levels for which the singular-value threshold is meaningful.
+#: Fewest blocks and levels for which a low-rank fit is meaningful.
 MIN_BLOCKS = 8
 MIN_LEVELS = 8
 
@@ -51,27 +57,6 @@ class Denoised:
     reason: str = ""
 
 
-def optimal_rank(singular_values: ArrayLike, shape: tuple[int, int]) -> int:
-    """Singular values above Gavish and Donoho's threshold for an unknown noise level.
-
-    The threshold is ``omega(beta) * median(singular values)`` with ``beta`` the aspect ratio
-    (short side over long side) and ``omega(beta) ~ 0.56 beta^3 - 0.95 beta^2 + 1.82 beta +
-    1.43`` (their Eq 5; ``omega(1) = 2.858``).
-
-    Examples
-    --------
-    >>> rng = np.random.default_rng(0)
-    >>> signal = np.outer(np.linspace(1, 2, 60), np.linspace(0, 5, 40))
-    >>> sv = np.linalg.svd(signal + rng.normal(0, 0.1, (60, 40)), compute_uv=False)
-    >>> optimal_rank(sv, (60, 40))
-    1
-    """
-    sv = np.asarray(singular_values, dtype=np.float64)
-    beta = min(shape) / max(shape)
-    omega = 0.56 * beta**3 - 0.95 * beta**2 + 1.82 * beta + 1.43
-    return int(np.sum(sv > omega * np.median(sv)))
-
-
 def _blocks(level: NDArray[np.int64]) -> NDArray[np.int64] | None:
     """Block index of every row, or None when the rows are not blocks of increasing levels
     each starting at 0."""
@@ -92,14 +77,19 @@ def _impute(
     iterations: int,
     tol: float,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Rank-``rank`` fit with the unmeasured entries imputed (hard impute, warm started).
-    Returns (fit, estimate)."""
+    """Rank-``rank`` fit with the unmeasured and the censored entries imputed (hard impute,
+    warm started). Returns (fit, estimate).
+
+    A measured entry whose fit is negative is censored: the sensor reads zero force until the
+    motor's torque overcomes the dead band and the friction, so such a reading only says that
+    the torque there is at most zero, and the fit is free to go below it."""
     low = estimate
     for _ in range(iterations):
         u, sv, vt = np.linalg.svd(estimate, full_matrices=False)
         low = (u[:, :rank] * sv[:rank]) @ vt[:rank]
-        change = float(np.linalg.norm((low - estimate)[~measured]))
-        estimate = np.where(measured, matrix, low)
+        new = np.where(measured & (low >= 0.0), matrix, low)
+        change = float(np.linalg.norm(new - estimate))
+        estimate = new
         if change <= tol * float(np.linalg.norm(estimate)):
             break
     return low, estimate
@@ -126,14 +116,14 @@ def denoise_blocks(
 ) -> Denoised:
     """Replace each row's torque by the low-rank fit of the (block x level) matrix.
 
-    The rank starts at Gavish and Donoho's threshold (:func:`optimal_rank`, from the levels
-    every block reached) and grows until the residual holds no structure: sensor noise leaves
-    residuals uncorrelated from one level to the next and from one block to the next, while
-    torque the fit misses is smooth in both and correlates neighbours positively (a spectrum
-    alone cannot tell signal from noise near the noise level, for example the sharp phase
-    hand-over of narrow ramping). The first rank whose lag-one correlations along the levels
-    and along the blocks are both below ``2 / sqrt(pairs)`` is kept; when none up to half the
-    matrix's short side qualifies, the rows are left as measured.
+    The rank grows from 1 until the residual holds no structure: sensor noise leaves residuals
+    uncorrelated from one level to the next and from one block to the next, while torque the
+    fit misses is smooth in both and correlates neighbours positively (a spectrum alone cannot
+    tell signal from noise near the noise level, for example the sharp phase hand-over of
+    narrow ramping). The first rank whose lag-one correlations along the levels and along the
+    blocks are both below ``2 / sqrt(pairs)`` is kept; when none up to half the matrix's short
+    side qualifies, the rows are left as measured. Readings where the fit is negative are
+    censored (module docstring) and the fit is clipped at zero.
 
     Parameters
     ----------
@@ -142,10 +132,10 @@ def denoise_blocks(
     torque
         Measured torque of each row [N m], shape (n,).
     iterations
-        Most imputation rounds per rank (levels above a block's saturation are imputed).
+        Most imputation rounds per rank (levels above a block's saturation and censored
+        readings are imputed).
     tol
-        Stop imputing when the imputed entries change by less than this, relative to the
-        matrix norm.
+        Stop imputing when the estimate changes by less than this, relative to its norm.
 
     Returns
     -------
@@ -176,17 +166,12 @@ def denoise_blocks(
     measured = np.isfinite(matrix)
     fill = np.nanmean(matrix, axis=0)
     estimate = np.where(measured, matrix, np.where(np.isfinite(fill), fill, 0.0)[None, :])
-    complete = measured.all(axis=0)
-    if complete.sum() >= MIN_LEVELS:
-        sv = np.linalg.svd(matrix[:, complete], compute_uv=False)
-        start = optimal_rank(sv, (nb, int(complete.sum())))
-    else:
-        start = optimal_rank(np.linalg.svd(estimate, compute_uv=False), estimate.shape)
-    for rank in range(max(start, 1), min(estimate.shape) // 2 + 1):
+    for rank in range(1, min(estimate.shape) // 2 + 1):
         low, estimate = _impute(matrix, measured, estimate, rank, iterations, tol)
-        residual = np.where(measured, matrix - low, np.nan)
+        fit = np.maximum(low, 0.0)
+        residual = np.where(measured, matrix - fit, np.nan)
         along_levels = level_correlation(residual)
         along_blocks = level_correlation(residual.T)
         if all(n and rho <= 2.0 / np.sqrt(n) for rho, n in (along_levels, along_blocks)):
-            return Denoised(low[block, col], rank, nb)
+            return Denoised(fit[block, col], rank, nb)
     return Denoised(tau.copy(), 0, nb, "the residual stays structured at every rank tried")
