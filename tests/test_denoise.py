@@ -107,3 +107,15 @@ def test_friction_knee_is_fitted_as_censored_data() -> None:
     knee = (clean > 0.0) & (clean < 1.0)  # the low commands, where relative errors count
     # a plain rank-3 fit of the readings leaves 0.44 to 0.50 of the noise here (seeds 4 to 9)
     assert np.sqrt(np.mean((fit - clean)[knee] ** 2)) < 0.4 * 0.05
+
+
+def test_truncation_equals_the_truncated_svd() -> None:
+    from torquemap.linearize.denoise import _truncate
+
+    rng = np.random.default_rng(5)
+    for shape in ((96, 40), (30, 70)):
+        signal = np.outer(rng.normal(size=shape[0]), rng.normal(size=shape[1])) * 5.0
+        a = signal + rng.normal(size=shape)
+        u, s, vt = np.linalg.svd(a, full_matrices=False)
+        for rank in (1, 4, 12):
+            assert_allclose(_truncate(a, rank), (u[:, :rank] * s[:rank]) @ vt[:rank], atol=1e-9)

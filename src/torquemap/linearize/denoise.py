@@ -69,6 +69,16 @@ def _blocks(level: NDArray[np.int64]) -> NDArray[np.int64] | None:
     return block.astype(np.int64)
 
 
+def _truncate(matrix: NDArray[np.float64], rank: int) -> NDArray[np.float64]:
+    """The best rank-``rank`` approximation of ``matrix`` (the truncated SVD), by projecting
+    onto the leading eigenvectors of its smaller Gram matrix (a few times faster than an SVD)."""
+    tall = matrix.shape[0] >= matrix.shape[1]
+    a = matrix if tall else matrix.T
+    v = np.linalg.eigh(a.T @ a)[1][:, -rank:]  # eigenvalues ascending
+    low: NDArray[np.float64] = (a @ v) @ v.T
+    return low if tall else low.T
+
+
 def _impute(
     matrix: NDArray[np.float64],
     measured: NDArray[np.bool_],
@@ -85,8 +95,7 @@ def _impute(
     the torque there is at most zero, and the fit is free to go below it."""
     low = estimate
     for _ in range(iterations):
-        u, sv, vt = np.linalg.svd(estimate, full_matrices=False)
-        low = (u[:, :rank] * sv[:rank]) @ vt[:rank]
+        low = _truncate(estimate, rank)
         new = np.where(measured & (low >= 0.0), matrix, low)
         change = float(np.linalg.norm(new - estimate))
         estimate = new
