@@ -121,7 +121,12 @@ def level_correlation(residual: NDArray[np.float64]) -> tuple[float, int]:
 
 
 def denoise_blocks(
-    level: ArrayLike, torque: ArrayLike, *, iterations: int = 30, tol: float = 1e-6
+    level: ArrayLike,
+    torque: ArrayLike,
+    *,
+    iterations: int = 10,
+    polish: int = 20,
+    tol: float = 1e-6,
 ) -> Denoised:
     """Replace each row's torque by the low-rank fit of the (block x level) matrix.
 
@@ -141,8 +146,10 @@ def denoise_blocks(
     torque
         Measured torque of each row [N m], shape (n,).
     iterations
-        Most imputation rounds per rank (levels above a block's saturation and censored
-        readings are imputed).
+        Most imputation rounds per rank tried (levels above a block's saturation and censored
+        readings are imputed); each rank starts from the previous one's estimate.
+    polish
+        Further imputation rounds at the rank kept.
     tol
         Stop imputing when the estimate changes by less than this, relative to its norm.
 
@@ -182,5 +189,6 @@ def denoise_blocks(
         along_levels = level_correlation(residual)
         along_blocks = level_correlation(residual.T)
         if all(n and rho <= 2.0 / np.sqrt(n) for rho, n in (along_levels, along_blocks)):
-            return Denoised(fit[block, col], rank, nb)
+            low, _ = _impute(matrix, measured, estimate, rank, polish, tol)
+            return Denoised(np.maximum(low, 0.0)[block, col], rank, nb)
     return Denoised(tau.copy(), 0, nb, "the residual stays structured at every rank tried")
