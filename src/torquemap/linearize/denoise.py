@@ -15,7 +15,9 @@ where the fit is negative only says that the torque there is at most zero, and i
 a level a block did not reach (the sensor saturated), by iterating the truncated SVD with the
 other readings held fixed; the rows get the fit clipped at zero. The knee then follows from the
 low-rank torque of every block instead of from the few noisy rows around it, which is where the
-relative deviation of the low commands is decided.
+relative deviation of the low commands is decided. The censored readings also measure the error
+of the bias subtracted from their block (the torque there is zero): each block is re-zeroed on
+them, weighed against the bias measurement, in the same iteration.
 
 The blocks are recognised from the row order of DATA.csv, which the collection writes: every
 block starts at level 0 and its levels increase. Data without that structure (rows shuffled,
@@ -86,22 +88,28 @@ def _impute(
     rank: int,
     iterations: int,
     tol: float,
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Rank-``rank`` fit with the unmeasured and the censored entries imputed (hard impute,
-    warm started). Returns (fit, estimate).
+    bias_weight: float,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Rank-``rank`` fit with the unmeasured and the censored entries imputed and every block
+    re-zeroed (hard impute, warm started). Returns (fit, estimate, block offsets).
 
     A measured entry whose fit is negative is censored: the sensor reads zero force until the
     motor's torque overcomes the dead band and the friction, so such a reading only says that
-    the torque there is at most zero, and the fit is free to go below it."""
+    the torque there is at most zero, and the fit is free to go below it. The censored readings
+    of a block read its bias error (the torque there is zero); the block's offset is their sum
+    over their count plus ``bias_weight``, and the fit is made to the readings minus it."""
     low = estimate
+    offset = np.zeros(matrix.shape[0])
     for _ in range(iterations):
         low = _truncate(estimate, rank)
-        new = np.where(measured & (low >= 0.0), matrix, low)
+        zero = measured & (low < 0.0)
+        offset = np.where(zero, matrix, 0.0).sum(axis=1) / (zero.sum(axis=1) + bias_weight)
+        new = np.where(measured & ~zero, matrix - offset[:, None], low)
         change = float(np.linalg.norm(new - estimate))
         estimate = new
         if change <= tol * float(np.linalg.norm(estimate)):
             break
-    return low, estimate
+    return low, estimate, offset
 
 
 def level_correlation(residual: NDArray[np.float64]) -> tuple[float, int]:
@@ -126,6 +134,7 @@ def denoise_blocks(
     *,
     iterations: int = 10,
     polish: int = 20,
+    bias_weight: float = 10.0,
     tol: float = 1e-6,
 ) -> Denoised:
     """Replace each row's torque by the low-rank fit of the (block x level) matrix.
@@ -137,7 +146,8 @@ def denoise_blocks(
     narrow ramping). The first rank whose lag-one correlations along the levels and along the
     blocks are both below ``2 / sqrt(pairs)`` is kept; when none up to half the matrix's short
     side qualifies, the rows are left as measured. Readings where the fit is negative are
-    censored (module docstring) and the fit is clipped at zero.
+    censored (module docstring), every block is re-zeroed on its censored readings
+    (``bias_weight``), and the fit is clipped at zero.
 
     Parameters
     ----------
@@ -150,6 +160,11 @@ def denoise_blocks(
         readings are imputed); each rank starts from the previous one's estimate.
     polish
         Further imputation rounds at the rank kept.
+    bias_weight
+        The bias measurement's weight, in rows (``bias_readings / readings`` of the collection,
+        whose default is 10). Each block's censored readings measure its bias error, because
+        the torque there is zero; the block is shifted by their sum over their count plus
+        ``bias_weight`` (the two estimates of the bias combined; ``inf``: not at all).
     tol
         Stop imputing when the estimate changes by less than this, relative to its norm.
 
@@ -183,12 +198,14 @@ def denoise_blocks(
     fill = np.nanmean(matrix, axis=0)
     estimate = np.where(measured, matrix, np.where(np.isfinite(fill), fill, 0.0)[None, :])
     for rank in range(1, min(estimate.shape) // 2 + 1):
-        low, estimate = _impute(matrix, measured, estimate, rank, iterations, tol)
+        low, estimate, offset = _impute(
+            matrix, measured, estimate, rank, iterations, tol, bias_weight
+        )
         fit = np.maximum(low, 0.0)
-        residual = np.where(measured, matrix - fit, np.nan)
+        residual = np.where(measured, matrix - offset[:, None] - fit, np.nan)
         along_levels = level_correlation(residual)
         along_blocks = level_correlation(residual.T)
         if all(n and rho <= 2.0 / np.sqrt(n) for rho, n in (along_levels, along_blocks)):
-            low, _ = _impute(matrix, measured, estimate, rank, polish, tol)
+            low, _, _ = _impute(matrix, measured, estimate, rank, polish, tol, bias_weight)
             return Denoised(np.maximum(low, 0.0)[block, col], rank, nb)
     return Denoised(tau.copy(), 0, nb, "the residual stays structured at every rank tried")
