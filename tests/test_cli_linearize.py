@@ -204,3 +204,25 @@ def test_denoise_option(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
     assert main([*args, "-o", f"{d}/b.npz", "--no-denoise"]) == 0
     assert "rows denoised" not in capsys.readouterr().out
     assert load_tables(tmp_path / "b.npz").denoise_rank == 0
+
+
+def test_bias_weight_option(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    write_case(tmp_path)
+    data = tmp_path / "data.csv"
+    cols = read_table(data)
+    rng = np.random.default_rng(1)
+    cols["torque"] = np.asarray(cols["torque"]) + rng.normal(0.0, 0.01, len(cols["torque"]))
+    write_table(data, cols)
+    d = str(tmp_path)
+    args = ["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv"]
+    assert main([*args, "-o", f"{d}/a.npz"]) == 0
+    assert main([*args, "-o", f"{d}/b.npz", "--bias-weight", "10"]) == 0
+    assert main([*args, "-o", f"{d}/c.npz", "--bias-weight", "inf"]) == 0
+    a, b, c = (load_tables(tmp_path / f"{k}.npz") for k in "abc")
+    np.testing.assert_array_equal(a.phases, b.phases)  # 10 is the default
+    assert a.denoise_rank >= 1 and c.denoise_rank >= 1
+    with pytest.raises(SystemExit) as exit_info:
+        main([*args, "-o", f"{d}/e.npz", "--bias-weight", "-1"])
+    assert exit_info.value.code == 2
+    assert "must be >= 0" in capsys.readouterr().err
+    assert not (tmp_path / "e.npz").exists()

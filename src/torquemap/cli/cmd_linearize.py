@@ -10,6 +10,17 @@ import json
 from typing import Any
 
 
+def _weight(text: str) -> float:
+    """argparse type: a number >= 0 (inf allowed)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not value >= 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {text}")
+    return value
+
+
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add the ``linearize`` group and its sub-commands."""
     from torquemap.cli import cmd_linearize_collect
@@ -63,6 +74,14 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         action="store_true",
         help="interp: use the rows as measured, no low-rank denoising of the collection's blocks",
     )
+    build.add_argument(
+        "--bias-weight",
+        type=_weight,
+        default=10.0,
+        metavar="W",
+        help="interp: weight of each position's bias measurement in rows, the collection's "
+        "bias readings over its readings per row (default 10, the collection's default)",
+    )
     build.set_defaults(handler=_build)
 
     evaluate = sub.add_parser(
@@ -110,6 +129,7 @@ def _build(args: argparse.Namespace) -> int:
         method=args.method,
         monotonic=not args.no_monotonic,
         denoise=not args.no_denoise,
+        bias_weight=args.bias_weight,
         log_curvature=args.log_curvature,
         actuation_bits=args.actuation_bits,
         path=args.data,

@@ -674,6 +674,7 @@ def build_tables(
     actuation_bits: int | None = None,
     max_gap: int | None = None,
     denoise: bool = True,
+    bias_weight: float = 10.0,
     path: str | os.PathLike[str] | None = None,
 ) -> TableSet:
     """Build the per-phase torque-linearisation tables from characterisation data (paper §4.3).
@@ -710,6 +711,10 @@ def build_tables(
         ``"interp"`` only: replace the rows by the low-rank fit of their (block x level) matrix
         (:func:`torquemap.linearize.denoise.denoise_blocks`), when the row order holds the
         collection's blocks. The paper's method always uses the rows as measured.
+    bias_weight
+        Denoising: the weight of each block's bias measurement in rows (the collection's
+        ``bias_readings / readings``, 10 by default); each block is re-zeroed on the readings
+        its fit censors, weighed against it.
     path
         The data file, named in error messages.
 
@@ -748,6 +753,8 @@ def build_tables(
         raise ValueError(f"method must be 'interp' or 'paper', got {method!r}")
     if command_scaling == "log" and not log_curvature > 0:
         raise ValueError(f"log_curvature must be > 0, got {log_curvature}")
+    if not bias_weight >= 0:
+        raise ValueError(f"bias_weight must be >= 0, got {bias_weight}")
     if actuation_bits is not None and not 1 <= actuation_bits <= 32:
         raise ValueError(f"actuation_bits must be in 1 .. 32, got {actuation_bits}")
     pos, pw, tau = _check_rows(spec, position, pulse_width, torque, src)
@@ -759,7 +766,7 @@ def build_tables(
 
     rank = 0
     if denoise and method == "interp":
-        cleaned = denoise_blocks(pw, tau)
+        cleaned = denoise_blocks(pw, tau, bias_weight=bias_weight)
         tau, rank = cleaned.torque, cleaned.rank
     forward, levels, voids, averaged = _forward_model(spec, pos, pw, tau, gap)
     reach = np.nanmax(np.where(np.isnan(forward), -np.inf, forward), axis=1)
