@@ -138,3 +138,6 @@ def test_blocks_are_re_zeroed_on_their_censored_readings() -> None:
     rms = lambda x: float(np.sqrt(np.mean((x - clean)[knee] ** 2)))  # noqa: E731
     assert rms(noisy) > 1.3 * 0.05  # the rows: noise and bias error
     assert rms(fit) < 0.75 * 0.05  # seeds 6 to 11: 0.35 to 0.68 of one row's noise
+    # the bias measurement ignored (weight 0): blocks without censored readings stay put
+    alone = denoise_blocks(np.tile(levels, blocks), noisy.ravel(), bias_weight=0.0)
+    assert alone.rank >= 1 and np.isfinite(alone.torque).all()

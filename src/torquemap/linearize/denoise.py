@@ -103,7 +103,8 @@ def _impute(
     for _ in range(iterations):
         low = _truncate(estimate, rank)
         zero = measured & (low < 0.0)
-        offset = np.where(zero, matrix, 0.0).sum(axis=1) / (zero.sum(axis=1) + bias_weight)
+        total, weight = np.where(zero, matrix, 0.0).sum(axis=1), zero.sum(axis=1) + bias_weight
+        offset = np.divide(total, weight, out=np.zeros_like(total), where=weight > 0)
         new = np.where(measured & ~zero, matrix - offset[:, None], low)
         change = float(np.linalg.norm(new - estimate))
         estimate = new
