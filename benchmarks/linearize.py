@@ -24,7 +24,9 @@ through the same verification loop on a noise-free twin of the rig (friction, co
 bias kept; only the sensor noise removed), the like-for-like noise-free comparison. The "above
 rest" rows measure both tables and floor against the sensed torque minus the sensed torque at
 zero actuation: what the collection records when it zeroes the sensor at rest, which differs
-from the contact torque where the cogging torque alone exceeds friction (J3). Build time:
+from the contact torque where the cogging torque alone exceeds friction (J3). "Bias open"
+(BLDC joints): the same collection with the bias read on an open contact
+(``bias_open=True``), whose rows keep the torque at rest, against the absolute floor. Build time:
 median of 7 calls of ``build_tables`` on joint 1's data (3 phases x 512 positions x 256
 commands).
 """
@@ -178,6 +180,24 @@ def main() -> int:
             best_rest = floor_tables(rig, spec, tables_interp, above_rest=True)
             row["floor_rest"] = noise_free(rig, best_rest, above_rest=True).apmd
             best = floor_tables(rig, spec, tables)
+            if isinstance(rig.motor, BrushlessDcMotor):
+                # the same collection with the bias read on an open contact (a second rig with
+                # the same noise seed): the rows keep the cogging torque at rest
+                open_rig = brushless_dc_rig(rng=index + 1, motor=rig.motor)
+                open_csv = Path(tmp) / f"{name}-open.csv"
+                collect_characterisation(
+                    open_rig,
+                    spec,
+                    open_csv,
+                    pulse_step=2,
+                    positions=n // 2,
+                    readings=READINGS,
+                    bias_open=True,
+                    progress=False,
+                )
+                d_open = read_data(open_csv, spec, kind="characterisation")
+                t_open = build_tables(spec, d_open.position, d_open.level, d_open.torque)
+                row["interp_open"] = noise_free(rig, t_open).apmd
             f = noise_free(rig, best)
             row["floor"], row["floor_10"] = f.apmd, f.apmd_above_10
             out = Path(tmp) / f"{name}-floor-verify.csv"
@@ -240,6 +260,17 @@ def main() -> int:
     print(line("tables noise-free above rest, interp", pct("interp_rest")))
     print(line("FLOOR, noise-free above rest", pct("floor_rest")))
     print(line("interp / floor, noise-free above rest", ratio("interp_rest", "floor_rest")))
+    print(
+        line(
+            "interp / floor, noise-free, bias open",
+            [
+                f"{rows[k]['interp_open'] / rows[k]['floor']:.2f}"
+                if "interp_open" in rows[k]
+                else "-"
+                for k in names
+            ],
+        )
+    )
     print(line("position-independent torque [N m]", [f"{rows[k]['t_pi']:.2f}" for k in names]))
     print(line("data density [%]", pct("density")))
     print(

@@ -164,3 +164,25 @@ def test_linearize_collect_errors(tmp_path: Path, capsys: pytest.CaptureFixture[
     status, err = _collect(argv, capsys)
     assert status == 2 and "t.npz: tables lack 'phase_2'" in err
     assert not (tmp_path / "a.csv").exists()
+
+
+def test_bias_open_option(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # with the bias read on an open contact the level-0 rows hold the torque at rest (the BLDC's
+    # cogging beyond friction: 0 .. 0.06 N m); read at rest (the default) they average zero
+    level0 = {}
+    for flag in ([], ["--bias-open"]):
+        out = tmp_path / f"rig{len(flag)}"
+        argv = ["simulate", "rig", "--motor", "bldc", "--out", str(out), "--pulse-step", "255"]
+        assert (
+            main([*argv, "--readings", "20", "--position-step", "4", "--no-progress", *flag]) == 0
+        )
+        data = read_table(out / "data.csv")
+        level0[bool(flag)] = np.asarray(data["torque"])[np.asarray(data["pulse_width"]) == 0]
+        assert _collect(
+            [str(out / "motor.toml"), "--sim", "bldc", "-o", str(out / "c.csv"), "--step", "255",
+             *FAST, *flag],
+            capsys,
+        )[0] == 0  # fmt: skip
+    assert abs(level0[False].mean()) < 0.002
+    assert level0[True].mean() > 0.005 and level0[True].max() > 0.04
+    capsys.readouterr()

@@ -298,3 +298,31 @@ def test_bias_is_averaged_over_its_own_readings(
         collect_characterisation(
             FakeRig(), SPEC, tmp_path / "e.csv", bias_readings=0, progress=False
         )
+
+
+def test_bias_read_on_an_open_contact_keeps_the_torque_at_rest(tmp_path: Path) -> None:
+    from torquemap.sim.rig import brushless_dc_rig
+
+    # the BLDC's cogging torque (0.12 N m) exceeds the contact's friction (0.06 N m) at some
+    # positions: it loads the contact with all phases off. Read at rest, the bias swallows it;
+    # read with the contact open, the level-0 rows hold it, as the physics says
+    rows = {}
+    for bias_open in (False, True):
+        rig = brushless_dc_rig(rng=5)
+        spec = rig.motor_spec()
+        out = tmp_path / f"{bias_open}.csv"
+        collect_characterisation(
+            rig, spec, out, readings=40, bias_open=bias_open, pulse_step=255, positions=32,
+            progress=False,
+        )  # fmt: skip
+        cols = read_table(out)
+        zero = np.asarray(cols["pulse_width"]) == 0
+        rows[bias_open] = (np.asarray(cols["position"])[zero], np.asarray(cols["torque"])[zero])
+    pos, at_rest = rows[True]
+    f = rig.settings.friction
+    truth = np.maximum(rig.true_torque(pos, np.zeros((pos.size, 3))) - f, 0.0)
+    assert truth.max() > 0.04  # the case is real: cogging loads the contact somewhere
+    assert_allclose(at_rest, truth, atol=0.01)  # 40 readings of 0.02 N m, bias over 400
+    assert_allclose(rows[False][1], 0.0, atol=0.01)
+    with pytest.raises(ValueError, match="open_contact"):
+        collect_characterisation(FakeRig(), SPEC, tmp_path / "x.csv", bias_open=True)

@@ -34,6 +34,12 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         help="readings averaged for the sensor bias at each position (default 10x --readings)",
     )
     collect.add_argument(
+        "--bias-open",
+        action="store_true",
+        help="read the bias with the contact open, not at rest (where cogging alone loads the "
+        "contact, the rows then hold the torque at rest)",
+    )
+    collect.add_argument(
         "--step", type=int, default=4, help="pulse-width or command step (default 4)"
     )
     collect.add_argument(
@@ -56,6 +62,7 @@ def _collect(args: argparse.Namespace) -> int:
         tables=args.tables,
         readings=args.readings,
         bias_readings=args.bias_readings,
+        bias_open=args.bias_open,
         step=args.step,
         position_step=args.position_step,
         progress=not args.no_progress,

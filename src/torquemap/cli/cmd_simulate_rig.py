@@ -32,6 +32,12 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         default=None,
         help="readings averaged for the sensor bias at each position (default 10x --readings)",
     )
+    rig.add_argument(
+        "--bias-open",
+        action="store_true",
+        help="read the bias with the contact open, not at rest (where cogging alone loads the "
+        "contact, the rows then hold the torque at rest)",
+    )
     rig.add_argument("--pulse-step", type=int, default=4, help="pulse-width step (default 4)")
     rig.add_argument(
         "--position-step", type=int, default=4, help="table positions between targets (default 4)"
@@ -50,6 +56,7 @@ def _rig(args: argparse.Namespace) -> int:
         ramping=args.ramping,
         readings=args.readings,
         bias_readings=args.bias_readings,
+        bias_open=args.bias_open,
         pulse_step=args.pulse_step,
         position_step=args.position_step,
         progress=not args.no_progress,

@@ -48,6 +48,8 @@ class Rig(Protocol):
     """A characterisation bench: the primary motor, its amplifier, a force sensor, a secondary joint.
 
     Implement these five methods for a real rig (docs/linearize-collect.md has an example).
+    A rig that can also lift the primary joint off its constraint may add ``open_contact()``
+    (see :func:`collect_characterisation`); it is optional and not part of the protocol.
     """
 
     def read_position(self) -> int:
@@ -208,6 +210,7 @@ def _collect(
     actuation: Callable[[int, int], Sequence[int]],
     readings: int,
     bias_readings: int | None,
+    bias_open: bool,
     positions: int | None,
     saturation: float | None,
     progress: bool,
@@ -218,6 +221,8 @@ def _collect(
     bias_count = BIAS_READINGS_FACTOR * readings if bias_readings is None else bias_readings
     if bias_count < 1:
         raise ValueError(f"bias_readings must be >= 1, got {bias_count}")
+    if bias_open and not callable(getattr(rig, "open_contact", None)):
+        raise ValueError("bias_open needs a rig with an open_contact() method")
     path = Path(out_csv)
     if not path.parent.exists():
         raise InputError("output folder does not exist", path=path.parent)
@@ -235,6 +240,7 @@ def _collect(
     with atomic_output(path) as tmp:
         tmp.write_text("\n".join([header, *kept]) + "\n")
     limit = saturation if saturation is not None else getattr(rig, "saturation", None)
+    open_contact = getattr(rig, "open_contact", None) if bias_open else None
     off = [0] * spec.phases
     new_rows = 0
     saturated = 0
@@ -243,6 +249,8 @@ def _collect(
         task = bar.add_task("collecting", total=int(targets.size), completed=done)
         for target in targets[done:]:
             _move_to(rig, int(target), n, off, max_steps=100 * n)
+            if open_contact is not None:
+                open_contact()  # the sensor reads its bias alone, without the torque at rest
             bias = float(np.mean([rig.read_torque() for _ in range(bias_count)]))
             for level in levels:
                 position = rig.read_position()
@@ -320,6 +328,7 @@ def collect_characterisation(
     *,
     readings: int = 10,
     bias_readings: int | None = None,
+    bias_open: bool = False,
     pulse_step: int = 1,
     positions: int | None = None,
     saturation: float | None = None,
@@ -342,6 +351,13 @@ def collect_characterisation(
         Sensor readings averaged for the bias at each target (default ``10 * readings``). The
         bias is subtracted from every row of the target's block, so its error is common to all
         of them and no later averaging removes it: it is measured more precisely than a row.
+    bias_open
+        Read the bias with the contact open: call the rig's ``open_contact()`` (lift the primary
+        joint off its constraint) before the bias readings; the first level closes it again.
+        Without it (the paper's procedure) the bias is read at rest, all phases off, and where
+        the motor's torque at zero current (cogging) alone pushes the contact beyond its
+        friction, that torque is read as bias too: the rows are then relative to the torque at
+        rest.
     pulse_step
         Step of the base pulse width (``0, k, 2k, ...`` and finally ``actuation_max``).
     positions
@@ -372,6 +388,7 @@ def collect_characterisation(
         actuation=lambda level, position: ramped_actuation(level, position, ramp).tolist(),
         readings=readings,
         bias_readings=bias_readings,
+        bias_open=bias_open,
         positions=positions,
         saturation=saturation,
         progress=progress,
@@ -404,6 +421,7 @@ def collect_verification(
     *,
     readings: int = 10,
     bias_readings: int | None = None,
+    bias_open: bool = False,
     command_step: int = 1,
     positions: int | None = None,
     saturation: float | None = None,
@@ -421,6 +439,8 @@ def collect_verification(
         ``phase_1 .. phase_m``: integer arrays of shape ``(P, 2**command_bits)``.
     command_step
         Step of the torque command.
+    readings, bias_readings, bias_open, positions, saturation, progress
+        As for :func:`collect_characterisation`.
 
     Raises
     ------
@@ -441,6 +461,7 @@ def collect_verification(
         ].tolist(),
         readings=readings,
         bias_readings=bias_readings,
+        bias_open=bias_open,
         positions=positions,
         saturation=saturation,
         progress=progress,

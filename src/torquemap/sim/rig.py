@@ -224,6 +224,11 @@ class SimRig:
         r = self.bias_at(self.base) + self.force + s.noise * float(self.rng.standard_normal())
         return float(min(max(r, -s.saturation), s.saturation))
 
+    def open_contact(self) -> None:
+        """Lift the motor off the constraint: the contact unloads until the next settle (the
+        optional hook of ``collect_characterisation(..., bias_open=True)``)."""
+        self.force = 0.0
+
     def step_secondary(self) -> None:
         """Move the secondary joint one step; the contact unloads."""
         self.base = (self.base + self.settings.secondary_step) % self.positions_per_cycle
@@ -339,6 +344,7 @@ def collect_on_sim(
     tables: str | os.PathLike[str] | None = None,
     readings: int = 10,
     bias_readings: int | None = None,
+    bias_open: bool = False,
     step: int = 4,
     position_step: int = 4,
     progress: bool = True,
@@ -361,6 +367,8 @@ def collect_on_sim(
         Readings averaged per row.
     bias_readings
         Readings averaged for the bias at each target (default ``10 * readings``).
+    bias_open
+        Read the bias with the contact open (:meth:`SimRig.open_contact`), not at rest.
     step
         Pulse-width step (characterisation) or command step (verification).
     position_step
@@ -408,6 +416,7 @@ def collect_on_sim(
             out_csv,
             readings=readings,
             bias_readings=bias_readings,
+            bias_open=bias_open,
             pulse_step=step,
             positions=positions,
             progress=progress,
@@ -419,6 +428,7 @@ def collect_on_sim(
         out_csv,
         readings=readings,
         bias_readings=bias_readings,
+        bias_open=bias_open,
         command_step=step,
         positions=positions,
         progress=progress,
@@ -433,6 +443,7 @@ def write_rig_data(
     ramping: RampKind = "wide",
     readings: int = 10,
     bias_readings: int | None = None,
+    bias_open: bool = False,
     pulse_step: int = 4,
     position_step: int = 4,
     progress: bool = False,
@@ -456,6 +467,8 @@ def write_rig_data(
         Readings averaged per row.
     bias_readings
         Readings averaged for the bias at each target (default ``10 * readings``).
+    bias_open
+        Read the bias with the contact open (:meth:`SimRig.open_contact`), not at rest.
     pulse_step
         Pulse-width step.
     position_step
@@ -504,6 +517,7 @@ def write_rig_data(
                 partial,
                 readings=readings,
                 bias_readings=bias_readings,
+                bias_open=bias_open,
                 pulse_step=pulse_step,
                 positions=positions,
                 progress=progress,
