@@ -186,3 +186,24 @@ def test_bias_open_option(tmp_path: Path, capsys: pytest.CaptureFixture[str]) ->
     assert abs(level0[False].mean()) < 0.002
     assert level0[True].mean() > 0.005 and level0[True].max() > 0.04
     capsys.readouterr()
+
+
+def test_transitions_option(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from torquemap.linearize.collect import collection_targets
+
+    out = tmp_path / "rig"
+    argv = ["simulate", "rig", "--motor", "bldc", "--out", str(out), "--pulse-step", "255"]
+    assert main([*argv, *FAST, "--transitions"]) == 0
+    spec = load_motor(out / "motor.toml")
+    data = read_table(out / "data.csv")
+    blocks = int(np.sum(np.asarray(data["pulse_width"]) == 0))
+    wanted = collection_targets(spec, positions=8, transitions=True)
+    assert blocks == wanted.size > 8
+    status, _ = _collect(
+        [str(out / "motor.toml"), "--sim", "bldc", "-o", str(out / "c.csv"), "--step", "255",
+         *FAST, "--transitions"],
+        capsys,
+    )  # fmt: skip
+    assert status == 0
+    again = read_table(out / "c.csv")
+    assert int(np.sum(np.asarray(again["pulse_width"]) == 0)) == wanted.size

@@ -84,6 +84,25 @@ def test_targets_evenly_spaced() -> None:
         collection_targets(SPEC, positions=25)
 
 
+def test_targets_at_the_ramps_transitions(tmp_path: Path) -> None:
+    # SPEC's wide ramp (P = 24) hands over between phases around positions 0, 8 and 16: its
+    # rows change between 22 .. 2, 6 .. 10 and 14 .. 18 (read off motor.ramp by hand); every
+    # position that differs from a neighbour joins the evenly spaced targets
+    hand_over = [0, 1, 2, 6, 7, 8, 9, 10, 14, 15, 16, 17, 18, 22, 23]
+    even = [0, 3, 6, 9, 12, 15, 18, 21]
+    got = collection_targets(SPEC, positions=8, transitions=True)
+    assert_array_equal(got, sorted(set(hand_over) | set(even)))
+    out = tmp_path / "d.csv"
+    result = collect_characterisation(
+        FakeRig(), SPEC, out, readings=1, pulse_step=100, positions=8, transitions=True,
+        progress=False,
+    )  # fmt: skip
+    assert_array_equal(result.targets, got)
+    data = read_table(out)
+    starts = np.asarray(data["pulse_width"]) == 0  # one block per target, in order
+    assert_array_equal(np.asarray(data["position"])[starts], got)
+
+
 def test_rows_columns_and_bias_free_torque(tmp_path: Path) -> None:
     rig = FakeRig()
     out = tmp_path / "data.csv"

@@ -45,6 +45,11 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     collect.add_argument(
         "--position-step", type=int, default=4, help="table positions between targets (default 4)"
     )
+    collect.add_argument(
+        "--transitions",
+        action="store_true",
+        help="also target every position where the ramp changes (the phases' hand-over)",
+    )
     collect.add_argument("--no-progress", action="store_true", help="no progress bar")
     collect.set_defaults(handler=_collect)
 
@@ -63,6 +68,7 @@ def _collect(args: argparse.Namespace) -> int:
         readings=args.readings,
         bias_readings=args.bias_readings,
         bias_open=args.bias_open,
+        transitions=args.transitions,
         step=args.step,
         position_step=args.position_step,
         progress=not args.no_progress,

@@ -42,6 +42,11 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     rig.add_argument(
         "--position-step", type=int, default=4, help="table positions between targets (default 4)"
     )
+    rig.add_argument(
+        "--transitions",
+        action="store_true",
+        help="also target every position where the ramp changes (the phases' hand-over)",
+    )
     rig.add_argument("--no-progress", action="store_true", help="no progress bar")
     rig.set_defaults(handler=_rig)
 
@@ -57,6 +62,7 @@ def _rig(args: argparse.Namespace) -> int:
         readings=args.readings,
         bias_readings=args.bias_readings,
         bias_open=args.bias_open,
+        transitions=args.transitions,
         pulse_step=args.pulse_step,
         position_step=args.position_step,
         progress=not args.no_progress,

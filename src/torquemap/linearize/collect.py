@@ -104,7 +104,9 @@ class CollectResult:
     elapsed: float
 
 
-def collection_targets(spec: MotorSpec, *, positions: int | None = None) -> NDArray[np.int64]:
+def collection_targets(
+    spec: MotorSpec, *, positions: int | None = None, transitions: bool = False
+) -> NDArray[np.int64]:
     """The outer loop's target table positions: ``positions`` evenly spaced over the cycle.
 
     Parameters
@@ -112,12 +114,17 @@ def collection_targets(spec: MotorSpec, *, positions: int | None = None) -> NDAr
     spec
         The motor.
     positions
-        How many targets (1 .. P); None for every table position.
+        How many evenly spaced targets (1 .. P); None for every table position.
+    transitions
+        Also target every position where the ramp differs from a neighbour's: the phases'
+        hand-over, where two phases share the actuation and the torque surface has the most
+        structure between positions.
 
     Returns
     -------
     ndarray of int64
-        ``floor(j P / positions)`` for ``j = 0 .. positions - 1``.
+        ``floor(j P / positions)`` for ``j = 0 .. positions - 1`` (with ``transitions``, joined
+        with the hand-over positions), ascending.
 
     Examples
     --------
@@ -130,7 +137,13 @@ def collection_targets(spec: MotorSpec, *, positions: int | None = None) -> NDAr
     k = n if positions is None else int(positions)
     if not 1 <= k <= n:
         raise ValueError(f"positions must be in 1 .. {n}, got {positions}")
-    return (np.arange(k, dtype=np.int64) * n) // k
+    even = (np.arange(k, dtype=np.int64) * n) // k
+    if not transitions:
+        return even
+    ramp = np.asarray(spec.ramp)
+    changes = np.any(ramp != np.roll(ramp, 1, axis=0), axis=1)
+    changes |= np.any(ramp != np.roll(ramp, -1, axis=0), axis=1)
+    return np.union1d(even, np.flatnonzero(changes)).astype(np.int64)
 
 
 def _levels(top: int, step: int, what: str) -> list[int]:
@@ -212,6 +225,7 @@ def _collect(
     bias_readings: int | None,
     bias_open: bool,
     positions: int | None,
+    transitions: bool,
     saturation: float | None,
     progress: bool,
 ) -> CollectResult:
@@ -227,7 +241,7 @@ def _collect(
     if not path.parent.exists():
         raise InputError("output folder does not exist", path=path.parent)
     n = spec.positions_per_cycle
-    targets = collection_targets(spec, positions=positions)
+    targets = collection_targets(spec, positions=positions, transitions=transitions)
     header = ",".join(columns)
     kept = _existing_rows(path, header, levels)
     done = sum(1 for line in kept if line.split(",")[1] == "0")
@@ -331,6 +345,7 @@ def collect_characterisation(
     bias_open: bool = False,
     pulse_step: int = 1,
     positions: int | None = None,
+    transitions: bool = False,
     saturation: float | None = None,
     progress: bool = True,
 ) -> CollectResult:
@@ -362,6 +377,8 @@ def collect_characterisation(
         Step of the base pulse width (``0, k, 2k, ...`` and finally ``actuation_max``).
     positions
         Number of evenly spaced target positions in the cycle (None: all ``P``).
+    transitions
+        Also target every position where the ramp changes (:func:`collection_targets`).
     saturation
         Sensor range [N m]: a reading at or beyond it ends the inner loop, unstored. None: the
         rig's ``saturation`` attribute if it has one, else no check.
@@ -390,6 +407,7 @@ def collect_characterisation(
         bias_readings=bias_readings,
         bias_open=bias_open,
         positions=positions,
+        transitions=transitions,
         saturation=saturation,
         progress=progress,
     )
@@ -424,6 +442,7 @@ def collect_verification(
     bias_open: bool = False,
     command_step: int = 1,
     positions: int | None = None,
+    transitions: bool = False,
     saturation: float | None = None,
     progress: bool = True,
 ) -> CollectResult:
@@ -439,7 +458,7 @@ def collect_verification(
         ``phase_1 .. phase_m``: integer arrays of shape ``(P, 2**command_bits)``.
     command_step
         Step of the torque command.
-    readings, bias_readings, bias_open, positions, saturation, progress
+    readings, bias_readings, bias_open, positions, transitions, saturation, progress
         As for :func:`collect_characterisation`.
 
     Raises
@@ -463,6 +482,7 @@ def collect_verification(
         bias_readings=bias_readings,
         bias_open=bias_open,
         positions=positions,
+        transitions=transitions,
         saturation=saturation,
         progress=progress,
     )

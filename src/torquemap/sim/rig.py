@@ -347,6 +347,7 @@ def collect_on_sim(
     bias_open: bool = False,
     step: int = 4,
     position_step: int = 4,
+    transitions: bool = False,
     progress: bool = True,
 ) -> CollectResult:
     """Run ``linearize collect`` against a simulated rig (resuming ``out_csv`` if it exists).
@@ -373,6 +374,8 @@ def collect_on_sim(
         Pulse-width step (characterisation) or command step (verification).
     position_step
         Spacing of the target positions [table positions]: ``ceil(P / position_step)`` targets.
+    transitions
+        Also target every position where the ramp changes.
     progress
         Show a progress bar.
 
@@ -419,6 +422,7 @@ def collect_on_sim(
             bias_open=bias_open,
             pulse_step=step,
             positions=positions,
+            transitions=transitions,
             progress=progress,
         )
     return collect_verification(
@@ -431,6 +435,7 @@ def collect_on_sim(
         bias_open=bias_open,
         command_step=step,
         positions=positions,
+        transitions=transitions,
         progress=progress,
     )
 
@@ -446,6 +451,7 @@ def write_rig_data(
     bias_open: bool = False,
     pulse_step: int = 4,
     position_step: int = 4,
+    transitions: bool = False,
     progress: bool = False,
 ) -> CollectResult:
     """A full characterisation run on a simulated rig: ``motor.toml`` and ``data.csv`` in a folder.
@@ -473,6 +479,8 @@ def write_rig_data(
         Pulse-width step.
     position_step
         Spacing of the target positions [table positions].
+    transitions
+        Also target every position where the ramp changes.
     progress
         Show a progress bar.
 
@@ -520,6 +528,7 @@ def write_rig_data(
                 bias_open=bias_open,
                 pulse_step=pulse_step,
                 positions=positions,
+                transitions=transitions,
                 progress=progress,
             )
             os.replace(partial, tmp)
