@@ -2,9 +2,9 @@
 
 Run: ``.venv/bin/python benchmarks/linearize.py`` (about 12 minutes on 2 cores).
 
-For each joint: collect characterisation data on the simulated rig (every 2nd pulse width and
-every 2nd table position, a data density of about a quarter like the paper's 28 to 32 % "in
-range"; ``READINGS`` readings a row, the bias of each position over ten times as many; wide
+For each joint: collect characterisation data on the simulated rig (every 2nd pulse width, every
+2nd table position and every position where the ramp changes, a data density of about a quarter
+like the paper's 28 to 32 % "in range"; ``READINGS`` readings a row, the bias of each position over ten times as many; wide
 ramping) -> ``build_tables`` (both methods) -> collect a verification run through the tables on a
 rig with fresh sensor noise (every command, every 4th position, ``READINGS`` readings a row) ->
 evaluate (paper Eq 1). The paper averaged 10 readings a row; 40 cost a force sensor sampling at
@@ -157,6 +157,7 @@ def main() -> int:
                 data_csv,
                 pulse_step=2,
                 positions=n // 2,
+                transitions=True,
                 readings=READINGS,
                 progress=False,
             )
@@ -191,6 +192,7 @@ def main() -> int:
                     open_csv,
                     pulse_step=2,
                     positions=n // 2,
+                    transitions=True,
                     readings=READINGS,
                     bias_open=True,
                     progress=False,
