@@ -45,7 +45,7 @@ import numpy as np
 from torquemap.linearize.collect import collect_characterisation, collect_verification
 from torquemap.linearize.metrics import LinearityReport, apmd_report, evaluate_linearity
 from torquemap.linearize.motor import MotorSpec, ramped_actuation
-from torquemap.linearize.tables import TableSet, build_tables, read_data
+from torquemap.linearize.tables import LinearizeData, TableSet, build_tables, read_data
 from torquemap.sim.motors import BrushlessDcMotor, VariableReluctanceMotor
 from torquemap.sim.rig import SimRig, brushless_dc_rig, variable_reluctance_rig
 
@@ -124,6 +124,24 @@ def noise_free(rig: SimRig, tables: TableSet, *, above_rest: bool = False) -> Li
     return full_grid_report(sensed(rig, np.arange(n)[:, None], act, above_rest=above_rest))
 
 
+def characterise(
+    rig: SimRig, spec: MotorSpec, out: Path, *, bias_open: bool = False
+) -> LinearizeData:
+    """Characterisation data: every 2nd pulse width and position plus the ramp's transitions."""
+    collect_characterisation(
+        rig,
+        spec,
+        out,
+        pulse_step=2,
+        positions=spec.positions_per_cycle // 2,
+        transitions=True,
+        readings=READINGS,
+        bias_open=bias_open,
+        progress=False,
+    )
+    return read_data(out, spec, kind="characterisation")
+
+
 def measured(
     rig: SimRig, spec: MotorSpec, tables: TableSet, out: Path, seed: int
 ) -> LinearityReport:
@@ -149,19 +167,7 @@ def main() -> int:
     with tempfile.TemporaryDirectory() as tmp:
         for index, (name, (rig, verify_rig)) in enumerate(joints().items()):
             spec = rig.motor_spec(ramping="wide")
-            n = spec.positions_per_cycle
-            data_csv = Path(tmp) / f"{name}.csv"
-            collect_characterisation(
-                rig,
-                spec,
-                data_csv,
-                pulse_step=2,
-                positions=n // 2,
-                transitions=True,
-                readings=READINGS,
-                progress=False,
-            )
-            data = read_data(data_csv, spec, kind="characterisation")
+            data = characterise(rig, spec, Path(tmp) / f"{name}.csv")
             if build_data is None:
                 build_data = (spec, data)
             before = evaluate_linearity(spec, data)
@@ -185,19 +191,9 @@ def main() -> int:
                 # the same collection with the bias read on an open contact (a second rig with
                 # the same noise seed): the rows keep the cogging torque at rest
                 open_rig = brushless_dc_rig(rng=index + 1, motor=rig.motor)
-                open_csv = Path(tmp) / f"{name}-open.csv"
-                collect_characterisation(
-                    open_rig,
-                    spec,
-                    open_csv,
-                    pulse_step=2,
-                    positions=n // 2,
-                    transitions=True,
-                    readings=READINGS,
-                    bias_open=True,
-                    progress=False,
+                d_open = characterise(
+                    open_rig, spec, Path(tmp) / f"{name}-open.csv", bias_open=True
                 )
-                d_open = read_data(open_csv, spec, kind="characterisation")
                 t_open = build_tables(spec, d_open.position, d_open.level, d_open.torque)
                 row["interp_open"] = noise_free(rig, t_open).apmd
             f = noise_free(rig, best)

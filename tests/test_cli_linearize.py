@@ -189,15 +189,20 @@ def test_missing_output_folder_writes_nothing(
     assert "output folder does not exist" in err
 
 
-def test_denoise_option(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def _noisy_case(tmp_path: Path, *, seed: int) -> list[str]:
+    """write_case with 0.01 N m of noise on the torque; the ``linearize build`` arguments."""
     write_case(tmp_path)
     data = tmp_path / "data.csv"
     cols = read_table(data)
-    rng = np.random.default_rng(0)
+    rng = np.random.default_rng(seed)
     cols["torque"] = np.asarray(cols["torque"]) + rng.normal(0.0, 0.01, len(cols["torque"]))
     write_table(data, cols)
+    return ["linearize", "build", str(tmp_path / "motor.toml"), str(data)]
+
+
+def test_denoise_option(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    args = _noisy_case(tmp_path, seed=0)
     d = str(tmp_path)
-    args = ["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv"]
     assert main([*args, "-o", f"{d}/a.npz"]) == 0
     assert "rows denoised: low-rank fit of the collection's blocks, rank" in capsys.readouterr().out
     assert load_tables(tmp_path / "a.npz").denoise_rank >= 1
@@ -207,14 +212,8 @@ def test_denoise_option(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
 
 
 def test_bias_weight_option(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    write_case(tmp_path)
-    data = tmp_path / "data.csv"
-    cols = read_table(data)
-    rng = np.random.default_rng(1)
-    cols["torque"] = np.asarray(cols["torque"]) + rng.normal(0.0, 0.01, len(cols["torque"]))
-    write_table(data, cols)
+    args = _noisy_case(tmp_path, seed=1)
     d = str(tmp_path)
-    args = ["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv"]
     assert main([*args, "-o", f"{d}/a.npz"]) == 0
     assert main([*args, "-o", f"{d}/b.npz", "--bias-weight", "10"]) == 0
     assert main([*args, "-o", f"{d}/c.npz", "--bias-weight", "inf"]) == 0
