@@ -15,6 +15,7 @@ from torquemap import __version__
 from torquemap.cli import (
     cmd_demo,
     cmd_estimate,
+    cmd_fleet,
     cmd_identify,
     cmd_import,
     cmd_linearize,
@@ -31,6 +32,7 @@ _MODULES = (
     cmd_demo,
     cmd_report,
     cmd_import,
+    cmd_fleet,
 )
 
 

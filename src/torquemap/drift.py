@@ -1,0 +1,290 @@
+"""Drift of friction and PDTV over a fleet's days: trends, and flags beyond the uncertainty.
+
+For every robot, joint and parameter (each friction law's linear parameters, each PDTV line's
+amplitude) the values identified day by day (:func:`torquemap.fleet.identify_fleet`) are fitted
+with a straight line in time by weighted least squares, each day weighted by its
+identification's own standard error (``[identification.joints.<j>.standard_errors]`` of the day's
+model), scaled up by Birge's ratio where the days scatter about the trend more than those
+errors say. A parameter is flagged when its fitted change over the period exceeds three standard
+errors of that change (a two-sided 0.3 % test), or when one day jumps away from the median of
+the days before it by more than four of its standard errors (a loose belt, a worn tooth).
+
+Where a day's model holds no standard error for a parameter, the scatter of the days about the
+trend stands in (the regression's own residual variance, tested with Student's t at the same
+0.3 % level): with few days that test is weak, and it says so by flagging little.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections import defaultdict
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from torquemap.errors import InputError
+from torquemap.fleet import read_run
+from torquemap.model import load_model
+
+#: Change over the period, in standard errors, beyond which a trend is flagged.
+TREND_Z = 3.0
+#: Jump of one day from the median of the days before it, in standard errors.
+STEP_Z = 4.0
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class DriftSeries:
+    """One parameter of one joint of one robot over the days.
+
+    Attributes
+    ----------
+    robot, joint, parameter
+        Which one (``friction.<name>`` or ``pdtv.<order>[.<direction>].amplitude``).
+    days
+        Days since the first day of the series, shape (d,).
+    dates
+        ISO dates, length d.
+    values
+        Identified values, shape (d,) [N m, N m s/rad, ...].
+    sigma
+        Standard error used for each day, shape (d,).
+    sigma_source
+        ``"identification"`` or ``"scatter"`` (module docstring).
+    slope, slope_se
+        Fitted trend [unit per day] and its standard error.
+    change, change_se
+        Fitted change over the whole period and its standard error.
+    flag
+        True when the change or a step exceeds the uncertainty (module docstring).
+    note
+        Why it is flagged ("" otherwise).
+    """
+
+    robot: str
+    joint: str
+    parameter: str
+    days: NDArray[np.float64]
+    dates: tuple[str, ...]
+    values: NDArray[np.float64]
+    sigma: NDArray[np.float64]
+    sigma_source: str
+    slope: float
+    slope_se: float
+    change: float
+    change_se: float
+    flag: bool
+    note: str
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class FleetDrift:
+    """Result of :func:`fleet_drift`.
+
+    Attributes
+    ----------
+    series
+        Every parameter with at least three days, robots and joints in order.
+    skipped
+        Robot-days that failed identification, as ``robot date: reason``.
+    """
+
+    series: tuple[DriftSeries, ...]
+    skipped: tuple[str, ...]
+
+    @property
+    def flagged(self) -> tuple[DriftSeries, ...]:
+        """The flagged series."""
+        return tuple(s for s in self.series if s.flag)
+
+
+def _parameters(model: Any, joint: str) -> dict[str, float]:
+    jm = model.joints[joint]
+    law = jm.friction
+    out = {
+        f"friction.{n}": float(v)
+        for n, v in zip(law.linear_parameter_names, law.linear_parameters(), strict=True)
+    }
+    for line in jm.pdtv:
+        key = f"pdtv.{line.order:g}" + ("" if line.direction == "both" else f".{line.direction}")
+        out[f"{key}.amplitude"] = line.amplitude
+    return out
+
+
+def _standard_errors(model: Any, joint: str) -> dict[str, float]:
+    joints = model.notes.get("joints", {})
+    entry = joints.get(joint, {}) if isinstance(joints, Mapping) else {}
+    table = entry.get("standard_errors", {}) if isinstance(entry, Mapping) else {}
+    if not isinstance(table, Mapping):
+        return {}
+    return {
+        str(k): float(v)
+        for k, v in table.items()
+        if isinstance(v, int | float) and math.isfinite(v) and v > 0
+    }
+
+
+def trend(
+    days: NDArray[np.float64], values: NDArray[np.float64], sigma: NDArray[np.float64]
+) -> tuple[float, float, float]:
+    """Weighted straight-line fit ``value = a + slope * day``: ``(a, slope, slope_se)``.
+
+    Examples
+    --------
+    >>> a, b, se = trend(np.arange(4.0), 2.0 + 0.5 * np.arange(4.0), np.ones(4))
+    >>> round(a, 12), round(b, 12), round(se, 6)
+    (2.0, 0.5, 0.447214)
+    """
+    w = 1.0 / sigma**2
+    x = np.column_stack([np.ones_like(days), days])
+    xtw = x.T * w
+    cov = np.linalg.inv(xtw @ x)
+    coef = cov @ (xtw @ values)
+    return float(coef[0]), float(coef[1]), float(math.sqrt(cov[1, 1]))
+
+
+def _series(
+    robot: str,
+    joint: str,
+    parameter: str,
+    dates: list[str],
+    values: list[float],
+    errors: list[float],
+) -> DriftSeries | None:
+    v = np.array(values)
+    day0 = np.datetime64(dates[0])
+    days = np.array([(np.datetime64(d) - day0).astype(float) for d in dates])
+    if v.size < 3 or np.ptp(days) <= 0:
+        return None
+    if not np.any(v):
+        return None  # never identified (a term the data did not support)
+    err = np.array(errors)
+    span = float(days[-1] - days[0])
+    notes = []
+    if np.all(np.isfinite(err) & (err > 0)):
+        source = "identification"
+        a, slope, slope_se = trend(days, v, err)
+        # Standard errors from one day's fit assume white residuals; where the days scatter
+        # about the trend more than they say (reduced chi-square above 1), scale them up
+        # (Birge's ratio), never down.
+        chi2 = float(np.sum(((v - a - slope * days) / err) ** 2))
+        birge = math.sqrt(chi2 / (v.size - 2)) if v.size > 2 else 1.0
+        scale = max(1.0, birge)
+        sigma, slope_se = err * scale, slope_se * scale
+        critical = TREND_Z
+    else:
+        from scipy.stats import t as student
+
+        source = "scatter"
+        _, slope, _ = trend(days, v, np.ones_like(v))
+        dof = v.size - 2
+        resid = v - np.polyval(np.polyfit(days, v, 1), days)
+        scale = math.sqrt(float(np.sum(resid**2)) / dof)
+        sigma = np.full(v.size, scale)
+        slope_se = scale / math.sqrt(float(np.sum((days - days.mean()) ** 2)))
+        critical = float(student.ppf(1.0 - 0.5 * math.erfc(TREND_Z / math.sqrt(2.0)), dof))
+    change, change_se = slope * span, slope_se * span
+    if change_se > 0 and abs(change) > critical * change_se:
+        notes.append(
+            f"changes {change:+.3g} over {span:g} days ({abs(change) / change_se:.1f} sigma)"
+        )
+    if source == "identification":
+        for k in range(2, v.size):
+            ref = float(np.median(v[:k]))
+            # against the day's own error: a step is exactly what inflates the trend's
+            if abs(v[k] - ref) > STEP_Z * err[k]:
+                notes.append(f"jumps to {v[k]:.3g} on {dates[k]} (from {ref:.3g})")
+                break
+    return DriftSeries(
+        robot=robot,
+        joint=joint,
+        parameter=parameter,
+        days=days,
+        dates=tuple(dates),
+        values=v,
+        sigma=sigma,
+        sigma_source=source,
+        slope=slope,
+        slope_se=slope_se,
+        change=change,
+        change_se=change_se,
+        flag=bool(notes),
+        note="; ".join(notes),
+    )
+
+
+def fleet_drift(out_dir: str | os.PathLike[str]) -> FleetDrift:
+    """Trends of every robot's friction and PDTV over the days of a fleet identification.
+
+    Parameters
+    ----------
+    out_dir
+        The output folder of :func:`torquemap.fleet.identify_fleet`.
+
+    Returns
+    -------
+    FleetDrift
+        One series per robot, joint and parameter present on at least three days.
+
+    Raises
+    ------
+    InputError
+        When ``out_dir`` holds no ``fleet-run.toml`` or a model file is unreadable.
+    """
+    out = Path(out_dir)
+    if not out.is_dir():
+        raise InputError("not a fleet output folder (no such folder)", path=out)
+    runs = read_run(out)
+    skipped: list[str] = []
+    # robot -> joint -> parameter -> (dates, values, errors)
+    table: dict[str, dict[str, dict[str, tuple[list[str], list[float], list[float]]]]] = (
+        defaultdict(lambda: defaultdict(dict))
+    )
+    order: list[str] = []
+    for entry in sorted(runs, key=lambda e: (str(e.get("robot")), str(e.get("date")))):
+        robot, date = str(entry.get("robot")), str(entry.get("date"))
+        if not entry.get("ok"):
+            skipped.append(f"{robot} {date}: {entry.get('reason', 'failed')}")
+            continue
+        model = load_model(out / str(entry["model"]))
+        if robot not in order:
+            order.append(robot)
+        for joint in model.robot.joint_names:
+            errors = _standard_errors(model, joint)
+            for parameter, value in _parameters(model, joint).items():
+                dates, values, errs = table[robot][joint].setdefault(parameter, ([], [], []))
+                dates.append(date)
+                values.append(value)
+                errs.append(errors.get(parameter, math.nan))
+    series = []
+    for robot in order:
+        for joint, params in table[robot].items():
+            for parameter, (dates, values, errs) in params.items():
+                s = _series(robot, joint, parameter, dates, values, errs)
+                if s is not None:
+                    series.append(s)
+    return FleetDrift(series=tuple(series), skipped=tuple(skipped))
+
+
+def drift_columns(drift: FleetDrift) -> dict[str, NDArray[Any]]:
+    """The table ``fleet drift -o`` writes: one row per series."""
+    s = drift.series
+    return {
+        "robot": np.array([x.robot for x in s], dtype=object),
+        "joint": np.array([x.joint for x in s], dtype=object),
+        "parameter": np.array([x.parameter for x in s], dtype=object),
+        "days": np.array([x.values.size for x in s]),
+        "first": np.array([x.values[0] for x in s]),
+        "last": np.array([x.values[-1] for x in s]),
+        "slope_per_day": np.array([x.slope for x in s]),
+        "slope_se": np.array([x.slope_se for x in s]),
+        "change": np.array([x.change for x in s]),
+        "change_se": np.array([x.change_se for x in s]),
+        "sigma_source": np.array([x.sigma_source for x in s], dtype=object),
+        "flag": np.array([int(x.flag) for x in s]),
+        "note": np.array([x.note for x in s], dtype=object),
+    }

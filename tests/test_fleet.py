@@ -1,0 +1,211 @@
+"""Fleets: the fleet file, identification of every robot-day on Dask, and drift trends.
+
+Identification runs on short 1-DoF logs simulated here in closed form (inverse dynamics of a
+known motion), so the fleet's mechanics are tested in seconds; drift is tested on model files
+whose parameters follow a known trend plus noise of a known standard error.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from torquemap.cli.main import main
+from torquemap.drift import fleet_drift, trend
+from torquemap.errors import InputError
+from torquemap.fleet import identify_fleet, read_fleet
+from torquemap.io import write_table, write_toml
+from torquemap.model import FrictionModel, JointModel, Model, PdtvLine, model_to_dict
+from torquemap.robot import robot_from_dict
+from torquemap.sim.fleet import MOTOR_ROBOT, motor_sweep_columns
+
+ROBOT = MOTOR_ROBOT
+
+
+@pytest.fixture(scope="module")
+def fleet_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Two robots, two days each; r02's second day names a missing log."""
+    root = tmp_path_factory.mktemp("fleet")
+    rng = np.random.default_rng(3)
+    robots = []
+    for name in ("r01", "r02"):
+        (root / name).mkdir()
+        write_toml(root / name / "robot.toml", ROBOT)
+        days = []
+        for d in range(2):
+            date = dt.date(2026, 11, 2 + d)
+            log = f"{name}/{date.isoformat()}.csv"
+            if not (name == "r02" and d == 1):
+                write_table(root / log, motor_sweep_columns(rng, coulomb=0.05 + 0.01 * d))
+            days.append({"date": date, "logs": [log]})
+        robots.append({"name": name, "robot": f"{name}/robot.toml", "days": days})
+    write_toml(root / "FLEET.toml", {"robots": robots})
+    return root
+
+
+def test_fleet_identify_every_robot_day(fleet_dir: Path, tmp_path: Path) -> None:
+    fleet = read_fleet(fleet_dir / "FLEET.toml")
+    run = identify_fleet(fleet, tmp_path / "out", workers=1, processes=False)
+    assert [(o.robot, o.date.day, o.ok) for o in run.outcomes] == [
+        ("r01", 2, True),
+        ("r01", 3, True),
+        ("r02", 2, True),
+        ("r02", 3, False),
+    ]
+    assert "file not found" in run.failed[0].reason  # one robot-day fails, the others finish
+    # each model holds the identified Coulomb friction of its day (0.05, then 0.06 N m): pass
+    # means over ~2000 samples of 5 mN m noise are good to well under 1 mN m
+    from torquemap.model import load_model
+
+    for o in run.outcomes[:2]:
+        assert o.model_path is not None
+        m = load_model(o.model_path)
+        expected = 0.05 + 0.01 * (o.date.day - 2)
+        assert_allclose(m.joints["m"].friction.linear_parameters()[0], expected, atol=1e-3)
+        errors = m.notes["joints"]["m"]["standard_errors"]
+        assert 0 < errors["friction.coulomb_positive"] < 1e-3
+    assert (tmp_path / "out" / "fleet-run.toml").exists()
+    assert not list((tmp_path / "out").rglob(".*.tmp"))  # nothing half-written
+
+
+def test_fleet_cli_reports_failures(
+    fleet_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a log of another robot: r01's log read against a two-joint robot lacks columns
+    other = robot_from_dict(
+        {
+            "robot": {},
+            "joints": {
+                "m": {"gear_ratio": 1, "torque_constant": 0.1},
+                "n": {"gear_ratio": 1, "torque_constant": 0.1},
+            },
+        }
+    )
+    from torquemap.robot import robot_to_dict
+
+    write_toml(tmp_path / "two.toml", robot_to_dict(other))
+    log = fleet_dir / "r01" / "2026-11-02.csv"
+    write_toml(
+        tmp_path / "F.toml",
+        {
+            "robots": [
+                {
+                    "name": "x",
+                    "robot": "two.toml",
+                    "days": [{"date": dt.date(2026, 1, 1), "logs": [str(log)]}],
+                }
+            ]
+        },
+    )
+    status = main(
+        ["fleet", "identify", str(tmp_path / "F.toml"), "-o", str(tmp_path / "o"), "--workers", "1"]
+    )
+    out = capsys.readouterr().out
+    assert status == 1  # every robot-day failed
+    assert "x 2026-01-01: FAILED:" in out and "missing column 'q_n'" in out
+
+
+@pytest.mark.parametrize(
+    ("doc", "message"),
+    [
+        ({"robots": []}, "lists no robots"),
+        ({"robots": [{"name": "a b", "robot": "r.toml", "days": []}]}, "name must be"),
+        ({"robots": [{"name": "a", "robot": "r.toml"}]}, "has no \\[\\[robots.days\\]\\]"),
+        (
+            {
+                "robots": [
+                    {
+                        "name": "a",
+                        "robot": "r.toml",
+                        "days": [{"date": "2026-11-01", "logs": ["x.csv"]}],
+                    }
+                ]
+            },
+            "date must be a TOML date",
+        ),
+        (
+            {
+                "robots": [
+                    {
+                        "name": "a",
+                        "robot": "r.toml",
+                        "days": [{"date": dt.date(2026, 1, 1), "logs": ["x.csv"]}] * 2,
+                    }
+                ]
+            },
+            "listed twice",
+        ),
+        ({"robots": [], "extra": 1}, "unknown key 'extra'"),
+    ],
+)
+def test_bad_fleet_files(tmp_path: Path, doc: dict[str, object], message: str) -> None:
+    write_toml(tmp_path / "F.toml", doc)
+    with pytest.raises(InputError, match=message):
+        read_fleet(tmp_path / "F.toml")
+
+
+def test_trend_is_weighted_least_squares() -> None:
+    # closed form for equal weights: slope = cov(x, y) / var(x), se = sigma / sqrt(Sxx)
+    x = np.array([0.0, 1.0, 3.0, 4.0])
+    y = np.array([1.0, 2.0, 2.5, 4.5])
+    _, slope, se = trend(x, y, np.full(4, 0.5))
+    sxx = float(np.sum((x - x.mean()) ** 2))
+    assert_allclose(slope, float(np.sum((x - x.mean()) * (y - y.mean()))) / sxx, rtol=1e-12)
+    assert_allclose(se, 0.5 / math.sqrt(sxx), rtol=1e-12)
+
+
+def _drift_folder(tmp_path: Path) -> Path:
+    """Eight days of one robot: Coulomb grows 1 mN m/day, a 2 CPR line is steady, a 5 CPR
+    line jumps on day 5; noise and stored standard errors are 0.2 mN m."""
+    rng = np.random.default_rng(11)
+    robot = robot_from_dict(ROBOT)
+    days = []
+    (tmp_path / "r").mkdir()
+    for d in range(8):
+        date = dt.date(2026, 1, 1) + dt.timedelta(days=d)
+        se = 2e-4
+        jm = JointModel(
+            friction=FrictionModel(0.05 + 1e-3 * d + rng.normal(0, se), 0.05 + rng.normal(0, se)),
+            pdtv=(
+                PdtvLine(2.0, 0.02 + rng.normal(0, se), 0.0),
+                PdtvLine(5.0, 0.004 + (0.004 if d >= 5 else 0.0) + rng.normal(0, se), 0.0),
+            ),
+        )
+        errors = {
+            "friction.coulomb_positive": se,
+            "friction.coulomb_negative": se,
+            "pdtv.2.amplitude": se,
+            "pdtv.5.amplitude": se,
+        }
+        model = Model(robot, {"m": jm}, {"joints": {"m": {"standard_errors": errors}}})
+        write_toml(tmp_path / "r" / f"{date}.toml", model_to_dict(model))
+        days.append({"robot": "r", "date": date, "ok": True, "model": f"r/{date}.toml"})
+    days.append({"robot": "r", "date": dt.date(2026, 2, 1), "ok": False, "reason": "no log"})
+    write_toml(tmp_path / "fleet-run.toml", {"days": days})
+    return tmp_path
+
+
+def test_drift_finds_wear_and_a_step_not_noise(tmp_path: Path) -> None:
+    drift = fleet_drift(_drift_folder(tmp_path))
+    by = {s.parameter: s for s in drift.series}
+    wear = by["friction.coulomb_positive"]
+    # the known slope, within 3 of its own standard errors
+    assert abs(wear.slope - 1e-3) < 3 * wear.slope_se
+    assert wear.flag and wear.sigma_source == "identification"
+    assert not by["friction.coulomb_negative"].flag  # noise only
+    assert not by["pdtv.2.amplitude"].flag
+    assert by["pdtv.5.amplitude"].flag and "jumps" in by["pdtv.5.amplitude"].note
+    assert drift.skipped == ("r 2026-02-01: no log",)
+
+
+def test_drift_cli(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = _drift_folder(tmp_path)
+    assert main(["fleet", "drift", str(out), "-o", str(tmp_path / "drift.csv")]) == 0
+    text = capsys.readouterr().out
+    assert "FLAG r m friction.coulomb_positive" in text
+    assert (tmp_path / "drift.csv").read_text().startswith("robot,joint,parameter,")
