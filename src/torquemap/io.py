@@ -9,7 +9,7 @@ import contextlib
 import os
 import re
 import tempfile
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -22,6 +22,8 @@ from torquemap.errors import InputError
 from torquemap.robot import Robot
 
 Columns = dict[str, NDArray[Any]]
+#: Writes one output's contents into the (temporary) path it is given.
+Writer = Callable[[Path], object]
 
 
 #: Temporary files of a write in progress: ``.<name>.tqm<pid>-<random>.tmp`` (an optional second
@@ -352,6 +354,40 @@ def numeric_column(
     return values
 
 
+def render_table(
+    target: str | os.PathLike[str], columns: Mapping[str, ArrayLike], *, kind: str
+) -> None:
+    """Write columns to ``target`` as ``kind`` (``".csv"`` or ``".parquet"``), not atomically.
+
+    The building block of :func:`write_table` and :func:`write_all` (which hand it a temporary).
+
+    Raises
+    ------
+    InputError
+        On a column name a CSV header cannot hold (a comma, quote or line break).
+    """
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+    import pyarrow.parquet as pq
+
+    arrays = {k: np.asarray(v) for k, v in columns.items()}
+    table = pa.table(arrays)
+    if kind == ".csv":
+        for name in arrays:
+            if any(c in name for c in ',"\r\n'):
+                raise InputError(f"column name {name!r} cannot be written to a CSV header")
+        # a plain header line (pyarrow would quote the names)
+        with open(target, "wb") as handle:
+            handle.write((",".join(arrays) + "\n").encode())
+            pacsv.write_csv(
+                table,
+                handle,
+                write_options=pacsv.WriteOptions(include_header=False, quoting_style="none"),
+            )
+    else:
+        pq.write_table(table, target)
+
+
 def write_table(path: str | os.PathLike[str], columns: Mapping[str, ArrayLike]) -> None:
     """Write columns to ``.csv`` or ``.parquet``, atomically.
 
@@ -362,32 +398,60 @@ def write_table(path: str | os.PathLike[str], columns: Mapping[str, ArrayLike]) 
     columns
         Column name to 1-D values of equal length.
     """
-    import pyarrow as pa
-    import pyarrow.csv as pacsv
-    import pyarrow.parquet as pq
-
     p = Path(path)
     kind = _suffix(p)
-    arrays = {k: np.asarray(v) for k, v in columns.items()}
-    table = pa.table(arrays)
     with atomic_output(p) as tmp:
-        if kind == ".csv":
-            # a plain header line (pyarrow would quote the names)
-            with tmp.open("wb") as handle:
-                handle.write((",".join(arrays) + "\n").encode())
-                pacsv.write_csv(
-                    table,
-                    handle,
-                    write_options=pacsv.WriteOptions(include_header=False, quoting_style="none"),
-                )
-        else:
-            pq.write_table(table, tmp)
+        render_table(tmp, columns, kind=kind)
+
+
+def table_writer(path: str | os.PathLike[str], columns: Mapping[str, ArrayLike]) -> Writer:
+    """A writer for :func:`write_all` of a table, its format chosen by ``path``'s suffix."""
+    kind = _suffix(Path(path))
+    return lambda tmp: render_table(tmp, columns, kind=kind)
+
+
+def toml_writer(document: Mapping[str, Any]) -> Writer:
+    """A writer for :func:`write_all` of a TOML document."""
+    return lambda tmp: tmp.write_text(tomli_w.dumps(document))
+
+
+def figure_writer(figure: Any, *, kind: str = "png", dpi: int = 120) -> Writer:
+    """A writer for :func:`write_all` of a matplotlib figure in format ``kind``."""
+    return lambda tmp: figure.savefig(tmp, format=kind, dpi=dpi)
 
 
 def write_toml(path: str | os.PathLike[str], document: Mapping[str, Any]) -> None:
     """Write a TOML document atomically."""
     with atomic_output(path) as tmp:
-        tmp.write_text(tomli_w.dumps(document))
+        toml_writer(document)(tmp)
+
+
+def write_all(writers: Mapping[Path, Writer] | Mapping[str, Writer]) -> list[Path]:
+    """Write several files all or none: each writer fills a temporary, then all are renamed.
+
+    Parameters
+    ----------
+    writers
+        Output path to a function writing that file's contents into the path it is given.
+
+    Returns
+    -------
+    list of Path
+        The files written, in order.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> [p.name for p in write_all({d / "a.txt": lambda t: t.write_text("a"),
+    ...                             d / "b.txt": lambda t: t.write_text("b")})]
+    ['a.txt', 'b.txt']
+    """
+    paths = [Path(p) for p in writers]
+    with atomic_outputs(paths) as tmps:
+        for tmp, write in zip(tmps, writers.values(), strict=True):
+            write(tmp)
+    return paths
 
 
 @dataclass(frozen=True, slots=True, eq=False)

@@ -8,6 +8,12 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from torquemap.cli.argtypes import int_in
+from torquemap.cli.outputs import check_outputs
+
+#: Most readings per row (or per bias measurement) a simulated run accepts.
+MAX_READINGS = 100_000
+
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add ``rig`` to the ``simulate`` group's sub-parsers."""
@@ -25,10 +31,12 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     rig.add_argument(
         "--ramping", choices=("narrow", "wide"), default="wide", help="ramping (default wide)"
     )
-    rig.add_argument("--readings", type=int, default=10, help="readings per row (default 10)")
+    rig.add_argument(
+        "--readings", type=int_in(1, MAX_READINGS), default=10, help="readings per row (default 10)"
+    )
     rig.add_argument(
         "--bias-readings",
-        type=int,
+        type=int_in(1, MAX_READINGS),
         default=None,
         help="readings averaged for the sensor bias at each position (default 10x --readings)",
     )
@@ -53,6 +61,8 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
 
 def _rig(args: argparse.Namespace) -> int:
     from torquemap.sim.rig import write_rig_data
+
+    check_outputs([], folders=[(args.out, ("motor.toml", "data.csv"))])
 
     result = write_rig_data(
         args.out,

@@ -255,12 +255,22 @@ def ramped_actuation(
     return out
 
 
-def _int(value: Any, what: str, path: str | None, *, low: int, high: int | None = None) -> int:
+def _int(
+    value: Any,
+    what: str,
+    path: str | None,
+    *,
+    low: int,
+    high: int | None = None,
+    cap: int | None = None,
+) -> int:
     if isinstance(value, bool) or not isinstance(value, int):
         raise InputError(f"[motor] {what} must be an integer, got {value!r}", path=path)
     if value < low or (high is not None and value > high):
         bound = f">= {low}" if high is None else f"in {low} .. {high}"
         raise InputError(f"[motor] {what} must be {bound}, got {value}", path=path)
+    if cap is not None and value > cap:
+        raise InputError(f"[motor] {what} must be at most {cap}, got {value}", path=path)
     return int(value)
 
 
@@ -310,13 +320,13 @@ def motor_from_dict(
     name = table["name"]
     if not isinstance(name, str) or not name.strip():
         raise InputError(f"[motor] name must be a non-empty string, got {name!r}", path=p)
-    m = _int(table["phases"], "phases", p, low=1, high=MAX_PHASES)
+    m = _int(table["phases"], "phases", p, low=1, cap=MAX_PHASES)
     n = _int(
         table["positions_per_cycle"],
         "positions_per_cycle",
         p,
         low=2 * m,
-        high=MAX_POSITIONS_PER_CYCLE,
+        cap=MAX_POSITIONS_PER_CYCLE,
     )
     bits = _int(table.get("command_bits", 8), "command_bits", p, low=2, high=16)
     if n << bits > MAX_TABLE_ENTRIES:
@@ -325,7 +335,7 @@ def motor_from_dict(
             f"table entries per phase, more than the {MAX_TABLE_ENTRIES} (2**24) allowed",
             path=p,
         )
-    top = _int(table.get("actuation_max", 255), "actuation_max", p, low=1, high=MAX_ACTUATION)
+    top = _int(table.get("actuation_max", 255), "actuation_max", p, low=1, cap=MAX_ACTUATION)
     raw_eq = table["equilibrium_positions"]
     if not isinstance(raw_eq, list) or len(raw_eq) != m:
         raise InputError(
