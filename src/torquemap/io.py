@@ -252,6 +252,7 @@ def read_table(path: str | os.PathLike[str]) -> Columns:
             table = pacsv.read_csv(p)
         else:
             table = pq.read_table(p)
+        names = list(table.column_names)
     except UnicodeDecodeError as exc:
         raise InputError(
             f"not UTF-8 text (byte 0x{exc.object[exc.start]:02x} in the header); save the file "
@@ -263,7 +264,6 @@ def read_table(path: str | os.PathLike[str]) -> Columns:
         raise InputError(f"cannot parse table, truncated or malformed ({first})", path=p) from None
     if table.num_rows == 0:
         raise InputError("table has no rows", path=p)
-    names = list(table.column_names)
     seen: set[str] = set()
     for name in names:
         if name in seen:

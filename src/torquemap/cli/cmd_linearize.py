@@ -121,9 +121,11 @@ def _build(args: argparse.Namespace) -> int:
     from torquemap.linearize.motor import load_motor
     from torquemap.linearize.tables import build_tables, read_data
 
-    spec = load_motor(args.motor)
+    files = [(args.out, NPZ), (args.c_header, C_HEADER)]
+    check_outputs(files, [args.motor, args.data])
+    spec = load_motor(args.motor)  # the number of phases names the image files
     check_outputs(
-        [(args.out, NPZ), (args.c_header, C_HEADER)],
+        files,
         [args.motor, args.data],
         folders=[
             (args.bin, [f"phase_{k + 1}.bin" for k in range(spec.phases)]),

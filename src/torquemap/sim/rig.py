@@ -440,6 +440,10 @@ def collect_on_sim(
     )
 
 
+#: Most readings per row (or per bias measurement) a simulated run takes.
+MAX_READINGS = 100_000
+
+
 def write_rig_data(
     out_dir: str | os.PathLike[str],
     *,
@@ -505,6 +509,9 @@ def write_rig_data(
         isinstance(bias_readings, bool) or not isinstance(bias_readings, int) or bias_readings < 1
     ):
         raise InputError(f"bias readings must be a positive integer, got {bias_readings!r}")
+    for what, count in (("readings", readings), ("bias readings", bias_readings or 1)):
+        if count > MAX_READINGS:
+            raise InputError(f"{what} must be at most {MAX_READINGS}, got {count}")
     rig = sim_rig(motor, rng=seed)
     spec = rig.motor_spec(ramping=ramping)
     positions = _positions(spec, position_step)
