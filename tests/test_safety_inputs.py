@@ -239,3 +239,27 @@ def test_csv_header_injection_is_refused(tmp_path: Path) -> None:
     assert list(tmp_path.iterdir()) == []
     write_table(tmp_path / "x.parquet", {"a,b": [1.0]})  # Parquet holds any name
     assert list(read_table(tmp_path / "x.parquet")) == ["a,b"]
+
+
+@pytest.mark.parametrize("name", ["a\nb", "a\x1eb", "a\u2028b", "a\rb"])
+def test_errors_naming_user_text_stay_one_line(
+    name: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    write_toml(tmp_path / "robot.toml", {**ROBOT, "joints": {**ROBOT["joints"], name: 0}})
+    argv = ["identify", str(tmp_path / "robot.toml"), "l.csv", "-o", str(tmp_path / "m.toml")]
+    status, err = run(argv, capsys)
+    assert status == 2 and len(err.splitlines()) == 1 and "Traceback" not in err, err
+    assert "] must be a table" in err
+
+
+@pytest.mark.parametrize("value", [1e300, -1e16, 1.7e308])
+def test_absurd_current(
+    value: float, robot_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    cols = log_columns()
+    cols["i_b"][7] = value  # squared it overflowed float64 deep in identify and estimate
+    write_table(tmp_path / "i.csv", cols)
+    status, err = estimate(robot_file, tmp_path / "i.csv", capsys)
+    assert_one_line(
+        status, err, f"column 'i_b' value {value:.6g} A at data row 8 is beyond +-1e+15 A"
+    )

@@ -279,6 +279,12 @@ def read_table(path: str | os.PathLike[str]) -> Columns:
     return out
 
 
+#: Largest magnitude any numeric column may hold: no quantity these files measure reaches
+#: 1e15 in SI units, and beyond it squares and sums of a log overflow float64 (a current of
+#: 1e308 A is a corrupt file, not a sample).
+MAX_MAGNITUDE = 1e15
+
+
 def _is_number(value: object) -> bool:
     return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
         value, (bool, np.bool_)
@@ -305,7 +311,7 @@ def numeric_column(
         The file (for messages).
     max_abs
         Refuse values with a larger magnitude (a corrupt sample, or a number float64 cannot
-        resolve at the precision the column needs).
+        resolve at the precision the column needs); default :data:`MAX_MAGNITUDE`.
     unit
         Unit of the column, for the message.
 
@@ -341,16 +347,16 @@ def numeric_column(
         raise InputError(
             f"column {name!r} holds NaN or inf (first at data row {row + 1})", path=path
         )
-    if max_abs is not None:
-        bad = np.abs(values) > max_abs
-        if bad.any():
-            row = int(np.argmax(bad))
-            suffix = f" {unit}" if unit else ""
-            raise InputError(
-                f"column {name!r} value {values[row]:.6g}{suffix} at data row {row + 1} is "
-                f"beyond +-{max_abs:g}{suffix}",
-                path=path,
-            )
+    limit = MAX_MAGNITUDE if max_abs is None else max_abs
+    bad = np.abs(values) > limit
+    if bad.any():
+        row = int(np.argmax(bad))
+        suffix = f" {unit}" if unit else ""
+        raise InputError(
+            f"column {name!r} value {values[row]:.6g}{suffix} at data row {row + 1} is "
+            f"beyond +-{limit:g}{suffix}",
+            path=path,
+        )
     return values
 
 
@@ -524,9 +530,11 @@ def log_from_columns(columns: Columns, robot: Robot, *, path: str | os.PathLike[
         else:
             q[:, k] = numeric_column(columns, name, p, max_abs=MAX_ANGLE, unit="rad")
         if f"tau_{joint.name}" in columns:
-            tau[:, k] = numeric_column(columns, f"tau_{joint.name}", p)
+            tau[:, k] = numeric_column(columns, f"tau_{joint.name}", p, unit="N m")
         elif f"i_{joint.name}" in columns:
-            tau[:, k] = numeric_column(columns, f"i_{joint.name}", p) * joint.torque_constant
+            tau[:, k] = (
+                numeric_column(columns, f"i_{joint.name}", p, unit="A") * joint.torque_constant
+            )
         else:
             raise InputError(
                 f"missing column 'i_{joint.name}' or 'tau_{joint.name}' for joint {joint.name!r}",
