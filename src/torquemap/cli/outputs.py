@@ -17,6 +17,7 @@ from torquemap.io import check_output_file
 PathLike = str | os.PathLike[str]
 
 TABLE = (".csv", ".parquet")
+CSV = (".csv",)
 FIGURE = (".png", ".pdf", ".svg")
 TOML = (".toml",)
 JSON = (".json",)
