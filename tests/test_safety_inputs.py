@@ -92,6 +92,13 @@ def test_latin1_header(
     assert_one_line(status, err, "not UTF-8 text (byte 0xe9")
 
 
+def test_latin1_cell(robot_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    log = tmp_path / "latin1.csv"
+    log.write_bytes(b"t,q_a,q_b,i_a,i_b\n0,0,0.6,1,2\n0.001,0,0.6,\xe9,2\n")
+    status, err = estimate(robot_file, log, capsys)
+    assert_one_line(status, err, "column 'i_a' is not UTF-8 text (data row 2)")
+
+
 def test_absurd_angle(robot_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     cols = log_columns()
     cols["q_a"][20] = 1e29  # was a LinAlgError (singular Jacobian) deep in the estimate

@@ -285,6 +285,14 @@ def read_table(path: str | os.PathLike[str]) -> Columns:
 MAX_MAGNITUDE = 1e15
 
 
+def _utf8(raw: bytes) -> bool:
+    try:
+        raw.decode("utf-8")
+    except UnicodeDecodeError:
+        return False
+    return True
+
+
 def _is_number(value: object) -> bool:
     return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
         value, (bool, np.bool_)
@@ -328,6 +336,12 @@ def numeric_column(
     if kind == "b":
         raise InputError(f"column {name!r} holds booleans, not numbers", path=path)
     if kind == "O":
+        for k, v in enumerate(raw.ravel()):
+            if isinstance(v, bytes) and not _utf8(v):
+                raise InputError(
+                    f"column {name!r} is not UTF-8 text (data row {k + 1}); save the file as UTF-8",
+                    path=path,
+                )
         bad_items = [k for k, v in enumerate(raw.ravel()) if not _is_number(v)]
         if bad_items:
             row = bad_items[0]
