@@ -33,11 +33,11 @@ from torquemap.sim.bench import robot_document, truth_document
 from torquemap.sim.scara import default_bench
 
 #: Examples per property; raise it for a longer hunt, e.g. TORQUEMAP_FUZZ_EXAMPLES=500.
-EXAMPLES = int(os.environ.get("TORQUEMAP_FUZZ_EXAMPLES", "12"))
+EXAMPLES = int(os.environ.get("TORQUEMAP_FUZZ_EXAMPLES", "25"))
 FUZZ = settings(
     max_examples=EXAMPLES,
     deadline=None,
-    derandomize=EXAMPLES <= 12,
+    derandomize=EXAMPLES <= 25,
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
 
@@ -344,7 +344,10 @@ def test_one_corrupt_sample_spoils_only_its_neighbourhood(
     """Sound samples farther than the filters' support from the corrupt one keep their value.
 
     Support: the differentiator window plus one period of the low-pass cut-off (0.05 s +
-    1 / 2 Hz, the defaults); tolerance 0.02 N m, about 3x the clean estimate's noise.
+    1 / 2 Hz, the defaults). Tolerance 0.02 N m, about twice the estimate's noise: between two
+    noise seeds of this log the sound tau_ext differ by 0.007 to 0.017 N m rms (measured), i.e.
+    0.005 to 0.012 N m per realisation; here the noise is the same in both runs, so any
+    difference is the corrupt sample's.
     """
     columns = read_table(clean["log.csv"])
     columns[column] = columns[column].copy()
