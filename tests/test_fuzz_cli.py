@@ -116,6 +116,7 @@ def clean(tmp_path_factory: pytest.TempPathFactory) -> Clean:
         d / "data.csv",
         {"position": p.ravel(), "pulse_width": pw.ravel(), "torque": (g * (pw / 255) ** 2).ravel()},
     )
+    write_table(d / "log.parquet", read_table(d / "log.csv"))
     out = d / "out"
     out.mkdir()
     for argv in _commands(d, out):
@@ -365,3 +366,38 @@ def test_one_corrupt_sample_spoils_only_its_neighbourhood(
     sound = (got["flag"] == 0) & (want["flag"] == 0) & far
     for name in ("tau_ext_a", "tau_ext_b"):
         assert np.all(np.abs(got[name][sound] - want[name][sound]) <= 0.02), name
+
+
+ARROW_TYPES = ("bool", "string", "int64", "uint64", "float32", "int8", "timestamp[s]", "binary")
+
+
+@FUZZ
+@given(
+    column=st.sampled_from(["t", "q_a", "q_b", "i_a", "i_b"]),
+    arrow_type=st.sampled_from(ARROW_TYPES),
+    nulls=st.lists(st.integers(0, 1499), max_size=3),
+)
+def test_retyped_parquet_logs(clean: Clean, column: str, arrow_type: str, nulls: list[int]) -> None:
+    """A Parquet log whose column has another type, or missing values, is refused or read."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(clean["log.csv"].with_suffix(".parquet"))
+    values = table.column(column)
+    try:
+        values = pc.cast(values, pa.type_for_alias(arrow_type), safe=False)
+    except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
+        via = pa.string() if arrow_type == "binary" else pa.int64()
+        values = pc.cast(pc.cast(values, via, safe=False), pa.type_for_alias(arrow_type))
+    if nulls:
+        mask = np.zeros(len(values), dtype=bool)
+        mask[nulls] = True
+        values = pc.if_else(pa.array(mask), pa.nulls(len(values), values.type), values)
+    table = table.set_column(table.schema.get_field_index(column), column, values)
+    with _scratch() as d:
+        pq.write_table(table, d / "log.parquet")
+        argv = ["estimate", str(clean["model.toml"]), str(d / "log.parquet"), "-o",
+                str(d / "f.csv")]  # fmt: skip
+        status, err = _run(argv)
+        assert_clean_outcome(status, err, argv)
