@@ -270,3 +270,22 @@ def test_absurd_current(
     assert_one_line(
         status, err, f"column 'i_b' value {value:.6g} A at data row 8 is beyond +-1e+15 A"
     )
+
+
+@pytest.mark.xfail(
+    strict=True,
+    raises=RecursionError,
+    reason="robot.py (being restructured by the integrator) must read TOML through "
+    "torquemap.tomlfile.read_toml; remove this mark when it does",
+)
+def test_robot_and_model_toml_nested_100000_deep(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    deep = tmp_path / "robot.toml"
+    deep.write_text("a = " + "[" * 100_000 + "]" * 100_000)
+    for argv in (
+        ["identify", str(deep), "l.csv", "-o", str(tmp_path / "m.toml")],
+        ["estimate", str(deep), "l.csv", "-o", str(tmp_path / "f.csv")],
+    ):
+        status, err = run(argv, capsys)
+        assert_one_line(status, err, "not valid TOML (nested too deeply)")
