@@ -31,3 +31,21 @@ class InputError(ValueError):
 
     def __str__(self) -> str:
         return self.message if self.path is None else f"{self.path}: {self.message}"
+
+
+def one_line(text: str) -> str:
+    r"""``text`` on one line: line breaks and other unprintable characters as escapes.
+
+    User text (a joint name, a key) can hold any character; a message naming it must still be
+    one line on a terminal and in a log, so a line feed, ``\x1e``, ``\u2028`` and the like are
+    written as their escapes.
+
+    Examples
+    --------
+    >>> print(one_line("[joints.a\nb] must be a table"))
+    [joints.a\nb] must be a table
+    """
+    return "".join(
+        ch if ch.isprintable() or ch == " " else ch.encode("unicode_escape").decode("ascii")
+        for ch in text
+    )

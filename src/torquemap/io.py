@@ -7,8 +7,9 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import tempfile
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -21,11 +22,152 @@ from torquemap.errors import InputError
 from torquemap.robot import Robot
 
 Columns = dict[str, NDArray[Any]]
+#: Writes one output's contents into the (temporary) path it is given.
+Writer = Callable[[Path], object]
+
+
+#: Temporary files of a write in progress: ``.<name>.tqm<pid>-<random>.tmp`` (an optional second
+#: suffix follows when a writer needs the real one). A run removes the ones whose process is gone.
+TEMPORARY_PATTERN = re.compile(r"^\..*\.tqm(?P<pid>[0-9]+)-[A-Za-z0-9_]+\.tmp(\.[A-Za-z0-9]+)?$")
+
+
+def _pid_alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, ValueError):
+        return pid > 0
+    return True
+
+
+def remove_stale_temporaries(folder: str | os.PathLike[str]) -> list[Path]:
+    """Remove torquemap's own temporaries in ``folder`` whose writing process is gone.
+
+    A run killed while writing (kill -9, a power cut) leaves ``.<name>.tqm<pid>-<random>.tmp``
+    behind; the next write into the same folder calls this. Temporaries of live processes and
+    every other file are left alone.
+
+    Returns
+    -------
+    list of Path
+        The files removed.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (d / ".x.csv.tqm999999999-abc.tmp").write_text("partial")
+    >>> [p.name for p in remove_stale_temporaries(d)]
+    ['.x.csv.tqm999999999-abc.tmp']
+    """
+    removed: list[Path] = []
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    for entry in entries:
+        match = TEMPORARY_PATTERN.match(entry.name)
+        if match is None or _pid_alive(int(match["pid"])):
+            continue
+        with contextlib.suppress(OSError):
+            if entry.is_file(follow_symlinks=False):
+                os.unlink(entry.path)
+                removed.append(Path(entry.path))
+    return removed
+
+
+def current_umask() -> int:
+    """The process's file-creation mask (read without changing it where /proc allows)."""
+    with contextlib.suppress(OSError, ValueError):
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("Umask:"):
+                return int(line.split()[1], 8)
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def check_output_file(path: str | os.PathLike[str]) -> Path:
+    """InputError unless ``path`` can be written as a file: folder exists, not a folder, writable.
+
+    An existing file is replaced (fine) unless it is read-only: that is refused, as ``cp`` and
+    editors do, since the user marked it as not to be changed.
+    """
+    target = Path(path)
+    parent = target.parent
+    if not parent.is_dir():
+        if parent.exists():
+            raise InputError("output folder is not a folder", path=parent)
+        raise InputError("output folder does not exist", path=parent)
+    if target.is_dir():
+        raise InputError("output is a folder, expected a file name", path=target)
+    if target.exists() or target.is_symlink():
+        try:
+            mode = target.stat().st_mode
+        except OSError:
+            mode = 0o666
+        if not mode & 0o222 or not os.access(target, os.W_OK):
+            raise InputError(
+                "output exists and is read-only; make it writable or choose another name",
+                path=target,
+            )
+    return target
+
+
+@contextlib.contextmanager
+def atomic_outputs(paths: Sequence[str | os.PathLike[str]]) -> Iterator[list[Path]]:
+    """Yield one temporary path per output; rename them all onto the outputs only on success.
+
+    All or none: the temporaries are staged beside their targets (same file system), renamed
+    only once every one was written, and removed on any failure (a full disk, an exception,
+    Ctrl-C). They are named ``.<name>.tqm<pid>-<random>.tmp``; stale ones of a killed run are
+    removed by the next write into the folder (:func:`remove_stale_temporaries`). The outputs
+    get the user's umask (``0666 & ~umask``), like any file the user's shell creates.
+
+    Raises
+    ------
+    InputError
+        If an output's folder is missing, an output is a folder or a read-only file, or two
+        outputs are the same file.
+    """
+    targets = [Path(p) for p in paths]
+    seen: set[Path] = set()
+    for target in targets:
+        check_output_file(target)
+        key = target.resolve()
+        if key in seen:
+            raise InputError("the same output is named twice", path=target)
+        seen.add(key)
+    for folder in {t.parent for t in targets}:
+        remove_stale_temporaries(folder)
+    mode = 0o666 & ~current_umask()
+    tmps: list[Path] = []
+    try:
+        for target in targets:
+            fd, name = tempfile.mkstemp(
+                prefix=f".{target.name}.tqm{os.getpid()}-", suffix=".tmp", dir=target.parent
+            )
+            os.close(fd)
+            tmps.append(Path(name))
+        yield list(tmps)
+        for tmp in tmps:
+            os.chmod(tmp, mode)
+        for tmp, target in zip(tmps, targets, strict=True):
+            os.replace(tmp, target)
+    finally:
+        for tmp in tmps:
+            with contextlib.suppress(FileNotFoundError):
+                tmp.unlink()
 
 
 @contextlib.contextmanager
 def atomic_output(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it onto ``path`` only on success.
+
+    See :func:`atomic_outputs` (temporary names, umask, read-only outputs).
 
     Examples
     --------
@@ -36,18 +178,38 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[Path]:
     >>> (d / "x.txt").read_text()
     'hello'
     """
-    target = Path(path)
-    if target.parent and not target.parent.exists():
-        raise InputError("output folder does not exist", path=target.parent)
-    fd, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent or ".")
-    os.close(fd)
-    tmp = Path(name)
+    with atomic_outputs([path]) as tmps:
+        yield tmps[0]
+
+
+@contextlib.contextmanager
+def output_folder(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """Create folder ``path`` (and parents) for the outputs; on failure remove what was created.
+
+    Only folders this call created, and only while empty, are removed: an existing folder is
+    never touched.
+    """
+    folder = Path(path)
+    if folder.exists() and not folder.is_dir():
+        raise InputError("output path exists and is not a folder", path=folder)
+    created: list[Path] = []
+    probe = folder
+    while not probe.exists():
+        created.append(probe)
+        if probe.parent == probe:
+            break
+        probe = probe.parent
     try:
-        yield tmp
-        os.replace(tmp, target)
-    finally:
-        with contextlib.suppress(FileNotFoundError):
-            tmp.unlink()
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create output folder ({exc.strerror})", path=folder) from None
+    try:
+        yield folder
+    except BaseException:
+        for made in created:
+            with contextlib.suppress(OSError):
+                made.rmdir()
+        raise
 
 
 def _suffix(path: Path) -> str:
@@ -90,13 +252,25 @@ def read_table(path: str | os.PathLike[str]) -> Columns:
             table = pacsv.read_csv(p)
         else:
             table = pq.read_table(p)
-    except (pa.ArrowException, OSError) as exc:
+        names = list(table.column_names)
+    except UnicodeDecodeError as exc:
+        raise InputError(
+            f"not UTF-8 text (byte 0x{exc.object[exc.start]:02x} in the header); save the file "
+            "as UTF-8",
+            path=p,
+        ) from None
+    except (pa.ArrowException, OSError, ValueError) as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise InputError(f"cannot parse table, truncated or malformed ({first})", path=p) from None
     if table.num_rows == 0:
         raise InputError("table has no rows", path=p)
+    seen: set[str] = set()
+    for name in names:
+        if name in seen:
+            raise InputError(f"column name {name!r} appears more than once", path=p)
+        seen.add(name)
     out: Columns = {}
-    for name in table.column_names:
+    for name in names:
         column = table.column(name)
         try:
             out[name] = column.to_numpy(zero_copy_only=False)
@@ -105,16 +279,81 @@ def read_table(path: str | os.PathLike[str]) -> Columns:
     return out
 
 
+#: Largest magnitude any numeric column may hold: no quantity these files measure reaches
+#: 1e15 in SI units, and beyond it squares and sums of a log overflow float64 (a current of
+#: 1e308 A is a corrupt file, not a sample).
+MAX_MAGNITUDE = 1e15
+
+
+def _utf8(raw: bytes) -> bool:
+    try:
+        raw.decode("utf-8")
+    except UnicodeDecodeError:
+        return False
+    return True
+
+
+def _is_number(value: object) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
+        value, (bool, np.bool_)
+    )
+
+
 def numeric_column(
-    columns: Columns, name: str, path: str | os.PathLike[str]
+    columns: Columns,
+    name: str,
+    path: str | os.PathLike[str],
+    *,
+    max_abs: float | None = None,
+    unit: str = "",
 ) -> NDArray[np.float64]:
-    """Column ``name`` as finite float64; InputError naming the column and the first bad row."""
+    """Column ``name`` as finite float64; InputError naming the column and the first bad row.
+
+    Parameters
+    ----------
+    columns
+        Columns of :func:`read_table`.
+    name
+        The column.
+    path
+        The file (for messages).
+    max_abs
+        Refuse values with a larger magnitude (a corrupt sample, or a number float64 cannot
+        resolve at the precision the column needs); default :data:`MAX_MAGNITUDE`.
+    unit
+        Unit of the column, for the message.
+
+    Raises
+    ------
+    InputError
+        On a missing column; booleans, text, dates or other non-numbers; NaN or inf; a value
+        beyond ``max_abs``.
+    """
     if name not in columns:
         raise InputError(f"missing column {name!r}", path=path)
-    raw = columns[name]
+    raw = np.asarray(columns[name])
+    kind = raw.dtype.kind
+    if kind == "b":
+        raise InputError(f"column {name!r} holds booleans, not numbers", path=path)
+    if kind == "O":
+        for k, v in enumerate(raw.ravel()):
+            if isinstance(v, bytes) and not _utf8(v):
+                raise InputError(
+                    f"column {name!r} is not UTF-8 text (data row {k + 1}); save the file as UTF-8",
+                    path=path,
+                )
+        bad_items = [k for k, v in enumerate(raw.ravel()) if not _is_number(v)]
+        if bad_items:
+            row = bad_items[0]
+            raise InputError(
+                f"column {name!r} is not numeric (data row {row + 1}: {raw.ravel()[row]!r})",
+                path=path,
+            )
+    elif kind not in "iuf":
+        raise InputError(f"column {name!r} is not numeric ({raw.dtype} values)", path=path)
     try:
         values = np.asarray(raw, dtype=np.float64)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise InputError(f"column {name!r} is not numeric", path=path) from None
     bad = ~np.isfinite(values)
     if bad.any():
@@ -122,7 +361,51 @@ def numeric_column(
         raise InputError(
             f"column {name!r} holds NaN or inf (first at data row {row + 1})", path=path
         )
+    limit = MAX_MAGNITUDE if max_abs is None else max_abs
+    bad = np.abs(values) > limit
+    if bad.any():
+        row = int(np.argmax(bad))
+        suffix = f" {unit}" if unit else ""
+        raise InputError(
+            f"column {name!r} value {values[row]:.6g}{suffix} at data row {row + 1} is "
+            f"beyond +-{limit:g}{suffix}",
+            path=path,
+        )
     return values
+
+
+def render_table(
+    target: str | os.PathLike[str], columns: Mapping[str, ArrayLike], *, kind: str
+) -> None:
+    """Write columns to ``target`` as ``kind`` (``".csv"`` or ``".parquet"``), not atomically.
+
+    The building block of :func:`write_table` and :func:`write_all` (which hand it a temporary).
+
+    Raises
+    ------
+    InputError
+        On a column name a CSV header cannot hold (a comma, quote or line break).
+    """
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+    import pyarrow.parquet as pq
+
+    arrays = {k: np.asarray(v) for k, v in columns.items()}
+    table = pa.table(arrays)
+    if kind == ".csv":
+        for name in arrays:
+            if any(c in name for c in ',"\r\n'):
+                raise InputError(f"column name {name!r} cannot be written to a CSV header")
+        # a plain header line (pyarrow would quote the names)
+        with open(target, "wb") as handle:
+            handle.write((",".join(arrays) + "\n").encode())
+            pacsv.write_csv(
+                table,
+                handle,
+                write_options=pacsv.WriteOptions(include_header=False, quoting_style="none"),
+            )
+    else:
+        pq.write_table(table, target)
 
 
 def write_table(path: str | os.PathLike[str], columns: Mapping[str, ArrayLike]) -> None:
@@ -135,32 +418,60 @@ def write_table(path: str | os.PathLike[str], columns: Mapping[str, ArrayLike]) 
     columns
         Column name to 1-D values of equal length.
     """
-    import pyarrow as pa
-    import pyarrow.csv as pacsv
-    import pyarrow.parquet as pq
-
     p = Path(path)
     kind = _suffix(p)
-    arrays = {k: np.asarray(v) for k, v in columns.items()}
-    table = pa.table(arrays)
     with atomic_output(p) as tmp:
-        if kind == ".csv":
-            # a plain header line (pyarrow would quote the names)
-            with tmp.open("wb") as handle:
-                handle.write((",".join(arrays) + "\n").encode())
-                pacsv.write_csv(
-                    table,
-                    handle,
-                    write_options=pacsv.WriteOptions(include_header=False, quoting_style="none"),
-                )
-        else:
-            pq.write_table(table, tmp)
+        render_table(tmp, columns, kind=kind)
+
+
+def table_writer(path: str | os.PathLike[str], columns: Mapping[str, ArrayLike]) -> Writer:
+    """A writer for :func:`write_all` of a table, its format chosen by ``path``'s suffix."""
+    kind = _suffix(Path(path))
+    return lambda tmp: render_table(tmp, columns, kind=kind)
+
+
+def toml_writer(document: Mapping[str, Any]) -> Writer:
+    """A writer for :func:`write_all` of a TOML document."""
+    return lambda tmp: tmp.write_text(tomli_w.dumps(document))
+
+
+def figure_writer(figure: Any, *, kind: str = "png", dpi: int = 120) -> Writer:
+    """A writer for :func:`write_all` of a matplotlib figure in format ``kind``."""
+    return lambda tmp: figure.savefig(tmp, format=kind, dpi=dpi)
 
 
 def write_toml(path: str | os.PathLike[str], document: Mapping[str, Any]) -> None:
     """Write a TOML document atomically."""
     with atomic_output(path) as tmp:
-        tmp.write_text(tomli_w.dumps(document))
+        toml_writer(document)(tmp)
+
+
+def write_all(writers: Mapping[Path, Writer] | Mapping[str, Writer]) -> list[Path]:
+    """Write several files all or none: each writer fills a temporary, then all are renamed.
+
+    Parameters
+    ----------
+    writers
+        Output path to a function writing that file's contents into the path it is given.
+
+    Returns
+    -------
+    list of Path
+        The files written, in order.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> [p.name for p in write_all({d / "a.txt": lambda t: t.write_text("a"),
+    ...                             d / "b.txt": lambda t: t.write_text("b")})]
+    ['a.txt', 'b.txt']
+    """
+    paths = [Path(p) for p in writers]
+    with atomic_outputs(paths) as tmps:
+        for tmp, write in zip(tmps, writers.values(), strict=True):
+            write(tmp)
+    return paths
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -189,6 +500,15 @@ class Log:
     path: str
 
 
+#: Largest |t| [s] a log may hold (317 years: Unix time fits, at 2 us resolution).
+MAX_TIME = 1e10
+#: Largest |q| [rad] a log may hold: beyond it float64 cannot resolve a microradian, and the
+#: angle is a corrupt sample, not a position.
+MAX_ANGLE = 1e9
+#: Largest raw encoder count a log may hold: 2**53, beyond which float64 skips whole counts.
+MAX_COUNTS = float(2**53)
+
+
 def check_time(t: NDArray[np.float64], path: str | os.PathLike[str]) -> None:
     """InputError unless ``t`` has at least two samples and is strictly increasing."""
     if t.size < 2:
@@ -202,24 +522,39 @@ def check_time(t: NDArray[np.float64], path: str | os.PathLike[str]) -> None:
 def log_from_columns(columns: Columns, robot: Robot, *, path: str | os.PathLike[str]) -> Log:
     """Build a :class:`Log` from table columns (see :func:`read_log`)."""
     p = os.fspath(path)
-    t = numeric_column(columns, "t", p)
+    t = numeric_column(columns, "t", p, max_abs=MAX_TIME, unit="s")
     check_time(t, p)
     q = np.empty((t.size, len(robot.joints)))
     tau = np.empty_like(q)
     for k, joint in enumerate(robot.joints):
-        raw_q = numeric_column(columns, f"q_{joint.name}", p)
+        name = f"q_{joint.name}"
         if joint.position_unit == "counts":
+            raw_q = numeric_column(columns, name, p, max_abs=MAX_COUNTS, unit="counts")
             cpr = float(joint.encoder_counts_per_rev or 0)
             counts = np.unwrap(raw_q, period=cpr)
             q[:, k] = counts * (2.0 * np.pi / cpr) / joint.gear_ratio
+            far = np.abs(q[:, k]) > MAX_ANGLE
+            if far.any():
+                row = int(np.argmax(far))
+                raise InputError(
+                    f"column {name!r} unwraps to {q[row, k]:.6g} rad at data row {row + 1}, "
+                    f"beyond +-{MAX_ANGLE:g} rad",
+                    path=p,
+                )
         elif joint.position_unit == "turns":
-            q[:, k] = raw_q * (2.0 * np.pi) / joint.gear_ratio
+            q[:, k] = (
+                numeric_column(columns, name, p, max_abs=MAX_ANGLE, unit="turns")
+                * (2.0 * np.pi)
+                / joint.gear_ratio
+            )
         else:
-            q[:, k] = raw_q
+            q[:, k] = numeric_column(columns, name, p, max_abs=MAX_ANGLE, unit="rad")
         if f"tau_{joint.name}" in columns:
-            tau[:, k] = numeric_column(columns, f"tau_{joint.name}", p)
+            tau[:, k] = numeric_column(columns, f"tau_{joint.name}", p, unit="N m")
         elif f"i_{joint.name}" in columns:
-            tau[:, k] = numeric_column(columns, f"i_{joint.name}", p) * joint.torque_constant
+            tau[:, k] = (
+                numeric_column(columns, f"i_{joint.name}", p, unit="A") * joint.torque_constant
+            )
         else:
             raise InputError(
                 f"missing column 'i_{joint.name}' or 'tau_{joint.name}' for joint {joint.name!r}",

@@ -16,11 +16,14 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from torquemap.ctext import c_comment, c_float, c_identifier
 from torquemap.errors import InputError
 from torquemap.io import atomic_output, write_table
 from torquemap.model import Model, PdtvLine, pdtv_torque
 
 TWO_PI = 2.0 * math.pi
+#: Most bins a map may have (2**20; firmware tables hold 1024 to 3600).
+MAX_BINS = 1 << 20
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -87,7 +90,7 @@ def pdtv_map(
     Raises
     ------
     InputError
-        On an unknown joint or ``bins < 2``.
+        On an unknown joint, or ``bins`` outside ``2 .. MAX_BINS``.
 
     Examples
     --------
@@ -105,6 +108,8 @@ def pdtv_map(
     if motor_angle is None:
         if bins < 2:
             raise InputError(f"--bins must be at least 2, got {bins}")
+        if bins > MAX_BINS:
+            raise InputError(f"--bins must be at most {MAX_BINS} (2**20), got {bins}")
         theta = (np.arange(bins, dtype=np.float64) + 0.5) * (TWO_PI / bins)
     else:
         theta = np.asarray(motor_angle, dtype=np.float64).ravel()
@@ -170,18 +175,20 @@ def write_pdtv_map(
             tmp.write_text(json.dumps(doc, indent=1) + "\n")
         return
     q, scale = quantise(table.current, int_type=int_type)
-    ident = "".join(c if c.isalnum() else "_" for c in table.joint).upper()
+    ident = c_identifier(table.joint, fallback="joint").upper()
     ctype = "int16_t" if int_type == "int16" else "int8_t"
     full = 32767 if int_type == "int16" else 127
     rows = [", ".join(str(int(x)) for x in q[i : i + 16]) for i in range(0, q.size, 16)]
     text = (
-        f"/* PDTV (anti-cogging) feed-forward current of joint {table.joint}, written by torquemap.\n"
+        f"/* PDTV (anti-cogging) feed-forward current of joint '{c_comment(table.joint)}', "
+        "written by torquemap.\n"
         f" * {q.size} bins over one motor revolution; bin k is centred at (k + 0.5) * 2 pi / {q.size}\n"
         f" * rad from the encoder zero. current [A] = table[k] * PDTV_{ident}_SCALE_A.\n"
         f" * The scale is chosen so the largest |current| uses the full {ctype} range (+-{full}). */\n"
         f"#ifndef PDTV_{ident}_H\n#define PDTV_{ident}_H\n#include <stdint.h>\n\n"
         f"#define PDTV_{ident}_BINS {q.size}\n"
-        f"#define PDTV_{ident}_SCALE_A {scale:.9g}f /* amps per count */\n\n"
+        f"#define PDTV_{ident}_SCALE_A {c_float(float(f'{scale:.9g}'), suffix='f')} "
+        "/* amps per count */\n\n"
         f"static const {ctype} pdtv_{ident.lower()}[PDTV_{ident}_BINS] = {{\n    "
         + ",\n    ".join(rows)
         + "\n};\n\n#endif\n"

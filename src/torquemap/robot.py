@@ -4,14 +4,13 @@ from __future__ import annotations
 
 import math
 import os
-import tomllib
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, Literal
 
 from torquemap.errors import InputError
 from torquemap.robots import ARM_KINDS, Arm, arm_from_kind, arm_from_table, arm_head_keys
+from torquemap.tomlfile import read_toml
 
 Kinematics = str
 PositionUnit = Literal["rad", "counts", "turns"]
@@ -279,23 +278,6 @@ def arm_head_keys_or_error(kinematics: Any, path: str | None) -> frozenset[str]:
         return arm_head_keys(kinematics)
     except InputError as exc:
         raise InputError(exc.message, path=path) from None
-
-
-def read_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
-    """Parse a TOML file; InputError naming the file on a missing, empty or malformed file."""
-    p = Path(path)
-    try:
-        text = p.read_bytes()
-    except FileNotFoundError:
-        raise InputError("file not found", path=p) from None
-    except OSError as exc:
-        raise InputError(f"cannot read: {exc.strerror}", path=p) from None
-    if not text.strip():
-        raise InputError("file is empty", path=p)
-    try:
-        return tomllib.loads(text.decode("utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(f"not valid TOML ({exc})", path=p) from None
 
 
 def load_robot(path: str | os.PathLike[str]) -> Robot:

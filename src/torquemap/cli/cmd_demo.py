@@ -22,7 +22,10 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
 
 
 def _demo(args: argparse.Namespace) -> int:
+    from torquemap.cli.outputs import check_outputs
     from torquemap.demo import format_summary, run_demo
+
+    check_outputs([], folders=[(args.out, ("report.html",))])
 
     summary = run_demo(args.out, seed=args.seed, progress=not args.quiet and sys.stderr.isatty())
     print(format_summary(summary))

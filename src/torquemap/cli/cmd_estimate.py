@@ -4,8 +4,11 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 from typing import Any
 
+from torquemap.cli.argtypes import float_in
+from torquemap.cli.outputs import FIGURE, TABLE, check_outputs
 from torquemap.estimate import METHODS
 
 
@@ -40,7 +43,7 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     )
     p.add_argument(
         "--notch-width",
-        type=float,
+        type=float_in(0.0, low_open=True),
         default=0.5,
         metavar="CPR",
         help="-3 dB width of each position-domain notch [CPR] (paper method, default 0.5)",
@@ -67,9 +70,10 @@ def _estimate(args: argparse.Namespace) -> int:
     import numpy as np
 
     from torquemap.estimate import estimate_forces, forces_columns
-    from torquemap.io import read_log, write_table
+    from torquemap.io import Writer, figure_writer, read_log, table_writer, write_all
     from torquemap.model import load_model
 
+    check_outputs([(args.output, TABLE), (args.figure, FIGURE)], [args.model, args.log])
     model = load_model(args.model)
     log = read_log(args.log, model.robot)
     est = estimate_forces(
@@ -81,11 +85,14 @@ def _estimate(args: argparse.Namespace) -> int:
         notch_width=args.notch_width,
         reversal_band=args.reversal_band,
     )
-    write_table(args.output, forces_columns(est))
+    writers: dict[str, Writer] = {args.output: table_writer(args.output, forces_columns(est))}
     if args.figure:
-        from torquemap.plots.force import estimate_figure, save_figure
+        from torquemap.plots.force import estimate_figure
 
-        save_figure(estimate_figure(est), args.figure)
+        fig = estimate_figure(est)
+        kind = Path(args.figure).suffix.lower().lstrip(".")
+        writers[args.figure] = figure_writer(fig, kind=kind, dpi=120)
+    write_all(writers)  # the forces and the figure, both or neither
     for w in est.warnings:
         print(f"torquemap: warning: {w}", file=sys.stderr)
     ok = est.flag == 0

@@ -7,7 +7,14 @@ import sys
 from math import nan
 from typing import Any
 
+from torquemap.cli.argtypes import float_in, int_in
+from torquemap.cli.outputs import C_HEADER, FIGURE, JSON, TABLE, TOML, check_outputs
 from torquemap.errors import InputError
+
+#: Highest PDTV order --max-order accepts [CPR]: finer than any encoder resolves.
+MAX_ORDER = 1e6
+#: Most bins pdtv-map writes (torquemap.pdtv_map.MAX_BINS).
+MAX_BINS = 1 << 20
 
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
@@ -18,7 +25,12 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("robot", metavar="ROBOT.toml")
     p.add_argument("logs", metavar="LOG", nargs="+")
     p.add_argument("-o", "--output", metavar="MODEL.toml", required=True)
-    p.add_argument("--max-order", type=float, default=None, help="highest PDTV order [CPR]")
+    p.add_argument(
+        "--max-order",
+        type=float_in(0.0, MAX_ORDER, low_open=True),
+        default=None,
+        help=f"highest PDTV order [CPR], in (0, {MAX_ORDER:g}]",
+    )
     p.add_argument("--joint", action="append", default=None, help="joint to identify (repeat)")
     p.set_defaults(handler=_identify)
 
@@ -27,13 +39,18 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     s.add_argument("log", metavar="LOG")
     s.add_argument("--joint", required=True)
     s.add_argument("-o", "--output", metavar="FIG.png", default=None)
-    s.add_argument("--top", type=int, default=10, help="lines printed without -o")
+    s.add_argument("--top", type=int_in(1, 100000), default=10, help="lines printed without -o")
     s.set_defaults(handler=_spectrum)
 
     m = subparsers.add_parser("pdtv-map", help="PDTV table over one motor revolution")
     m.add_argument("model", metavar="MODEL.toml")
     m.add_argument("--joint", required=True)
-    m.add_argument("--bins", type=int, required=True)
+    m.add_argument(
+        "--bins",
+        type=int_in(2, MAX_BINS),
+        required=True,
+        help=f"bins over one motor revolution, 2 .. {MAX_BINS}",
+    )
     m.add_argument("-o", "--output", metavar="MAP.csv", required=True)
     m.add_argument("--format", choices=("csv", "json", "c-header"), default="csv")
     m.add_argument("--int-type", choices=("int16", "int8"), default="int16")
@@ -45,6 +62,7 @@ def _identify(args: argparse.Namespace) -> int:
     from torquemap.io import read_log, write_toml
     from torquemap.model import load_model, model_to_dict
 
+    check_outputs([(args.output, TOML)], [args.robot, *args.logs])
     model = load_model(args.robot)
     logs = [read_log(path, model.robot) for path in args.logs]
     result = identify_model(model, logs, joints=args.joint, max_order=args.max_order)
@@ -71,6 +89,7 @@ def _spectrum(args: argparse.Namespace) -> int:
     from torquemap.io import read_log
     from torquemap.model import load_model
 
+    check_outputs([(args.output, FIGURE)], [args.model, args.log])
     model = load_model(args.model)
     log = read_log(args.log, model.robot)
     model.robot.joint(args.joint)
@@ -109,6 +128,8 @@ def _pdtv_map(args: argparse.Namespace) -> int:
     from torquemap.model import load_model
     from torquemap.pdtv_map import pdtv_map, write_pdtv_map
 
+    suffixes = {"csv": TABLE, "json": JSON, "c-header": C_HEADER}[args.format]
+    check_outputs([(args.output, suffixes)], [args.model])
     model = load_model(args.model)
     table = pdtv_map(model, args.joint, bins=args.bins)
     write_pdtv_map(args.output, table, file_format=args.format, int_type=args.int_type)

@@ -40,7 +40,10 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
 
 
 def _rosbag(args: argparse.Namespace) -> int:
+    from torquemap.cli.outputs import TABLE, check_outputs
     from torquemap.robot import load_robot
+
+    check_outputs([(args.output, TABLE)], [args.bag, args.robot])
     from torquemap.rosbag import import_rosbag
 
     robot = load_robot(args.robot)

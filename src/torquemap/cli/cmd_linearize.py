@@ -9,6 +9,9 @@ import argparse
 import json
 from typing import Any
 
+from torquemap.cli.argtypes import float_in, int_in
+from torquemap.cli.outputs import C_HEADER, JSON, NPZ, check_outputs
+
 
 def _weight(text: str) -> float:
     """argparse type: a number >= 0 (inf allowed)."""
@@ -51,7 +54,7 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     )
     build.add_argument(
         "--log-curvature",
-        type=float,
+        type=float_in(0.0, 100.0, low_open=True),
         default=4.0,
         help="k of the log law tau = tmax expm1(k|c|/C)/expm1(k) (default 4)",
     )
@@ -63,7 +66,7 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     )
     build.add_argument(
         "--actuation-bits",
-        type=int,
+        type=int_in(1, 32),
         help="table entry width [bits], rescaled to the motor's full scale (default: motor units)",
     )
     build.add_argument(
@@ -118,7 +121,17 @@ def _build(args: argparse.Namespace) -> int:
     from torquemap.linearize.motor import load_motor
     from torquemap.linearize.tables import build_tables, read_data
 
-    spec = load_motor(args.motor)
+    files = [(args.out, NPZ), (args.c_header, C_HEADER)]
+    check_outputs(files, [args.motor, args.data])
+    spec = load_motor(args.motor)  # the number of phases names the image files
+    check_outputs(
+        files,
+        [args.motor, args.data],
+        folders=[
+            (args.bin, [f"phase_{k + 1}.bin" for k in range(spec.phases)]),
+            (args.hex, [f"phase_{k + 1}.hex" for k in range(spec.phases)]),
+        ],
+    )
     data = read_data(args.data, spec, kind="characterisation")
     tables = build_tables(
         spec,
@@ -158,6 +171,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     from torquemap.linearize.motor import load_motor
     from torquemap.linearize.tables import DataKind, read_data
 
+    check_outputs([(args.out, JSON)], [args.motor, args.data, args.tables])
     spec = load_motor(args.motor)
     tables = None if args.tables is None else load_tables(args.tables)
     kind: DataKind = "characterisation" if tables is None else "verification"
@@ -172,7 +186,13 @@ def _evaluate(args: argparse.Namespace) -> int:
 
 
 def _figures(args: argparse.Namespace) -> int:
-    from torquemap.plots.linearize import write_linearize_figures
+    from torquemap.plots.linearize import FIGURE_NAMES, write_linearize_figures
+
+    check_outputs(
+        [],
+        [args.motor, args.data, args.tables, args.verification],
+        folders=[(args.out, FIGURE_NAMES)],
+    )
 
     written = write_linearize_figures(
         args.motor,

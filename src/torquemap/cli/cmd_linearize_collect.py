@@ -55,7 +55,10 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
 
 
 def _collect(args: argparse.Namespace) -> int:
+    from torquemap.cli.outputs import CSV, check_outputs
     from torquemap.linearize.motor import load_motor
+
+    check_outputs([(args.out, CSV)], [args.motor, args.tables])  # DATA.csv itself: resumed
     from torquemap.sim.rig import collect_on_sim
 
     spec = load_motor(args.motor)

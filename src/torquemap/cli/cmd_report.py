@@ -23,7 +23,10 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
 
 
 def _report(args: argparse.Namespace) -> int:
+    from torquemap.cli.outputs import HTML, check_outputs
     from torquemap.user_report import write_user_report
+
+    check_outputs([(args.output, HTML)], [args.model, *args.logs])
 
     report = write_user_report(args.model, args.logs, args.output)
     warnings = sum(len(s.warnings) for s in report.sections)

@@ -7,9 +7,11 @@ registered by :mod:`torquemap.cli.cmd_simulate_rig`.
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import Any
 
 from torquemap.cli import cmd_fleet, cmd_simulate_rig
+from torquemap.cli.outputs import check_outputs
 
 _FILES = ("robot.toml", "sweep.csv", "circle.csv", "truth.csv", "truth.toml")
 
@@ -47,13 +49,20 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
 def _scara(args: argparse.Namespace) -> int:
     from torquemap.sim.bench import write_scara_bench
 
+    check_outputs([], folders=[(args.out, _FILES)])
+
     write_scara_bench(args.out, seed=args.seed)
     print(f"wrote {', '.join(_FILES)} to {args.out}")
     return 0
 
 
 def _figures(args: argparse.Namespace) -> int:
-    from torquemap.sim.paper_figures import write_paper_figures
+    from torquemap.sim.paper_figures import BENCH_FILES, write_paper_figures
+
+    bench = Path(args.bench_dir)
+    check_outputs(
+        [], [args.model, *(bench / name for name in BENCH_FILES)], folders=[(args.out, ())]
+    )
 
     paths = write_paper_figures(args.bench_dir, args.out, model_path=args.model)
     print(f"wrote {', '.join(p.name for p in paths)} to {args.out}")

@@ -8,6 +8,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from torquemap.cli.outputs import check_outputs
+
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add ``rig`` to the ``simulate`` group's sub-parsers."""
@@ -53,6 +55,8 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
 
 def _rig(args: argparse.Namespace) -> int:
     from torquemap.sim.rig import write_rig_data
+
+    check_outputs([], folders=[(args.out, ("motor.toml", "data.csv"))])
 
     result = write_rig_data(
         args.out,

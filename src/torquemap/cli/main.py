@@ -22,7 +22,7 @@ from torquemap.cli import (
     cmd_report,
     cmd_simulate,
 )
-from torquemap.errors import InputError
+from torquemap.errors import InputError, one_line
 
 _MODULES = (
     cmd_simulate,
@@ -63,14 +63,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         status: int = args.handler(args)
     except InputError as exc:
-        print(f"torquemap: error: {exc}", file=sys.stderr)
+        print(f"torquemap: error: {one_line(str(exc))}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("torquemap: interrupted", file=sys.stderr)
         return 130
     except OSError as exc:
         where = f"{exc.filename}: " if exc.filename else ""
-        print(f"torquemap: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        print(f"torquemap: error: {one_line(f'{where}{exc.strerror or exc}')}", file=sys.stderr)
         return 2
     return status
 

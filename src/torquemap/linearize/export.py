@@ -12,8 +12,8 @@ outputs before writing any, then writes each through a temporary file and a rena
 
 from __future__ import annotations
 
+import contextlib
 import os
-import re
 import zipfile
 from pathlib import Path
 from typing import Any
@@ -21,8 +21,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from torquemap.ctext import c_comment, c_float, c_identifier, check_c_identifier
 from torquemap.errors import InputError
-from torquemap.io import atomic_output
+from torquemap.io import atomic_output, atomic_outputs, check_output_file, output_folder
 from torquemap.linearize.tables import TableSet
 
 _META = (
@@ -194,20 +195,34 @@ def intel_hex(image: bytes, *, record_size: int = 16) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _identifier(text: str) -> str:
-    name = re.sub(r"[^0-9A-Za-z_]", "_", text).strip("_").lower() or "motor"
-    return name if not name[0].isdigit() else f"m_{name}"
-
-
 def c_header(tables: TableSet, *, prefix: str | None = None) -> str:
-    """A C header with the phase tables as const arrays and the torque scale."""
-    name = prefix or _identifier(tables.motor_name)
+    """A C header with the phase tables as const arrays and the torque scale.
+
+    Parameters
+    ----------
+    tables
+        The tables.
+    prefix
+        C identifier prefixing every name (``[A-Za-z_][A-Za-z0-9_]*``); default: made from the
+        motor name by :func:`torquemap.ctext.c_identifier`. The motor name itself appears only
+        in a comment, escaped by :func:`torquemap.ctext.c_comment`.
+
+    Raises
+    ------
+    InputError
+        On a prefix that is not a C identifier, or a non-finite torque scale.
+    """
+    name = (
+        check_c_identifier(prefix) if prefix else c_identifier(tables.motor_name, fallback="motor")
+    )
     upper = name.upper()
     m, n, width = tables.phases.shape
     ctype = {1: "uint8_t", 2: "uint16_t"}.get(entry_bytes(tables), "uint32_t")
     guard = f"TORQUEMAP_{upper}_TABLES_H"
+    suffix = "u" if entry_bytes(tables) > 2 else ""
     lines = [
-        f"/* Torque-linearisation tables for motor {tables.motor_name!r}, written by torquemap.",
+        f"/* Torque-linearisation tables for motor '{c_comment(tables.motor_name)}', written by "
+        "torquemap.",
         f" * {m} phases x {n} positions x {width} commands ({tables.command_bits}-bit signed).",
         f" * Lookup: {name}_phase_k[p][c & {width - 1}] for table position p (0..{n - 1}) and",
         " * torque command c (two's complement, so c = -1 is the last column); as one flat",
@@ -215,8 +230,8 @@ def c_header(tables: TableSet, *, prefix: str | None = None) -> str:
         f"{width - 1}).",
         f" * Command scaling: {tables.command_scaling}"
         + (
-            f", torque = sign(c) * TORQUE_MAX * expm1({tables.log_curvature:g} * |c| / "
-            f"{tables.command_max}) / expm1({tables.log_curvature:g})."
+            f", torque = sign(c) * TORQUE_MAX * expm1({c_comment(f'{tables.log_curvature:g}')} * |c| / "
+            f"{tables.command_max}) / expm1({c_comment(f'{tables.log_curvature:g}')})."
             if tables.command_scaling == "log"
             else ", torque = c * TORQUE_PER_COUNT."
         ),
@@ -229,15 +244,16 @@ def c_header(tables: TableSet, *, prefix: str | None = None) -> str:
         f"#define {upper}_PHASES {m}",
         f"#define {upper}_POSITIONS {n}",
         f"#define {upper}_COMMAND_BITS {tables.command_bits}",
-        f"#define {upper}_ACTUATION_MAX {tables.actuation_max}",
-        f"#define {upper}_TORQUE_PER_COUNT {tables.torque_per_count!r} /* N m per command unit */",
-        f"#define {upper}_TORQUE_MAX {tables.torque_max!r} /* N m at the largest command */",
+        f"#define {upper}_ACTUATION_MAX {int(tables.actuation_max)}{suffix}",
+        f"#define {upper}_TORQUE_PER_COUNT {c_float(tables.torque_per_count)} "
+        "/* N m per command unit */",
+        f"#define {upper}_TORQUE_MAX {c_float(tables.torque_max)} /* N m at the largest command */",
         "",
     ]
     for k in range(m):
         lines.append(f"static const {ctype} {name}_phase_{k + 1}[{n}][{width}] = {{")
         for row in tables.phases[k]:
-            lines.append("    {" + ",".join(map(str, row.tolist())) + "},")
+            lines.append("    {" + ",".join(f"{int(v)}{suffix}" for v in row.tolist()) + "},")
         lines.append("};")
         lines.append("")
     lines.append(f"#endif /* {guard} */")
@@ -275,12 +291,14 @@ def write_outputs(
     Raises
     ------
     InputError
-        If an output folder (of npz or the header) does not exist, or a folder path is a file.
+        If an output folder (of npz or the header) does not exist, or a folder path is a file,
+        or an output is read-only. All files are staged as temporaries and renamed together: on
+        any failure (a full disk) none is written and folders created here are removed.
     """
     m = tables.phases.shape[0]
     for target in (npz, c_header_path):
-        if target is not None and not Path(target).resolve().parent.is_dir():
-            raise InputError("output folder does not exist", path=Path(target).parent)
+        if target is not None:
+            check_output_file(target)
     for folder in (bin_dir, hex_dir):
         if folder is not None and Path(folder).exists() and not Path(folder).is_dir():
             raise InputError("output folder is a file", path=folder)
@@ -296,17 +314,17 @@ def write_outputs(
             rendered[Path(hex_dir) / f"phase_{k + 1}.hex"] = intel_hex(image)
     if c_header_path is not None:
         rendered[Path(c_header_path)] = c_header(tables)
-    for folder in (bin_dir, hex_dir):
-        if folder is not None:
-            Path(folder).mkdir(parents=True, exist_ok=True)
-    written = []
-    for path, content in rendered.items():
-        with atomic_output(path) as tmp:
-            if content is None:
-                _npz_bytes(tables, tmp)
-            elif isinstance(content, bytes):
-                tmp.write_bytes(content)
-            else:
-                tmp.write_text(content)
-        written.append(os.fspath(path))
-    return written
+    with contextlib.ExitStack() as stack:
+        for folder in (bin_dir, hex_dir):
+            if folder is not None:
+                stack.enter_context(output_folder(folder))
+        paths = list(rendered)
+        with atomic_outputs(paths) as tmps:
+            for tmp, content in zip(tmps, rendered.values(), strict=True):
+                if content is None:
+                    _npz_bytes(tables, tmp)
+                elif isinstance(content, bytes):
+                    tmp.write_bytes(content)
+                else:
+                    tmp.write_text(content)
+    return [os.fspath(path) for path in paths]

@@ -50,7 +50,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from torquemap.errors import InputError
 from torquemap.io import numeric_column, read_table
-from torquemap.robot import read_toml
+from torquemap.tomlfile import read_toml
 
 RampKind = Literal["narrow", "wide"]
 
@@ -64,6 +64,15 @@ _MOTOR_KEYS = (
     "ramping",
 )
 _REQUIRED = ("name", "phases", "positions_per_cycle", "equilibrium_positions", "ramping")
+
+#: Largest number of phases a motor file may give.
+MAX_PHASES = 64
+#: Largest number of table positions in one actuation cycle (16 position bits).
+MAX_POSITIONS_PER_CYCLE = 1 << 16
+#: Largest table per phase, ``positions_per_cycle * 2**command_bits`` entries (16 Mi).
+MAX_TABLE_ENTRIES = 1 << 24
+#: Largest full-scale pulse width (a table entry is at most 32 bits).
+MAX_ACTUATION = (1 << 32) - 1
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -246,12 +255,22 @@ def ramped_actuation(
     return out
 
 
-def _int(value: Any, what: str, path: str | None, *, low: int, high: int | None = None) -> int:
+def _int(
+    value: Any,
+    what: str,
+    path: str | None,
+    *,
+    low: int,
+    high: int | None = None,
+    cap: int | None = None,
+) -> int:
     if isinstance(value, bool) or not isinstance(value, int):
         raise InputError(f"[motor] {what} must be an integer, got {value!r}", path=path)
     if value < low or (high is not None and value > high):
         bound = f">= {low}" if high is None else f"in {low} .. {high}"
         raise InputError(f"[motor] {what} must be {bound}, got {value}", path=path)
+    if cap is not None and value > cap:
+        raise InputError(f"[motor] {what} must be at most {cap}, got {value}", path=path)
     return int(value)
 
 
@@ -301,10 +320,22 @@ def motor_from_dict(
     name = table["name"]
     if not isinstance(name, str) or not name.strip():
         raise InputError(f"[motor] name must be a non-empty string, got {name!r}", path=p)
-    m = _int(table["phases"], "phases", p, low=1)
-    n = _int(table["positions_per_cycle"], "positions_per_cycle", p, low=2 * m)
+    m = _int(table["phases"], "phases", p, low=1, cap=MAX_PHASES)
+    n = _int(
+        table["positions_per_cycle"],
+        "positions_per_cycle",
+        p,
+        low=2 * m,
+        cap=MAX_POSITIONS_PER_CYCLE,
+    )
     bits = _int(table.get("command_bits", 8), "command_bits", p, low=2, high=16)
-    top = _int(table.get("actuation_max", 255), "actuation_max", p, low=1)
+    if n << bits > MAX_TABLE_ENTRIES:
+        raise InputError(
+            f"[motor] positions_per_cycle x 2**command_bits = {n} x {1 << bits} = {n << bits} "
+            f"table entries per phase, more than the {MAX_TABLE_ENTRIES} (2**24) allowed",
+            path=p,
+        )
+    top = _int(table.get("actuation_max", 255), "actuation_max", p, low=1, cap=MAX_ACTUATION)
     raw_eq = table["equilibrium_positions"]
     if not isinstance(raw_eq, list) or len(raw_eq) != m:
         raise InputError(

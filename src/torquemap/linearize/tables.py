@@ -168,14 +168,14 @@ def _integer_column(
         raise InputError(
             f"column {name!r} must hold integers (data row {row + 1}: {values[row]:g})", path=path
         )
-    out = values.astype(np.int64)
-    bad = (out < low) | (out > high)
+    bad = (values < low) | (values > high)  # on the floats: no int64 overflow on 1e308
     if bad.any():
         row = int(np.argmax(bad))
         raise InputError(
-            f"{name} {out[row]} at data row {row + 1} is outside {low} .. {high}", path=path
+            f"{name} {values[row]:.15g} at data row {row + 1} is outside {low} .. {high}",
+            path=path,
         )
-    return out
+    return values.astype(np.int64)
 
 
 def read_data(path: str | os.PathLike[str], spec: MotorSpec, *, kind: DataKind) -> LinearizeData:

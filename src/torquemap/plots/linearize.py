@@ -149,6 +149,10 @@ def summary_figure(
     return fig
 
 
+#: Every file :func:`write_linearize_figures` may write.
+FIGURE_NAMES = ("torque_before.png", "ramps.png", "tables.png", "before_after.png", "pmd.png")
+
+
 def write_linearize_figures(
     motor_path: str | os.PathLike[str],
     data_path: str | os.PathLike[str],
@@ -158,7 +162,7 @@ def write_linearize_figures(
     verification_path: str | os.PathLike[str] | None = None,
 ) -> list[str]:
     """Draw the figure set into ``out_dir`` (PNG); returns the files written."""
-    from torquemap.io import atomic_output
+    from torquemap.io import Writer, figure_writer, output_folder, write_all
     from torquemap.linearize.export import load_tables
     from torquemap.linearize.metrics import evaluate_linearity
     from torquemap.linearize.motor import load_motor
@@ -184,10 +188,8 @@ def write_linearize_figures(
         figures["before_after.png"] = before_after_figure(before, after, title=spec.name)
     figures["pmd.png"] = pmd_figure(reports)
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    written = []
-    for name, fig in figures.items():
-        with atomic_output(out / name) as tmp:
-            fig.savefig(tmp, format="png", dpi=90)
-        written.append(os.fspath(out / name))
-    return written
+    writers: dict[Path, Writer] = {
+        out / name: figure_writer(fig, kind="png", dpi=90) for name, fig in figures.items()
+    }
+    with output_folder(out):  # all figures or none
+        return [os.fspath(p) for p in write_all(writers)]

@@ -148,9 +148,9 @@ class Planar2R:
         for v in raw:
             if isinstance(v, bool) or not isinstance(v, int | float):
                 raise InputError(f"[robot] link_lengths must be numbers, got {v!r}", path=path)
-            if not (math.isfinite(v) and 0 < v < 1e3):
+            if not (math.isfinite(v) and 1e-6 <= v <= 1e3):
                 raise InputError(
-                    f"[robot] link_lengths must be positive and finite (< 1000 m), got {v!r}",
+                    f"[robot] link_lengths must be positive and finite, in [1e-6, 1000] m, got {v!r}",
                     path=path,
                 )
             lengths.append(float(v))

@@ -244,7 +244,7 @@ def write_scara_bench(
         On a negative seed, or when ``out_dir`` exists and is not a folder or cannot be
         created.
     """
-    from torquemap.io import write_table, write_toml
+    from torquemap.io import output_folder, table_writer, toml_writer, write_all
 
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise InputError(f"seed must be a non-negative integer, got {seed!r}")
@@ -252,25 +252,24 @@ def write_scara_bench(
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise InputError("output path exists and is not a folder", path=out)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InputError(f"cannot create output folder ({exc.strerror})", path=out) from None
     sweep_rng, circle_rng = np.random.default_rng(seed).spawn(2)
     sweep = simulate_sweep(bench, rng=sweep_rng)
     circle = simulate_circle(bench, rng=circle_rng)
     names = [ax.name for ax in bench.axes]
-    write_toml(out / "robot.toml", robot_document(bench))
-    write_table(out / "sweep.csv", _log_columns(sweep, bench))
-    write_table(out / "circle.csv", _log_columns(circle, bench))
-    write_table(
-        out / "truth.csv",
-        {
-            "t": circle.t,
-            "fx": circle.force[:, 0],
-            "fy": circle.force[:, 1],
-            f"tau_ext_{names[0]}": circle.tau_ext[:, 0],
-            f"tau_ext_{names[1]}": circle.tau_ext[:, 1],
-        },
-    )
-    write_toml(out / "truth.toml", truth_document(bench, seed=seed))
+    truth = {
+        "t": circle.t,
+        "fx": circle.force[:, 0],
+        "fy": circle.force[:, 1],
+        f"tau_ext_{names[0]}": circle.tau_ext[:, 0],
+        f"tau_ext_{names[1]}": circle.tau_ext[:, 1],
+    }
+    with output_folder(out):  # all five files or none (a full disk leaves no partial bench)
+        write_all(
+            {
+                out / "robot.toml": toml_writer(robot_document(bench)),
+                out / "sweep.csv": table_writer(out / "sweep.csv", _log_columns(sweep, bench)),
+                out / "circle.csv": table_writer(out / "circle.csv", _log_columns(circle, bench)),
+                out / "truth.csv": table_writer(out / "truth.csv", truth),
+                out / "truth.toml": toml_writer(truth_document(bench, seed=seed)),
+            }
+        )

@@ -14,18 +14,21 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from torquemap.ctext import file_stem
 from torquemap.errors import InputError
 from torquemap.estimate import ForceEstimate, estimate_forces
 from torquemap.identify import Identification, identify_model
-from torquemap.io import read_log, read_table
+from torquemap.io import Writer, figure_writer, output_folder, read_log, read_table, write_all
 from torquemap.model import Model, load_model
 from torquemap.plots.force import (
     joint_torque_figure,
     position_domain_figure,
-    save_figure,
     time_domain_figure,
 )
 from torquemap.plots.pdtv import spectrum_figure
+
+#: The files of a bench folder the figures read.
+BENCH_FILES = ("robot.toml", "sweep.csv", "circle.csv", "truth.csv")
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -67,7 +70,7 @@ def paper_figures(bench_dir: str | os.PathLike[str], *, model: Model | None = No
         If a bench file is missing or malformed.
     """
     d = Path(bench_dir)
-    for name in ("robot.toml", "sweep.csv", "circle.csv", "truth.csv"):
+    for name in BENCH_FILES:
         if not (d / name).is_file():
             raise InputError(f"not a SCARA bench folder: {name} is missing", path=d)
     robot_model = load_model(d / "robot.toml")
@@ -97,12 +100,12 @@ def paper_figures(bench_dir: str | os.PathLike[str], *, model: Model | None = No
         gear = robot.joints[k].gear_ratio
         fig = time_domain_figure(est, k, gear_ratio=gear, reference_tau_ext=tau_true)
         fig.suptitle(f"Fig {5 + k}: joint {name}, time-domain force estimation signal")
-        figs[f"fig{5 + k}_time_domain_{name}"] = fig
+        figs[f"fig{5 + k}_time_domain_{file_stem(name)}"] = fig
     for k, name in enumerate(names[:2]):
         gear = robot.joints[k].gear_ratio
         fig = position_domain_figure(est, k, gear_ratio=gear, reference_tau_ext=tau_true)
         fig.suptitle(f"Fig {7 + k}: joint {name}, position-domain force estimation signal")
-        figs[f"fig{7 + k}_position_domain_{name}"] = fig
+        figs[f"fig{7 + k}_position_domain_{file_stem(name)}"] = fig
     return PaperFigures(figures=figs, identification=ident, estimate=est)
 
 
@@ -116,16 +119,12 @@ def write_paper_figures(
     model = None if model_path is None else load_model(model_path)
     result = paper_figures(bench_dir, model=model)
     out = Path(out_dir)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InputError(f"cannot create output folder ({exc.strerror})", path=out) from None
-    paths = []
-    for stem, fig in result.figures.items():
-        path = out / f"{stem}.png"
-        save_figure(fig, path)
-        paths.append(path)
-    return paths
+    writers: dict[Path, Writer] = {
+        out / f"{stem}.png": figure_writer(fig, kind="png", dpi=120)
+        for stem, fig in result.figures.items()
+    }
+    with output_folder(out):
+        return write_all(writers)  # all figures or none
 
 
 def truth_model(bench_dir: str | os.PathLike[str]) -> Model:

@@ -31,7 +31,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from torquemap.errors import InputError
-from torquemap.io import atomic_output, write_toml
+from torquemap.io import atomic_outputs, output_folder, toml_writer
 from torquemap.linearize.collect import (
     CollectResult,
     collect_characterisation,
@@ -440,6 +440,10 @@ def collect_on_sim(
     )
 
 
+#: Most readings per row (or per bias measurement) a simulated run takes.
+MAX_READINGS = 100_000
+
+
 def write_rig_data(
     out_dir: str | os.PathLike[str],
     *,
@@ -505,19 +509,17 @@ def write_rig_data(
         isinstance(bias_readings, bool) or not isinstance(bias_readings, int) or bias_readings < 1
     ):
         raise InputError(f"bias readings must be a positive integer, got {bias_readings!r}")
+    for what, count in (("readings", readings), ("bias readings", bias_readings or 1)):
+        if count > MAX_READINGS:
+            raise InputError(f"{what} must be at most {MAX_READINGS}, got {count}")
     rig = sim_rig(motor, rng=seed)
     spec = rig.motor_spec(ramping=ramping)
     positions = _positions(spec, position_step)
     out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise InputError("output path exists and is not a folder", path=out)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InputError(f"cannot create output folder ({exc.strerror})", path=out) from None
     target = out / "data.csv"
-    with atomic_output(target) as tmp:
-        partial = tmp.with_suffix(".csv")
+    # data.csv and motor.toml both or neither; a folder created here is removed on failure
+    with output_folder(out), atomic_outputs([target, out / "motor.toml"]) as (tmp, tmp_motor):
+        partial = tmp.with_name(tmp.name + ".csv")  # still a recognisable temporary
         try:
             result = collect_characterisation(
                 rig,
@@ -534,5 +536,5 @@ def write_rig_data(
             os.replace(partial, tmp)
         finally:
             partial.unlink(missing_ok=True)
-    write_toml(out / "motor.toml", motor_to_dict(spec))
+        toml_writer(motor_to_dict(spec))(tmp_motor)
     return dataclasses.replace(result, path=os.fspath(target))

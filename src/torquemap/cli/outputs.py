@@ -1,0 +1,119 @@
+"""Checks every command makes on its outputs before doing any work (docs/safety.md).
+
+An output may not be one of the command's inputs (the same path, a symbolic or hard link to
+it), may not be named twice, must carry the suffix of what is written, must sit in an existing
+folder, and may replace an existing file only if that file is writable.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+
+from torquemap.errors import InputError
+from torquemap.io import check_output_file
+
+PathLike = str | os.PathLike[str]
+
+TABLE = (".csv", ".parquet")
+CSV = (".csv",)
+FIGURE = (".png", ".pdf", ".svg")
+TOML = (".toml",)
+JSON = (".json",)
+C_HEADER = (".h",)
+NPZ = (".npz",)
+HTML = (".html", ".htm")
+
+
+def same_file(a: PathLike, b: PathLike) -> bool:
+    """True when ``a`` and ``b`` are one file: the same resolved path, or the same inode.
+
+    Examples
+    --------
+    >>> same_file("x/../y.csv", "y.csv")
+    True
+    """
+    pa, pb = Path(a), Path(b)
+    try:
+        if pa.resolve() == pb.resolve():
+            return True
+    except (OSError, RuntimeError):
+        pass
+    try:
+        sa, sb = pa.stat(), pb.stat()
+    except (OSError, ValueError):
+        return False
+    return (sa.st_dev, sa.st_ino) == (sb.st_dev, sb.st_ino)
+
+
+def _suffixes(allowed: Sequence[str]) -> str:
+    return " or ".join(allowed)
+
+
+def check_outputs(
+    outputs: Iterable[tuple[PathLike | None, Sequence[str]]],
+    inputs: Iterable[PathLike | None] = (),
+    *,
+    folders: Iterable[tuple[PathLike | None, Sequence[str]]] = (),
+) -> None:
+    """Refuse, before any work, outputs that would destroy an input or cannot be written.
+
+    Parameters
+    ----------
+    outputs
+        ``(path, suffixes)`` of each output file (None: not requested); ``suffixes`` are the
+        allowed ones, lower case (empty: any).
+    inputs
+        The files the command reads (None entries are skipped).
+    folders
+        ``(folder, file names)`` of each output folder (created if missing) and the files the
+        command writes into it.
+
+    Raises
+    ------
+    InputError
+        Naming the output, on: a suffix that does not match what is written; an output that is
+        one of the inputs (same path, or a link to it); the same output named twice; a missing
+        output folder; an output that is a folder or a read-only file; an output folder path
+        that is a file.
+    """
+    ins = [Path(p) for p in inputs if p is not None]
+    files: list[Path] = []
+    for path, allowed in outputs:
+        if path is None:
+            continue
+        target = Path(path)
+        if allowed and target.suffix.lower() not in allowed:
+            shown = target.suffix or "no suffix"
+            raise InputError(
+                f"output suffix {shown!r} does not match what is written ({_suffixes(allowed)})",
+                path=target,
+            )
+        files.append(target)
+    in_new_folder: set[Path] = set()
+    for folder, names in folders:
+        if folder is None:
+            continue
+        base = Path(folder)
+        if base.exists() and not base.is_dir():
+            raise InputError("output path exists and is not a folder", path=base)
+        for name in names:
+            files.append(base / name)
+            if not base.exists():
+                in_new_folder.add(base / name)
+    seen: list[Path] = []
+    for target in files:
+        for source in ins:
+            if same_file(target, source):
+                raise InputError(
+                    f"output is also an input of this command ({os.fspath(source)}); "
+                    "writing it would destroy the input, choose another name",
+                    path=target,
+                )
+        for other in seen:
+            if same_file(target, other):
+                raise InputError("the same file is named as two outputs", path=target)
+        seen.append(target)
+        if target not in in_new_folder:
+            check_output_file(target)
