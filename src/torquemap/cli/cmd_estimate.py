@@ -6,17 +6,40 @@ import argparse
 import sys
 from typing import Any
 
+from torquemap.cli.helptext import described
+from torquemap.cli.outputs import check_figure, check_table, write_columns
 from torquemap.estimate import METHODS
 
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add ``estimate`` to subparsers."""
     p = subparsers.add_parser(
-        "estimate", help="estimate external torques and forces from a log (no force sensor)"
+        "estimate",
+        help="estimate external torques and forces from a log (no force sensor)",
+        **described(
+            "Estimate the torques the environment exerts on each joint, and for a planar arm "
+            "the end-effector force, from motor currents (or torques) and encoders alone: the "
+            "model's inertia, friction and PDTV are subtracted from the motor torque "
+            "(docs/estimation.md). Writes t, tau_ext_<j> [N m], fx, fy [N] and flag (0 = "
+            "sound) to -o, its format chosen by the suffix (.csv, .parquet, .json); prints a "
+            "one-line summary; warnings go to stderr.",
+            [
+                "torquemap estimate bench/model.toml bench/circle.csv -o forces.csv "
+                "--figure forces.png",
+                "torquemap estimate bench/model.toml bench/circle.csv -o forces_paper.parquet "
+                "--method paper",
+            ],
+        ),
     )
-    p.add_argument("model", metavar="MODEL.toml")
-    p.add_argument("log", metavar="LOG")
-    p.add_argument("-o", "--output", metavar="FORCES.csv|FORCES.parquet", required=True)
+    p.add_argument("model", metavar="MODEL.toml", help="model file (from identify)")
+    p.add_argument("log", metavar="LOG", help="the log to estimate on, .csv or .parquet")
+    p.add_argument(
+        "-o",
+        "--output",
+        metavar="FORCES.csv",
+        required=True,
+        help="forces table: .csv, .parquet or .json (the suffix chooses the format)",
+    )
     p.add_argument(
         "--method",
         choices=METHODS,
@@ -58,7 +81,7 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         "--figure",
         metavar="FIG.png",
         default=None,
-        help="also plot the estimated torques (and forces) against time",
+        help="also plot the estimated torques (and forces) against time (.png, .svg or .pdf)",
     )
     p.set_defaults(handler=_estimate)
 
@@ -67,25 +90,31 @@ def _estimate(args: argparse.Namespace) -> int:
     import numpy as np
 
     from torquemap.estimate import estimate_forces, forces_columns
-    from torquemap.io import read_log, write_table
+    from torquemap.io import read_log
     from torquemap.model import load_model
 
+    check_table(args.output)
+    if args.figure:
+        check_figure(args.figure)
     model = load_model(args.model)
-    log = read_log(args.log, model.robot)
-    est = estimate_forces(
-        model,
-        log,
-        method=args.method,
-        cutoff=args.cutoff,
-        window=args.window,
-        notch_width=args.notch_width,
-        reversal_band=args.reversal_band,
+    log = args.progress.run("read the log", lambda: read_log(args.log, model.robot))
+    est = args.progress.run(
+        f"estimate ({args.method} method)",
+        lambda: estimate_forces(
+            model,
+            log,
+            method=args.method,
+            cutoff=args.cutoff,
+            window=args.window,
+            notch_width=args.notch_width,
+            reversal_band=args.reversal_band,
+        ),
     )
-    write_table(args.output, forces_columns(est))
+    write_columns(args.output, forces_columns(est))
     if args.figure:
         from torquemap.plots.force import estimate_figure, save_figure
 
-        save_figure(estimate_figure(est), args.figure)
+        args.progress.run("draw the figure", lambda: save_figure(estimate_figure(est), args.figure))
     for w in est.warnings:
         print(f"torquemap: warning: {w}", file=sys.stderr)
     ok = est.flag == 0
