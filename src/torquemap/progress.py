@@ -12,16 +12,20 @@ who listens (the default, :data:`NULL`, does nothing)::
 The CLI passes the reporter :func:`reporter` picks: on a terminal a rich spinner (a bar where the
 step knows its total) with the elapsed time, then one line per finished step; when stderr is piped
 or redirected, plain lines, one per step (``torquemap: fit the tables ... done (3.2 s)``) and
-never one per item; with ``--quiet``, nothing. Progress always goes to stderr: stdout carries the
+never one per item; with ``--quiet``, nothing. Steps quicker than :data:`SHOW_AFTER` (2 s) leave
+no line. Progress always goes to stderr: stdout carries the
 command's results.
 """
 
 from __future__ import annotations
 
+import math
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 from typing import Any, TextIO, TypeVar
 
 T = TypeVar("T")
@@ -68,45 +72,81 @@ def steps(progress: Progress | None) -> Progress:
     return NULL if progress is None else progress
 
 
+#: Steps shorter than this [s] leave no line (a spinner shows meanwhile on a terminal).
+SHOW_AFTER = 2.0
+
+
 def _seconds(start: float) -> str:
     return f"{time.perf_counter() - start:.1f} s"
 
 
-class PlainProgress(Progress):
-    """One plain line per step on a stream (for logs and pipes): no item counts, no colours.
+@dataclass(slots=True)
+class _Line:
+    label: str
+    start: float
+    shown: bool = False
+    ended: bool = False
 
-    A step's line is written when it starts and completed with ``done (<elapsed>)`` when it ends;
-    a step that starts inside another closes the outer line first, and the outer step then ends
-    with a line of its own.
+
+class PlainProgress(Progress):
+    """One plain line per step that lasts, on a stream (for logs and pipes): no counts, no colour.
+
+    A step's line is written once it has run ``after`` seconds (default :data:`SHOW_AFTER`;
+    quicker steps leave none) and completed with ``done (<elapsed>)`` when it ends. A step shown
+    inside another closes the outer line first; the outer step then ends with a line of its own.
     """
 
-    def __init__(self, stream: TextIO, *, prefix: str = "torquemap: ") -> None:
+    def __init__(
+        self, stream: TextIO, *, after: float | None = None, prefix: str = "torquemap: "
+    ) -> None:
         self.stream = stream
+        self.after = after
         self.prefix = prefix
-        self._open: str | None = None  # the label whose line awaits its "done"
+        self._open: _Line | None = None  # the step whose line awaits its "done"
+        self._lock = threading.Lock()
 
     def _write(self, text: str) -> None:
         self.stream.write(text)
         self.stream.flush()
 
+    def _show(self, line: _Line) -> None:
+        with self._lock:
+            if line.ended:
+                return
+            if self._open is not None:
+                self._write("\n")
+            self._write(f"{self.prefix}{line.label} ...")
+            self._open = line
+            line.shown = True
+
     @contextmanager
     def step(self, label: str, *, total: float | None = None) -> Iterator[Step]:
-        if self._open is not None:
-            self._write("\n")
-        self._write(f"{self.prefix}{label} ...")
-        self._open = label
-        start = time.perf_counter()
+        line = _Line(label, time.perf_counter())
+        delay = SHOW_AFTER if self.after is None else self.after
+        timer = None
+        if delay <= 0:
+            self._show(line)
+        elif math.isfinite(delay):
+            timer = threading.Timer(delay, self._show, args=(line,))
+            timer.daemon = True
+            timer.start()
         ok = False
         try:
             yield Step()
             ok = True
         finally:
-            end = f"done ({_seconds(start)})" if ok else f"stopped ({_seconds(start)})"
-            if self._open == label:
-                self._write(f" {end}\n")
-            else:
-                self._write(f"{self.prefix}{label}: {end}\n")
-            self._open = None
+            if timer is not None:
+                timer.cancel()
+            with self._lock:
+                line.ended = True
+                if line.shown:
+                    end = "done" if ok else "stopped"
+                    end += f" ({_seconds(line.start)})"
+                    if self._open is line:
+                        self._write(f" {end}\n")
+                    else:
+                        self._write(f"{self.prefix}{label}: {end}\n")
+                    self._open = None
 
 
 class _RichStep(Step):
@@ -125,13 +165,15 @@ class _RichStep(Step):
 class RichProgress(Progress):
     """A rich spinner (or bar, where the total is known) per running step on a terminal.
 
-    Finished steps leave one line, ``done <label> (<elapsed>)``; nested steps show together.
+    Steps that lasted ``after`` seconds (default :data:`SHOW_AFTER`) leave one line,
+    ``done <label> (<elapsed>)``; nested steps show together.
     """
 
-    def __init__(self, stream: TextIO) -> None:
+    def __init__(self, stream: TextIO, *, after: float | None = None) -> None:
         from rich.console import Console
 
         self.console = Console(file=stream)
+        self.after = after
         self._bar: Any = None
         self._depth = 0
 
@@ -172,15 +214,20 @@ class RichProgress(Progress):
             ok = True
         finally:
             bar.remove_task(task)
-            mark = "[green]done[/green]" if ok else "[red]stopped[/red]"
-            self.console.print(f"{mark} {label} ({_seconds(start)})", highlight=False)
+            bar.refresh()
+            after = SHOW_AFTER if self.after is None else self.after
+            if not ok or time.perf_counter() - start >= after:
+                mark = "[green]done[/green]" if ok else "[red]stopped[/red]"
+                self.console.print(f"{mark} {label} ({_seconds(start)})", highlight=False)
             self._depth -= 1
             if self._depth == 0:
                 bar.stop()
                 self._bar = None
 
 
-def reporter(*, quiet: bool = False, stream: TextIO | None = None) -> Progress:
+def reporter(
+    *, quiet: bool = False, stream: TextIO | None = None, after: float | None = None
+) -> Progress:
     """The reporter for a command: :data:`NULL` if ``quiet``, rich on a terminal, else plain lines.
 
     Parameters
@@ -189,12 +236,14 @@ def reporter(*, quiet: bool = False, stream: TextIO | None = None) -> Progress:
         Report nothing.
     stream
         Where progress goes (default: ``sys.stderr``, looked up at call time).
+    after
+        Steps quicker than this [s] leave no line (default :data:`SHOW_AFTER`, 2 s).
 
     Examples
     --------
     >>> import io
     >>> out = io.StringIO()
-    >>> with reporter(stream=out).step("simulate"):
+    >>> with reporter(stream=out, after=0).step("simulate"):
     ...     pass
     >>> out.getvalue().startswith("torquemap: simulate ... done (")
     True
@@ -206,5 +255,5 @@ def reporter(*, quiet: bool = False, stream: TextIO | None = None) -> Progress:
     target = sys.stderr if stream is None else stream
     isatty = getattr(target, "isatty", None)
     if callable(isatty) and isatty():
-        return RichProgress(target)
-    return PlainProgress(target)
+        return RichProgress(target, after=after)
+    return PlainProgress(target, after=after)
