@@ -93,6 +93,6 @@ def _rosbag(args: argparse.Namespace) -> int:
         )
     print(
         f"wrote {args.output}: {states.t.size} samples over {states.t[-1]:.6g} s from "
-        f"{args.topic} (first stamp {states.start:.9f} s)"
+        f"{args.topic} (first stamp {states.start_ns // 10**9}.{states.start_ns % 10**9:09d} s)"
     )
     return 0
