@@ -2,14 +2,30 @@
 
 from __future__ import annotations
 
-import math
-from collections.abc import Iterator
-from pathlib import Path
+import os
 
-import pytest
+# One BLAS thread per test process, set before numpy loads (workers of `pytest -n 2` inherit it):
+# two workers with OpenBLAS's default of one thread per core oversubscribe a two-core machine,
+# and its spinning threads doubled the suite's CPU time (measured on test_denoise + test_tables
+# + test_kinematics: 10.5 s user with the default, 4.8 s with one thread).
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 
-from torquemap import progress
-from torquemap.sim.bench import write_scara_bench
+import contextlib  # noqa: E402
+import importlib.util  # noqa: E402
+import io  # noqa: E402
+import math  # noqa: E402
+import shutil  # noqa: E402
+import sys  # noqa: E402
+from collections.abc import Iterator  # noqa: E402
+from dataclasses import dataclass  # noqa: E402
+from pathlib import Path  # noqa: E402
+from typing import Any  # noqa: E402
+
+import pytest  # noqa: E402
+
+from torquemap import progress  # noqa: E402
+from torquemap.sim.bench import write_scara_bench  # noqa: E402
 
 
 @pytest.fixture(autouse=True)
@@ -34,3 +50,110 @@ def scara_bench(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("scara_bench")
     write_scara_bench(out, seed=0)
     return out
+
+
+def _tutorial() -> Any:
+    """docs/gen_tutorial.py as a module: the tutorial's parser and command runner."""
+    name = "gen_tutorial"
+    if name not in sys.modules:
+        path = Path(__file__).parents[1] / "docs" / "gen_tutorial.py"
+        spec = importlib.util.spec_from_file_location(name, path)
+        assert spec is not None and spec.loader is not None
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        spec.loader.exec_module(module)
+    return sys.modules[name]
+
+
+@pytest.fixture(scope="session")
+def tutorial() -> Any:
+    """docs/gen_tutorial.py: ``parse``, ``run`` (one command, what it prints), ``masked``."""
+    return _tutorial()
+
+
+@dataclass(frozen=True)
+class Ran:
+    """Tutorial commands run once for the session in ``folder``: what each printed."""
+
+    folder: Path
+    printed: dict[str, str]
+
+
+def _run_in(folder: Path, commands: list[str]) -> Ran:
+    gen = _tutorial()
+    printed = {}
+    with gen.working_directory(folder):
+        for command in commands:
+            printed[command] = gen.run(command)
+    return Ran(folder, printed)
+
+
+#: The tutorial's identify, run on the session's bench (shared with the CLI estimate tests).
+IDENTIFY = "torquemap identify bench/robot.toml bench/sweep.csv -o bench/model.toml"
+#: The tutorial's rig: the simulated VR motor with the default collection (the demo's too).
+RIG_VR = "torquemap simulate rig --motor vr --out rig"
+
+
+@pytest.fixture(scope="session")
+def scara_identified(scara_bench: Path, tmp_path_factory: pytest.TempPathFactory) -> Ran:
+    """The tutorial's ``identify`` run once on a copy of the bench: folder/bench/model.toml.
+
+    Read-only, like the bench: copy what a test wants to change.
+    """
+    folder = tmp_path_factory.mktemp("scara_identified")
+    shutil.copytree(scara_bench, folder / "bench")
+    return _run_in(folder, [IDENTIFY])
+
+
+@pytest.fixture(scope="session")
+def vr_rig(tmp_path_factory: pytest.TempPathFactory) -> Ran:
+    """The tutorial's ``simulate rig --motor vr`` run once: folder/rig/motor.toml and data.csv."""
+    return _run_in(tmp_path_factory.mktemp("vr_rig"), [RIG_VR])
+
+
+@dataclass(frozen=True)
+class DemoRun:
+    """``torquemap demo --out demo-out`` run in ``folder``: its stdout and its stderr."""
+
+    folder: Path
+    out: str
+    err: str
+
+
+@pytest.fixture(scope="session")
+def demo_run(scara_bench: Path, vr_rig: Ran, tmp_path_factory: pytest.TempPathFactory) -> DemoRun:
+    """The demo as ``make demo`` runs it, with progress reported as when piped (every step).
+
+    Its two simulations with the default seed are the session's: the SCARA bench (which
+    test_cli_simulate checks the CLI writes byte for byte) and the VR rig, a run of
+    ``simulate rig`` with the same settings (test_cli_rig checks runs are a function of their
+    arguments). Everything after the simulations runs as in ``make demo``.
+    """
+    from torquemap.cli.main import main
+    from torquemap.sim import bench as sim_bench
+    from torquemap.sim import rig as sim_rig
+
+    real_bench, real_rig = sim_bench.write_scara_bench, sim_rig.write_rig_data
+
+    def bench_copy(out_dir: Any, *, seed: int = 0) -> None:
+        if seed != 0:
+            real_bench(out_dir, seed=seed)
+            return
+        shutil.copytree(scara_bench, out_dir, dirs_exist_ok=True)
+
+    def rig_copy(out_dir: Any, **options: Any) -> Any:
+        options.pop("progress", None)
+        if options != {"motor": "vr", "seed": 0}:
+            return real_rig(out_dir, **options)
+        shutil.copytree(vr_rig.folder / "rig", out_dir, dirs_exist_ok=True)
+        return None
+
+    folder = tmp_path_factory.mktemp("demo_run")
+    out, err = io.StringIO(), io.StringIO()
+    with pytest.MonkeyPatch.context() as patch, _tutorial().working_directory(folder):
+        patch.setattr(sim_bench, "write_scara_bench", bench_copy)
+        patch.setattr(sim_rig, "write_rig_data", rig_copy)
+        patch.setattr(progress, "SHOW_AFTER", 0.0)
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            assert main(["demo", "--out", "demo-out"]) == 0
+    return DemoRun(folder, out.getvalue(), err.getvalue())

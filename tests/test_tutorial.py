@@ -1,0 +1,99 @@
+"""docs/tutorial.md cannot drift: its commands run, and print what the tutorial shows.
+
+The expensive commands run once per session in shared fixtures (conftest.py), with the same
+command lines the tutorial gives: the demo, the SCARA bench (``simulate scara`` runs here, writing
+the session's bench, which test_cli_simulate checks is what the command writes), ``identify`` and
+the VR rig. Everything else runs here. Regenerate the outputs with
+``PYTHONPATH=src python docs/gen_tutorial.py`` after changing what a command prints.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from conftest import IDENTIFY, RIG_VR, DemoRun, Ran
+
+from torquemap.io import read_table
+
+DOCS = Path(__file__).parents[1] / "docs"
+
+
+def test_the_tutorial_prints_what_it_shows(
+    tutorial: Any,
+    scara_bench: Path,
+    scara_identified: Ran,
+    vr_rig: Ran,
+    demo_run: DemoRun,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from torquemap.sim import bench as sim_bench
+
+    def bench_copy(out_dir: Any, *, seed: int = 0) -> None:
+        assert seed == 0
+        shutil.copytree(scara_bench, out_dir, dirs_exist_ok=True)
+
+    monkeypatch.setattr(sim_bench, "write_scara_bench", bench_copy)
+    shared = {
+        "torquemap demo --out demo-out": (None, demo_run.out),
+        IDENTIFY: (scara_identified.folder / "bench" / "model.toml", None),
+        RIG_VR: (vr_rig.folder / "rig", None),
+    }
+    shared_printed = {**scara_identified.printed, **vr_rig.printed}
+
+    def runner(command: str) -> str:
+        if command not in shared:
+            return str(tutorial.run(command))
+        source, printed = shared[command]
+        if source is not None:  # the files the command wrote, where it wrote them
+            target = Path(command.split()[-1])
+            if source.is_dir():
+                shutil.copytree(source, target)
+            else:
+                shutil.copy(source, target)
+        return printed if printed is not None else shared_printed[command]
+
+    text = (DOCS / "tutorial.md").read_text(encoding="utf-8")
+    blocks = tutorial.parse(text)
+    assert sum(b.output is not None for b in blocks) >= 10
+    assert all(b.commands for b in blocks)
+    with tutorial.working_directory(tmp_path):
+        printed = tutorial.run_all(blocks, runner)
+    for block, got in zip(blocks, printed, strict=True):
+        if block.output is None:
+            continue
+        # each block as a whole, so that a failure names its commands
+        assert tutorial.masked(got) == tutorial.masked(block.output), (
+            "docs/tutorial.md shows other output for:\n  "
+            + "\n  ".join(block.commands)
+            + "\n(regenerate: PYTHONPATH=src python docs/gen_tutorial.py)"
+        )
+
+
+def test_make_demo_is_the_demo_command() -> None:
+    makefile = (DOCS.parent / "Makefile").read_text(encoding="utf-8")
+    assert "OUT ?= demo-out" in makefile
+    assert re.search(r"^demo:.*\n\t\$\(BIN\)/torquemap demo --out \$\(OUT\)$", makefile, re.M)
+
+
+def test_masks_hide_only_the_seconds(tutorial: Any) -> None:
+    assert tutorial.masked("report: demo-out/report.html   (74 s)") == tutorial.masked(
+        "report: demo-out/report.html   (181 s)"
+    )
+    assert tutorial.masked("wrote a (3 sections)") != tutorial.masked("wrote a (4 sections)")
+
+
+def test_bench_files_are_as_formats_md_says(scara_bench: Path) -> None:
+    text = (DOCS / "formats.md").read_text(encoding="utf-8")
+    for name in ("sweep", "circle"):
+        m = re.search(rf"`{name}\.csv` \| log.*?2 kHz, (\d+) s \(([\d ]+) rows\)", text)
+        assert m, name
+        t = read_table(scara_bench / f"{name}.csv")["t"]
+        assert t.size == int(m.group(2).replace(" ", ""))
+        assert round(float(t[-1])) == int(m.group(1))
+        np.testing.assert_allclose(np.diff(t[:3]), 1 / 2000)
