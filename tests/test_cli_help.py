@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import shlex
+
+import pytest
 
 from torquemap.cli.helptext import described
 from torquemap.cli.main import build_parser, commands, subparsers
@@ -46,6 +49,25 @@ def undocumented(parser: argparse.ArgumentParser) -> list[str]:
 def test_every_command_and_argument_is_documented() -> None:
     missing = undocumented(build_parser())
     assert not missing, "document these (cli/helptext.py `described`):\n" + "\n".join(missing)
+
+
+def test_every_example_parses() -> None:
+    # the examples use the options as they are: a renamed or removed option fails here
+    parser = build_parser()
+    examples = [
+        line.strip()
+        for _, command in [("torquemap", parser), *_tree(parser)]
+        for line in (command.epilog or "").splitlines()[1:]
+    ]
+    assert len(examples) > 20
+    for example in examples:
+        words = shlex.split(example.split(" > ")[0])  # the shell's redirection is not torquemap's
+        assert words[0] == "torquemap", example
+        try:
+            args = parser.parse_args(words[1:])
+        except SystemExit:
+            pytest.fail(f"example does not parse: {example}")
+        assert callable(args.handler), example
 
 
 def test_the_check_finds_what_is_missing() -> None:

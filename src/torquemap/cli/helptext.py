@@ -7,7 +7,7 @@ import textwrap
 from collections.abc import Sequence
 from typing import Any
 
-WIDTH = 88
+WIDTH = 78
 
 
 def described(description: str, examples: Sequence[str]) -> dict[str, Any]:

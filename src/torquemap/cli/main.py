@@ -21,6 +21,7 @@ from torquemap.cli import (
     cmd_report,
     cmd_simulate,
 )
+from torquemap.cli.helptext import described
 from torquemap.errors import InputError
 
 _MODULES = (
@@ -46,8 +47,17 @@ def build_parser() -> argparse.ArgumentParser:
     """The full ``torquemap`` argument parser."""
     parser = _Parser(
         prog="torquemap",
-        description="Sensorless force estimation, friction and PDTV identification, "
-        "and torque-linearisation tables for electric actuators.",
+        **described(
+            "Sensorless force estimation, friction and PDTV identification, and "
+            "torque-linearisation tables for electric actuators. Each command says what it "
+            "does, with examples, under torquemap COMMAND --help; docs/tutorial.md walks "
+            "through them. Progress goes to stderr (steps over 2 s), results to stdout.",
+            [
+                "torquemap demo --out demo-out",
+                "torquemap identify robot.toml sweep.csv -o model.toml",
+                "torquemap --quiet estimate model.toml run.parquet -o forces.csv",
+            ],
+        ),
     )
     parser.add_argument("--version", action="version", version=f"torquemap {__version__}")
     parser.add_argument("-q", "--quiet", action="store_true", help=_QUIET_HELP)
