@@ -1,4 +1,10 @@
-"""Shared fixtures: the simulated SCARA bench, run once per test session."""
+"""Shared fixtures: the simulated benches, identified models and the demo, run once per session.
+
+The expensive ones run the tutorial's own command lines (docs/tutorial.md), so that
+tests/test_tutorial.py checks what they printed instead of running them again. Under
+``pytest -n 2`` each worker has its own session; the tests that share these fixtures carry the
+``xdist_group`` mark, so that one worker runs them all (``--dist loadgroup``, in the Makefile).
+"""
 
 from __future__ import annotations
 
@@ -25,7 +31,6 @@ from typing import Any  # noqa: E402
 import pytest  # noqa: E402
 
 from torquemap import progress  # noqa: E402
-from torquemap.sim.bench import write_scara_bench  # noqa: E402
 
 
 @pytest.fixture(autouse=True)
@@ -38,18 +43,6 @@ def _no_progress_lines(monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
     """
     monkeypatch.setattr(progress, "SHOW_AFTER", math.inf)
     yield
-
-
-@pytest.fixture(scope="session")
-def scara_bench(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The simulated SCARA bench written with seed 0; returns its folder.
-
-    The folder holds robot.toml, sweep.csv, circle.csv, truth.csv and truth.toml
-    (docs/formats.md). Treat it as read-only: every test of the session shares it.
-    """
-    out = tmp_path_factory.mktemp("scara_bench")
-    write_scara_bench(out, seed=0)
-    return out
 
 
 def _tutorial() -> Any:
@@ -88,6 +81,8 @@ def _run_in(folder: Path, commands: list[str]) -> Ran:
     return Ran(folder, printed)
 
 
+#: The tutorial's bench: the simulated SCARA with the default seed 0.
+SIMULATE_SCARA = "torquemap simulate scara --out bench"
 #: The tutorial's identify, run on the session's bench (shared with the CLI estimate tests).
 IDENTIFY = "torquemap identify bench/robot.toml bench/sweep.csv -o bench/model.toml"
 #: The tutorial's rig: the simulated VR motor with the default collection (the demo's too).
@@ -95,13 +90,31 @@ RIG_VR = "torquemap simulate rig --motor vr --out rig"
 
 
 @pytest.fixture(scope="session")
+def scara_run(tmp_path_factory: pytest.TempPathFactory) -> Ran:
+    """The tutorial's ``torquemap simulate scara --out bench``, run once: folder/bench."""
+    return _run_in(tmp_path_factory.mktemp("scara"), [SIMULATE_SCARA])
+
+
+@pytest.fixture(scope="session")
+def scara_bench(scara_run: Ran) -> Path:
+    """The simulated SCARA bench written with seed 0; returns its folder.
+
+    The folder holds robot.toml, sweep.csv, circle.csv, truth.csv and truth.toml
+    (docs/formats.md). Treat it as read-only: every test of the session shares it.
+    """
+    return scara_run.folder / "bench"
+
+
+@pytest.fixture(scope="session")
 def scara_identified(scara_bench: Path, tmp_path_factory: pytest.TempPathFactory) -> Ran:
-    """The tutorial's ``identify`` run once on a copy of the bench: folder/bench/model.toml.
+    """The tutorial's ``identify`` run once beside links to the bench: folder/bench/model.toml.
 
     Read-only, like the bench: copy what a test wants to change.
     """
     folder = tmp_path_factory.mktemp("scara_identified")
-    shutil.copytree(scara_bench, folder / "bench")
+    (folder / "bench").mkdir()
+    for path in scara_bench.iterdir():
+        (folder / "bench" / path.name).symlink_to(path)
     return _run_in(folder, [IDENTIFY])
 
 
@@ -124,10 +137,11 @@ class DemoRun:
 def demo_run(scara_bench: Path, vr_rig: Ran, tmp_path_factory: pytest.TempPathFactory) -> DemoRun:
     """The demo as ``make demo`` runs it, with progress reported as when piped (every step).
 
-    Its two simulations with the default seed are the session's: the SCARA bench (which
-    test_cli_simulate checks the CLI writes byte for byte) and the VR rig, a run of
-    ``simulate rig`` with the same settings (test_cli_rig checks runs are a function of their
-    arguments). Everything after the simulations runs as in ``make demo``.
+    Its two simulations with the default seed are the session's: the SCARA bench, a run of
+    ``simulate scara`` (test_cli_simulate checks the command writes what the library does, as a
+    function of the seed), and the VR rig, a run of ``simulate rig`` with the demo's settings
+    (test_cli_rig checks runs are a function of their arguments). Everything after the
+    simulations runs as in ``make demo``.
     """
     from torquemap.cli.main import main
     from torquemap.sim import bench as sim_bench

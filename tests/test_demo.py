@@ -9,6 +9,9 @@ import pytest
 from conftest import DemoRun
 from test_browser import CHROMIUM, loaded_figures
 
+# one worker runs the demo for both files (conftest.py)
+pytestmark = pytest.mark.xdist_group("demo")
+
 
 @pytest.fixture(scope="module")
 def demo(demo_run: DemoRun) -> tuple[Path, str]:

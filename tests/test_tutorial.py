@@ -1,62 +1,62 @@
 """docs/tutorial.md cannot drift: its commands run, and print what the tutorial shows.
 
 The expensive commands run once per session in shared fixtures (conftest.py), with the same
-command lines the tutorial gives: the demo, the SCARA bench (``simulate scara`` runs here, writing
-the session's bench, which test_cli_simulate checks is what the command writes), ``identify`` and
-the VR rig. Everything else runs here. Regenerate the outputs with
+command lines the tutorial gives: the demo, ``simulate scara``, ``identify`` and the VR rig; the
+other tests use what they wrote. Everything else runs here. Regenerate the outputs with
 ``PYTHONPATH=src python docs/gen_tutorial.py`` after changing what a command prints.
 """
 
 from __future__ import annotations
 
 import re
-import shutil
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-from conftest import IDENTIFY, RIG_VR, DemoRun, Ran
+from conftest import IDENTIFY, RIG_VR, SIMULATE_SCARA, DemoRun, Ran
 
 from torquemap.io import read_table
+
+# one worker runs the demo for both files (conftest.py)
+pytestmark = pytest.mark.xdist_group("demo")
 
 DOCS = Path(__file__).parents[1] / "docs"
 
 
+def _link(source: Path, target: Path) -> None:
+    """``target`` as ``source`` (a file or a folder of files), by links: nothing is copied."""
+    if source.is_dir():
+        target.mkdir()
+        for path in source.iterdir():
+            (target / path.name).symlink_to(path)
+    else:
+        target.symlink_to(source)
+
+
 def test_the_tutorial_prints_what_it_shows(
     tutorial: Any,
-    scara_bench: Path,
+    scara_run: Ran,
     scara_identified: Ran,
     vr_rig: Ran,
     demo_run: DemoRun,
     tmp_path: Path,
-    monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    from torquemap.sim import bench as sim_bench
-
-    def bench_copy(out_dir: Any, *, seed: int = 0) -> None:
-        assert seed == 0
-        shutil.copytree(scara_bench, out_dir, dirs_exist_ok=True)
-
-    monkeypatch.setattr(sim_bench, "write_scara_bench", bench_copy)
+    # command -> (what it wrote, what it printed) for the commands the session already ran
     shared = {
-        "torquemap demo --out demo-out": (None, demo_run.out),
+        SIMULATE_SCARA: (scara_run.folder / "bench", scara_run.printed[SIMULATE_SCARA]),
         IDENTIFY: (scara_identified.folder / "bench" / "model.toml", None),
-        RIG_VR: (vr_rig.folder / "rig", None),
+        RIG_VR: (vr_rig.folder / "rig", vr_rig.printed[RIG_VR]),
+        "torquemap demo --out demo-out": (None, demo_run.out),
     }
-    shared_printed = {**scara_identified.printed, **vr_rig.printed}
 
     def runner(command: str) -> str:
         if command not in shared:
             return str(tutorial.run(command))
         source, printed = shared[command]
-        if source is not None:  # the files the command wrote, where it wrote them
-            target = Path(command.split()[-1])
-            if source.is_dir():
-                shutil.copytree(source, target)
-            else:
-                shutil.copy(source, target)
-        return printed if printed is not None else shared_printed[command]
+        if source is not None:
+            _link(source, Path(command.split()[-1]))
+        return printed if printed is not None else scara_identified.printed[command]
 
     text = (DOCS / "tutorial.md").read_text(encoding="utf-8")
     blocks = tutorial.parse(text)
