@@ -162,6 +162,21 @@ class _RichStep(Step):
         self._bar.update(self._task, description=f"{self._label}: {detail}")
 
 
+def _count_column() -> Any:
+    from rich.progress import ProgressColumn
+    from rich.text import Text
+
+    class CountColumn(ProgressColumn):
+        """``done/total`` where the step knows its total, nothing where it does not."""
+
+        def render(self, task: Any) -> Text:
+            if task.total is None:
+                return Text("")
+            return Text(f"{int(task.completed)}/{int(task.total)}", style="progress.download")
+
+    return CountColumn()
+
+
 class RichProgress(Progress):
     """A rich spinner (or bar, where the total is known) per running step on a terminal.
 
@@ -181,7 +196,6 @@ class RichProgress(Progress):
         if self._bar is None:
             from rich.progress import (
                 BarColumn,
-                MofNCompleteColumn,
                 SpinnerColumn,
                 TextColumn,
                 TimeElapsedColumn,
@@ -194,7 +208,7 @@ class RichProgress(Progress):
                 SpinnerColumn(),
                 TextColumn("{task.description}"),
                 BarColumn(),
-                MofNCompleteColumn(),
+                _count_column(),
                 TimeElapsedColumn(),
                 console=self.console,
                 transient=True,
