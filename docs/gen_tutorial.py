@@ -1,4 +1,4 @@
-"""Run the tutorial's commands and write what they print into docs/tutorial.md.
+"""Run the tutorial's commands and write what they print into docs/tutorial.md (and the others).
 
 The tutorial pairs each ```` ```sh ```` block of commands with the ```` ```text ```` block right
 after it: what those commands print (stdout and stderr, in order; progress lines, which only
@@ -30,6 +30,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 TUTORIAL = Path(__file__).with_name("tutorial.md")
+#: The pages whose outputs are generated and checked, each run in a fresh folder of its own.
+PAGES = (TUTORIAL, Path(__file__).with_name("estimation.md"))
 #: Lines of a sh block that stand for a torquemap command (the Makefile's recipe).
 ALIASES = {"make demo": "torquemap demo --out demo-out"}
 #: Numbers that vary from run to run: (pattern, replacement) applied before comparing.
@@ -148,22 +150,25 @@ def rewrite(text: str, blocks: list[Block], printed: list[str]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Rewrite docs/tutorial.md (or, with --check, report whether it is up to date)."""
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--check", action="store_true", help="exit 1 if the file would change")
+    """Rewrite the pages' outputs (or, with --check, report whether they are up to date)."""
+    parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
+    parser.add_argument("--check", action="store_true", help="exit 1 if a page would change")
     args = parser.parse_args(argv)
-    text = TUTORIAL.read_text(encoding="utf-8")
-    blocks = parse(text)
-    with tempfile.TemporaryDirectory(prefix="tutorial-") as tmp, working_directory(Path(tmp)):
-        printed = run_all(blocks)
-    new = rewrite(text, blocks, printed)
-    if args.check:
-        same = masked(new) == masked(text)
-        print("docs/tutorial.md is up to date" if same else "docs/tutorial.md differs")
-        return 0 if same else 1
-    TUTORIAL.write_text(new, encoding="utf-8")
-    print(f"wrote {TUTORIAL}")
-    return 0
+    status = 0
+    for page in PAGES:
+        text = page.read_text(encoding="utf-8")
+        blocks = parse(text)
+        with tempfile.TemporaryDirectory(prefix="docs-") as tmp, working_directory(Path(tmp)):
+            printed = run_all(blocks)
+        new = rewrite(text, blocks, printed)
+        if args.check:
+            same = masked(new) == masked(text)
+            print(f"{page.name} is up to date" if same else f"{page.name} differs")
+            status = max(status, 0 if same else 1)
+        else:
+            page.write_text(new, encoding="utf-8")
+            print(f"wrote {page}")
+    return status
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""docs/tutorial.md cannot drift: its commands run, and print what the tutorial shows.
+"""docs/tutorial.md (and estimation.md) cannot drift: their commands print what they show.
 
 The expensive commands run once per session in shared fixtures (conftest.py), with the same
 command lines the tutorial gives: the demo, ``simulate scara``, ``identify`` and the VR rig; the
@@ -34,7 +34,9 @@ def _link(source: Path, target: Path) -> None:
         target.symlink_to(source)
 
 
-def test_the_tutorial_prints_what_it_shows(
+@pytest.mark.parametrize("page", ["tutorial.md", "estimation.md"])
+def test_the_docs_print_what_they_show(
+    page: str,
     tutorial: Any,
     scara_run: Ran,
     scara_identified: Ran,
@@ -58,9 +60,10 @@ def test_the_tutorial_prints_what_it_shows(
             _link(source, Path(command.split()[-1]))
         return printed if printed is not None else scara_identified.printed[command]
 
-    text = (DOCS / "tutorial.md").read_text(encoding="utf-8")
+    assert [p.name for p in tutorial.PAGES] == ["tutorial.md", "estimation.md"]
+    text = (DOCS / page).read_text(encoding="utf-8")
     blocks = tutorial.parse(text)
-    assert sum(b.output is not None for b in blocks) >= 10
+    assert sum(b.output is not None for b in blocks) >= (10 if page == "tutorial.md" else 1)
     assert all(b.commands for b in blocks)
     with tutorial.working_directory(tmp_path):
         printed = tutorial.run_all(blocks, runner)
@@ -69,7 +72,7 @@ def test_the_tutorial_prints_what_it_shows(
             continue
         # each block as a whole, so that a failure names its commands
         assert tutorial.masked(got) == tutorial.masked(block.output), (
-            "docs/tutorial.md shows other output for:\n  "
+            f"docs/{page} shows other output for:\n  "
             + "\n  ".join(block.commands)
             + "\n(regenerate: PYTHONPATH=src python docs/gen_tutorial.py)"
         )
