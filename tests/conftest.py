@@ -2,8 +2,9 @@
 
 The expensive ones run the tutorial's own command lines (docs/tutorial.md), so that
 tests/test_tutorial.py checks what they printed instead of running them again. Under
-``pytest -n 2`` each worker has its own session; the tests that share these fixtures carry the
-``xdist_group`` mark, so that one worker runs them all (``--dist loadgroup``, in the Makefile).
+``pytest -n 2`` each worker has its own session: test_demo and test_tutorial, which share the demo
+(55 s of CPU), carry ``xdist_group("demo")`` so that one worker runs it once (``--dist
+loadgroup``, in the Makefile); the bench (14 s) may be simulated once per worker.
 """
 
 from __future__ import annotations
@@ -12,8 +13,8 @@ import os
 
 # One BLAS thread per test process, set before numpy loads (workers of `pytest -n 2` inherit it):
 # two workers with OpenBLAS's default of one thread per core oversubscribe a two-core machine,
-# and its spinning threads doubled the suite's CPU time (measured on test_denoise + test_tables
-# + test_kinematics: 10.5 s user with the default, 4.8 s with one thread).
+# and its spinning threads doubled the CPU time of the tests measured (test_denoise + test_tables
+# + test_kinematics, one process: 10.5 s user with the default, 4.8 s with one thread).
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
