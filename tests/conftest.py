@@ -1,21 +1,174 @@
-"""Shared fixtures: the simulated SCARA bench, run once per test session."""
+"""Shared fixtures: the simulated benches, identified models and the demo, run once per session.
+
+The expensive ones run the tutorial's own command lines (docs/tutorial.md), so that
+tests/test_tutorial.py checks what they printed instead of running them again. Under
+``pytest -n 2`` each worker has its own session: test_demo and test_tutorial, which share the demo
+(55 s of CPU), carry ``xdist_group("demo")`` so that one worker runs it once (``--dist
+loadgroup``, in the Makefile); the bench (14 s) may be simulated once per worker.
+"""
 
 from __future__ import annotations
 
-from pathlib import Path
+import os
 
-import pytest
+# One BLAS thread per test process, set before numpy loads (workers of `pytest -n 2` inherit it):
+# two workers with OpenBLAS's default of one thread per core oversubscribe a two-core machine,
+# and its spinning threads doubled the CPU time of the tests measured (test_denoise + test_tables
+# + test_kinematics, one process: 10.5 s user with the default, 4.8 s with one thread).
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 
-from torquemap.sim.bench import write_scara_bench
+import contextlib  # noqa: E402
+import importlib.util  # noqa: E402
+import io  # noqa: E402
+import math  # noqa: E402
+import shutil  # noqa: E402
+import sys  # noqa: E402
+from collections.abc import Iterator  # noqa: E402
+from dataclasses import dataclass  # noqa: E402
+from pathlib import Path  # noqa: E402
+from typing import Any  # noqa: E402
+
+import pytest  # noqa: E402
+
+from torquemap import progress  # noqa: E402
+
+
+@pytest.fixture(autouse=True)
+def _no_progress_lines(monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
+    """No step lasts long enough to be reported: stderr holds only what a test checks.
+
+    The CLI reports steps over 2 s (torquemap.progress.SHOW_AFTER); on a loaded machine any step
+    may take that long, which would make stderr depend on the load. tests/test_progress.py sets
+    the threshold it tests.
+    """
+    monkeypatch.setattr(progress, "SHOW_AFTER", math.inf)
+    yield
+
+
+def _tutorial() -> Any:
+    """docs/gen_tutorial.py as a module: the tutorial's parser and command runner."""
+    name = "gen_tutorial"
+    if name not in sys.modules:
+        path = Path(__file__).parents[1] / "docs" / "gen_tutorial.py"
+        spec = importlib.util.spec_from_file_location(name, path)
+        assert spec is not None and spec.loader is not None
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        spec.loader.exec_module(module)
+    return sys.modules[name]
 
 
 @pytest.fixture(scope="session")
-def scara_bench(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def tutorial() -> Any:
+    """docs/gen_tutorial.py: ``parse``, ``run`` (one command, what it prints), ``masked``."""
+    return _tutorial()
+
+
+@dataclass(frozen=True)
+class Ran:
+    """Tutorial commands run once for the session in ``folder``: what each printed."""
+
+    folder: Path
+    printed: dict[str, str]
+
+
+def _run_in(folder: Path, commands: list[str]) -> Ran:
+    gen = _tutorial()
+    printed = {}
+    with gen.working_directory(folder):
+        for command in commands:
+            printed[command] = gen.run(command)
+    return Ran(folder, printed)
+
+
+#: The tutorial's bench: the simulated SCARA with the default seed 0.
+SIMULATE_SCARA = "torquemap simulate scara --out bench"
+#: The tutorial's identify, run on the session's bench (shared with the CLI estimate tests).
+IDENTIFY = "torquemap identify bench/robot.toml bench/sweep.csv -o bench/model.toml"
+#: The tutorial's rig: the simulated VR motor with the default collection (the demo's too).
+RIG_VR = "torquemap simulate rig --motor vr --out rig"
+
+
+@pytest.fixture(scope="session")
+def scara_run(tmp_path_factory: pytest.TempPathFactory) -> Ran:
+    """The tutorial's ``torquemap simulate scara --out bench``, run once: folder/bench."""
+    return _run_in(tmp_path_factory.mktemp("scara"), [SIMULATE_SCARA])
+
+
+@pytest.fixture(scope="session")
+def scara_bench(scara_run: Ran) -> Path:
     """The simulated SCARA bench written with seed 0; returns its folder.
 
     The folder holds robot.toml, sweep.csv, circle.csv, truth.csv and truth.toml
     (docs/formats.md). Treat it as read-only: every test of the session shares it.
     """
-    out = tmp_path_factory.mktemp("scara_bench")
-    write_scara_bench(out, seed=0)
-    return out
+    return scara_run.folder / "bench"
+
+
+@pytest.fixture(scope="session")
+def scara_identified(scara_bench: Path, tmp_path_factory: pytest.TempPathFactory) -> Ran:
+    """The tutorial's ``identify`` run once beside links to the bench: folder/bench/model.toml.
+
+    Read-only, like the bench: copy what a test wants to change.
+    """
+    folder = tmp_path_factory.mktemp("scara_identified")
+    (folder / "bench").mkdir()
+    for path in scara_bench.iterdir():
+        (folder / "bench" / path.name).symlink_to(path)
+    return _run_in(folder, [IDENTIFY])
+
+
+@pytest.fixture(scope="session")
+def vr_rig(tmp_path_factory: pytest.TempPathFactory) -> Ran:
+    """The tutorial's ``simulate rig --motor vr`` run once: folder/rig/motor.toml and data.csv."""
+    return _run_in(tmp_path_factory.mktemp("vr_rig"), [RIG_VR])
+
+
+@dataclass(frozen=True)
+class DemoRun:
+    """``torquemap demo --out demo-out`` run in ``folder``: its stdout and its stderr."""
+
+    folder: Path
+    out: str
+    err: str
+
+
+@pytest.fixture(scope="session")
+def demo_run(scara_bench: Path, vr_rig: Ran, tmp_path_factory: pytest.TempPathFactory) -> DemoRun:
+    """The demo as ``make demo`` runs it, with progress reported as when piped (every step).
+
+    Its two simulations with the default seed are the session's: the SCARA bench, a run of
+    ``simulate scara`` (test_cli_simulate checks the command writes what the library does, as a
+    function of the seed), and the VR rig, a run of ``simulate rig`` with the demo's settings
+    (test_cli_rig checks runs are a function of their arguments). Everything after the
+    simulations runs as in ``make demo``.
+    """
+    from torquemap.cli.main import main
+    from torquemap.sim import bench as sim_bench
+    from torquemap.sim import rig as sim_rig
+
+    real_bench, real_rig = sim_bench.write_scara_bench, sim_rig.write_rig_data
+
+    def bench_copy(out_dir: Any, *, seed: int = 0) -> None:
+        if seed != 0:
+            real_bench(out_dir, seed=seed)
+            return
+        shutil.copytree(scara_bench, out_dir, dirs_exist_ok=True)
+
+    def rig_copy(out_dir: Any, **options: Any) -> Any:
+        options.pop("progress", None)
+        if options != {"motor": "vr", "seed": 0}:
+            return real_rig(out_dir, **options)
+        shutil.copytree(vr_rig.folder / "rig", out_dir, dirs_exist_ok=True)
+        return None
+
+    folder = tmp_path_factory.mktemp("demo_run")
+    out, err = io.StringIO(), io.StringIO()
+    with pytest.MonkeyPatch.context() as patch, _tutorial().working_directory(folder):
+        patch.setattr(sim_bench, "write_scara_bench", bench_copy)
+        patch.setattr(sim_rig, "write_rig_data", rig_copy)
+        patch.setattr(progress, "SHOW_AFTER", 0.0)
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            assert main(["demo", "--out", "demo-out"]) == 0
+    return DemoRun(folder, out.getvalue(), err.getvalue())

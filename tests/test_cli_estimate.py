@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import Ran
 
 from torquemap.cli.main import main
 from torquemap.io import read_table, write_table
@@ -13,12 +15,9 @@ from torquemap.sim.score import common_mask, force_error
 
 
 @pytest.fixture(scope="module")
-def identified(scara_bench: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    d = tmp_path_factory.mktemp("estimate")
-    model = d / "model.toml"
-    argv = ["identify", str(scara_bench / "robot.toml"), str(scara_bench / "sweep.csv")]
-    assert main([*argv, "-o", str(model)]) == 0
-    return model
+def identified(scara_identified: Ran) -> Path:
+    """The model ``torquemap identify`` writes from the bench's sweeps (shared by the session)."""
+    return scara_identified.folder / "bench" / "model.toml"
 
 
 def _run(model: Path, log: Path, out: Path, *extra: str) -> dict[str, np.ndarray]:
@@ -63,6 +62,15 @@ def test_output_columns_and_figure(scara_bench: Path, identified: Path, tmp_path
     assert fig.stat().st_size > 10_000
     circle = read_table(scara_bench / "circle.csv")
     np.testing.assert_array_equal(out["t"], circle["t"])
+    # the suffixes choose the formats: the same table as JSON (a column per key), an SVG figure
+    js, svg = tmp_path / "f.json", tmp_path / "forces.svg"
+    circle_log = str(scara_bench / "circle.csv")
+    assert main(["estimate", str(identified), circle_log, "-o", str(js), "--figure", str(svg)]) == 0
+    doc = json.loads(js.read_text())
+    assert list(doc) == list(out)
+    for name, values in out.items():
+        np.testing.assert_array_equal(np.array(doc[name], dtype=float), values)
+    assert svg.read_text().lstrip().startswith("<?xml")
 
 
 def _bad(argv: list[str], capsys: pytest.CaptureFixture[str]) -> str:
@@ -84,6 +92,13 @@ def test_bad_logs_give_one_line_and_no_output(
     err = _bad(["estimate", str(identified), str(tmp_path / "nan.csv"), "-o", str(out)], capsys)
     assert "nan.csv" in err and "i_b" in err
     assert not out.exists()
+    circle_log = str(scara_bench / "circle.csv")
+    err = _bad(["estimate", str(identified), circle_log, "-o", str(tmp_path / "f.xlsx")], capsys)
+    assert "f.xlsx: unknown table format ('.xlsx')" in err and ".csv, .parquet or .json" in err
+    err = _bad(
+        ["estimate", str(identified), circle_log, "-o", str(out), "--figure", "f.gif"], capsys
+    )
+    assert "unknown figure format ('.gif')" in err and not out.exists()
 
     del cols["q_a"]
     write_table(tmp_path / "missing.csv", cols)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -9,7 +10,7 @@ import pytest
 from test_identify import ROBOT, simulate
 
 from torquemap.cli.main import main
-from torquemap.io import write_table, write_toml
+from torquemap.io import read_table, write_table, write_toml
 from torquemap.model import load_model
 
 
@@ -68,28 +69,31 @@ def test_spectrum_text_and_figure(bench: Path, capsys: pytest.CaptureFixture[str
 
 
 @pytest.mark.parametrize(
-    "fmt,name", [("csv", "map.csv"), ("json", "map.json"), ("c-header", "map.h")]
+    "fmt,name",
+    [
+        ("csv", "map.csv"),
+        ("json", "map.json"),
+        ("c-header", "map.h"),
+        ("c-header", "map.inc"),  # --format where the suffix says nothing
+        (None, "cog.csv"),
+        (None, "cog.parquet"),
+        (None, "cog.json"),
+        (None, "cog.h"),
+    ],
 )
-def test_pdtv_map_formats(bench: Path, fmt: str, name: str) -> None:
+def test_pdtv_map_formats(bench: Path, fmt: str | None, name: str) -> None:
     out = bench / name
-    assert (
-        main(
-            [
-                "pdtv-map",
-                str(bench / "model.toml"),
-                "--joint",
-                "m",
-                "--bins",
-                "1024",
-                "-o",
-                str(out),
-                "--format",
-                fmt,
-            ]
-        )
-        == 0
-    )
-    assert out.stat().st_size > 0
+    argv = ["pdtv-map", str(bench / "model.toml"), "--joint", "m", "--bins", "64", "-o", str(out)]
+    assert main(argv + (["--format", fmt] if fmt else [])) == 0
+    kind = fmt or {".json": "json", ".h": "c-header"}.get(out.suffix, "table")
+    if kind == "json":
+        doc = json.loads(out.read_text())
+        assert doc["bins"] == 64 and len(doc["current"]) == 64
+    elif kind == "c-header":
+        assert "#define PDTV_M_BINS 64" in out.read_text()
+    else:
+        cols = read_table(out)
+        assert list(cols) == ["motor_angle", "torque", "current"] and cols["torque"].size == 64
 
 
 def _error(capsys: pytest.CaptureFixture[str], argv: list[str]) -> str:
@@ -143,6 +147,17 @@ def test_errors_are_one_line(
         ],
     )
     assert "unknown joint" in err and not (tmp_path / "x.csv").exists()
+    pdtv_map = ["pdtv-map", str(bench / "model.toml"), "--joint", "m", "--bins", "8", "-o"]
+    err = _error(capsys, [*pdtv_map, str(tmp_path / "x.txt")])
+    assert "x.txt: unknown map format ('.txt')" in err and ".csv, .parquet, .json or .h" in err
+    err = _error(capsys, [*pdtv_map, str(tmp_path / "x.csv"), "--format", "json"])
+    assert "--format json contradicts the suffix" in err
+    err = _error(capsys, ["identify", robot, str(bench / "sweep.csv"), "-o", "model.json"])
+    assert "unknown model format ('.json')" in err and "use .toml" in err
+    spectrum = ["spectrum", str(bench / "model.toml"), str(bench / "sweep.csv"), "--joint", "m"]
+    err = _error(capsys, [*spectrum, "-o", str(tmp_path / "s.jpeg")])
+    assert "unknown figure format ('.jpeg')" in err and ".png, .svg or .pdf" in err
+    assert not list(tmp_path.glob("x.*"))
     err = _error(
         capsys, ["identify", robot, str(tmp_path / "missing.csv"), "-o", str(tmp_path / "m.toml")]
     )

@@ -6,21 +6,16 @@ import re
 from pathlib import Path
 
 import pytest
+from conftest import DemoRun
 from test_browser import CHROMIUM, loaded_figures
 
-from torquemap.cli.main import main
+# one worker runs the demo for both files (conftest.py)
+pytestmark = pytest.mark.xdist_group("demo")
 
 
 @pytest.fixture(scope="module")
-def demo(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
-    out = tmp_path_factory.mktemp("demo")
-    import contextlib
-    import io
-
-    buf = io.StringIO()
-    with contextlib.redirect_stdout(buf):
-        assert main(["demo", "--out", str(out), "--quiet"]) == 0
-    return out, buf.getvalue()
+def demo(demo_run: DemoRun) -> tuple[Path, str]:
+    return demo_run.folder / "demo-out", demo_run.out
 
 
 def _rms(text: str, label: str) -> float:
@@ -62,3 +57,17 @@ def test_demo_report_opens_in_chromium(demo: tuple[Path, str], tmp_path: Path) -
     loaded, total = loaded_figures(out / "report.html", tmp_path / "profile")
     assert total >= 12
     assert loaded == total
+
+
+def test_demo_reports_each_step_once_when_piped(demo_run: DemoRun) -> None:
+    # stderr is not a terminal here: plain lines, one per step (the fixture reports every step,
+    # however short; a step with steps inside ends on a line of its own), none per item of a
+    # step, and nothing but progress
+    lines = demo_run.err.splitlines()
+    step = re.compile(r"torquemap: (.+?)( \.\.\.( done \(\d+\.\d s\))?|: done \(\d+\.\d s\))")
+    assert lines and all(step.fullmatch(ln) for ln in lines), lines
+    labels = [m.group(1) for m in map(step.fullmatch, lines) if m]
+    assert "identify friction, inertia and PDTV" in labels
+    assert "write the report" in labels
+    assert labels.count("write the report") == 1
+    assert len(lines) < 30  # the rig collections advance hundreds of times: not a line each

@@ -15,24 +15,22 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import Ran
 from numpy.testing import assert_allclose
 
-from torquemap.identify import Identification, identify_model
-from torquemap.io import read_log
 from torquemap.model import Model, load_model
-from torquemap.robot import load_robot
 
 
 @pytest.fixture(scope="module")
-def identified(scara_bench: Path) -> tuple[Identification, Model]:
-    robot = load_robot(scara_bench / "robot.toml")
-    log = read_log(scara_bench / "sweep.csv", robot)
-    return identify_model(robot, [log]), load_model(scara_bench / "truth.toml")
+def identified(scara_identified: Ran, scara_bench: Path) -> tuple[Model, Model]:
+    """The model ``torquemap identify`` wrote from sweep.csv (shared by the session), the truth."""
+    model = load_model(scara_identified.folder / "bench" / "model.toml")
+    return model, load_model(scara_bench / "truth.toml")
 
 
 @pytest.mark.parametrize("joint", ["a", "b"])
-def test_friction_against_truth(identified: tuple[Identification, Model], joint: str) -> None:
-    got = identified[0].model.joints[joint].friction
+def test_friction_against_truth(identified: tuple[Model, Model], joint: str) -> None:
+    got = identified[0].joints[joint].friction
     true = identified[1].joints[joint].friction
     # pass means over whole motor revolutions: PDTV and noise average out; the blend band is
     # below every sweep speed, so Coulomb and viscous are direct (1 % and 3 %)
@@ -46,8 +44,8 @@ def test_friction_against_truth(identified: tuple[Identification, Model], joint:
 
 
 @pytest.mark.parametrize("joint", ["a", "b"])
-def test_inertia_against_truth(identified: tuple[Identification, Model], joint: str) -> None:
-    got = identified[0].model.joints[joint].inertia
+def test_inertia_against_truth(identified: tuple[Model, Model], joint: str) -> None:
+    got = identified[0].joints[joint].inertia
     true = identified[1].joints[joint].inertia
     # only the trapezoids' ramps carry J*acc, against servo ripple; the torque is smoothed with
     # the differentiator's own acceleration kernel, so the ramps' edges do not bias it: 3 %
@@ -55,8 +53,8 @@ def test_inertia_against_truth(identified: tuple[Identification, Model], joint: 
 
 
 @pytest.mark.parametrize("joint", ["a", "b"])
-def test_pdtv_lines_against_truth(identified: tuple[Identification, Model], joint: str) -> None:
-    got = {ln.order: ln for ln in identified[0].model.joints[joint].pdtv}
+def test_pdtv_lines_against_truth(identified: tuple[Model, Model], joint: str) -> None:
+    got = {ln.order: ln for ln in identified[0].joints[joint].pdtv}
     true = {ln.order: ln for ln in identified[1].joints[joint].pdtv}
     assert sorted(got) == sorted(true)  # every true line, no spurious one
     for order, ln in true.items():

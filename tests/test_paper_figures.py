@@ -6,9 +6,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import Ran
 
 from torquemap.cli.main import main
 from torquemap.io import read_table
+from torquemap.model import load_model
 
 
 def test_simulate_figures_writes_figs_3_to_8(
@@ -30,10 +32,13 @@ def test_simulate_figures_writes_figs_3_to_8(
     assert "fig8_position_domain_b.png" in capsys.readouterr().out
 
 
-def test_fig3_is_eq3_of_the_spring_force(scara_bench: Path) -> None:
+def test_fig3_is_eq3_of_the_spring_force(scara_bench: Path, scara_identified: Ran) -> None:
     from torquemap.sim.paper_figures import paper_figures
 
-    result = paper_figures(scara_bench, model=None)
+    # the model identify wrote from the sweeps (shared by the session; model=None would
+    # identify the same sweeps again)
+    model = load_model(scara_identified.folder / "bench" / "model.toml")
+    result = paper_figures(scara_bench, model=model)
     fig = result.figures["fig3_joint_torques"]
     truth = read_table(scara_bench / "truth.csv")
     for ax, name in zip(fig.axes, ("a", "b"), strict=True):

@@ -185,3 +185,36 @@ def test_bad_bags_give_one_line_and_no_output(
     assert "no such bag" in err
     assert not out.exists()
     assert sorted(p.name for p in tmp_path.iterdir() if p.suffix == ".parquet") == []
+
+
+def test_stamps_keep_their_nanoseconds(
+    tmp_path: Path, robot_file: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # 1 kHz at a 2023 epoch, with 1 ns and 7 ns steps between some messages: float seconds since
+    # the epoch step by 238 ns there, so they would merge the 1 ns pair (a false duplicate) and
+    # move every t by up to 0.1 us; integer nanoseconds keep them exact
+    store = get_typestore(Stores.ROS1_NOETIC)
+    types = store.types
+    msgtype = "sensor_msgs/msg/JointState"
+    sec0, nsec0 = 1_700_000_000, 123_456_789
+    offsets = [0, 1, 1_000_001, 2_000_000, 2_000_007, 3_000_000]
+    bag = tmp_path / "ns.bag"
+    with Writer1(bag) as writer:
+        conn = writer.add_connection("/joint_states", msgtype, typestore=store)
+        for k, off in enumerate(offsets):
+            ns = sec0 * 10**9 + nsec0 + off
+            stamp = types["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9)
+            msg = types[msgtype](
+                header=types["std_msgs/msg/Header"](seq=k, stamp=stamp, frame_id="base"),
+                name=["a", "b"],
+                position=np.array([0.001 * k, -0.001 * k]),
+                velocity=np.zeros(2),
+                effort=np.array([1.0, 2.0]),
+            )
+            writer.write(conn, ns, store.serialize_ros1(msg, msgtype))
+    out = tmp_path / "log.csv"
+    assert main(["import", "rosbag", str(bag), "--robot", str(robot_file), "-o", str(out)]) == 0
+    t = read_table(out)["t"]
+    # exact to float64 rounding of the elapsed time (1e-16 relative), far below 1 ns
+    np.testing.assert_allclose(t, np.asarray(offsets) * 1e-9, rtol=1e-15, atol=1e-18)
+    assert "first stamp 1700000000.123456789 s" in capsys.readouterr().out

@@ -130,7 +130,10 @@ def test_suffix_must_match_what_is_written(
 ) -> None:
     monkeypatch.chdir(tmp_path)
     status, err = run(argv_tail, capsys)
-    one_line_error(status, err, f"does not match what is written ({suffix}")
+    if "--format" in argv_tail:  # the suffix names one format, --format another
+        one_line_error(status, err, "contradicts the suffix")
+    else:
+        one_line_error(status, err, f"does not match what is written ({suffix}")
     assert list(tmp_path.iterdir()) == []
 
 

@@ -17,12 +17,10 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass
 from math import nan
 from pathlib import Path
-from typing import Any, Literal, TypeVar
+from typing import Any, Literal
 
 import numpy as np
 
@@ -31,9 +29,9 @@ from torquemap.estimate import METHODS, ForceEstimate, estimate_forces, forces_c
 from torquemap.identify import identify_model
 from torquemap.io import read_log, read_table, write_table, write_toml
 from torquemap.model import Model, PdtvLine, load_model, model_to_dict
+from torquemap.progress import Progress, reporter
+from torquemap.progress import steps as hook
 from torquemap.report import EmbeddedFigure, Report, Section, embed, table, write_report
-
-T = TypeVar("T")
 
 #: Table 2 of the Adept II paper: uncompensated and compensated APMD [%] of joints 1 to 4.
 PAPER_TABLE_2 = {
@@ -91,43 +89,6 @@ class DemoSummary:
     seconds: float
 
 
-class _Steps:
-    """Prints one line per step; a spinner with elapsed time while a step runs (on a TTY)."""
-
-    def __init__(self, show: bool) -> None:
-        from rich.console import Console
-
-        self.console = Console(stderr=True)
-        self.show = show
-
-    @contextmanager
-    def step(self, label: str, *, own_bar: bool = False) -> Iterator[None]:
-        start = time.perf_counter()
-        if self.show and own_bar:
-            self.console.print(f"[cyan]...[/cyan] {label}")
-            yield
-        elif self.show:
-            from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
-
-            with Progress(
-                SpinnerColumn(),
-                TextColumn("{task.description}"),
-                TimeElapsedColumn(),
-                console=self.console,
-                transient=True,
-            ) as bar:
-                bar.add_task(label, total=None)
-                yield
-        else:
-            yield
-        if self.show:
-            self.console.print(f"[green]done[/green] {label} ({time.perf_counter() - start:.1f} s)")
-
-    def run(self, label: str, fn: Callable[[], T], *, own_bar: bool = False) -> T:
-        with self.step(label, own_bar=own_bar):
-            return fn()
-
-
 def _match_lines(
     name: str, found: tuple[PdtvLine, ...], true: tuple[PdtvLine, ...]
 ) -> list[LineRow]:
@@ -157,7 +118,7 @@ def _match_lines(
 
 
 def _scara(
-    out: Path, seed: int, steps: _Steps
+    out: Path, seed: int, steps: Progress
 ) -> tuple[list[ForceRow], list[LineRow], list[Section]]:
     from torquemap.plots.force import estimate_figure
     from torquemap.sim.bench import write_scara_bench
@@ -338,7 +299,7 @@ def _scara(
 
 
 def _rig(
-    out: Path, motor: Literal["vr", "bldc"], seed: int, steps: _Steps
+    out: Path, motor: Literal["vr", "bldc"], seed: int, steps: Progress
 ) -> tuple[ApmdRow, Section]:
     from torquemap.linearize.export import save_tables
     from torquemap.linearize.metrics import evaluate_linearity
@@ -357,8 +318,7 @@ def _rig(
         (d / "verify.csv").unlink()  # a new run, not a resumed one
     steps.run(
         f"characterise the {kind} motor on the simulated rig",
-        lambda: write_rig_data(d, motor=motor, seed=seed, progress=steps.show),
-        own_bar=True,
+        lambda: write_rig_data(d, motor=motor, seed=seed, progress=steps),
     )
     spec = load_motor(d / "motor.toml")
     data = read_data(d / "data.csv", spec, kind="characterisation")
@@ -376,9 +336,8 @@ def _rig(
             seed=seed + 100,
             tables=d / "TABLES.npz",
             step=2,
-            progress=steps.show,
+            progress=steps,
         ),
-        own_bar=True,
     )
     verify = read_data(d / "verify.csv", spec, kind="verification")
     before = evaluate_linearity(spec, data)
@@ -432,7 +391,7 @@ def _rig(
 
 
 def run_demo(
-    out_dir: str | os.PathLike[str], *, seed: int = 0, progress: bool = True
+    out_dir: str | os.PathLike[str], *, seed: int = 0, progress: bool | Progress | None = True
 ) -> DemoSummary:
     """Run the whole demo into ``out_dir`` (created) and write ``out_dir/report.html``.
 
@@ -444,7 +403,9 @@ def run_demo(
     seed
         Noise seed of every simulation (>= 0).
     progress
-        Show a spinner and a line per step on stderr.
+        Where the steps are reported (:mod:`torquemap.progress`): a hook, ``True`` for the
+        default reporter on stderr (a spinner on a terminal, one line per step otherwise),
+        ``False`` or ``None`` for none.
 
     Returns
     -------
@@ -467,7 +428,7 @@ def run_demo(
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise InputError(f"cannot create output folder ({exc.strerror})", path=out) from None
-    steps = _Steps(progress)
+    steps = progress if isinstance(progress, Progress) else hook(reporter() if progress else None)
     force_rows, line_rows, scara_sections = _scara(out, seed, steps)
     apmd_rows = []
     rig_sections = []

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from torquemap.errors import InputError
-from torquemap.robot import read_toml
+from torquemap.tomlfile import read_toml
 
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
 

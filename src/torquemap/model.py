@@ -19,7 +19,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from torquemap.errors import InputError
 from torquemap.friction_law import FrictionLaw, StribeckFriction, friction_law_from_dict
-from torquemap.robot import Robot, read_toml, robot_from_dict, robot_to_dict
+from torquemap.robot import Robot, robot_from_dict, robot_to_dict
+from torquemap.tomlfile import read_toml
 
 Direction = Literal["both", "positive", "negative"]
 

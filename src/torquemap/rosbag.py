@@ -37,7 +37,9 @@ class JointStates:
     t
         Seconds since the first kept message, strictly increasing, shape (n,).
     start
-        Absolute time of the first kept message [s since the epoch].
+        Absolute time of the first kept message [s since the epoch] (rounded to a float).
+    start_ns
+        The same, exact: integer nanoseconds since the epoch.
     names
         The message joint names read, in the order asked for.
     position
@@ -54,6 +56,7 @@ class JointStates:
 
     t: NDArray[np.float64]
     start: float
+    start_ns: int
     names: tuple[str, ...]
     position: NDArray[np.float64]
     effort: NDArray[np.float64]
@@ -115,7 +118,7 @@ def read_joint_states(
 
     path = Path(bag)
     paths = _bag_paths(path)
-    rows_t: list[float] = []
+    rows_ns: list[int] = []  # integer nanoseconds: a float second has ~0.2 us steps in 2025
     rows_q: list[list[float]] = []
     rows_e: list[list[float]] = []
     skipped = duplicates = 0
@@ -137,9 +140,9 @@ def read_joint_states(
             for index, (conn, stamp_ns, raw) in enumerate(reader.messages(connections=conns)):
                 msg: Any = reader.deserialize(raw, conn.msgtype)
                 header = msg.header.stamp
-                t = header.sec + 1e-9 * header.nanosec
-                if t == 0:
-                    t = 1e-9 * stamp_ns
+                ns = int(header.sec) * 1_000_000_000 + int(header.nanosec)
+                if ns == 0:
+                    ns = int(stamp_ns)
                 present = list(msg.name)
                 if not all(n in present for n in names):
                     skipped += 1
@@ -165,16 +168,16 @@ def read_joint_states(
                         f"message {index} on {topic} holds NaN or inf in position or effort",
                         path=path,
                     )
-                if rows_t and t <= rows_t[-1]:
-                    if t == rows_t[-1]:
+                if rows_ns and ns <= rows_ns[-1]:
+                    if ns == rows_ns[-1]:
                         duplicates += 1
                         continue
                     raise InputError(
-                        f"message {index} on {topic} is stamped {rows_t[-1] - t:.6g} s before "
-                        "the previous one (time must increase)",
+                        f"message {index} on {topic} is stamped {1e-9 * (rows_ns[-1] - ns):.6g} s "
+                        "before the previous one (time must increase)",
                         path=path,
                     )
-                rows_t.append(t)
+                rows_ns.append(ns)
                 rows_q.append(q.tolist())
                 rows_e.append(e.tolist())
     except InputError:
@@ -186,18 +189,21 @@ def read_joint_states(
         raise InputError(
             f"cannot read ROS bag, truncated or corrupt ({detail})", path=path
         ) from None
-    if not rows_t:
+    if not rows_ns:
         raise InputError(
             f"no message on {topic} holds all of the joints {', '.join(names)}"
             + (f" ({skipped} messages lacked some)" if skipped else " (the topic is empty)"),
             path=path,
         )
-    if len(rows_t) < 2:
+    if len(rows_ns) < 2:
         raise InputError(f"only one usable message on {topic}; a log needs two", path=path)
-    t0 = rows_t[0]
+    # subtract in integers, then scale: exact to the nanosecond over any bag (float seconds since
+    # the epoch would round every stamp to about 0.2 us first)
+    elapsed = np.asarray(rows_ns, dtype=np.int64) - rows_ns[0]
     return JointStates(
-        t=np.asarray(rows_t, dtype=np.float64) - t0,
-        start=t0,
+        t=elapsed.astype(np.float64) * 1e-9,
+        start=rows_ns[0] * 1e-9,
+        start_ns=rows_ns[0],
         names=tuple(names),
         position=np.asarray(rows_q, dtype=np.float64),
         effort=np.asarray(rows_e, dtype=np.float64),

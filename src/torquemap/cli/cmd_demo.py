@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from typing import Any
 
 
@@ -13,11 +12,14 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         "demo",
         help="simulate both benches, identify, estimate, build tables, write a report",
         description="Run torquemap end to end on the built-in simulated benches (the SCARA of "
-        "Simpson, Cook & Li and the Adept II linearisation rig) and write DIR/report.html.",
+        "Simpson, Cook & Li and the Adept II linearisation rig) and write DIR/report.html. "
+        "Each step is reported on stderr (--quiet: none); the summary goes to stdout.",
+        epilog="example:\n  torquemap demo --out demo-out\n  torquemap demo --out demo-out "
+        "--seed 3 --quiet > summary.txt",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("--out", metavar="DIR", default="demo-out", help="output folder (demo-out)")
     p.add_argument("--seed", type=int, default=0, help="noise seed, >= 0 (default 0)")
-    p.add_argument("--quiet", action="store_true", help="no progress output")
     p.set_defaults(handler=_demo)
 
 
@@ -27,6 +29,6 @@ def _demo(args: argparse.Namespace) -> int:
 
     check_outputs([], folders=[(args.out, ("report.html",))])
 
-    summary = run_demo(args.out, seed=args.seed, progress=not args.quiet and sys.stderr.isatty())
+    summary = run_demo(args.out, seed=args.seed, progress=args.progress)
     print(format_summary(summary))
     return 0

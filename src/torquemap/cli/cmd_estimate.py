@@ -8,18 +8,47 @@ from pathlib import Path
 from typing import Any
 
 from torquemap.cli.argtypes import float_in
-from torquemap.cli.outputs import FIGURE, TABLE, check_outputs
+from torquemap.cli.helptext import described
+from torquemap.cli.outputs import (
+    FIGURE,
+    TABLE_SUFFIXES,
+    check_figure,
+    check_outputs,
+    check_table,
+    columns_writer,
+)
 from torquemap.estimate import METHODS
 
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add ``estimate`` to subparsers."""
     p = subparsers.add_parser(
-        "estimate", help="estimate external torques and forces from a log (no force sensor)"
+        "estimate",
+        help="estimate external torques and forces from a log (no force sensor)",
+        **described(
+            "Estimate the torques the environment exerts on each joint, and for a planar arm "
+            "the end-effector force, from motor currents (or torques) and encoders alone: the "
+            "model's inertia, friction and PDTV are subtracted from the motor torque "
+            "(docs/estimation.md). Writes t, tau_ext_<j> [N m], fx, fy [N] and flag (0 = "
+            "sound) to -o, its format chosen by the suffix (.csv, .parquet, .json); prints a "
+            "one-line summary; warnings go to stderr.",
+            [
+                "torquemap estimate bench/model.toml bench/circle.csv -o forces.csv "
+                "--figure forces.png",
+                "torquemap estimate bench/model.toml bench/circle.csv -o forces_paper.parquet "
+                "--method paper",
+            ],
+        ),
     )
-    p.add_argument("model", metavar="MODEL.toml")
-    p.add_argument("log", metavar="LOG")
-    p.add_argument("-o", "--output", metavar="FORCES.csv|FORCES.parquet", required=True)
+    p.add_argument("model", metavar="MODEL.toml", help="model file (from identify)")
+    p.add_argument("log", metavar="LOG", help="the log to estimate on, .csv or .parquet")
+    p.add_argument(
+        "-o",
+        "--output",
+        metavar="FORCES.csv",
+        required=True,
+        help="forces table: .csv, .parquet or .json (the suffix chooses the format)",
+    )
     p.add_argument(
         "--method",
         choices=METHODS,
@@ -61,7 +90,7 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         "--figure",
         metavar="FIG.png",
         default=None,
-        help="also plot the estimated torques (and forces) against time",
+        help="also plot the estimated torques (and forces) against time (.png, .svg or .pdf)",
     )
     p.set_defaults(handler=_estimate)
 
@@ -70,26 +99,34 @@ def _estimate(args: argparse.Namespace) -> int:
     import numpy as np
 
     from torquemap.estimate import estimate_forces, forces_columns
-    from torquemap.io import Writer, figure_writer, read_log, table_writer, write_all
+
+    check_outputs([(args.output, TABLE_SUFFIXES), (args.figure, FIGURE)], [args.model, args.log])
+
+    from torquemap.io import Writer, figure_writer, read_log, write_all
     from torquemap.model import load_model
 
-    check_outputs([(args.output, TABLE), (args.figure, FIGURE)], [args.model, args.log])
+    check_table(args.output)
+    if args.figure:
+        check_figure(args.figure)
     model = load_model(args.model)
-    log = read_log(args.log, model.robot)
-    est = estimate_forces(
-        model,
-        log,
-        method=args.method,
-        cutoff=args.cutoff,
-        window=args.window,
-        notch_width=args.notch_width,
-        reversal_band=args.reversal_band,
+    log = args.progress.run("read the log", lambda: read_log(args.log, model.robot))
+    est = args.progress.run(
+        f"estimate ({args.method} method)",
+        lambda: estimate_forces(
+            model,
+            log,
+            method=args.method,
+            cutoff=args.cutoff,
+            window=args.window,
+            notch_width=args.notch_width,
+            reversal_band=args.reversal_band,
+        ),
     )
-    writers: dict[str, Writer] = {args.output: table_writer(args.output, forces_columns(est))}
+    writers: dict[str, Writer] = {args.output: columns_writer(args.output, forces_columns(est))}
     if args.figure:
         from torquemap.plots.force import estimate_figure
 
-        fig = estimate_figure(est)
+        fig = args.progress.run("draw the figure", lambda: estimate_figure(est))
         kind = Path(args.figure).suffix.lower().lstrip(".")
         writers[args.figure] = figure_writer(fig, kind=kind, dpi=120)
     write_all(writers)  # the forces and the figure, both or neither

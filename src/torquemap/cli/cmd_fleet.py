@@ -21,8 +21,10 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         help="identify every robot and day of a fleet on Dask; friction and PDTV drift",
         description="Fleets: identify every robot-day listed in a fleet file in parallel, "
         "then follow each robot's friction and PDTV over time (docs/fleet.md).",
+        epilog=_IDENTIFY_EXAMPLE,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    sub = group.add_subparsers(dest="fleet_command", metavar="STEP")
+    sub = group.add_subparsers(dest="fleet_command", metavar="STEP", help="identify, then drift")
     sub.required = True
     ident = sub.add_parser(
         "identify",

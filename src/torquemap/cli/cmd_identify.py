@@ -5,55 +5,152 @@ from __future__ import annotations
 import argparse
 import sys
 from math import nan
-from typing import Any
+from pathlib import Path
+from typing import Any, Literal
 
 from torquemap.cli.argtypes import float_in, int_in
-from torquemap.cli.outputs import C_HEADER, FIGURE, JSON, TABLE, TOML, check_outputs
+from torquemap.cli.helptext import described
+from torquemap.cli.outputs import (
+    FIGURE,
+    TOML,
+    check_figure,
+    check_outputs,
+    output_suffix,
+)
 from torquemap.errors import InputError
+
+MapFormat = Literal["csv", "json", "c-header"]
 
 #: Highest PDTV order --max-order accepts [CPR]: finer than any encoder resolves.
 MAX_ORDER = 1e6
 #: Most bins pdtv-map writes (torquemap.pdtv_map.MAX_BINS).
 MAX_BINS = 1 << 20
+_MAP_FORMATS: dict[str, MapFormat] = {
+    ".csv": "csv",
+    ".parquet": "csv",
+    ".json": "json",
+    ".h": "c-header",
+}
 
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add ``identify``, ``spectrum`` and ``pdtv-map`` to subparsers."""
     p = subparsers.add_parser(
-        "identify", help="identify friction, inertia and PDTV from no-load logs"
+        "identify",
+        help="identify friction, inertia and PDTV from no-load logs",
+        **described(
+            "Identify, per joint and on the motor side, Coulomb and viscous friction per "
+            "direction (with Stribeck where the data shows it), inertia and the PDTV lines "
+            "(cogging, poling, gear and belt teeth) from no-load logs: each joint moving back "
+            "and forth at several constant speeds, one joint at a time, slowly for the PDTV "
+            "(docs/identification.md). Writes the robot file plus the identified tables to "
+            "MODEL.toml and prints one line per joint; warnings go to stderr.",
+            [
+                "torquemap identify bench/robot.toml bench/sweep.csv -o bench/model.toml",
+                "torquemap identify robot.toml slow.parquet fast.parquet -o model.toml "
+                "--joint b --max-order 50",
+            ],
+        ),
     )
-    p.add_argument("robot", metavar="ROBOT.toml")
-    p.add_argument("logs", metavar="LOG", nargs="+")
-    p.add_argument("-o", "--output", metavar="MODEL.toml", required=True)
+    p.add_argument("robot", metavar="ROBOT.toml", help="robot file (or a model to re-identify)")
+    p.add_argument("logs", metavar="LOG", nargs="+", help="no-load logs, .csv or .parquet")
+    p.add_argument(
+        "-o", "--output", metavar="MODEL.toml", required=True, help="model file to write (.toml)"
+    )
     p.add_argument(
         "--max-order",
         type=float_in(0.0, MAX_ORDER, low_open=True),
         default=None,
-        help=f"highest PDTV order [CPR], in (0, {MAX_ORDER:g}]",
+        metavar="CPR",
+        help="highest PDTV order [cycles per motor revolution] searched (default: what the "
+        "slowest pass resolves)",
     )
-    p.add_argument("--joint", action="append", default=None, help="joint to identify (repeat)")
+    p.add_argument(
+        "--joint",
+        action="append",
+        default=None,
+        help="joint to identify (repeat; default: every joint that moves)",
+    )
     p.set_defaults(handler=_identify)
 
-    s = subparsers.add_parser("spectrum", help="PDTV spectrum in CPR with the model's lines")
-    s.add_argument("model", metavar="MODEL.toml")
-    s.add_argument("log", metavar="LOG")
-    s.add_argument("--joint", required=True)
-    s.add_argument("-o", "--output", metavar="FIG.png", default=None)
-    s.add_argument("--top", type=int_in(1, 100000), default=10, help="lines printed without -o")
+    s = subparsers.add_parser(
+        "spectrum",
+        help="PDTV spectrum in CPR with the model's lines",
+        **described(
+            "The position-domain spectrum of one joint's no-load log in cycles per motor "
+            "revolution (CPR), the paper's Fig 4: printed as the strongest lines (CSV: "
+            "order_cpr, amplitude_nm, phase_rad, in_model) or, with -o, drawn with the model's "
+            "lines marked. The log needs a slow constant-speed pass of the joint.",
+            [
+                "torquemap spectrum bench/model.toml bench/sweep.csv --joint b --top 6",
+                "torquemap spectrum bench/model.toml bench/sweep.csv --joint b -o spectrum_b.png",
+            ],
+        ),
+    )
+    s.add_argument("model", metavar="MODEL.toml", help="model file (from identify)")
+    s.add_argument("log", metavar="LOG", help="no-load log, .csv or .parquet")
+    s.add_argument("--joint", required=True, help="the joint whose spectrum is wanted")
+    s.add_argument(
+        "-o",
+        "--output",
+        metavar="FIG.png",
+        default=None,
+        help="draw the spectrum into FIG (.png, .svg or .pdf) instead of printing lines",
+    )
+    s.add_argument(
+        "--top",
+        type=int_in(1, 100000),
+        default=10,
+        metavar="N",
+        help="lines printed without -o (default 10)",
+    )
     s.set_defaults(handler=_spectrum)
 
-    m = subparsers.add_parser("pdtv-map", help="PDTV table over one motor revolution")
-    m.add_argument("model", metavar="MODEL.toml")
-    m.add_argument("--joint", required=True)
+    m = subparsers.add_parser(
+        "pdtv-map",
+        help="PDTV (anti-cogging) table over one motor revolution",
+        **described(
+            "Tabulate a joint's identified PDTV over one motor revolution, BINS bins centred at "
+            "(k + 0.5) 2 pi / BINS rad from the encoder zero: the torque [N m] and the current "
+            "[A] that cancels it, for anti-cogging feed-forward in ODrive- or moteus-style "
+            "firmware. The suffix of -o chooses the format: .csv or .parquet (columns "
+            "motor_angle, torque, current), .json (metadata and the three arrays), .h (a C "
+            "header of int16 or int8 counts and their scale).",
+            [
+                "torquemap pdtv-map bench/model.toml --joint b --bins 1024 -o cogging_b.csv",
+                "torquemap pdtv-map bench/model.toml --joint b --bins 1024 -o cogging_b.json",
+                "torquemap pdtv-map bench/model.toml --joint b --bins 1024 -o cogging_b.h "
+                "--int-type int8",
+            ],
+        ),
+    )
+    m.add_argument("model", metavar="MODEL.toml", help="model file (from identify)")
+    m.add_argument("--joint", required=True, help="the joint to tabulate")
     m.add_argument(
         "--bins",
         type=int_in(2, MAX_BINS),
         required=True,
-        help=f"bins over one motor revolution, 2 .. {MAX_BINS}",
+        help=f"bins over one motor revolution (e.g. 1024), 2 .. {MAX_BINS}",
     )
-    m.add_argument("-o", "--output", metavar="MAP.csv", required=True)
-    m.add_argument("--format", choices=("csv", "json", "c-header"), default="csv")
-    m.add_argument("--int-type", choices=("int16", "int8"), default="int16")
+    m.add_argument(
+        "-o",
+        "--output",
+        metavar="MAP.csv",
+        required=True,
+        help="table to write: .csv, .parquet, .json or .h (the suffix chooses the format)",
+    )
+    m.add_argument(
+        "--format",
+        choices=("csv", "json", "c-header"),
+        default=None,
+        help="the format, where the suffix does not say it (default: from the suffix)",
+    )
+    m.add_argument(
+        "--int-type",
+        choices=("int16", "int8"),
+        default="int16",
+        help="C header: integer type of the table (default int16)",
+    )
     m.set_defaults(handler=_pdtv_map)
 
 
@@ -63,9 +160,18 @@ def _identify(args: argparse.Namespace) -> int:
     from torquemap.model import load_model, model_to_dict
 
     check_outputs([(args.output, TOML)], [args.robot, *args.logs])
+
+    output_suffix(args.output, (".toml",), "model")
     model = load_model(args.robot)
-    logs = [read_log(path, model.robot) for path in args.logs]
-    result = identify_model(model, logs, joints=args.joint, max_order=args.max_order)
+    progress = args.progress
+    logs = progress.run(
+        f"read {len(args.logs)} log{'s' if len(args.logs) > 1 else ''}",
+        lambda: [read_log(path, model.robot) for path in args.logs],
+    )
+    result = progress.run(
+        "identify friction, inertia and PDTV",
+        lambda: identify_model(model, logs, joints=args.joint, max_order=args.max_order),
+    )
     write_toml(args.output, model_to_dict(result.model))
     for w in result.warnings:
         print(f"torquemap: warning: {w}", file=sys.stderr)
@@ -90,10 +196,15 @@ def _spectrum(args: argparse.Namespace) -> int:
     from torquemap.model import load_model
 
     check_outputs([(args.output, FIGURE)], [args.model, args.log])
+
+    if args.output:
+        check_figure(args.output)
     model = load_model(args.model)
-    log = read_log(args.log, model.robot)
+    log = args.progress.run("read the log", lambda: read_log(args.log, model.robot))
     model.robot.joint(args.joint)
-    result = identify_model(model, [log], joints=[args.joint])
+    result = args.progress.run(
+        f"identify joint {args.joint}", lambda: identify_model(model, [log], joints=[args.joint])
+    )
     jr = result.joints[args.joint]
     if jr.spectrum is None:
         raise InputError(
@@ -128,10 +239,25 @@ def _pdtv_map(args: argparse.Namespace) -> int:
     from torquemap.model import load_model
     from torquemap.pdtv_map import pdtv_map, write_pdtv_map
 
-    suffixes = {"csv": TABLE, "json": JSON, "c-header": C_HEADER}[args.format]
+    file_format = _map_format(args.output, args.format)
+    suffixes = {"csv": (".csv", ".parquet"), "json": (".json",), "c-header": (".h",)}[file_format]
     check_outputs([(args.output, suffixes)], [args.model])
     model = load_model(args.model)
     table = pdtv_map(model, args.joint, bins=args.bins)
-    write_pdtv_map(args.output, table, file_format=args.format, int_type=args.int_type)
+    write_pdtv_map(args.output, table, file_format=file_format, int_type=args.int_type)
     print(f"wrote {args.output}")
     return 0
+
+
+def _map_format(path: str, given: MapFormat | None) -> MapFormat:
+    """The map's format: the suffix's; ``--format`` where the suffix names none."""
+    if given is None:
+        return _MAP_FORMATS[output_suffix(path, tuple(_MAP_FORMATS), "map")]
+    implied = _MAP_FORMATS.get(Path(path).suffix.lower())
+    if implied is not None and implied != given:
+        raise InputError(
+            f"--format {given} contradicts the suffix (a {implied} file); drop --format or "
+            "change the suffix",
+            path=path,
+        )
+    return given

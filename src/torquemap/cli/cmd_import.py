@@ -6,22 +6,50 @@ import argparse
 import sys
 from typing import Any
 
+from torquemap.cli.helptext import described
+from torquemap.cli.outputs import check_table
+
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add the ``import`` group and its ``rosbag`` sub-command."""
-    group = subparsers.add_parser("import", help="convert recordings into torquemap logs")
-    kinds = group.add_subparsers(dest="kind", metavar="KIND")
+    group = subparsers.add_parser(
+        "import",
+        help="convert recordings into torquemap logs",
+        **described(
+            "Convert recordings made with other tools into the log format of docs/formats.md "
+            "(t, q_<j>, tau_<j> or i_<j>). KIND names the recording: rosbag (ROS 1 and ROS 2 "
+            "bags, docs/rosbag.md).",
+            ["torquemap import rosbag run.bag --robot robot.toml -o run.parquet"],
+        ),
+    )
+    kinds = group.add_subparsers(dest="kind", metavar="KIND", help="the kind of recording")
     kinds.required = True
     p = kinds.add_parser(
         "rosbag",
         help="sensor_msgs/JointState from a ROS 1 bag or a ROS 2 bag (sqlite3 or MCAP)",
-        description="Convert the JointState messages of one topic into the log format "
-        "(t, q_<j>, tau_<j> or i_<j>); no ROS installation needed.",
+        **described(
+            "Convert the sensor_msgs/JointState messages of one topic into the log format "
+            "(t, q_<j>, tau_<j> or i_<j>); no ROS installation needed. t counts from the first "
+            "kept message's header stamp (docs/rosbag.md).",
+            [
+                "torquemap import rosbag run.bag --robot robot.toml -o run.parquet",
+                "torquemap import rosbag rosbag2_run/ --robot robot.toml -o run.csv "
+                "--topic /arm/joint_states --map shoulder_joint=a --map elbow_joint=b",
+            ],
+        ),
     )
     p.add_argument("bag", metavar="BAG", help="ROS 1 .bag file or ROS 2 bag folder")
-    p.add_argument("--robot", metavar="ROBOT.toml", required=True)
+    p.add_argument(
+        "--robot", metavar="ROBOT.toml", required=True, help="robot file: the joints to keep"
+    )
     p.add_argument("--topic", default="/joint_states", help="JointState topic (/joint_states)")
-    p.add_argument("-o", "--output", metavar="LOG.parquet|LOG.csv", required=True)
+    p.add_argument(
+        "-o",
+        "--output",
+        metavar="LOG.parquet",
+        required=True,
+        help="log to write: .parquet or .csv (the suffix chooses the format)",
+    )
     p.add_argument(
         "--map",
         metavar="NAME=JOINT",
@@ -46,9 +74,13 @@ def _rosbag(args: argparse.Namespace) -> int:
     check_outputs([(args.output, TABLE)], [args.bag, args.robot])
     from torquemap.rosbag import import_rosbag
 
+    check_table(args.output, (".parquet", ".csv"))
     robot = load_robot(args.robot)
-    states = import_rosbag(
-        args.bag, robot, args.topic, args.output, mapping=args.map, effort=args.effort
+    states = args.progress.run(
+        f"read {args.topic} from the bag",
+        lambda: import_rosbag(
+            args.bag, robot, args.topic, args.output, mapping=args.map, effort=args.effort
+        ),
     )
     if states.skipped:
         print(
@@ -64,6 +96,6 @@ def _rosbag(args: argparse.Namespace) -> int:
         )
     print(
         f"wrote {args.output}: {states.t.size} samples over {states.t[-1]:.6g} s from "
-        f"{args.topic} (first stamp {states.start:.9f} s)"
+        f"{args.topic} (first stamp {states.start_ns // 10**9}.{states.start_ns % 10**9:09d} s)"
     )
     return 0

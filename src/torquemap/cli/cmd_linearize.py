@@ -10,6 +10,7 @@ import json
 from typing import Any
 
 from torquemap.cli.argtypes import float_in, int_in
+from torquemap.cli.helptext import described
 from torquemap.cli.outputs import C_HEADER, JSON, NPZ, check_outputs
 
 
@@ -31,26 +32,47 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     group = subparsers.add_parser(
         "linearize",
         help="torque-linearisation look-up tables (Adept II paper)",
-        description="Build and evaluate per-phase torque-linearisation tables from motor "
-        "characterisation data (docs/linearize.md).",
+        **described(
+            "Build and evaluate per-phase torque-linearisation tables from motor "
+            "characterisation data (docs/linearize.md): collect the data (collect), build the "
+            "tables (build), measure linearity before and after (evaluate), draw it (figures).",
+            [
+                "torquemap linearize build rig/motor.toml rig/data.csv -o tables.npz",
+                "torquemap linearize evaluate rig/motor.toml rig/data.csv",
+            ],
+        ),
     )
-    sub = group.add_subparsers(dest="linearize_command", metavar="SUBCOMMAND")
+    sub = group.add_subparsers(
+        dest="linearize_command", metavar="SUBCOMMAND", help="the step to run"
+    )
     sub.required = True
 
     build = sub.add_parser(
         "build",
         help="build the phase tables from DATA.csv",
-        description="Build TABLES.npz (and optionally raw EPROM images, Intel HEX, a C header) "
-        "from characterisation data. Nothing is written unless everything could be built.",
+        **described(
+            "Build TABLES.npz (and optionally raw EPROM images, Intel HEX, a C header) from "
+            "characterisation data. Nothing is written unless everything could be built.",
+            [
+                "torquemap linearize build rig/motor.toml rig/data.csv -o tables.npz",
+                "torquemap linearize build rig/motor.toml rig/data.csv -o tables.npz --bin eprom "
+                "--hex hex --c-header tables.h",
+            ],
+        ),
     )
     build.add_argument("motor", metavar="MOTOR.toml", help="the motor file")
     build.add_argument("data", metavar="DATA.csv", help="characterisation data")
-    build.add_argument("-o", "--out", metavar="TABLES.npz", required=True, help="tables file")
+    build.add_argument(
+        "-o", "--out", metavar="TABLES.npz", required=True, help="tables file to write (.npz)"
+    )
     build.add_argument("--bin", metavar="DIR", help="write raw images phase_k.bin here")
     build.add_argument("--hex", metavar="DIR", help="write Intel HEX phase_k.hex here")
     build.add_argument("--c-header", metavar="FILE", help="write a C header")
     build.add_argument(
-        "--command-scaling", choices=("linear", "log"), default="linear", help="command law"
+        "--command-scaling",
+        choices=("linear", "log"),
+        default="linear",
+        help="command law: torque linear in the command (default) or the log law",
     )
     build.add_argument(
         "--log-curvature",
@@ -90,21 +112,37 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     evaluate = sub.add_parser(
         "evaluate",
         help="APMD, CAPMD, PAPMD of characterisation or verification data",
-        description="Linearity measures of the paper (Eqs 1-3, Table 2). Without --tables, "
-        "DATA.csv is characterisation data (command = pulse width); with --tables it is a "
-        "verification run (position, command, torque).",
+        **described(
+            "Linearity measures of the paper (Eqs 1-3, Table 2). Without --tables, DATA.csv is "
+            "characterisation data (command = pulse width); with --tables it is a verification "
+            "run (position, command, torque).",
+            [
+                "torquemap linearize evaluate rig/motor.toml rig/data.csv",
+                "torquemap linearize evaluate rig/motor.toml after.csv --tables tables.npz "
+                "-o after.json",
+            ],
+        ),
     )
     evaluate.add_argument("motor", metavar="MOTOR.toml", help="the motor file")
     evaluate.add_argument("data", metavar="DATA.csv", help="characterisation or verification data")
     evaluate.add_argument("--tables", metavar="TABLES.npz", help="tables of a verification run")
-    evaluate.add_argument("-o", "--out", metavar="REPORT.json", help="write the report as JSON")
+    evaluate.add_argument(
+        "-o", "--out", metavar="REPORT.json", help="also write the measures as JSON (.json)"
+    )
     evaluate.set_defaults(handler=_evaluate)
 
     figures = sub.add_parser(
         "figures",
         help="figures: torque surfaces, tables, ramps, PMD, CAPMD, PAPMD",
-        description="Write PNG figures of characterisation data, tables and (with --verification) "
-        "the compensated run.",
+        **described(
+            "Write PNG figures of characterisation data, tables and (with --verification) the "
+            "compensated run: torque surfaces, table surfaces, ramps, PMD distributions.",
+            [
+                "torquemap linearize figures rig/motor.toml rig/data.csv -o figs",
+                "torquemap linearize figures rig/motor.toml rig/data.csv --tables tables.npz "
+                "--verification after.csv -o figs",
+            ],
+        ),
     )
     figures.add_argument("motor", metavar="MOTOR.toml", help="the motor file")
     figures.add_argument("data", metavar="DATA.csv", help="characterisation data")
@@ -132,20 +170,25 @@ def _build(args: argparse.Namespace) -> int:
             (args.hex, [f"phase_{k + 1}.hex" for k in range(spec.phases)]),
         ],
     )
-    data = read_data(args.data, spec, kind="characterisation")
-    tables = build_tables(
-        spec,
-        data.position,
-        data.level,
-        data.torque,
-        command_scaling=args.command_scaling,
-        method=args.method,
-        monotonic=not args.no_monotonic,
-        denoise=not args.no_denoise,
-        bias_weight=args.bias_weight,
-        log_curvature=args.log_curvature,
-        actuation_bits=args.actuation_bits,
-        path=args.data,
+    data = args.progress.run(
+        "read the data", lambda: read_data(args.data, spec, kind="characterisation")
+    )
+    tables = args.progress.run(
+        "build the phase tables",
+        lambda: build_tables(
+            spec,
+            data.position,
+            data.level,
+            data.torque,
+            command_scaling=args.command_scaling,
+            method=args.method,
+            monotonic=not args.no_monotonic,
+            denoise=not args.no_denoise,
+            bias_weight=args.bias_weight,
+            log_curvature=args.log_curvature,
+            actuation_bits=args.actuation_bits,
+            path=args.data,
+        ),
     )
     written = write_outputs(
         tables, npz=args.out, bin_dir=args.bin, hex_dir=args.hex, c_header_path=args.c_header
@@ -175,8 +218,10 @@ def _evaluate(args: argparse.Namespace) -> int:
     spec = load_motor(args.motor)
     tables = None if args.tables is None else load_tables(args.tables)
     kind: DataKind = "characterisation" if tables is None else "verification"
-    data = read_data(args.data, spec, kind=kind)
-    report = evaluate_linearity(spec, data, tables=tables)
+    data = args.progress.run("read the data", lambda: read_data(args.data, spec, kind=kind))
+    report = args.progress.run(
+        "evaluate linearity", lambda: evaluate_linearity(spec, data, tables=tables)
+    )
     print(format_report(report, title=f"{kind} data {args.data}"))
     if args.out:
         with atomic_output(args.out) as tmp:
@@ -194,12 +239,15 @@ def _figures(args: argparse.Namespace) -> int:
         folders=[(args.out, FIGURE_NAMES)],
     )
 
-    written = write_linearize_figures(
-        args.motor,
-        args.data,
-        args.out,
-        tables_path=args.tables,
-        verification_path=args.verification,
+    written = args.progress.run(
+        "draw the figures",
+        lambda: write_linearize_figures(
+            args.motor,
+            args.data,
+            args.out,
+            tables_path=args.tables,
+            verification_path=args.verification,
+        ),
     )
     print(f"wrote {len(written)} figures to {args.out}")
     return 0

@@ -8,16 +8,27 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from torquemap.cli.helptext import described
+from torquemap.cli.outputs import output_suffix
+from torquemap.progress import NULL
+
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add ``collect`` to the ``linearize`` group's sub-parsers."""
     collect = subparsers.add_parser(
         "collect",
         help="collect torque data (or verification data with --tables) on a simulated rig",
-        description="Run the automated data collection of the Adept II paper (Fig 12) against a "
-        "simulated rig and append the rows to DATA.csv; an existing DATA.csv is resumed. With "
-        "--tables, a verification run through the phase tables (columns position, command, "
-        "torque). See docs/linearize-collect.md.",
+        **described(
+            "Run the automated data collection of the Adept II paper (Fig 12) against a "
+            "simulated rig and append the rows to DATA.csv; an existing DATA.csv is resumed. "
+            "With --tables, a verification run through the phase tables (columns position, "
+            "command, torque). See docs/linearize-collect.md.",
+            [
+                "torquemap linearize collect rig/motor.toml --sim vr -o data.csv",
+                "torquemap linearize collect rig/motor.toml --sim vr --tables tables.npz "
+                "-o after.csv",
+            ],
+        ),
     )
     collect.add_argument("motor", metavar="MOTOR.toml", help="the motor file")
     collect.add_argument("-o", "--out", metavar="DATA.csv", required=True, help="data file")
@@ -50,7 +61,7 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         action="store_true",
         help="also target every position where the ramp changes (the phases' hand-over)",
     )
-    collect.add_argument("--no-progress", action="store_true", help="no progress bar")
+    collect.add_argument("--no-progress", action="store_true", help="no progress bar (as --quiet)")
     collect.set_defaults(handler=_collect)
 
 
@@ -61,6 +72,7 @@ def _collect(args: argparse.Namespace) -> int:
     check_outputs([(args.out, CSV)], [args.motor, args.tables])  # DATA.csv itself: resumed
     from torquemap.sim.rig import collect_on_sim
 
+    output_suffix(args.out, (".csv",), "data")
     spec = load_motor(args.motor)
     result = collect_on_sim(
         spec,
@@ -74,7 +86,7 @@ def _collect(args: argparse.Namespace) -> int:
         transitions=args.transitions,
         step=args.step,
         position_step=args.position_step,
-        progress=not args.no_progress,
+        progress=NULL if args.no_progress else args.progress,
     )
     resumed = f", resumed after {result.resumed_targets}" if result.resumed_targets else ""
     print(

@@ -5,20 +5,28 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from torquemap.cli.helptext import described
+from torquemap.cli.outputs import output_suffix
+
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add ``report`` to subparsers."""
     p = subparsers.add_parser(
         "report",
         help="HTML report: friction, PDTV, spectra, estimated forces, thin-data warnings",
-        description="Write one self-contained HTML file (figures embedded, no network needed) "
-        "describing MODEL.toml and each LOG: the identified friction and PDTV, the spectrum of "
-        "each log with constant-speed passes, the forces the model method estimates, and "
-        "warnings where the data is thin.",
+        **described(
+            "Write one self-contained HTML file (figures embedded, no network needed) "
+            "describing MODEL.toml and each LOG: the identified friction and PDTV, the spectrum "
+            "of each log with constant-speed passes, the forces the model method estimates, and "
+            "warnings where the data is thin.",
+            ["torquemap report bench/model.toml bench/sweep.csv bench/circle.csv -o report.html"],
+        ),
     )
-    p.add_argument("model", metavar="MODEL.toml")
-    p.add_argument("logs", metavar="LOG", nargs="+")
-    p.add_argument("-o", "--output", metavar="REPORT.html", required=True)
+    p.add_argument("model", metavar="MODEL.toml", help="model file (from identify)")
+    p.add_argument("logs", metavar="LOG", nargs="+", help="logs to describe, .csv or .parquet")
+    p.add_argument(
+        "-o", "--output", metavar="REPORT.html", required=True, help="the report to write (.html)"
+    )
     p.set_defaults(handler=_report)
 
 
@@ -28,7 +36,10 @@ def _report(args: argparse.Namespace) -> int:
 
     check_outputs([(args.output, HTML)], [args.model, *args.logs])
 
-    report = write_user_report(args.model, args.logs, args.output)
+    output_suffix(args.output, (".html", ".htm"), "report")
+    report = args.progress.run(
+        "write the report", lambda: write_user_report(args.model, args.logs, args.output)
+    )
     warnings = sum(len(s.warnings) for s in report.sections)
     figures = sum(len(s.figures) for s in report.sections)
     print(

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from torquemap.cli import cmd_fleet, cmd_simulate_rig
+from torquemap.cli.helptext import described
 from torquemap.cli.outputs import check_outputs
 
 _FILES = ("robot.toml", "sweep.csv", "circle.csv", "truth.csv", "truth.toml")
@@ -18,14 +19,32 @@ _FILES = ("robot.toml", "sweep.csv", "circle.csv", "truth.csv", "truth.toml")
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add the ``simulate`` group, its ``scara`` sub-command, and ``rig`` from its module."""
-    group = subparsers.add_parser("simulate", help="write the files of a simulated bench")
-    benches = group.add_subparsers(dest="bench", metavar="BENCH")
+    group = subparsers.add_parser(
+        "simulate",
+        help="write the files of a simulated bench",
+        **described(
+            "Simulated benches to try torquemap without hardware, and to check it against a "
+            "known truth: scara (the SCARA of Simpson, Cook & Li), rig (the motor "
+            "characterisation bench of the Adept II paper), figures (the first paper's Figs 3 "
+            "to 8 from a scara folder).",
+            [
+                "torquemap simulate scara --out bench",
+                "torquemap simulate rig --motor vr --out rig",
+            ],
+        ),
+    )
+    benches = group.add_subparsers(dest="bench", metavar="BENCH", help="the bench to simulate")
     benches.required = True
     scara = benches.add_parser(
         "scara",
         help="the paper's SCARA: no-load sweeps, a 130 mm circle about a 3.5 N spring, truth",
-        description="Simulate the SCARA bench of Simpson, Cook & Li and write robot.toml, "
-        "sweep.csv, circle.csv, truth.csv and truth.toml into DIR (docs/formats.md).",
+        **described(
+            "Simulate the SCARA bench of Simpson, Cook & Li and write robot.toml, sweep.csv "
+            "(no-load identification sweeps), circle.csv (a 130 mm circle about a 3.5 N "
+            "spring), truth.csv and truth.toml (for checking only) into DIR (docs/formats.md). "
+            "The files are a function of the seed alone.",
+            ["torquemap simulate scara --out bench", "torquemap simulate scara --out b7 --seed 7"],
+        ),
     )
     scara.add_argument("--out", metavar="DIR", required=True, help="output folder (created)")
     scara.add_argument("--seed", type=int, default=0, help="noise seed, >= 0 (default 0)")
@@ -33,8 +52,14 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     figures = benches.add_parser(
         "figures",
         help="draw the paper's Figs 3-8 from a simulated SCARA bench folder",
-        description="Identify the bench's sweeps, estimate on its circle with the paper method, "
-        "and write fig3..fig8 PNG files (Simpson, Cook & Li) into --out.",
+        **described(
+            "Identify the bench's sweeps, estimate on its circle with the paper method, and "
+            "write fig3..fig8 PNG files (Simpson, Cook & Li) into --out.",
+            [
+                "torquemap simulate figures bench --out figs",
+                "torquemap simulate figures bench --out figs --model bench/model.toml",
+            ],
+        ),
     )
     figures.add_argument("bench_dir", metavar="BENCH_DIR", help="folder of `simulate scara`")
     figures.add_argument("--out", metavar="DIR", required=True, help="output folder (created)")
@@ -51,7 +76,10 @@ def _scara(args: argparse.Namespace) -> int:
 
     check_outputs([], folders=[(args.out, _FILES)])
 
-    write_scara_bench(args.out, seed=args.seed)
+    args.progress.run(
+        "simulate the SCARA bench (sweeps and circle)",
+        lambda: write_scara_bench(args.out, seed=args.seed),
+    )
     print(f"wrote {', '.join(_FILES)} to {args.out}")
     return 0
 
@@ -64,6 +92,9 @@ def _figures(args: argparse.Namespace) -> int:
         [], [args.model, *(bench / name for name in BENCH_FILES)], folders=[(args.out, ())]
     )
 
-    paths = write_paper_figures(args.bench_dir, args.out, model_path=args.model)
+    paths = args.progress.run(
+        "identify, estimate and draw Figs 3 to 8",
+        lambda: write_paper_figures(args.bench_dir, args.out, model_path=args.model),
+    )
     print(f"wrote {', '.join(p.name for p in paths)} to {args.out}")
     return 0

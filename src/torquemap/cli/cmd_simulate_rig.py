@@ -8,7 +8,9 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from torquemap.cli.helptext import described
 from torquemap.cli.outputs import check_outputs
+from torquemap.progress import NULL
 
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
@@ -16,10 +18,16 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     rig = subparsers.add_parser(
         "rig",
         help="a motor characterisation bench (Adept II paper): motor.toml and data.csv",
-        description="Simulate the torque-linearisation data collection of the Adept II paper "
-        "(Fig 12) on a variable reluctance or brushless DC motor and write DIR/motor.toml and "
-        "DIR/data.csv (docs/linearize-collect.md). The defaults subsample the cycle: every 4th "
-        "table position and every 4th pulse width, 10 readings per row.",
+        **described(
+            "Simulate the torque-linearisation data collection of the Adept II paper (Fig 12) "
+            "on a variable reluctance or brushless DC motor and write DIR/motor.toml and "
+            "DIR/data.csv (docs/linearize-collect.md). The defaults subsample the cycle: every "
+            "4th table position and every 4th pulse width, 10 readings per row.",
+            [
+                "torquemap simulate rig --motor vr --out rig",
+                "torquemap simulate rig --motor bldc --out rig_bldc --ramping narrow --transitions",
+            ],
+        ),
     )
     rig.add_argument("--motor", choices=("vr", "bldc"), required=True, help="motor type")
     rig.add_argument("--out", metavar="DIR", required=True, help="output folder (created)")
@@ -49,7 +57,7 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         action="store_true",
         help="also target every position where the ramp changes (the phases' hand-over)",
     )
-    rig.add_argument("--no-progress", action="store_true", help="no progress bar")
+    rig.add_argument("--no-progress", action="store_true", help="no progress bar (as --quiet)")
     rig.set_defaults(handler=_rig)
 
 
@@ -69,7 +77,7 @@ def _rig(args: argparse.Namespace) -> int:
         transitions=args.transitions,
         pulse_step=args.pulse_step,
         position_step=args.position_step,
-        progress=not args.no_progress,
+        progress=NULL if args.no_progress else args.progress,
     )
     print(
         f"wrote motor.toml and data.csv ({result.rows} rows, {result.targets.size} positions, "

@@ -22,6 +22,7 @@ from torquemap.cli import (
     cmd_report,
     cmd_simulate,
 )
+from torquemap.cli.helptext import described
 from torquemap.errors import InputError, one_line
 
 _MODULES = (
@@ -36,6 +37,9 @@ _MODULES = (
 )
 
 
+_QUIET_HELP = "no progress output on stderr (results and warnings still print)"
+
+
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # type: ignore[override]
         self.exit(2, f"{self.prog}: error: {message}\n")
@@ -45,21 +49,75 @@ def build_parser() -> argparse.ArgumentParser:
     """The full ``torquemap`` argument parser."""
     parser = _Parser(
         prog="torquemap",
-        description="Sensorless force estimation, friction and PDTV identification, "
-        "and torque-linearisation tables for electric actuators.",
+        **described(
+            "Sensorless force estimation, friction and PDTV identification, and "
+            "torque-linearisation tables for electric actuators. Each command says what it "
+            "does, with examples, under torquemap COMMAND --help; docs/tutorial.md walks "
+            "through them. Progress goes to stderr (steps over 2 s), results to stdout.",
+            [
+                "torquemap demo --out demo-out",
+                "torquemap identify robot.toml sweep.csv -o model.toml",
+                "torquemap --quiet estimate model.toml run.parquet -o forces.csv",
+            ],
+        ),
     )
     parser.add_argument("--version", action="version", version=f"torquemap {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    parser.add_argument("-q", "--quiet", action="store_true", help=_QUIET_HELP)
+    sub = parser.add_subparsers(
+        dest="command",
+        metavar="COMMAND",
+        parser_class=_Parser,
+        help="the command to run; torquemap COMMAND --help describes it, with examples",
+    )
     sub.required = True
     for module in _MODULES:
         module.register(sub)
+    for command in commands(parser):
+        _add_quiet(command)
     return parser
+
+
+def subparsers(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
+    """The sub-commands of ``parser`` by name (aliases left out)."""
+    out: dict[str, argparse.ArgumentParser] = {}
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            seen: set[int] = set()
+            for name, child in action.choices.items():
+                if id(child) not in seen:
+                    seen.add(id(child))
+                    out[name] = child
+    return out
+
+
+def commands(parser: argparse.ArgumentParser) -> list[argparse.ArgumentParser]:
+    """Every command that runs (the leaves of the sub-command tree), depth first."""
+    children = subparsers(parser)
+    if not children:
+        return [parser]
+    out: list[argparse.ArgumentParser] = []
+    for child in children.values():
+        out.extend(commands(child))
+    return out
+
+
+def _add_quiet(command: argparse.ArgumentParser) -> None:
+    """``--quiet`` after the command too (``torquemap CMD --quiet``), where it has none yet."""
+    taken = command._option_string_actions
+    if "--quiet" in taken:
+        return
+    flags = ["--quiet"] if "-q" in taken else ["-q", "--quiet"]
+    # SUPPRESS: absent, it must not reset the global --quiet given before the command
+    command.add_argument(*flags, action="store_true", default=argparse.SUPPRESS, help=_QUIET_HELP)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit status (0 ok, 1 failed check, 2 bad input)."""
+    from torquemap.progress import reporter
+
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.progress = reporter(quiet=bool(getattr(args, "quiet", False)))
     try:
         status: int = args.handler(args)
     except InputError as exc:

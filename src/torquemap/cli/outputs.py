@@ -2,14 +2,21 @@
 
 An output may not be one of the command's inputs (the same path, a symbolic or hard link to
 it), may not be named twice, must carry the suffix of what is written, must sit in an existing
-folder, and may replace an existing file only if that file is writable.
+folder, and may replace an existing file only if that file is writable. The format of an
+output comes from its suffix: tables (``.csv``, ``.parquet``, ``.json``), figures (``.png``,
+``.svg``, ``.pdf``) and the single-format files (``.toml``, ``.html``, ``.npz``).
 """
 
 from __future__ import annotations
 
+import json
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
 
 from torquemap.errors import InputError
 from torquemap.io import check_output_file
@@ -117,3 +124,66 @@ def check_outputs(
         seen.append(target)
         if target not in in_new_folder:
             check_output_file(target)
+
+
+#: Table outputs: CSV and Parquet as written by :func:`torquemap.io.write_table`; JSON as one
+#: object of columns, ``{"name": [values...], ...}`` (NaN and inf as null).
+TABLE_SUFFIXES = (".csv", ".parquet", ".json")
+#: Figure outputs (matplotlib picks the format from the suffix).
+FIGURE_SUFFIXES = (".png", ".svg", ".pdf")
+
+
+def _listed(allowed: Sequence[str]) -> str:
+    return allowed[0] if len(allowed) == 1 else ", ".join(allowed[:-1]) + " or " + allowed[-1]
+
+
+def output_suffix(path: str | os.PathLike[str], allowed: Sequence[str], what: str) -> str:
+    """The lower-case suffix of ``path`` if it is one of ``allowed``; else InputError.
+
+    Examples
+    --------
+    >>> output_suffix("cog.JSON", TABLE_SUFFIXES, "table")
+    '.json'
+    """
+    suffix = Path(path).suffix.lower()
+    if suffix not in allowed:
+        given = f"{suffix!r}" if suffix else "no suffix"
+        raise InputError(
+            f"unknown {what} format ({given}): the suffix chooses it, use {_listed(allowed)}",
+            path=path,
+        )
+    return suffix
+
+
+def check_table(path: str | os.PathLike[str], allowed: Sequence[str] = TABLE_SUFFIXES) -> str:
+    """The suffix of a table output (``.csv``, ``.parquet``, ``.json``)."""
+    return output_suffix(path, allowed, "table")
+
+
+def check_figure(path: str | os.PathLike[str]) -> str:
+    """The suffix of a figure output (``.png``, ``.svg``, ``.pdf``)."""
+    return output_suffix(path, FIGURE_SUFFIXES, "figure")
+
+
+def columns_writer(path: str | os.PathLike[str], columns: Mapping[str, ArrayLike]) -> Any:
+    """A writer (:func:`torquemap.io.write_all`) of a table in the format its suffix names."""
+    from torquemap.io import table_writer
+
+    if check_table(path) != ".json":
+        return table_writer(path, columns)
+    doc = {}
+    for name, values in columns.items():
+        arr = np.asarray(values)
+        if arr.dtype.kind == "f":
+            doc[name] = [float(x) if np.isfinite(x) else None for x in arr.tolist()]
+        else:
+            doc[name] = arr.tolist()
+    text = json.dumps(doc, allow_nan=False) + "\n"
+    return lambda tmp: tmp.write_text(text)
+
+
+def write_columns(path: str | os.PathLike[str], columns: Mapping[str, ArrayLike]) -> None:
+    """Write a table to ``path`` in the format its suffix names (:data:`TABLE_SUFFIXES`)."""
+    from torquemap.io import write_all
+
+    write_all({Path(path): columns_writer(path, columns)})

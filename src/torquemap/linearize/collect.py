@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 from torquemap.errors import InputError
 from torquemap.io import atomic_output
 from torquemap.linearize.motor import MotorSpec, ramped_actuation
+from torquemap.progress import NULL, Progress, reporter
 
 CHARACTERISATION_COLUMNS = ("position", "pulse_width", "torque")
 VERIFICATION_COLUMNS = ("position", "command", "torque")
@@ -227,7 +228,7 @@ def _collect(
     positions: int | None,
     transitions: bool,
     saturation: float | None,
-    progress: bool,
+    progress: bool | Progress | None,
 ) -> CollectResult:
     start = time.perf_counter()
     if readings < 1:
@@ -258,9 +259,9 @@ def _collect(
     off = [0] * spec.phases
     new_rows = 0
     saturated = 0
-    bar = _progress(progress)
-    with path.open("a") as handle, bar:
-        task = bar.add_task("collecting", total=int(targets.size), completed=done)
+    label = f"collect {targets.size} positions" + (f" (resuming after {done})" if done else "")
+    with path.open("a") as handle, _progress(progress).step(label, total=targets.size) as bar:
+        bar.advance(done)
         for target in targets[done:]:
             _move_to(rig, int(target), n, off, max_steps=100 * n)
             if open_contact is not None:
@@ -283,7 +284,8 @@ def _collect(
                 handle.write(f"{consulted},{level},{torque:.10g}\n")
                 handle.flush()
                 new_rows += 1
-            bar.update(task, advance=1, description=f"position {int(target)}/{n}")
+            bar.advance()
+            bar.describe(f"position {int(target)}/{n}")
         rig.apply(off)
     return CollectResult(
         path=os.fspath(path),
@@ -296,43 +298,11 @@ def _collect(
     )
 
 
-class _NoProgress:
-    def __enter__(self) -> _NoProgress:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        return None
-
-    def add_task(self, description: str, *, total: int, completed: int) -> int:
-        return 0
-
-    def update(self, task: int, *, advance: int, description: str) -> None:
-        return None
-
-
-def _progress(show: bool) -> _NoProgress:
-    if not show:
-        return _NoProgress()
-    from rich.console import Console
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        Progress,
-        TextColumn,
-        TimeElapsedColumn,
-        TimeRemainingColumn,
-    )
-
-    bar = Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TextColumn("targets"),
-        TimeElapsedColumn(),
-        TimeRemainingColumn(),
-        console=Console(stderr=True),
-    )
-    return bar  # type: ignore[return-value]
+def _progress(progress: bool | Progress | None) -> Progress:
+    """A hook as given; ``True`` for the default reporter on stderr, ``False``/``None`` for none."""
+    if isinstance(progress, Progress):
+        return progress
+    return reporter() if progress else NULL
 
 
 def collect_characterisation(
@@ -347,7 +317,7 @@ def collect_characterisation(
     positions: int | None = None,
     transitions: bool = False,
     saturation: float | None = None,
-    progress: bool = True,
+    progress: bool | Progress | None = True,
 ) -> CollectResult:
     """Collect the motor's torque vs position vs pulse width into DATA.csv (paper Fig 12).
 
@@ -383,7 +353,8 @@ def collect_characterisation(
         Sensor range [N m]: a reading at or beyond it ends the inner loop, unstored. None: the
         rig's ``saturation`` attribute if it has one, else no check.
     progress
-        Show a progress bar (on stderr).
+        Where progress goes (:mod:`torquemap.progress`): a hook, or ``True`` for a bar on
+        stderr (plain lines when it is not a terminal), ``False``/``None`` for none.
 
     Returns
     -------
@@ -444,7 +415,7 @@ def collect_verification(
     positions: int | None = None,
     transitions: bool = False,
     saturation: float | None = None,
-    progress: bool = True,
+    progress: bool | Progress | None = True,
 ) -> CollectResult:
     """Collect torque vs position vs torque command through the tables (paper §5.3 "after").
 

@@ -39,6 +39,7 @@ from torquemap.linearize.collect import (
     read_tables_npz,
 )
 from torquemap.linearize.motor import MotorSpec, RampKind, motor_spec, motor_to_dict
+from torquemap.progress import Progress
 from torquemap.sim.motors import (
     Amplifier,
     BrushlessDcMotor,
@@ -348,7 +349,7 @@ def collect_on_sim(
     step: int = 4,
     position_step: int = 4,
     transitions: bool = False,
-    progress: bool = True,
+    progress: bool | Progress | None = True,
 ) -> CollectResult:
     """Run ``linearize collect`` against a simulated rig (resuming ``out_csv`` if it exists).
 
@@ -377,7 +378,7 @@ def collect_on_sim(
     transitions
         Also target every position where the ramp changes.
     progress
-        Show a progress bar.
+        Progress hook (:mod:`torquemap.progress`), or ``True`` for the default reporter.
 
     Returns
     -------
@@ -456,7 +457,7 @@ def write_rig_data(
     pulse_step: int = 4,
     position_step: int = 4,
     transitions: bool = False,
-    progress: bool = False,
+    progress: bool | Progress | None = False,
 ) -> CollectResult:
     """A full characterisation run on a simulated rig: ``motor.toml`` and ``data.csv`` in a folder.
 
@@ -486,7 +487,7 @@ def write_rig_data(
     transitions
         Also target every position where the ramp changes.
     progress
-        Show a progress bar.
+        Progress hook (:mod:`torquemap.progress`), or ``True`` for the default reporter.
 
     Returns
     -------
