@@ -44,6 +44,44 @@ class Joint:
     encoder_counts_per_rev: int | None = None
     position_unit: PositionUnit = "rad"
 
+    def __post_init__(self) -> None:
+        """Refuse values no log could be read with (the robot file's checks, for code).
+
+        Raises
+        ------
+        InputError
+            On a gear ratio or torque constant that is not positive and finite, counts per
+            revolution that are not a positive integer, or an unknown position unit.
+
+        Examples
+        --------
+        >>> Joint(name="a", gear_ratio=-1.0, torque_constant=0.1)
+        Traceback (most recent call last):
+        ...
+        torquemap.errors.InputError: joint 'a': gear_ratio must be positive and finite, got -1.0
+        """
+        import typing
+
+        for key in ("gear_ratio", "torque_constant"):
+            value = getattr(self, key)
+            ok = isinstance(value, int | float) and not isinstance(value, bool)
+            if not ok or not math.isfinite(value) or value <= 0:
+                raise InputError(
+                    f"joint {self.name!r}: {key} must be positive and finite, got {value!r}"
+                )
+        cpr = self.encoder_counts_per_rev
+        if cpr is not None and (isinstance(cpr, bool) or not isinstance(cpr, int) or cpr <= 0):
+            raise InputError(
+                f"joint {self.name!r}: encoder_counts_per_rev must be a positive integer, "
+                f"got {cpr!r}"
+            )
+        units = typing.get_args(PositionUnit)
+        if self.position_unit not in units:
+            raise InputError(
+                f"joint {self.name!r}: position_unit must be one of {', '.join(units)}, "
+                f"got {self.position_unit!r}"
+            )
+
 
 @dataclass(frozen=True, slots=True, eq=False)
 class Robot:
