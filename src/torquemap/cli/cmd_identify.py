@@ -19,6 +19,12 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("-o", "--output", metavar="MODEL.toml", required=True)
     p.add_argument("--max-order", type=float, default=None, help="highest PDTV order [CPR]")
     p.add_argument("--joint", action="append", default=None, help="joint to identify (repeat)")
+    p.add_argument(
+        "--quasi-static",
+        action="store_true",
+        help="the logs hold position holds, not sweeps: PDTV from the mean holding torque "
+        "(docs/odrive.md)",
+    )
     p.set_defaults(handler=_identify)
 
     s = subparsers.add_parser("spectrum", help="PDTV spectrum in CPR with the model's lines")
@@ -46,6 +52,10 @@ def _identify(args: argparse.Namespace) -> int:
 
     model = load_model(args.robot)
     logs = [read_log(path, model.robot) for path in args.logs]
+    if args.quasi_static:
+        from torquemap.cli.cmd_cogging import identify_holds
+
+        return identify_holds(model, logs, args)
     result = identify_model(model, logs, joints=args.joint, max_order=args.max_order)
     write_toml(args.output, model_to_dict(result.model))
     for w in result.warnings:

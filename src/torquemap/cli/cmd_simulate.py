@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from torquemap.cli import cmd_simulate_rig
+from torquemap.cli import cmd_simulate_actuator, cmd_simulate_rig
 
 _FILES = ("robot.toml", "sweep.csv", "circle.csv", "truth.csv", "truth.toml")
 
@@ -41,6 +41,7 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     )
     figures.set_defaults(handler=_figures)
     cmd_simulate_rig.register(benches)
+    cmd_simulate_actuator.register(benches)
 
 
 def _scara(args: argparse.Namespace) -> int:

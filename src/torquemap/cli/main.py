@@ -13,6 +13,7 @@ from collections.abc import Sequence
 
 from torquemap import __version__
 from torquemap.cli import (
+    cmd_cogging,
     cmd_demo,
     cmd_estimate,
     cmd_identify,
@@ -31,6 +32,7 @@ _MODULES = (
     cmd_demo,
     cmd_report,
     cmd_import,
+    cmd_cogging,
 )
 
 

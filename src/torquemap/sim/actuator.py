@@ -24,7 +24,9 @@ again on purpose: this module imports nothing from the estimators.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -440,3 +442,61 @@ def log_columns(run: ActuatorRun, actuator: Actuator | None = None) -> dict[str,
         f"q_{ax.name}": run.motor_angle / ax.gear_ratio,
         f"i_{ax.name}": run.current,
     }
+
+
+def truth_document(actuator: Actuator | None = None) -> dict[str, Any]:
+    """truth.toml: the robot file plus the true PDTV lines (friction and inertia left out)."""
+    act = Actuator() if actuator is None else actuator
+    doc = robot_document(act)
+    doc["joints"][act.axis.name]["pdtv"] = [
+        {"order": h.order, "amplitude": h.amplitude, "phase": h.phase, "direction": "both"}
+        for h in act.axis.pdtv
+    ]
+    doc["identification"] = {"source": "torquemap simulate actuator (true PDTV, not identified)"}
+    return doc
+
+
+def write_actuator_bench(
+    out_dir: str | os.PathLike[str],
+    *,
+    seed: int = 0,
+    compensation_path: str | os.PathLike[str] | None = None,
+    positions: int = 128,
+) -> list[str]:
+    """Write the test stand's files: robot.toml, holds.csv, sweep.csv, truth.toml.
+
+    With ``compensation_path`` (a map written by ``torquemap pdtv-map``: CSV or Parquet with a
+    ``torque`` column [N m] per bin over one motor revolution) only sweep_after.csv is
+    written: the sweep of sweep.csv, same seed, with the map applied as the drive's
+    feed-forward.
+
+    Returns
+    -------
+    list of str
+        The files written.
+    """
+    from torquemap.errors import InputError
+    from torquemap.io import numeric_column, read_table, write_table, write_toml
+
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise InputError(f"seed must be a non-negative integer, got {seed!r}")
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise InputError("output path exists and is not a folder", path=out)
+    out.mkdir(parents=True, exist_ok=True)
+    act = Actuator()
+    holds_rng, sweep_rng = np.random.default_rng(seed).spawn(2)
+    if compensation_path is not None:
+        table = numeric_column(read_table(compensation_path), "torque", compensation_path)
+        if table.size < 2:
+            raise InputError("the map needs at least 2 bins", path=compensation_path)
+        run = simulate_sweep(act, compensation=table, rng=sweep_rng)
+        write_table(out / "sweep_after.csv", log_columns(run, act))
+        return [os.fspath(out / "sweep_after.csv")]
+    write_toml(out / "robot.toml", robot_document(act))
+    write_toml(out / "truth.toml", truth_document(act))
+    holds = simulate_holds(act, positions=positions, rng=holds_rng)
+    write_table(out / "holds.csv", log_columns(holds, act))
+    sweep = simulate_sweep(act, rng=sweep_rng)
+    write_table(out / "sweep.csv", log_columns(sweep, act))
+    return [os.fspath(out / n) for n in ("robot.toml", "truth.toml", "holds.csv", "sweep.csv")]
