@@ -44,6 +44,7 @@ _EXPORTS: dict[str, tuple[str, str | None]] = {
     "build_tables": ("torquemap.linearize.tables", "build_tables"),
     "InputError": ("torquemap.errors", "InputError"),
     "identify_quasi_static": ("torquemap.quasistatic", "identify_quasi_static"),
+    "verify_cogging": ("torquemap.cogging", "verify_cogging"),
 }
 
 __all__ = [
@@ -66,10 +67,12 @@ __all__ = [
     "read_log",
     "robot_from_dict",
     "save_model",
+    "verify_cogging",
 ]
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers only
     from torquemap.api import estimate, identify, pdtv_map
+    from torquemap.cogging import verify_cogging
     from torquemap.errors import InputError
     from torquemap.estimate import ForceEstimate
     from torquemap.identify import Identification
