@@ -108,13 +108,13 @@ class Chart:
 def decimate(
     x: NDArray[np.float64], y: NDArray[np.float64], *, max_points: int
 ) -> NDArray[np.int64]:
-    """Indices keeping each bucket's first, minimum and maximum sample, in order.
+    """Indices of each bucket's minimum and maximum, and of the first and last sample, in order.
 
     Examples
     --------
     >>> y = np.array([0.0, 5, 1, 2, -3, 1, 0, 0])
     >>> decimate(np.arange(8.0), y, max_points=4).tolist()
-    [0, 1, 3, 4, 7]
+    [0, 1, 4, 5, 7]
     """
     n = x.size
     if n <= max_points:
