@@ -6,6 +6,7 @@ true disturbance left after the map the simulator applied (truth the estimators 
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -133,3 +134,22 @@ def test_quasi_static_refuses_a_sweep(stand: Stand) -> None:
     sweep = log_from_columns(log_columns(stand.before), stand.robot)
     with pytest.raises(InputError, match="needs position holds"):
         identify_quasi_static(stand.robot, [sweep])
+
+
+def test_report_shows_the_holds_against_the_model(stand: Stand, tmp_path: Path) -> None:
+    from torquemap.io import write_toml
+
+    write_toml(tmp_path / "robot.toml", robot_document())
+    save_model(tmp_path / "model.toml", stand.model)
+    write_table(tmp_path / "holds.csv", log_columns(simulate_holds(positions=64, rng=4)))
+    out = tmp_path / "r.html"
+    assert (
+        main(["report", str(tmp_path / "model.toml"), str(tmp_path / "holds.csv"), "-o", str(out)])
+        == 0
+    )
+    text = out.read_text(encoding="utf-8")
+    assert "joint a: holding torque over one motor revolution" in text
+    # an independent set of holds: the model identified from other holds explains its ripple
+    explained = re.search(r"<td>128</td><td>[^<]*</td><td>[^<]*</td><td>([\d.]+) %</td>", text)
+    assert explained is not None and float(explained.group(1)) > 95.0
+    assert "the model holds no friction" in text

@@ -445,6 +445,7 @@ class _LogResult:
     views: tuple[JointView, ...]
     sweep: bool
     path: str
+    kind: str = "sweep"
 
 
 def _sweep_section(model: Model, log: Log, path: str) -> _LogResult | None:
@@ -526,6 +527,7 @@ def _force_section(model: Model, log: Log, path: str, note: str) -> _LogResult:
             (),
             False,
             path,
+            "forces",
         )
     from torquemap.estimate import forces_columns
 
@@ -592,7 +594,70 @@ def _force_section(model: Model, log: Log, path: str, note: str) -> _LogResult:
         (),
         False,
         path,
+        "forces",
     )
+
+
+def _holds_section(model: Model, log: Log, path: str) -> _LogResult | None:
+    """Position holds (quasi-static calibration): the holding torques against the model."""
+    from torquemap.quasistatic import find_holds
+
+    charts: list[Chart] = []
+    rows = []
+    for k, joint in enumerate(model.robot.joints):
+        theta = joint.gear_ratio * log.q[:, k]
+        holds = find_holds(log.t, theta, log.motor_torque[:, k])
+        folded = np.mod(holds.motor_angle, TWO_PI)
+        if np.unique(np.round(folded, 3)).size < 8:
+            continue
+        curve_at = pdtv_map(model, joint.name, motor_angle=holds.motor_angle).torque
+        # each side of approach has its own friction offset: remove its mean
+        torque = holds.torque.copy()
+        for side in (-1, 1):
+            m = holds.approach == side
+            if m.any():
+                torque[m] -= np.mean(torque[m] - curve_at[m])
+        grid = np.linspace(0.0, TWO_PI, 1025)
+        before = float(np.std(torque))
+        after = float(np.std(torque - curve_at))
+        explained = 1.0 - (after / before) ** 2 if before > 0 else math.nan
+        rows.append((joint.name, holds.torque.size, before, after, f"{100 * explained:.1f} %"))
+        charts.append(
+            Chart(
+                title=f"joint {joint.name}: holding torque over one motor revolution",
+                x_label="motor angle [rad] from the encoder zero",
+                y_label="torque [N m], motor side",
+                series=(
+                    series("holds", folded, torque, style="points"),
+                    series(
+                        "model",
+                        grid,
+                        pdtv_map(model, joint.name, motor_angle=grid).torque,
+                        color="#d62728",
+                    ),
+                ),
+                caption=f"Joint {joint.name}: the mean torque of each position hold (each "
+                "side of approach less its own friction offset) against the model's PDTV.",
+            )
+        )
+    if not rows:
+        return None
+    section = Section(
+        f"Log: {Path(path).name}",
+        paragraphs=(
+            f"{log.t.size} samples over {log.t[-1] - log.t[0]:.3g} s: position holds "
+            "(quasi-static calibration, `identify --quasi-static`).",
+        ),
+        tables=(
+            table(
+                ("joint", "holds", "ripple [N m]", "about the model [N m]", "ripple explained"),
+                rows,
+                caption="Standard deviation of the holding torques, and about the model's PDTV.",
+            ),
+        ),
+        charts=tuple(charts),
+    )
+    return _LogResult(section=section, views=(), sweep=False, path=path, kind="holds")
 
 
 def _log_result(model: Model, path: str) -> _LogResult:
@@ -603,6 +668,9 @@ def _log_result(model: Model, path: str) -> _LogResult:
         swept = None
     if swept is not None:
         return swept
+    held = _holds_section(model, log, path)
+    if held is not None:
+        return held
     return _force_section(
         model,
         log,
@@ -694,6 +762,12 @@ def _summary(model: Model, model_path: str, results: Sequence[_LogResult]) -> Se
                 f"{model_path} --joint {name} --bins 1024 -o cog_{name}.csv` (docs/odrive.md, "
                 "docs/moteus.md), then check it with `torquemap cogging verify`."
             )
+        if f.coulomb_positive == 0 and f.coulomb_negative == 0 and f.viscous == 0:
+            steps.append(
+                f"Joint {name}: the model holds no friction (a quasi-static calibration "
+                "identifies PDTV only); identify from constant-speed sweeps before estimating "
+                "forces."
+            )
         if explained and min(explained) < 0.8:
             steps.append(
                 f"Joint {name}: the model explains only {100 * min(explained):.0f} % of the "
@@ -706,7 +780,9 @@ def _summary(model: Model, model_path: str, results: Sequence[_LogResult]) -> Se
             f"Read the {warned} warning(s) below: they say where the data is thin and how to "
             "sweep for better data."
         )
-    if not any(not r.sweep for r in results):
+    if not any(
+        not r.sweep and not r.views and "holds" not in r.section.paragraphs[0] for r in results
+    ):
         steps.append(
             "Estimate forces on a task log: `torquemap estimate MODEL LOG -o forces.csv` "
             "(or add the log to this report)."
