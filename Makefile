@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 OUT ?= demo-out
 
-.PHONY: demo test lint types unit bench clean
+.PHONY: demo test lint types unit bench docs clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -27,6 +27,11 @@ types: $(STAMP)
 
 unit: $(STAMP)
 	$(BIN)/pytest -n 2 --dist loadgroup -q
+
+# API reference from the docstrings (pdoc); fails on a public name without a docstring or a
+# cross-reference that does not resolve (tests/test_apidoc.py runs the same check)
+docs: $(STAMP)
+	$(BIN)/python -m torquemap._apidoc --build build/api
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/force_accuracy.py

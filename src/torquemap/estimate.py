@@ -38,6 +38,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from torquemap._callable import make_callable as _make_callable
 from torquemap.errors import InputError
 from torquemap.filters import differentiate, lowpass
 from torquemap.io import Log
@@ -674,3 +675,7 @@ def forces_columns(estimate: ForceEstimate) -> dict[str, NDArray[Any]]:
             cols[axis] = estimate.force[:, a]
     cols["flag"] = estimate.flag
     return cols
+
+
+# ``torquemap.estimate(...)`` calls :func:`torquemap.api.estimate` (the module stays a module).
+_make_callable(__name__, "torquemap.api:estimate")

@@ -21,6 +21,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from torquemap._callable import make_callable as _make_callable
 from torquemap.errors import InputError
 from torquemap.filters import Derivatives, differentiate, smooth_as_acceleration
 from torquemap.friction import (
@@ -790,3 +791,7 @@ def _notes(
         "warnings": list(warnings),
         "joints": joints,
     }
+
+
+# ``torquemap.identify(...)`` calls :func:`torquemap.api.identify` (the module stays a module).
+_make_callable(__name__, "torquemap.api:identify")

@@ -497,7 +497,47 @@ class Log:
     q: NDArray[np.float64]
     motor_torque: NDArray[np.float64]
     joint_names: tuple[str, ...]
-    path: str
+    path: str = "<memory>"
+
+    def __post_init__(self) -> None:
+        """Coerce to float64 arrays and refuse shapes and values the estimators cannot use.
+
+        Raises
+        ------
+        InputError
+            When ``t`` is not 1-D and strictly increasing, ``q`` or ``motor_torque`` is not
+            (n, n_joints), ``joint_names`` does not name n_joints joints, or a value is not
+            finite.
+
+        Examples
+        --------
+        >>> Log(t=[0.0, 1.0], q=[0.0, 1.0], motor_torque=[[0.0], [0.0]], joint_names=("a",))
+        Traceback (most recent call last):
+        ...
+        torquemap.errors.InputError: <memory>: q must have shape (n, n_joints) = (2, 1), got (2,)
+        """
+        t = np.asarray(self.t, dtype=np.float64)
+        if t.ndim != 1:
+            raise InputError(f"t must be 1-D, got shape {t.shape}", path=self.path)
+        names = tuple(str(n) for n in self.joint_names)
+        shape = (t.size, len(names))
+        arrays = {"t": t}
+        for field_name in ("q", "motor_torque"):
+            a = np.asarray(getattr(self, field_name), dtype=np.float64)
+            if a.shape != shape:
+                raise InputError(
+                    f"{field_name} must have shape (n, n_joints) = {shape}, got {a.shape}",
+                    path=self.path,
+                )
+            arrays[field_name] = a
+        for field_name, a in arrays.items():
+            if not np.all(np.isfinite(a)):
+                raise InputError(f"{field_name} holds NaN or inf", path=self.path)
+        check_time(t, self.path)
+        for field_name, a in arrays.items():
+            object.__setattr__(self, field_name, a)
+        object.__setattr__(self, "joint_names", names)
+        object.__setattr__(self, "path", os.fspath(self.path))
 
 
 #: Largest |t| [s] a log may hold (317 years: Unix time fits, at 2 us resolution).
@@ -519,17 +559,60 @@ def check_time(t: NDArray[np.float64], path: str | os.PathLike[str]) -> None:
         raise InputError(f"time 't' is not strictly increasing (at data row {row})", path=path)
 
 
-def log_from_columns(columns: Columns, robot: Robot, *, path: str | os.PathLike[str]) -> Log:
-    """Build a :class:`Log` from table columns (see :func:`read_log`)."""
-    p = os.fspath(path)
-    t = numeric_column(columns, "t", p, max_abs=MAX_TIME, unit="s")
+def _same_length(
+    cols: Columns, name: str, path: str, n: int, *, max_abs: float = MAX_MAGNITUDE, unit: str = ""
+) -> NDArray[np.float64]:
+    values = numeric_column(cols, name, path, max_abs=max_abs, unit=unit)
+    if values.shape != (n,):
+        raise InputError(f"column {name!r} has shape {values.shape}, 't' has ({n},)", path=path)
+    return values
+
+
+def log_from_columns(
+    columns: Mapping[str, ArrayLike], robot: Robot, *, path: str | os.PathLike[str] | None = None
+) -> Log:
+    """Build a :class:`Log` from columns: a table read from a file, or arrays in memory.
+
+    Parameters
+    ----------
+    columns
+        ``t`` [s] and, per joint ``<j>`` of ``robot``, ``q_<j>`` (joint angle [rad], or motor
+        encoder counts for ``position_unit = "counts"``) and ``i_<j>`` [A] or ``tau_<j>``
+        [N m, motor side]; each 1-D of the same length (docs/formats.md).
+    robot
+        The robot whose joints the columns must hold.
+    path
+        The file the columns came from, for error messages; None for arrays in memory.
+
+    Returns
+    -------
+    Log
+        Time, joint angles [rad] and motor-side torques [N m].
+
+    Raises
+    ------
+    InputError
+        On a missing column, NaN or inf, or non-increasing time.
+
+    Examples
+    --------
+    >>> from torquemap.robot import robot_from_dict
+    >>> rb = robot_from_dict({"robot": {"kinematics": "none"},
+    ...                       "joints": {"m": {"gear_ratio": 10, "torque_constant": 0.5}}})
+    >>> log = log_from_columns({"t": [0.0, 0.1], "q_m": [0.0, 0.2], "i_m": [1.0, 2.0]}, rb)
+    >>> log.motor_torque[:, 0].tolist()
+    [0.5, 1.0]
+    """
+    p = "<memory>" if path is None else os.fspath(path)
+    cols: Columns = {k: np.asarray(v) for k, v in columns.items()}
+    t = numeric_column(cols, "t", p, max_abs=MAX_TIME, unit="s")
     check_time(t, p)
     q = np.empty((t.size, len(robot.joints)))
     tau = np.empty_like(q)
     for k, joint in enumerate(robot.joints):
         name = f"q_{joint.name}"
         if joint.position_unit == "counts":
-            raw_q = numeric_column(columns, name, p, max_abs=MAX_COUNTS, unit="counts")
+            raw_q = _same_length(cols, name, p, t.size, max_abs=MAX_COUNTS, unit="counts")
             cpr = float(joint.encoder_counts_per_rev or 0)
             counts = np.unwrap(raw_q, period=cpr)
             q[:, k] = counts * (2.0 * np.pi / cpr) / joint.gear_ratio
@@ -543,17 +626,17 @@ def log_from_columns(columns: Columns, robot: Robot, *, path: str | os.PathLike[
                 )
         elif joint.position_unit == "turns":
             q[:, k] = (
-                numeric_column(columns, name, p, max_abs=MAX_ANGLE, unit="turns")
+                _same_length(cols, name, p, t.size, max_abs=MAX_ANGLE, unit="turns")
                 * (2.0 * np.pi)
                 / joint.gear_ratio
             )
         else:
-            q[:, k] = numeric_column(columns, name, p, max_abs=MAX_ANGLE, unit="rad")
-        if f"tau_{joint.name}" in columns:
-            tau[:, k] = numeric_column(columns, f"tau_{joint.name}", p, unit="N m")
-        elif f"i_{joint.name}" in columns:
+            q[:, k] = _same_length(cols, name, p, t.size, max_abs=MAX_ANGLE, unit="rad")
+        if f"tau_{joint.name}" in cols:
+            tau[:, k] = _same_length(cols, f"tau_{joint.name}", p, t.size, unit="N m")
+        elif f"i_{joint.name}" in cols:
             tau[:, k] = (
-                numeric_column(columns, f"i_{joint.name}", p, unit="A") * joint.torque_constant
+                _same_length(cols, f"i_{joint.name}", p, t.size, unit="A") * joint.torque_constant
             )
         else:
             raise InputError(

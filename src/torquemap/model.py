@@ -248,3 +248,34 @@ def model_to_dict(model: Model) -> dict[str, Any]:
     if model.notes:
         doc["identification"] = dict(model.notes)
     return doc
+
+
+def save_model(path: str | os.PathLike[str], model: Model) -> None:
+    """Write a model file atomically (the inverse of :func:`load_model`).
+
+    Parameters
+    ----------
+    path
+        The TOML file to write; it appears whole or not at all.
+    model
+        The model, for example ``torquemap.identify(robot, log).model``.
+
+    Raises
+    ------
+    InputError
+        When the output folder does not exist.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from torquemap.robot import robot_from_dict
+    >>> rb = robot_from_dict({"robot": {"kinematics": "none"},
+    ...                       "joints": {"m": {"gear_ratio": 2, "torque_constant": 0.1}}})
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "model.toml"
+    >>> save_model(path, Model(robot=rb, joints={"m": JointModel()}))
+    >>> load_model(path).robot.joints[0].gear_ratio
+    2.0
+    """
+    from torquemap.io import write_toml
+
+    write_toml(path, model_to_dict(model))

@@ -16,6 +16,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from torquemap._callable import make_callable as _make_callable
 from torquemap.ctext import c_comment, c_float, c_identifier
 from torquemap.errors import InputError
 from torquemap.io import atomic_output, write_table
@@ -195,3 +196,7 @@ def write_pdtv_map(
     )
     with atomic_output(path) as tmp:
         tmp.write_text(text)
+
+
+# ``torquemap.pdtv_map(...)`` calls :func:`torquemap.api.pdtv_map` (the module stays a module).
+_make_callable(__name__, "torquemap.api:pdtv_map")

@@ -13,10 +13,13 @@ import io
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-
-from matplotlib.figure import Figure
+from typing import TYPE_CHECKING
 
 from torquemap.io import atomic_output
+from torquemap.plots.chart import CHART_SCRIPT, Chart, chart_json
+
+if TYPE_CHECKING:  # matplotlib is imported only when a figure is embedded
+    from matplotlib.figure import Figure
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -68,6 +71,10 @@ class Section:
         Tables and figures, in order.
     warnings
         One line each, shown highlighted.
+    charts
+        Interactive charts (:mod:`torquemap.plots.chart`), after the tables, before figures.
+    items
+        A bulleted list (for example the next steps), after the paragraphs.
     """
 
     heading: str
@@ -75,6 +82,8 @@ class Section:
     tables: tuple[Table, ...] = ()
     figures: tuple[EmbeddedFigure, ...] = ()
     warnings: tuple[str, ...] = ()
+    charts: tuple[Chart, ...] = ()
+    items: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -101,6 +110,7 @@ def embed(fig: Figure, caption: str, *, dpi: int = 90) -> EmbeddedFigure:
 
     Examples
     --------
+    >>> from matplotlib.figure import Figure
     >>> fig = Figure(figsize=(2, 1))
     >>> _ = fig.add_subplot().plot([0, 1], [1, 0])
     >>> embed(fig, "a line").png[:4]
@@ -143,6 +153,9 @@ figcaption { color: #555; font-size: 0.9em; }
 .warning { background: #fff4e5; border-left: 4px solid #f0a020; padding: 0.3em 0.8em;
            margin: 0.3em 0; }
 nav ul { columns: 2; } footer { color: #888; font-size: 0.85em; margin-top: 3em; }
+div.chart { width: 100%; min-height: 320px; border: 1px solid #eee; cursor: grab;
+            user-select: none; }
+.hint { color: #777; font-size: 0.85em; }
 """
 
 _SCRIPT = """
@@ -170,6 +183,7 @@ def render_html(report: Report) -> str:
         f"<title>{e(report.title)}</title>",
         f"<style>{_STYLE}</style>",
         f"<script>{_SCRIPT}</script>",
+        f"<script>{CHART_SCRIPT}</script>",
         "</head><body>",
         f"<h1>{e(report.title)}</h1>",
     ]
@@ -181,12 +195,20 @@ def render_html(report: Report) -> str:
             out.append(f'<li><a href="#{_anchor(k)}">{e(s.heading)}</a></li>')
         out.append("</ul></nav>")
     n_fig = 0
+    n_chart = 0
+    if any(s.charts for s in report.sections):
+        out.append(
+            '<p class="hint">Charts: mouse wheel zooms the horizontal axis, drag pans, '
+            "double click resets.</p>"
+        )
     for k, s in enumerate(report.sections):
         out.append(f'<section id="{_anchor(k)}"><h2>{e(s.heading)}</h2>')
         for w in s.warnings:
             out.append(f'<p class="warning">&#9888; {e(w)}</p>')
         for p in s.paragraphs:
             out.append(f"<p>{e(p)}</p>")
+        if s.items:
+            out.append("<ul>" + "".join(f"<li>{e(i)}</li>" for i in s.items) + "</ul>")
         for t in s.tables:
             out.append("<table>")
             if t.caption:
@@ -195,6 +217,15 @@ def render_html(report: Report) -> str:
             for row in t.rows:
                 out.append("<tr>" + "".join(f"<td>{e(c)}</td>" for c in row) + "</tr>")
             out.append("</table>")
+        for c in s.charts:
+            n_fig += 1
+            n_chart += 1
+            out.append(
+                f'<figure><div class="chart" data-src="chart{n_chart}"></div>'
+                f'<script type="application/json" id="chart{n_chart}">{chart_json(c)}</script>'
+                f"<noscript>This chart needs JavaScript.</noscript>"
+                f"<figcaption>Figure {n_fig}: {e(c.caption or c.title)}</figcaption></figure>"
+            )
         for f in s.figures:
             n_fig += 1
             data = base64.b64encode(f.png).decode("ascii")

@@ -71,6 +71,12 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         default=None,
         help="joint to identify (repeat; default: every joint that moves)",
     )
+    p.add_argument(
+        "--quasi-static",
+        action="store_true",
+        help="the logs hold position holds, not sweeps: PDTV from the mean holding torque "
+        "(docs/odrive.md)",
+    )
     p.set_defaults(handler=_identify)
 
     s = subparsers.add_parser(
@@ -168,6 +174,10 @@ def _identify(args: argparse.Namespace) -> int:
         f"read {len(args.logs)} log{'s' if len(args.logs) > 1 else ''}",
         lambda: [read_log(path, model.robot) for path in args.logs],
     )
+    if args.quasi_static:
+        from torquemap.cli.cmd_cogging import identify_holds
+
+        return identify_holds(model, logs, args)
     result = progress.run(
         "identify friction, inertia and PDTV",
         lambda: identify_model(model, logs, joints=args.joint, max_order=args.max_order),

@@ -41,7 +41,7 @@ def _report(args: argparse.Namespace) -> int:
         "write the report", lambda: write_user_report(args.model, args.logs, args.output)
     )
     warnings = sum(len(s.warnings) for s in report.sections)
-    figures = sum(len(s.figures) for s in report.sections)
+    figures = sum(len(s.figures) + len(s.charts) for s in report.sections)
     print(
         f"wrote {args.output} ({len(report.sections)} sections, {figures} figures, "
         f"{warnings} warnings)"

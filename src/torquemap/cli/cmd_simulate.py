@@ -10,7 +10,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from torquemap.cli import cmd_fleet, cmd_simulate_rig
+from torquemap.cli import cmd_fleet, cmd_simulate_actuator, cmd_simulate_rig
 from torquemap.cli.helptext import described
 from torquemap.cli.outputs import check_outputs
 
@@ -69,6 +69,7 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     figures.set_defaults(handler=_figures)
     cmd_simulate_rig.register(benches)
     cmd_fleet.register_simulate(benches)
+    cmd_simulate_actuator.register(benches)
 
 
 def _scara(args: argparse.Namespace) -> int:

@@ -13,6 +13,7 @@ from collections.abc import Sequence
 
 from torquemap import __version__
 from torquemap.cli import (
+    cmd_cogging,
     cmd_demo,
     cmd_estimate,
     cmd_fleet,
@@ -34,6 +35,7 @@ _MODULES = (
     cmd_report,
     cmd_import,
     cmd_fleet,
+    cmd_cogging,
 )
 
 
