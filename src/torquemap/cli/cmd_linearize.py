@@ -23,7 +23,7 @@ def _weight(text: str) -> float:
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add the ``linearize`` group and its sub-commands."""
-    from torquemap.cli import cmd_linearize_collect
+    from torquemap.cli import cmd_linearize_collect, cmd_linearize_more
 
     group = subparsers.add_parser(
         "linearize",
@@ -111,6 +111,7 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     figures.set_defaults(handler=_figures)
 
     cmd_linearize_collect.register(sub)
+    cmd_linearize_more.register(sub)
 
 
 def _build(args: argparse.Namespace) -> int:

@@ -1,0 +1,113 @@
+"""CLI: ``linearize home`` and ``linearize transfer`` (Adept II paper, Table 1 and §6.2).
+
+Registered into the ``linearize`` group by :mod:`torquemap.cli.cmd_linearize`. See
+docs/linearize-homing.md and docs/linearize-transfer.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+
+def register(subparsers: argparse._SubParsersAction[Any]) -> None:
+    """Add ``home`` and ``transfer`` to the ``linearize`` group's sub-parsers."""
+    home = subparsers.add_parser(
+        "home",
+        help="locate the table positions on the position counter from the phases' equilibria",
+        description="Home a simulated free motor from its phases' torque equilibria (each phase "
+        "energised alone, reached from below and from above), repeatedly, with the motor "
+        "displaced by hand in between, and report the counter offset and its repeatability "
+        "(Adept II paper, Table 1). See docs/linearize-homing.md.",
+    )
+    home.add_argument("motor", metavar="MOTOR.toml", help="the motor file (equilibria)")
+    home.add_argument("--sim", choices=("vr", "bldc"), required=True, help="simulated motor")
+    home.add_argument(
+        "--tables",
+        metavar="TABLES.npz",
+        help="take the equilibria from the tables (checked against the motor file)",
+    )
+    home.add_argument("--seed", type=int, default=0, help="power-up and friction seed (default 0)")
+    home.add_argument("--repeats", type=int, default=10, help="homings (default 10)")
+    home.add_argument(
+        "--pulse-width", type=int, default=None, help="energised phase's pulse width (default max)"
+    )
+    home.add_argument(
+        "--friction",
+        type=float,
+        default=0.01,
+        help="bearing friction, fraction of a phase's peak torque (default 0.01)",
+    )
+    home.add_argument("--json", action="store_true", help="print JSON instead of text")
+    home.set_defaults(handler=_home)
+
+
+def _home(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    import numpy as np
+
+    from torquemap.errors import InputError
+    from torquemap.linearize.export import load_tables
+    from torquemap.linearize.homing import circular_difference, circular_mean
+    from torquemap.linearize.motor import load_motor
+    from torquemap.sim.free_motor import home_on_sim
+
+    spec = load_motor(args.motor)
+    source = args.motor
+    if args.tables:
+        tables = load_tables(args.tables)
+        if (tables.phases.shape[0], tables.positions_per_cycle) != (
+            spec.phases,
+            spec.positions_per_cycle,
+        ):
+            raise InputError(
+                f"tables for {tables.phases.shape[0]} phases and {tables.positions_per_cycle} "
+                f"positions, the motor file has {spec.phases} and {spec.positions_per_cycle}: "
+                "tables for another motor?",
+                path=args.tables,
+            )
+        spec = dataclasses.replace(spec, equilibrium_positions=tables.equilibrium_positions)
+        source = args.tables
+    results, _truth = home_on_sim(
+        spec,
+        sim=args.sim,
+        seed=args.seed,
+        repeats=args.repeats,
+        pulse_width=args.pulse_width,
+        friction_fraction=args.friction,
+        path=source,
+    )
+    n = spec.positions_per_cycle
+    offsets = np.array([r.offset for r in results])
+    centre = circular_mean(offsets, n)
+    deviation = circular_difference(offsets, centre, n)
+    std = float(np.std(deviation, ddof=1)) if offsets.size > 1 else 0.0
+    summary = {
+        "offset": centre,
+        "repeatability_std": std,
+        "range": float(np.ptp(deviation)),
+        "homings": [
+            {
+                "offset": r.offset,
+                "spread": r.spread,
+                "hysteresis": r.hysteresis.tolist(),
+            }
+            for r in results
+        ],
+    }
+    if args.json:
+        print(json.dumps(summary, indent=2))
+        return 0
+    for i, r in enumerate(results, start=1):
+        print(
+            f"homing {i:>3}: offset {r.offset:8.3f}  spread {r.spread:.3f}  "
+            f"hysteresis {' '.join(f'{h:+.0f}' for h in r.hysteresis)}"
+        )
+    print(
+        f"offset {centre:.3f} table positions (table position = counter - {round(centre)} mod "
+        f"{n}); repeatability: std {std:.3f}, range {summary['range']:.3f} table positions "
+        f"over {len(results)} homings"
+    )
+    return 0
