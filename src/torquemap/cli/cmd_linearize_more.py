@@ -42,6 +42,22 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     home.add_argument("--json", action="store_true", help="print JSON instead of text")
     home.set_defaults(handler=_home)
 
+    transfer = subparsers.add_parser(
+        "transfer",
+        help="characterisation data for a second joint from a handful of its measurements",
+        description="Scale the first joint's full characterisation to a second joint of the same "
+        "motor type from a handful of its rows (a few positions and pulse widths, e.g. "
+        "'linearize collect --position-step 86 --step 64' for 512 positions per cycle) and "
+        "write the second joint's DATA.csv, to be built with 'linearize build' (Adept II "
+        "paper, section 6.2). See docs/linearize-transfer.md.",
+    )
+    transfer.add_argument("first_motor", metavar="FIRST.toml", help="the first joint's motor file")
+    transfer.add_argument("first_data", metavar="FIRST.csv", help="its full characterisation")
+    transfer.add_argument("second_motor", metavar="SECOND.toml", help="the second joint's")
+    transfer.add_argument("few", metavar="FEW.csv", help="the second joint's handful of rows")
+    transfer.add_argument("-o", "--out", metavar="DATA.csv", required=True, help="output data")
+    transfer.set_defaults(handler=_transfer)
+
 
 def _home(args: argparse.Namespace) -> int:
     import dataclasses
@@ -109,5 +125,31 @@ def _home(args: argparse.Namespace) -> int:
         f"offset {centre:.3f} table positions (table position = counter - {round(centre)} mod "
         f"{n}); repeatability: std {std:.3f}, range {summary['range']:.3f} table positions "
         f"over {len(results)} homings"
+    )
+    return 0
+
+
+def _transfer(args: argparse.Namespace) -> int:
+    from torquemap.io import atomic_output
+    from torquemap.linearize.motor import load_motor
+    from torquemap.linearize.tables import read_data
+    from torquemap.linearize.transfer import transfer_characterisation
+
+    first_spec = load_motor(args.first_motor)
+    second_spec = load_motor(args.second_motor)
+    first = read_data(args.first_data, first_spec, kind="characterisation")
+    few = read_data(args.few, second_spec, kind="characterisation")
+    result = transfer_characterisation(first_spec, first, second_spec, few)
+    with atomic_output(args.out) as tmp:
+        with open(tmp, "w") as handle:
+            handle.write("position,pulse_width,torque\n")
+            for p, w, t in zip(result.position, result.pulse_width, result.torque, strict=True):
+                handle.write(f"{p},{w},{t:.10g}\n")
+    gains = " ".join(f"{g:.3f}" for g in result.gain)
+    print(
+        f"wrote {result.position.size} rows to {args.out} from {result.measurements} "
+        f"measurements: phase gains {gains}, pulse width {result.pulse_offset:+.1f} + "
+        f"{result.pulse_scale:.3f} w (curve {result.pulse_curve:+.3f}); misfit "
+        f"{100 * result.residual:.1f} % (unchanged {100 * result.residual_unchanged:.1f} %)"
     )
     return 0
