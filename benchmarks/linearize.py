@@ -42,7 +42,11 @@ from pathlib import Path
 
 import numpy as np
 
-from torquemap.linearize.collect import collect_characterisation, collect_verification
+from torquemap.linearize.collect import (
+    CollectionSettings,
+    collect_characterisation,
+    collect_verification,
+)
 from torquemap.linearize.metrics import LinearityReport, apmd_report, evaluate_linearity
 from torquemap.linearize.motor import MotorSpec, ramped_actuation
 from torquemap.linearize.tables import LinearizeData, TableSet, build_tables, read_data
@@ -128,17 +132,15 @@ def characterise(
     rig: SimRig, spec: MotorSpec, out: Path, *, bias_open: bool = False
 ) -> LinearizeData:
     """Characterisation data: every 2nd pulse width and position plus the ramp's transitions."""
-    collect_characterisation(
-        rig,
-        spec,
-        out,
-        pulse_step=2,
-        positions=spec.positions_per_cycle // 2,
-        transitions=True,
+    settings = CollectionSettings(
         readings=READINGS,
+        level_step=2,
+        position_step=2,
+        transitions=True,
         bias_open=bias_open,
         progress=False,
     )
+    collect_characterisation(rig, spec, out, settings)
     return read_data(out, spec, kind="characterisation")
 
 
@@ -147,16 +149,8 @@ def measured(
 ) -> LinearityReport:
     """APMD of a verification run through ``tables`` (every command, every 4th position)."""
     rig.rng = np.random.default_rng(seed)  # the same sensor noise for every table set
-    collect_verification(
-        rig,
-        spec,
-        tables.as_mapping(),
-        out,
-        command_step=1,
-        positions=spec.positions_per_cycle // 4,
-        readings=READINGS,
-        progress=False,
-    )
+    settings = CollectionSettings(readings=READINGS, level_step=1, position_step=4, progress=False)
+    collect_verification(rig, spec, tables.as_mapping(), out, settings)
     data = read_data(out, spec, kind="verification")
     return evaluate_linearity(spec, data, tables=tables)
 

@@ -8,6 +8,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from torquemap.cli.cmd_linearize_collect import add_settings_arguments, settings_from
+
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add ``rig`` to the ``simulate`` group's sub-parsers."""
@@ -25,29 +27,7 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     rig.add_argument(
         "--ramping", choices=("narrow", "wide"), default="wide", help="ramping (default wide)"
     )
-    rig.add_argument("--readings", type=int, default=10, help="readings per row (default 10)")
-    rig.add_argument(
-        "--bias-readings",
-        type=int,
-        default=None,
-        help="readings averaged for the sensor bias at each position (default 10x --readings)",
-    )
-    rig.add_argument(
-        "--bias-open",
-        action="store_true",
-        help="read the bias with the contact open, not at rest (where cogging alone loads the "
-        "contact, the rows then hold the torque at rest)",
-    )
-    rig.add_argument("--pulse-step", type=int, default=4, help="pulse-width step (default 4)")
-    rig.add_argument(
-        "--position-step", type=int, default=4, help="table positions between targets (default 4)"
-    )
-    rig.add_argument(
-        "--transitions",
-        action="store_true",
-        help="also target every position where the ramp changes (the phases' hand-over)",
-    )
-    rig.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_settings_arguments(rig, level_flag="--pulse-step", level_help="pulse-width step")
     rig.set_defaults(handler=_rig)
 
 
@@ -59,13 +39,7 @@ def _rig(args: argparse.Namespace) -> int:
         motor=args.motor,
         seed=args.seed,
         ramping=args.ramping,
-        readings=args.readings,
-        bias_readings=args.bias_readings,
-        bias_open=args.bias_open,
-        transitions=args.transitions,
-        pulse_step=args.pulse_step,
-        position_step=args.position_step,
-        progress=not args.no_progress,
+        settings=settings_from(args),
     )
     print(
         f"wrote motor.toml and data.csv ({result.rows} rows, {result.targets.size} positions, "
