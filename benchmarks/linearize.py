@@ -33,6 +33,7 @@ commands).
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import statistics
 import sys
@@ -50,6 +51,7 @@ from torquemap.linearize.collect import (
 from torquemap.linearize.metrics import LinearityReport, apmd_report, evaluate_linearity
 from torquemap.linearize.motor import MotorSpec, ramped_actuation
 from torquemap.linearize.tables import LinearizeData, TableSet, build_tables, read_data
+from torquemap.sim.family import paper_bench
 from torquemap.sim.motors import BrushlessDcMotor, VariableReluctanceMotor
 from torquemap.sim.rig import SimRig, brushless_dc_rig, variable_reluctance_rig
 
@@ -155,7 +157,100 @@ def measured(
     return evaluate_linearity(spec, data, tables=tables)
 
 
-def main() -> int:
+# -- the family of random motors ---------------------------------------------------------------
+
+
+def verification_settings(spec: MotorSpec) -> CollectionSettings:
+    """Every command, about 32 positions over the cycle, the paper's 10 readings a row."""
+    return CollectionSettings(
+        readings=10, level_step=1, position_step=max(1, spec.positions_per_cycle // 32),
+        bias_open=True, progress=False,
+    )  # fmt: skip
+
+
+def family_row(seed: int, tmp: Path, *, verify: bool) -> dict[str, float | str]:
+    """One random motor at the paper's collection: interp, paper method and floor."""
+    bench = paper_bench(seed)
+    rig = bench.rig
+    spec = rig.motor_spec(ramping=bench.ramping)
+    out = tmp / f"family-{seed}.csv"
+    # the paper's readings and steps; the bias read on an open contact (where cogging alone
+    # loads the contact, a bias read at rest would swallow it)
+    settings = dataclasses.replace(bench.settings, bias_open=True)
+    collect_characterisation(rig, spec, out, settings)
+    data = read_data(out, spec, kind="characterisation")
+    row: dict[str, float | str] = {"motor": bench.describe()}
+    tables = {
+        method: build_tables(spec, data.position, data.level, data.torque, method=method)
+        for method in ("interp", "paper")
+    }
+    tables["floor"] = floor_tables(rig, spec, tables["interp"])
+    for name, t in tables.items():
+        report = noise_free(rig, t)
+        row[f"{name}_nf"] = report.apmd
+        for c in (1, 2, 3):
+            row[f"{name}_c{c}"] = float(report.capmd[c])
+    if verify:
+        # the same verification run (same sensor-noise seed) through every table set, on a rig
+        # with fresh noise
+        check = paper_bench(seed, noise_seed=10_000 + seed).rig
+        for name, t in tables.items():
+            check.rng = np.random.default_rng(20_000 + seed)
+            check.base, check.force = check.settings.start_position, 0.0
+            vout = tmp / f"family-{seed}-{name}-verify.csv"
+            collect_verification(check, spec, t.as_mapping(), vout, verification_settings(spec))
+            vdata = read_data(vout, spec, kind="verification")
+            report = evaluate_linearity(spec, vdata, tables=t)
+            row[f"{name}_meas"] = report.apmd
+    return row
+
+
+def family_tables(rows: list[dict[str, float | str]], *, verify: bool) -> None:
+    """Print the per-motor table and the median / worst summary."""
+
+    def f(row: dict[str, float | str], key: str) -> float:
+        return float(row[key])
+
+    kinds = ["nf", "meas"] if verify else ["nf"]
+    for kind in kinds:
+        label = "measured (same verification run)" if kind == "meas" else "noise-free"
+        print(f"\nrandom motors, paper collection, APMD {label} [%]")
+        print(f"{'motor':<92}{'interp':>8}{'paper':>8}{'floor':>8}{'i/floor':>9}{'p/floor':>9}")
+        for row in rows:
+            i, p, fl = f(row, f"interp_{kind}"), f(row, f"paper_{kind}"), f(row, f"floor_{kind}")
+            print(
+                f"{row['motor']!s:<92}{100 * i:>8.2f}{100 * p:>8.2f}{100 * fl:>8.2f}"
+                f"{i / fl:>9.2f}{p / fl:>9.2f}"
+            )
+        ratio = np.array([f(r, f"interp_{kind}") / f(r, f"floor_{kind}") for r in rows])
+        paper = np.array([f(r, f"paper_{kind}") / f(r, f"floor_{kind}") for r in rows])
+        better = sum(f(r, f"interp_{kind}") < f(r, f"paper_{kind}") for r in rows)
+        print(
+            f"interp / floor: median {np.median(ratio):.2f}, worst {ratio.max():.2f}; "
+            f"paper method / floor: median {np.median(paper):.2f}, worst {paper.max():.2f}; "
+            f"interp better than the paper's method on {better} of {len(rows)} motors"
+        )
+    print("\nCAPMD at commands 1-3, noise-free, median over motors [%]")
+    for name in ("interp", "paper", "floor"):
+        values = [
+            f"{100 * float(np.median([f(r, f'{name}_c{c}') for r in rows])):.1f}" for c in (1, 2, 3)
+        ]
+        print(f"  {name:<8}" + "".join(f"{v:>9}" for v in values))
+
+
+def family(seeds: list[int], *, verify: bool) -> None:
+    """The random-motor section."""
+    start = time.perf_counter()
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for seed in seeds:
+            rows.append(family_row(seed, Path(tmp), verify=verify))
+            print(f"  seed {seed} done ({time.perf_counter() - start:.0f} s)", file=sys.stderr)
+    family_tables(rows, verify=verify)
+    print(f"({len(seeds)} motors in {time.perf_counter() - start:.0f} s)")
+
+
+def joints_section() -> int:
     rows: dict[str, dict[str, float]] = {}
     build_data = None
     with tempfile.TemporaryDirectory() as tmp:
@@ -270,6 +365,20 @@ def main() -> int:
         f"{data.position.size} rows: interp {times['interp'] * 1e3:.0f} ms, "
         f"paper {times['paper'] * 1e3:.0f} ms (median of 7)"
     )
+    return 0
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--quick", action="store_true", help="random motors only, noise-free")
+    parser.add_argument("--motors", type=int, default=20, help="random motors (default 20)")
+    parser.add_argument("--first-seed", type=int, default=0, help="first seed (default 0)")
+    parser.add_argument("--no-joints", action="store_true", help="skip the four joints")
+    args = parser.parse_args()
+    seeds = list(range(args.first_seed, args.first_seed + args.motors))
+    if not (args.quick or args.no_joints):
+        joints_section()
+    family(seeds, verify=not args.quick)
     return 0
 
 

@@ -48,6 +48,7 @@ from torquemap.sim.motors import (
     VariableReluctanceMotor,
     amplifier_current,
     motor_torque,
+    torque_at,
 )
 
 
@@ -205,8 +206,9 @@ class SimRig:
         s = self.settings
         held = self.force
         f = held
+        current = amplifier_current(self.actuation, self.amplifier).tolist()
         for _ in range(60):
-            t = float(self.true_torque(self.base + f / s.stiffness, self.actuation))
+            t = torque_at(self.motor, self.base + f / s.stiffness, current)
             if t - s.friction > held:
                 new = t - s.friction
             elif t + s.friction < held:
@@ -370,17 +372,24 @@ def collect_on_sim(
     """
     _check_seed(seed)
     rig = sim_rig(sim, rng=seed)
-    return _collect_on(rig, spec, out_csv, f"simulated {sim} motor", tables, settings)
+    return collect_on_rig(
+        rig, spec, out_csv, f"simulated {sim} motor", tables=tables, settings=settings
+    )
 
 
-def _collect_on(
+def collect_on_rig(
     rig: SimRig,
     spec: MotorSpec,
     out_csv: str | os.PathLike[str],
     what: str,
-    tables: str | os.PathLike[str] | None,
-    settings: CollectionSettings | None,
+    *,
+    tables: str | os.PathLike[str] | None = None,
+    settings: CollectionSettings | None = None,
 ) -> CollectResult:
+    """Characterise (or, with ``tables``, verify) on ``rig`` after checking that ``spec`` fits.
+
+    ``what`` names the rig in the message when the motor file does not match it.
+    """
     if (spec.phases, spec.positions_per_cycle) != (rig.phases, rig.positions_per_cycle):
         raise InputError(
             f"the motor file has {spec.phases} phases and {spec.positions_per_cycle} positions "
