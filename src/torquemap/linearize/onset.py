@@ -92,7 +92,7 @@ def _solve_cells(
             v = np.bincount(cp, weights=design[:, i] * design[:, j], minlength=n)
             lhs[:, i, j] = lhs[:, j, i] = v
     lhs += 1e-12 * np.eye(q)[None]
-    coef: NDArray[np.float64] = np.linalg.solve(lhs, rhs[..., None])[..., 0]
+    coef = np.asarray(np.linalg.solve(lhs, rhs[..., None])[..., 0], dtype=np.float64)
     res = np.sum(design * coef[cp], axis=1) - y
     sse = np.bincount(cp, weights=res * res, minlength=n).astype(np.float64)
     return coef, sse
