@@ -1,6 +1,22 @@
-"""Torque linearisation on four simulated joints beside the Adept II paper's Table 2.
+"""Torque linearisation on four simulated joints beside the Adept II paper's Table 2, then on a
+family of random motors at the paper's collection settings.
 
-Run: ``.venv/bin/python benchmarks/linearize.py`` (about 12 minutes on 2 cores).
+Run: ``.venv/bin/python benchmarks/linearize.py`` (the four joints, then 20 random motors);
+``--no-joints`` for the random motors alone, ``--quick`` for them noise-free only (no
+verification runs: for iterating), ``--motors N --first-seed S`` for other members of the family.
+
+Random motors (``torquemap.sim.family.paper_bench``): each collected at the paper's settings (10
+readings a row, every 4th table position and pulse width) with the bias read on an open contact
+(where cogging alone loads the contact, a bias read at rest would swallow it; the floor is the
+absolute sensed torque); tables by both methods and the floor (the same exhaustive search as for
+the joints); each evaluated noise-free over every cell of the sensed-torque surface, and measured
+through one verification run per table set with the same sensor-noise seed on a rig with fresh
+noise (every command at about 16 positions, every (P/16 + 1)-th: between the
+characterisation's targets as often as on them; 40 readings a row). Reported: the APMD ratio to the floor,
+its median and worst over the motors, the comparison with the paper's method on every motor, and
+the CAPMD at commands 1 to 3.
+
+The four joints:
 
 For each joint: collect characterisation data on the simulated rig (every 2nd pulse width, every
 2nd table position and every position where the ramp changes, a data density of about a quarter
@@ -161,10 +177,11 @@ def measured(
 
 
 def verification_settings(spec: MotorSpec) -> CollectionSettings:
-    """Every command at 16 positions over the cycle, 40 readings a row (a reading costs little
-    beside settling; more of them make the low commands measurable)."""
+    """Every command at about 16 positions over the cycle, 40 readings a row (a reading costs
+    little beside settling; more of them make the low commands measurable). The step is odd, so
+    the positions fall between the characterisation's targets as often as on them."""
     return CollectionSettings(
-        readings=40, level_step=1, position_step=max(1, spec.positions_per_cycle // 16),
+        readings=40, level_step=1, position_step=spec.positions_per_cycle // 16 + 1,
         bias_open=True, progress=False,
     )  # fmt: skip
 

@@ -45,6 +45,8 @@ EXPONENTS = np.linspace(0.8, 3.2, 13)
 DEAD_ZONES = np.linspace(0.0, 0.3, 31)
 #: Fewest readings in a position's window for it to be fitted.
 MIN_POINTS = 3
+#: Cells the search over dead zones and exponents runs on (spread over the positions).
+SEARCH_CELLS = 4000
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -148,10 +150,25 @@ def fit_onset(
     top = float(actuation_max)
     tried: list[tuple[float, float, float]] = []
     if cp.size:
-        for d in DEAD_ZONES * top:
-            for n in EXPONENTS:
-                _, sse = _solve_cells(cp, _cell_design(u, r, float(d), float(n), top), y, n_pos)
-                tried.append((float(np.sum(sse)), float(d), float(n)))
+        # the search on at most SEARCH_CELLS cells spread evenly over the positions, first on
+        # every 3rd dead zone and 2nd exponent, then on the full grids around the best
+        pick = np.unique(np.linspace(0, cp.size - 1, min(cp.size, SEARCH_CELLS)).astype(int))
+        sp, su, sr, sy = cp[pick], u[pick], r[pick], y[pick]
+        done: dict[tuple[int, int], float] = {}
+
+        def score(i: int, j: int) -> float:
+            if (i, j) not in done:
+                design = _cell_design(su, sr, float(DEAD_ZONES[i] * top), float(EXPONENTS[j]), top)
+                done[(i, j)] = float(np.sum(_solve_cells(sp, design, sy, n_pos)[1]))
+            return done[(i, j)]
+
+        coarse = [(score(i, j), i, j) for i in range(0, DEAD_ZONES.size, 3)
+                  for j in range(0, EXPONENTS.size, 2)]  # fmt: skip
+        _, bi, bj = min(coarse)
+        for i in range(max(0, bi - 3), min(DEAD_ZONES.size, bi + 4)):
+            for j in range(max(0, bj - 2), min(EXPONENTS.size, bj + 3)):
+                score(i, j)
+        tried = [(v, float(DEAD_ZONES[i] * top), float(EXPONENTS[j])) for (i, j), v in done.items()]
     d, n = 0.0, 1.0
     if tried:
         # among the pairs that fit as well as the best (a linear law's dead zone trades with
