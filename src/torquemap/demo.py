@@ -318,6 +318,7 @@ def _scara(
 def _rig(
     out: Path, motor: Literal["vr", "bldc"], seed: int, steps: _Steps
 ) -> tuple[ApmdRow, Section]:
+    from torquemap.linearize.collect import CollectionSettings
     from torquemap.linearize.export import save_tables
     from torquemap.linearize.metrics import evaluate_linearity
     from torquemap.linearize.motor import load_motor
@@ -335,7 +336,9 @@ def _rig(
         (d / "verify.csv").unlink()  # a new run, not a resumed one
     steps.run(
         f"characterise the {kind} motor on the simulated rig",
-        lambda: write_rig_data(d, motor=motor, seed=seed, progress=steps.show),
+        lambda: write_rig_data(
+            d, motor=motor, seed=seed, settings=CollectionSettings(progress=steps.show)
+        ),
         own_bar=True,
     )
     spec = load_motor(d / "motor.toml")
@@ -353,8 +356,7 @@ def _rig(
             sim=motor,
             seed=seed + 100,
             tables=d / "TABLES.npz",
-            step=2,
-            progress=steps.show,
+            settings=CollectionSettings(level_step=2, progress=steps.show),
         ),
         own_bar=True,
     )

@@ -163,7 +163,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     tables = None if args.tables is None else load_tables(args.tables)
     kind: DataKind = "characterisation" if tables is None else "verification"
     data = read_data(args.data, spec, kind=kind)
-    report = evaluate_linearity(spec, data, tables=tables)
+    report = evaluate_linearity(spec, data, tables=tables, tables_path=args.tables)
     print(format_report(report, title=f"{kind} data {args.data}"))
     if args.out:
         with atomic_output(args.out) as tmp:
