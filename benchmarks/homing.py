@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from torquemap.linearize.collect import collect_characterisation
+from torquemap.linearize.collect import CollectionSettings, collect_characterisation
 from torquemap.linearize.homing import circular_difference, circular_mean, home_motor
 from torquemap.linearize.metrics import LinearityReport, apmd_report
 from torquemap.linearize.tables import TableSet, build_tables, read_data
@@ -83,9 +83,7 @@ def main() -> int:
             spec = rig.motor_spec(ramping="wide")
             n = spec.positions_per_cycle
             out = Path(tmp) / f"{name}.csv"
-            collect_characterisation(
-                rig, spec, out, pulse_step=4, positions=n // 4, readings=10, progress=False
-            )
+            collect_characterisation(rig, spec, out, CollectionSettings.paper(progress=False))
             data = read_data(out, spec, kind="characterisation")
             tables = build_tables(spec, data.position, data.level, data.torque)
             degrees = 360.0 / (n * motor.cycles_per_revolution)  # per table position

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from torquemap.linearize.collect import collect_characterisation
+from torquemap.linearize.collect import CollectionSettings, collect_characterisation
 from torquemap.linearize.metrics import apmd_report
 from torquemap.linearize.tables import TableSet, build_tables, read_data
 from torquemap.linearize.transfer import transfer_characterisation
@@ -54,7 +54,7 @@ def main() -> int:
             spec1 = first.motor_spec()
             n = spec1.positions_per_cycle
             collect_characterisation(
-                first, spec1, d / "first.csv", pulse_step=4, positions=n // 4, progress=False
+                first, spec1, d / "first.csv", CollectionSettings.paper(progress=False)
             )
             data1 = read_data(d / "first.csv", spec1, kind="characterisation")
             tables1 = build_tables(spec1, data1.position, data1.level, data1.torque)
@@ -65,13 +65,18 @@ def main() -> int:
                 spec = rig.motor_spec()
                 few_csv, full_csv = d / f"{kind}{s}-few.csv", d / f"{kind}{s}-full.csv"
                 collect_characterisation(
-                    rig, spec, few_csv, pulse_step=64, positions=2 * spec.phases, progress=False
+                    rig,
+                    spec,
+                    few_csv,
+                    CollectionSettings(
+                        position_step=-(-n // (2 * spec.phases)), level_step=64, progress=False
+                    ),
                 )
                 few = read_data(few_csv, spec, kind="characterisation")
                 result = transfer_characterisation(spec1, data1, spec, few)
                 moved = build_tables(spec, result.position, result.pulse_width, result.torque)
                 collect_characterisation(
-                    rig, spec, full_csv, pulse_step=4, positions=n // 4, progress=False
+                    rig, spec, full_csv, CollectionSettings.paper(progress=False)
                 )
                 full = read_data(full_csv, spec, kind="characterisation")
                 own = build_tables(spec, full.position, full.level, full.torque)

@@ -11,6 +11,7 @@ import pytest
 from torquemap.cli.main import main
 from torquemap.errors import InputError
 from torquemap.io import write_toml
+from torquemap.linearize.collect import CollectionSettings as Settings
 from torquemap.linearize.collect import collect_characterisation
 from torquemap.linearize.motor import motor_to_dict, ramped_actuation
 from torquemap.linearize.tables import LinearizeData, read_data
@@ -28,7 +29,7 @@ def joints(tmp_path_factory: pytest.TempPathFactory) -> dict[str, object]:
     first = sim_rig("vr", rng=1)
     spec1 = first.motor_spec()
     collect_characterisation(
-        first, spec1, tmp / "first.csv", pulse_step=16, positions=32, progress=False
+        first, spec1, tmp / "first.csv", Settings(position_step=16, level_step=16, progress=False)
     )
     g = tuple(a * b for a, b in zip(first.motor.phase_gain, GAINS, strict=True))
     motor2 = dataclasses.replace(first.motor, phase_gain=g)
@@ -36,7 +37,7 @@ def joints(tmp_path_factory: pytest.TempPathFactory) -> dict[str, object]:
     second = sim_rig("vr", rng=2, motor=motor2, amplifier=amp2)
     spec2 = second.motor_spec()
     collect_characterisation(
-        second, spec2, tmp / "few.csv", pulse_step=32, positions=12, progress=False
+        second, spec2, tmp / "few.csv", Settings(position_step=43, level_step=32, progress=False)
     )
     data1 = read_data(tmp / "first.csv", spec1, kind="characterisation")
     few = read_data(tmp / "few.csv", spec2, kind="characterisation")
