@@ -37,6 +37,9 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         "--tables", metavar="TABLES.npz", help="phase tables: verification run instead"
     )
     add_settings_arguments(collect, level_flag="--step", level_help="pulse-width or command step")
+    from torquemap.cli.cmd_linearize_more import add_adaptive_arguments
+
+    add_adaptive_arguments(collect)
     collect.set_defaults(handler=_collect)
 
 
@@ -116,6 +119,10 @@ def _collect(args: argparse.Namespace) -> int:
     from torquemap.sim.rig import collect_on_sim
 
     spec = load_motor(args.motor)
+    if args.adaptive:
+        from torquemap.cli.cmd_linearize_more import collect_adaptive_command
+
+        return collect_adaptive_command(args, spec, settings_from(args))
     if args.random is not None:
         from torquemap.sim.family import collect_on_random
 

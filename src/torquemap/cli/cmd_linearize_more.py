@@ -153,3 +153,49 @@ def _transfer(args: argparse.Namespace) -> int:
         f"{100 * result.residual:.1f} % (unchanged {100 * result.residual_unchanged:.1f} %)"
     )
     return 0
+
+
+def add_adaptive_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--adaptive`` and ``--budget`` for ``linearize collect``."""
+    parser.add_argument(
+        "--adaptive",
+        action="store_true",
+        help="choose where to measure (where the torque surface bends) within --budget of the "
+        "grid's readings; resumable (docs/linearize-adaptive.md)",
+    )
+    parser.add_argument(
+        "--budget",
+        type=float,
+        default=1.0 / 3.0,
+        help="adaptive: fraction of the settings' grid's readings to spend (default 1/3)",
+    )
+
+
+def collect_adaptive_command(args: argparse.Namespace, spec: Any, settings: Any) -> int:
+    """``linearize collect --adaptive``: on the simulated or random rig, resumable."""
+    from torquemap.errors import InputError
+    from torquemap.linearize.adaptive import collect_adaptive
+    from torquemap.sim.rig import check_rig_fits, sim_rig
+
+    if args.tables:
+        raise InputError("--adaptive collects characterisation data; it takes no --tables")
+    if args.seed < 0:
+        raise InputError(f"seed must be a non-negative integer, got {args.seed}")
+    if args.random is not None:
+        from torquemap.sim.family import random_bench
+
+        rig = random_bench(args.random, noise_seed=args.seed).rig
+        what = f"random motor {args.random}"
+    else:
+        rig = sim_rig(args.sim, rng=args.seed)
+        what = f"simulated {args.sim} motor"
+    check_rig_fits(rig, spec, what)
+    result = collect_adaptive(rig, spec, args.out, settings, fraction=args.budget)
+    resumed = f", resumed after {result.resumed_blocks} blocks" if result.resumed_blocks else ""
+    print(
+        f"wrote {result.rows} rows ({result.blocks} blocks at {result.positions} positions, "
+        f"{result.levels.size} pulse widths{resumed}) to {args.out}: {result.readings} readings "
+        f"of a budget of {result.budget} ({100 * result.readings / result.grid_readings:.0f} % "
+        "of the grid's)"
+    )
+    return 0

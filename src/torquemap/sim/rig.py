@@ -377,6 +377,22 @@ def collect_on_sim(
     )
 
 
+def check_rig_fits(rig: SimRig, spec: MotorSpec, what: str) -> None:
+    """Raise InputError (naming the motor file) if ``spec`` does not fit ``rig``."""
+    if (spec.phases, spec.positions_per_cycle) != (rig.phases, rig.positions_per_cycle):
+        raise InputError(
+            f"the motor file has {spec.phases} phases and {spec.positions_per_cycle} positions "
+            f"per cycle; the {what} has {rig.phases} and {rig.positions_per_cycle}",
+            path=spec.path,
+        )
+    if spec.actuation_max != rig.amplifier.actuation_max:
+        raise InputError(
+            f"actuation_max {spec.actuation_max} does not match the simulated amplifier's "
+            f"{rig.amplifier.actuation_max}",
+            path=spec.path,
+        )
+
+
 def collect_on_rig(
     rig: SimRig,
     spec: MotorSpec,
@@ -390,18 +406,7 @@ def collect_on_rig(
 
     ``what`` names the rig in the message when the motor file does not match it.
     """
-    if (spec.phases, spec.positions_per_cycle) != (rig.phases, rig.positions_per_cycle):
-        raise InputError(
-            f"the motor file has {spec.phases} phases and {spec.positions_per_cycle} positions "
-            f"per cycle; the {what} has {rig.phases} and {rig.positions_per_cycle}",
-            path=spec.path,
-        )
-    if spec.actuation_max != rig.amplifier.actuation_max:
-        raise InputError(
-            f"actuation_max {spec.actuation_max} does not match the simulated amplifier's "
-            f"{rig.amplifier.actuation_max}",
-            path=spec.path,
-        )
+    check_rig_fits(rig, spec, what)
     s = CollectionSettings() if settings is None else settings
     if tables is None:
         return collect_characterisation(rig, spec, out_csv, s)
