@@ -34,16 +34,18 @@ from torquemap.sim.family import random_bench
 from torquemap.sim.rig import SimRig
 
 
-def apmd(rig: SimRig, tables: TableSet) -> float:
-    """Eq 1 over every cell (p, c > 0) of the sensed torque through the tables, noise-free."""
+def apmd(rig: SimRig, tables: TableSet) -> tuple[float, float]:
+    """Eq 1 over every cell (p, c > 0) of the sensed torque through the tables, noise-free,
+    and above 10 % command."""
     n, cmax = tables.positions_per_cycle, tables.command_max
     p = np.arange(n)
     act = np.moveaxis(tables.phases[:, :, : cmax + 1], 0, -1)
     torque = np.maximum(rig.true_torque(p[:, None], act) - rig.settings.friction, 0.0)
     pp, cc = np.meshgrid(p, np.arange(cmax + 1), indexing="ij")
-    return apmd_report(
+    report = apmd_report(
         pp.ravel(), cc.ravel(), torque.ravel(), command_max=cmax, positions_per_cycle=n
-    ).apmd
+    )
+    return report.apmd, report.apmd_above_10
 
 
 def main() -> int:
@@ -87,15 +89,26 @@ def main() -> int:
         f"{'seed':<5}{'grid':>7}{'adaptive':>9}{'uniform':>8}{'ad/grid':>8}{'un/grid':>8}"
         f"{'ad reads':>9}{'un reads':>9}{'positions':>10}{'levels':>7}  motor"
     )
-    for seed, (text, sc, frac, ufrac, npos, nlev) in enumerate(rows):
+    for seed, (text, both, frac, ufrac, npos, nlev) in enumerate(rows):
+        sc = {k: v[0] for k, v in both.items()}
         print(
             f"{seed:<5}{100 * sc['grid']:>6.2f}%{100 * sc['adaptive']:>8.2f}%"
             f"{100 * sc['uniform']:>7.2f}%{sc['adaptive'] / sc['grid']:>8.2f}"
             f"{sc['uniform'] / sc['grid']:>8.2f}{100 * frac:>8.0f}%{100 * ufrac:>8.0f}%"
             f"{npos:>10}{nlev:>7}  {text.split(': ', 1)[1]}"
         )
-    ad = [r[1]["adaptive"] / r[1]["grid"] for r in rows]
-    un = [r[1]["uniform"] / r[1]["grid"] for r in rows]
+    ad = [r[1]["adaptive"][0] / r[1]["grid"][0] for r in rows]
+    un = [r[1]["uniform"][0] / r[1]["grid"][0] for r in rows]
+    ad10 = [r[1]["adaptive"][1] / r[1]["grid"][1] for r in rows]
+    print(
+        "above 10 % command [%]: "
+        + "; ".join(
+            f"{s}: grid {100 * r[1]['grid'][1]:.2f} adaptive {100 * r[1]['adaptive'][1]:.2f} "
+            f"uniform {100 * r[1]['uniform'][1]:.2f}"
+            for s, r in enumerate(rows)
+        )
+    )
+    print(f"ratio above 10 %: adaptive median {statistics.median(ad10):.2f} worst {max(ad10):.2f}")
     print(
         f"ratio to the grid: adaptive median {statistics.median(ad):.2f} worst {max(ad):.2f}; "
         f"uniform third median {statistics.median(un):.2f} worst {max(un):.2f}"

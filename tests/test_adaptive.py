@@ -47,9 +47,9 @@ def _rig(seed: int = 0) -> SimRig:
 def test_budget_is_respected_and_resume_loses_nothing(tmp_path: Path) -> None:
     rig = _rig()
     spec = rig.motor_spec()
-    whole = collect_adaptive(rig, spec, tmp_path / "whole.csv", SETTINGS)
-    assert whole.readings <= whole.budget == int(grid_readings(spec, SETTINGS) / 3)
-    assert whole.positions > 4  # the coarse pass's 4, then refined
+    whole = collect_adaptive(rig, spec, tmp_path / "whole.csv", SETTINGS, fraction=0.9)
+    assert whole.readings <= whole.budget == int(grid_readings(spec, SETTINGS) * 0.9)
+    assert whole.positions > 13  # the coarse pass's 13, then refined
 
     class Interrupted(Exception):
         pass
@@ -67,8 +67,8 @@ def test_budget_is_respected_and_resume_loses_nothing(tmp_path: Path) -> None:
     flaky = Flaky(base.motor, base.amplifier, base.settings, rng=0)
     out = tmp_path / "cut.csv"
     with pytest.raises(Interrupted):
-        collect_adaptive(flaky, spec, out, SETTINGS)
-    resumed = collect_adaptive(flaky, spec, out, SETTINGS)
+        collect_adaptive(flaky, spec, out, SETTINGS, fraction=0.9)
+    resumed = collect_adaptive(flaky, spec, out, SETTINGS, fraction=0.9)
     assert resumed.resumed_blocks > 0
     assert resumed.blocks == whole.blocks and resumed.rows == whole.rows
     a = np.loadtxt(tmp_path / "whole.csv", delimiter=",", skiprows=1)
@@ -82,6 +82,8 @@ def test_bad_input(tmp_path: Path) -> None:
     spec = rig.motor_spec()
     with pytest.raises(InputError, match="budget fraction"):
         collect_adaptive(rig, spec, tmp_path / "x.csv", SETTINGS, fraction=1.5)
+    with pytest.raises(InputError, match="does not cover the coarse pass"):
+        collect_adaptive(rig, spec, tmp_path / "x.csv", SETTINGS, fraction=0.1)
     grid = tmp_path / "grid.csv"
     grid.write_text("position,pulse_width,torque\n0,0,0.0\n")
     with pytest.raises(InputError, match="without its record"):

@@ -5,9 +5,11 @@ flat in position (a phase's plateau) or straight in pulse width (above the onset
 linear interpolation between far fewer rows is as good. :func:`collect_adaptive` spends a budget
 of sensor readings (by default a third of the paper grid's, bias readings included) in passes:
 
-1. A coarse pass: every ``4 position_step``-th position, every ``2 level_step``-th pulse width.
-2. The pulse widths: from the coarse blocks, the level grid is thinned where the curves are
-   straight, keeping the levels whose removal would cost more than ``tolerance`` of the
+1. A coarse pass: every ``4 position_step``-th position (at most ``P / 4 m`` apart, the gap the
+   table builder interpolates across), every ``2 level_step``-th pulse width.
+2. The pulse widths: from the coarse blocks (their low-rank fit,
+   :func:`torquemap.linearize.denoise.denoise_blocks`, so that the noise is not taken for
+   curvature), the level grid is thinned where the curves are straight, keeping the levels whose removal would cost more than ``tolerance`` of the
    torque (relative to each level's mean torque, so the onset keeps its density).
 3. Position passes, one sweep of the cycle each: every gap between measured positions gets
    the score ``gap^2 max_level |second difference| / mean torque`` (the linear interpolation
@@ -41,6 +43,7 @@ from numpy.typing import NDArray
 from torquemap.errors import InputError
 from torquemap.io import atomic_output
 from torquemap.linearize.collect import CHARACTERISATION_COLUMNS, CollectionSettings, Rig
+from torquemap.linearize.denoise import denoise_blocks
 from torquemap.linearize.motor import MotorSpec, ramped_actuation
 
 
@@ -228,7 +231,7 @@ def collect_adaptive(
     settings: CollectionSettings | None = None,
     *,
     fraction: float = 1.0 / 3.0,
-    tolerance: float = 0.02,
+    tolerance: float = 0.005,
     row_readings: int | None = None,
     coarse_level_step: int | None = None,
     saturation: float | None = None,
@@ -268,7 +271,7 @@ def collect_adaptive(
     Raises
     ------
     InputError
-        A fraction outside (0, 1], an output folder that does not exist, or a file that cannot
+        A fraction outside (0, 1] or a budget below the coarse pass, an output folder that does not exist, or a file that cannot
         be resumed (no record, malformed rows, a record listing more rows than the file has).
     """
     start = time.perf_counter()
@@ -306,9 +309,13 @@ def collect_adaptive(
         return sum(c * s.readings + s.bias_count for _, _, c in done[:cursor])
 
     def known() -> tuple[list[tuple[int, int, float]], list[tuple[int, list[int], int]]]:
-        """Rows and blocks planned so far: the plan must not see blocks it has not reached."""
+        """Rows and blocks planned so far (the plan must not see blocks it has not reached),
+        their torques replaced by the low-rank fit so that the curvature is not the noise's."""
         blocks = done[:cursor]
-        return rows[: sum(c for _, _, c in blocks)], blocks
+        mine = rows[: sum(c for _, _, c in blocks)]
+        level = np.array([lv for _, lv, _ in mine], dtype=np.int64)
+        fit = denoise_blocks(level, np.array([t for _, _, t in mine])).torque
+        return [(p, lv, float(t)) for (p, lv, _), t in zip(mine, fit, strict=True)], blocks
 
     def save_record() -> None:
         with atomic_output(record_path) as tmp:
@@ -352,11 +359,19 @@ def collect_adaptive(
         save_record()
 
     try:
-        coarse_step = min(n, 4 * s.position_step)
+        # no wider than the gap the table builder interpolates across (P / 4 m)
+        coarse_step = max(1, min(4 * s.position_step, n // (4 * spec.phases)))
         coarse_targets = sorted(
             {(j * n) // -(-n // coarse_step) for j in range(-(-n // coarse_step))}
         )
         coarse_levels = _grid_levels(top, coarse_level_step or 2 * s.level_step)
+        coarse_cost = len(coarse_targets) * (len(coarse_levels) * s.readings + s.bias_count)
+        if coarse_cost > budget:
+            raise InputError(
+                f"a budget of {budget} readings does not cover the coarse pass ({coarse_cost}: "
+                f"{len(coarse_targets)} positions x {len(coarse_levels)} pulse widths); raise "
+                "the budget or the settings' steps"
+            )
         for t in coarse_targets:
             measure(int(t), coarse_levels)
         targets, table = _blocks_matrix(*known())
