@@ -54,9 +54,9 @@ def main() -> int:
             spec1 = first.motor_spec()
             n = spec1.positions_per_cycle
             collect_characterisation(
-                first, spec1, d / "first.csv", CollectionSettings.paper(progress=False)
+                first, spec1, d / f"{kind}-first.csv", CollectionSettings.paper(progress=False)
             )
-            data1 = read_data(d / "first.csv", spec1, kind="characterisation")
+            data1 = read_data(d / f"{kind}-first.csv", spec1, kind="characterisation")
             tables1 = build_tables(spec1, data1.position, data1.level, data1.torque)
             rows = []
             for s in range(SIBLINGS):
@@ -84,7 +84,7 @@ def main() -> int:
                     (apmd(rig, tables1), apmd(rig, moved), apmd(rig, own), few.position.size,
                      full.position.size)
                 )  # fmt: skip
-                print(f"  {kind} sibling {s} done", file=sys.stderr)
+                print(f"  {kind} sibling {s}: {rows[-1]}", file=sys.stderr)
             lines.append((kind, rows))
 
     print("Transfer to a second joint: APMD [%] noise-free on the second joint")

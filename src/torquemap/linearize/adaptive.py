@@ -234,6 +234,7 @@ def collect_adaptive(
     tolerance: float = 0.005,
     row_readings: int | None = None,
     coarse_level_step: int | None = None,
+    coarse_position_factor: int = 4,
     saturation: float | None = None,
 ) -> AdaptiveResult:
     """Collect DATA.csv adaptively within a fraction of the settings' grid's readings.
@@ -259,6 +260,9 @@ def collect_adaptive(
         block gets ``settings.bias_count`` scaled by the same ratio.
     coarse_level_step
         Pulse-width step of the coarse pass (default ``2 settings.level_step``).
+    coarse_position_factor
+        The coarse pass visits every ``coarse_position_factor * settings.position_step``-th
+        position (at most ``P / 4 m`` apart).
     saturation
         Sensor range [N m] (default the rig's ``saturation`` attribute): a reading at or beyond
         it ends the block.
@@ -360,7 +364,7 @@ def collect_adaptive(
 
     try:
         # no wider than the gap the table builder interpolates across (P / 4 m)
-        coarse_step = max(1, min(4 * s.position_step, n // (4 * spec.phases)))
+        coarse_step = max(1, min(coarse_position_factor * s.position_step, n // (4 * spec.phases)))
         coarse_targets = sorted(
             {(j * n) // -(-n // coarse_step) for j in range(-(-n // coarse_step))}
         )
