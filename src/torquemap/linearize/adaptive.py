@@ -5,7 +5,7 @@ flat in position (a phase's plateau) or straight in pulse width (above the onset
 linear interpolation between far fewer rows is as good. :func:`collect_adaptive` spends a budget
 of sensor readings (by default a third of the paper grid's, bias readings included) in passes:
 
-1. A coarse pass: every ``4 position_step``-th position (at most ``P / 4 m`` apart, the gap the
+1. A coarse pass: every ``2 position_step``-th position (at most ``P / 4 m`` apart, the gap the
    table builder interpolates across), every ``2 level_step``-th pulse width.
 2. The pulse widths: from the coarse blocks (their low-rank fit,
    :func:`torquemap.linearize.denoise.denoise_blocks`, so that the noise is not taken for
@@ -141,7 +141,8 @@ def choose_levels(
     """
     keep = list(range(levels.size))
     c = np.where(np.isfinite(curves), curves, np.nan)
-    scale = np.maximum(np.nanmean(np.abs(c), axis=0), tolerance * np.nanmax(np.abs(c)))
+    top = float(np.nanmax(np.abs(c)))
+    scale = np.maximum(np.nanmean(np.abs(c), axis=0), max(tolerance, 1e-6) * top + 1e-300)
     while len(keep) > 2:
         costs = []
         for j in range(1, len(keep) - 1):
@@ -234,7 +235,7 @@ def collect_adaptive(
     tolerance: float = 0.005,
     row_readings: int | None = None,
     coarse_level_step: int | None = None,
-    coarse_position_factor: int = 4,
+    coarse_position_factor: int = 2,
     saturation: float | None = None,
 ) -> AdaptiveResult:
     """Collect DATA.csv adaptively within a fraction of the settings' grid's readings.

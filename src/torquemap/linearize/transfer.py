@@ -11,18 +11,22 @@ existing data of the same motor type by means of systematic scaling". Here the s
   (:func:`torquemap.linearize.denoise.denoise_blocks`), averaged per (position, pulse width)
   cell, made monotone in pulse width and interpolated linearly in pulse width and (cyclically)
   in position.
-* ``phi`` registers the phases: a cyclic piecewise-linear map taking each of the second joint's
-  equilibria (its motor file) onto the first joint's.
-* ``alpha + beta w`` absorbs the amplifiers' differences (dead band, gain), common to every
-  phase and position.
-* ``a(p)`` is the torque ratio, one value per measured position (the phases' gains and the
-  motors' strengths), interpolated cyclically and linearly in position between them.
+* ``s(p)`` registers the phases: the first joint's equilibria minus the second's (both motor
+  files), weighted by the phases' shares.
+* ``v(w) = alpha + W (beta u + gamma u (1 - u))``, ``u = w / W``, absorbs the amplifiers'
+  differences (dead band, gain, curve), common to every phase and position.
+* ``a(p) = sum_k g_k w_k(p)`` is the torque ratio: one gain per phase, weighted by each phase's
+  share of the torque at ``p`` (:func:`phase_shares`); ``s(p)`` likewise weighs the phases'
+  equilibrium shifts.
 
 The handful is ordinary collection data (``position, pulse_width, torque``) of the second joint
-at a few positions and pulse widths, e.g. ``collect_characterisation(..., positions=2 m,
-pulse_step=64)``: with the standard ramps the ``2 m`` evenly spaced targets are the middles of
-the single-phase and transition regions, the paper's suggestion. ``a`` has a closed form for
-given ``alpha, beta``; those two are found by minimising the profile residual.
+at a few positions and pulse widths (``2 m`` targets, pulse widths every 64): with the standard
+ramps the ``2 m`` evenly spaced targets are the middles of the single-phase and transition
+regions, the paper's suggestion. The phase gains are a linear least-squares fit for given
+``alpha, beta, gamma``; the three are found by minimising the profile residual within bounds
+(``|alpha| <= 0.15 W``, ``0.8 <= beta <= 1.25``, ``|gamma| <= 0.3``) with a weak prior towards
+the first joint's amplifier (where torque is linear in current, gain and pulse-width scale
+trade off).
 
 The result is the first joint's rows, re-scaled: DATA.csv for the second joint, which
 :func:`torquemap.linearize.tables.build_tables` turns into tables like any other.
@@ -204,8 +208,13 @@ def transfer_characterisation(
         )
         return g, tau - design @ g
 
+    energy = float(np.sum(tau**2)) or 1.0
+
     def cost(x: NDArray[np.float64]) -> float:
-        return float(np.sum(gains(x)[1] ** 2))
+        # a weak prior on the amplifier law: where the torque is linear in the current (BLDC),
+        # a gain and a pulse-width scale trade off, and the plausible amplifier is the first's
+        prior: float = 1e-3 * energy * ((x[1] - 1.0) ** 2 + x[2] ** 2)
+        return float(np.sum(gains(x)[1] ** 2)) + prior
 
     top = float(a_spec.actuation_max)
 
@@ -214,9 +223,10 @@ def transfer_characterisation(
         out: NDArray[np.float64] = x[0] + top * (x[1] * u + x[2] * u * (1.0 - u))
         return out
 
+    bounds = [(-0.15 * top, 0.15 * top), (0.8, 1.25), (-0.3, 0.3)]
     best = min(
         (
-            minimize(cost, np.array([a0, 1.0, 0.0]), method="Nelder-Mead")
+            minimize(cost, np.array([a0, 1.0, 0.0]), method="Nelder-Mead", bounds=bounds)
             for a0 in (-10.0, 0.0, 10.0)
         ),
         key=lambda r: float(r.fun),
