@@ -88,3 +88,20 @@ def test_bad_input(tmp_path: Path) -> None:
     grid.write_text("position,pulse_width,torque\n0,0,0.0\n")
     with pytest.raises(InputError, match="without its record"):
         collect_adaptive(rig, spec, grid, SETTINGS)
+
+
+def test_cli_collect_adaptive(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from torquemap.cli.main import main
+    from torquemap.io import write_toml
+    from torquemap.linearize.motor import motor_to_dict
+
+    motor = tmp_path / "motor.toml"
+    write_toml(motor, motor_to_dict(sim_rig("bldc", rng=0).motor_spec()))
+    out = tmp_path / "data.csv"
+    args = ["linearize", "collect", str(motor), "--sim", "bldc", "-o", str(out), "--adaptive"]
+    small = ["--position-step", "16", "--step", "32", "--readings", "4", "--no-progress"]
+    assert main([*args, *small, "--budget", "0.9"]) == 0
+    assert "of the grid's" in capsys.readouterr().out
+    assert out.with_name("data.csv.adaptive.json").exists()
+    assert main([*args, *small, "--budget", "0.05"]) == 2
+    assert "does not cover the coarse pass" in capsys.readouterr().err
