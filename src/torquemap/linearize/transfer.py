@@ -48,6 +48,10 @@ from torquemap.linearize.homing import circular_difference
 from torquemap.linearize.motor import MotorSpec
 from torquemap.linearize.tables import LinearizeData, fill_voids
 
+#: Weight of the prior on the amplifier law, relative to the handful's torque energy (1e-3: a
+#: tie-break; 0.05 measured worse on the BLDC siblings of benchmarks/transfer.py).
+PRIOR = 1e-3
+
 
 @dataclass(frozen=True, slots=True, eq=False)
 class TransferResult:
@@ -213,7 +217,7 @@ def transfer_characterisation(
     def cost(x: NDArray[np.float64]) -> float:
         # a weak prior on the amplifier law: where the torque is linear in the current (BLDC),
         # a gain and a pulse-width scale trade off, and the plausible amplifier is the first's
-        prior: float = 1e-3 * energy * ((x[1] - 1.0) ** 2 + x[2] ** 2)
+        prior: float = PRIOR * energy * ((x[1] - 1.0) ** 2 + x[2] ** 2)
         return float(np.sum(gains(x)[1] ** 2)) + prior
 
     top = float(a_spec.actuation_max)
