@@ -150,8 +150,7 @@ def fit_onset(
     top = float(actuation_max)
     tried: list[tuple[float, float, float]] = []
     if cp.size:
-        # the search on at most SEARCH_CELLS cells spread evenly over the positions, first on
-        # every 3rd dead zone and 2nd exponent, then on the full grids around the best
+        # the search on at most SEARCH_CELLS cells spread evenly over the positions
         pick = np.unique(np.linspace(0, cp.size - 1, min(cp.size, SEARCH_CELLS)).astype(int))
         sp, su, sr, sy = cp[pick], u[pick], r[pick], y[pick]
         done: dict[tuple[int, int], float] = {}
@@ -162,11 +161,8 @@ def fit_onset(
                 done[(i, j)] = float(np.sum(_solve_cells(sp, design, sy, n_pos)[1]))
             return done[(i, j)]
 
-        coarse = [(score(i, j), i, j) for i in range(0, DEAD_ZONES.size, 3)
-                  for j in range(0, EXPONENTS.size, 2)]  # fmt: skip
-        _, bi, bj = min(coarse)
-        for i in range(max(0, bi - 3), min(DEAD_ZONES.size, bi + 4)):
-            for j in range(max(0, bj - 2), min(EXPONENTS.size, bj + 3)):
+        for i in range(DEAD_ZONES.size):  # every pair: the residual has several minima
+            for j in range(EXPONENTS.size):
                 score(i, j)
         tried = [(v, float(DEAD_ZONES[i] * top), float(EXPONENTS[j])) for (i, j), v in done.items()]
     d, n = 0.0, 1.0
