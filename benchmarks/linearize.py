@@ -1,6 +1,22 @@
-"""Torque linearisation on four simulated joints beside the Adept II paper's Table 2.
+"""Torque linearisation on four simulated joints beside the Adept II paper's Table 2, then on a
+family of random motors at the paper's collection settings.
 
-Run: ``.venv/bin/python benchmarks/linearize.py`` (about 12 minutes on 2 cores).
+Run: ``.venv/bin/python benchmarks/linearize.py`` (the four joints, then 20 random motors);
+``--no-joints`` for the random motors alone, ``--quick`` for them noise-free only (no
+verification runs: for iterating), ``--motors N --first-seed S`` for other members of the family.
+
+Random motors (``torquemap.sim.family.paper_bench``): each collected at the paper's settings (10
+readings a row, every 4th table position and pulse width) with the bias read on an open contact
+(where cogging alone loads the contact, a bias read at rest would swallow it; the floor is the
+absolute sensed torque); tables by both methods and the floor (the same exhaustive search as for
+the joints); each evaluated noise-free over every cell of the sensed-torque surface, and measured
+through one verification run per table set with the same sensor-noise seed on a rig with fresh
+noise (every command at about 16 positions, every (P/16 + 1)-th: between the
+characterisation's targets as often as on them; 40 readings a row). Reported: the APMD ratio to the floor,
+its median and worst over the motors, the comparison with the paper's method on every motor, and
+the CAPMD at commands 1 to 3.
+
+The four joints:
 
 For each joint: collect characterisation data on the simulated rig (every 2nd pulse width, every
 2nd table position and every position where the ramp changes, a data density of about a quarter
@@ -33,6 +49,7 @@ commands).
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import statistics
 import sys
@@ -42,10 +59,15 @@ from pathlib import Path
 
 import numpy as np
 
-from torquemap.linearize.collect import collect_characterisation, collect_verification
+from torquemap.linearize.collect import (
+    CollectionSettings,
+    collect_characterisation,
+    collect_verification,
+)
 from torquemap.linearize.metrics import LinearityReport, apmd_report, evaluate_linearity
 from torquemap.linearize.motor import MotorSpec, ramped_actuation
 from torquemap.linearize.tables import LinearizeData, TableSet, build_tables, read_data
+from torquemap.sim.family import paper_bench
 from torquemap.sim.motors import BrushlessDcMotor, VariableReluctanceMotor
 from torquemap.sim.rig import SimRig, brushless_dc_rig, variable_reluctance_rig
 
@@ -128,17 +150,15 @@ def characterise(
     rig: SimRig, spec: MotorSpec, out: Path, *, bias_open: bool = False
 ) -> LinearizeData:
     """Characterisation data: every 2nd pulse width and position plus the ramp's transitions."""
-    collect_characterisation(
-        rig,
-        spec,
-        out,
-        pulse_step=2,
-        positions=spec.positions_per_cycle // 2,
-        transitions=True,
+    settings = CollectionSettings(
         readings=READINGS,
+        level_step=2,
+        position_step=2,
+        transitions=True,
         bias_open=bias_open,
         progress=False,
     )
+    collect_characterisation(rig, spec, out, settings)
     return read_data(out, spec, kind="characterisation")
 
 
@@ -147,21 +167,108 @@ def measured(
 ) -> LinearityReport:
     """APMD of a verification run through ``tables`` (every command, every 4th position)."""
     rig.rng = np.random.default_rng(seed)  # the same sensor noise for every table set
-    collect_verification(
-        rig,
-        spec,
-        tables.as_mapping(),
-        out,
-        command_step=1,
-        positions=spec.positions_per_cycle // 4,
-        readings=READINGS,
-        progress=False,
-    )
+    settings = CollectionSettings(readings=READINGS, level_step=1, position_step=4, progress=False)
+    collect_verification(rig, spec, tables.as_mapping(), out, settings)
     data = read_data(out, spec, kind="verification")
     return evaluate_linearity(spec, data, tables=tables)
 
 
-def main() -> int:
+# -- the family of random motors ---------------------------------------------------------------
+
+
+def verification_settings(spec: MotorSpec) -> CollectionSettings:
+    """Every command at about 16 positions over the cycle, 40 readings a row (a reading costs
+    little beside settling; more of them make the low commands measurable). The step is odd, so
+    the positions fall between the characterisation's targets as often as on them."""
+    return CollectionSettings(
+        readings=40, level_step=1, position_step=spec.positions_per_cycle // 16 + 1,
+        bias_open=True, progress=False,
+    )  # fmt: skip
+
+
+def family_row(seed: int, tmp: Path, *, verify: bool) -> dict[str, float | str]:
+    """One random motor at the paper's collection: interp, paper method and floor."""
+    bench = paper_bench(seed)
+    rig = bench.rig
+    spec = rig.motor_spec(ramping=bench.ramping)
+    out = tmp / f"family-{seed}.csv"
+    # the paper's readings and steps; the bias read on an open contact (where cogging alone
+    # loads the contact, a bias read at rest would swallow it)
+    settings = dataclasses.replace(bench.settings, bias_open=True)
+    collect_characterisation(rig, spec, out, settings)
+    data = read_data(out, spec, kind="characterisation")
+    row: dict[str, float | str] = {"motor": bench.describe()}
+    tables = {
+        method: build_tables(spec, data.position, data.level, data.torque, method=method)
+        for method in ("interp", "paper")
+    }
+    tables["floor"] = floor_tables(rig, spec, tables["interp"])
+    for name, t in tables.items():
+        report = noise_free(rig, t)
+        row[f"{name}_nf"] = report.apmd
+        for c in (1, 2, 3):
+            row[f"{name}_c{c}"] = float(report.capmd[c])
+    if verify:
+        # the same verification run (same sensor-noise seed) through every table set, on a rig
+        # with fresh noise
+        check = paper_bench(seed, noise_seed=10_000 + seed).rig
+        for name, t in tables.items():
+            check.rng = np.random.default_rng(20_000 + seed)
+            check.base, check.force = check.settings.start_position, 0.0
+            vout = tmp / f"family-{seed}-{name}-verify.csv"
+            collect_verification(check, spec, t.as_mapping(), vout, verification_settings(spec))
+            vdata = read_data(vout, spec, kind="verification")
+            report = evaluate_linearity(spec, vdata, tables=t)
+            row[f"{name}_meas"] = report.apmd
+    return row
+
+
+def family_tables(rows: list[dict[str, float | str]], *, verify: bool) -> None:
+    """Print the per-motor table and the median / worst summary."""
+
+    def f(row: dict[str, float | str], key: str) -> float:
+        return float(row[key])
+
+    kinds = ["nf", "meas"] if verify else ["nf"]
+    for kind in kinds:
+        label = "measured (same verification run)" if kind == "meas" else "noise-free"
+        print(f"\nrandom motors, paper collection, APMD {label} [%]")
+        print(f"{'motor':<92}{'interp':>8}{'paper':>8}{'floor':>8}{'i/floor':>9}{'p/floor':>9}")
+        for row in rows:
+            i, p, fl = f(row, f"interp_{kind}"), f(row, f"paper_{kind}"), f(row, f"floor_{kind}")
+            print(
+                f"{row['motor']!s:<92}{100 * i:>8.2f}{100 * p:>8.2f}{100 * fl:>8.2f}"
+                f"{i / fl:>9.2f}{p / fl:>9.2f}"
+            )
+        ratio = np.array([f(r, f"interp_{kind}") / f(r, f"floor_{kind}") for r in rows])
+        paper = np.array([f(r, f"paper_{kind}") / f(r, f"floor_{kind}") for r in rows])
+        better = sum(f(r, f"interp_{kind}") < f(r, f"paper_{kind}") for r in rows)
+        print(
+            f"interp / floor: median {np.median(ratio):.2f}, worst {ratio.max():.2f}; "
+            f"paper method / floor: median {np.median(paper):.2f}, worst {paper.max():.2f}; "
+            f"interp better than the paper's method on {better} of {len(rows)} motors"
+        )
+    print("\nCAPMD at commands 1-3, noise-free, median over motors [%]")
+    for name in ("interp", "paper", "floor"):
+        values = [
+            f"{100 * float(np.median([f(r, f'{name}_c{c}') for r in rows])):.1f}" for c in (1, 2, 3)
+        ]
+        print(f"  {name:<8}" + "".join(f"{v:>9}" for v in values))
+
+
+def family(seeds: list[int], *, verify: bool) -> None:
+    """The random-motor section."""
+    start = time.perf_counter()
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for seed in seeds:
+            rows.append(family_row(seed, Path(tmp), verify=verify))
+            print(f"  seed {seed} done ({time.perf_counter() - start:.0f} s)", file=sys.stderr)
+    family_tables(rows, verify=verify)
+    print(f"({len(seeds)} motors in {time.perf_counter() - start:.0f} s)")
+
+
+def joints_section() -> int:
     rows: dict[str, dict[str, float]] = {}
     build_data = None
     with tempfile.TemporaryDirectory() as tmp:
@@ -276,6 +383,20 @@ def main() -> int:
         f"{data.position.size} rows: interp {times['interp'] * 1e3:.0f} ms, "
         f"paper {times['paper'] * 1e3:.0f} ms (median of 7)"
     )
+    return 0
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--quick", action="store_true", help="random motors only, noise-free")
+    parser.add_argument("--motors", type=int, default=20, help="random motors (default 20)")
+    parser.add_argument("--first-seed", type=int, default=0, help="first seed (default 0)")
+    parser.add_argument("--no-joints", action="store_true", help="skip the four joints")
+    args = parser.parse_args()
+    seeds = list(range(args.first_seed, args.first_seed + args.motors))
+    if not (args.quick or args.no_joints):
+        joints_section()
+    family(seeds, verify=not args.quick)
     return 0
 
 

@@ -225,3 +225,45 @@ def test_bias_weight_option(tmp_path: Path, capsys: pytest.CaptureFixture[str]) 
     assert exit_info.value.code == 2
     assert "must be >= 0" in capsys.readouterr().err
     assert not (tmp_path / "e.npz").exists()
+
+
+def test_tables_for_another_motor_and_saturated_data(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    write_case(tmp_path)
+    d = str(tmp_path)
+    assert main(["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv", "-o", f"{d}/t.npz"]) == 0
+    # the same tables evaluated against a 4-phase motor file: one line naming the tables file
+    write_toml(
+        tmp_path / "other.toml",
+        {
+            "motor": {
+                "name": "other",
+                "phases": 4,
+                "positions_per_cycle": N,
+                "equilibrium_positions": [6, 18, 30, 42],
+                "ramping": "wide",
+            }
+        },
+    )
+    p, c = np.meshgrid(np.arange(N), np.arange(128), indexing="ij")
+    write_table(
+        tmp_path / "v.csv",
+        {"position": p.ravel(), "command": c.ravel(), "torque": c.ravel() / 127.0},
+    )
+    capsys.readouterr()
+    status = main(
+        ["linearize", "evaluate", f"{d}/other.toml", f"{d}/v.csv", "--tables", f"{d}/t.npz"]
+    )
+    err = capsys.readouterr().err
+    assert status == 2 and err.count("\n") == 1
+    assert f"{d}/t.npz: tables are for another motor ('synthetic'" in err
+    assert "phases 3 (the motor: 4)" in err and "Traceback" not in err
+    # every row at full scale: refused, nothing written
+    data = read_table(tmp_path / "data.csv")
+    top = np.asarray(data["pulse_width"]) == 255
+    write_table(tmp_path / "sat.csv", {k: np.asarray(v)[top] for k, v in data.items()})
+    status = main(["linearize", "build", f"{d}/motor.toml", f"{d}/sat.csv", "-o", f"{d}/s.npz"])
+    err = capsys.readouterr().err
+    assert status == 2 and "sat.csv: every row has pulse width 255" in err
+    assert not (tmp_path / "s.npz").exists()

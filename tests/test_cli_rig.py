@@ -66,7 +66,7 @@ def test_simulate_rig_writes_motor_and_data(
     ("extra", "message"),
     [
         (["--seed", "-1"], "seed must be a non-negative integer"),
-        (["--pulse-step", "0"], "pulse step must be a positive integer"),
+        (["--pulse-step", "0"], "level step must be a positive integer"),
         (["--position-step", "0"], "position step must be a positive integer"),
         (["--readings", "0"], "readings must be a positive integer"),
         (["--bias-readings", "0"], "bias readings must be a positive integer"),
@@ -104,10 +104,13 @@ def test_linearize_collect_resumes(tmp_path: Path, capsys: pytest.CaptureFixture
     first = data.read_bytes()
     rows = read_table(data)
     assert rows["torque"].size == 8 * 5  # 8 positions x pulse widths 0, 64, 128, 192, 255
-    status, _ = _collect(argv, capsys)  # resume a complete file: only the last block again
-    assert status == 0
-    before, now = first.decode().splitlines(), data.read_text().splitlines()
-    assert len(now) == len(before) and now[:-5] == before[:-5]  # new noise in the last block
+    status, _ = _collect(argv, capsys)  # resume a complete file: nothing to measure
+    assert status == 0 and data.read_bytes() == first
+    # other settings than the file's: refused, naming them, the file untouched
+    status, err = _collect([*argv, "--position-step", "16", "--readings", "3"], capsys)
+    assert status == 2 and err.count("\n") == 1 and str(data) in err
+    assert "position_step (this run 16, the file's 32)" in err and "readings (this run 3" in err
+    assert data.read_bytes() == first
 
 
 def test_linearize_collect_verification(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import dataclasses
+import os
+import subprocess
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -12,6 +15,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 from torquemap.errors import InputError
 from torquemap.io import read_table
 from torquemap.linearize.collect import (
+    CollectionSettings,
     Rig,
     collect_characterisation,
     collect_verification,
@@ -22,6 +26,13 @@ from torquemap.linearize.motor import motor_spec, ramped_actuation
 from torquemap.sim.rig import variable_reluctance_rig
 
 P = 24
+
+
+def S(**changes: object) -> CollectionSettings:
+    """Settings for the fake rig's tests: no progress bar."""
+    return CollectionSettings(**{"progress": False, **changes})  # type: ignore[arg-type]
+
+
 SPEC = motor_spec("fake", phases=3, positions_per_cycle=P, equilibrium_positions=(8, 16, 0))
 # narrow ramps sum to 1: the fake's torque then grows with position, so a push is never undone
 NARROW = motor_spec(
@@ -94,9 +105,8 @@ def test_targets_at_the_ramps_transitions(tmp_path: Path) -> None:
     assert_array_equal(got, sorted(set(hand_over) | set(even)))
     out = tmp_path / "d.csv"
     result = collect_characterisation(
-        FakeRig(), SPEC, out, readings=1, pulse_step=100, positions=8, transitions=True,
-        progress=False,
-    )  # fmt: skip
+        FakeRig(), SPEC, out, S(readings=1, level_step=100, position_step=3, transitions=True)
+    )
     assert_array_equal(result.targets, got)
     data = read_table(out)
     starts = np.asarray(data["pulse_width"]) == 0  # one block per target, in order
@@ -106,7 +116,7 @@ def test_targets_at_the_ramps_transitions(tmp_path: Path) -> None:
 def test_rows_columns_and_bias_free_torque(tmp_path: Path) -> None:
     rig = FakeRig()
     out = tmp_path / "data.csv"
-    result = collect_characterisation(rig, SPEC, out, readings=3, pulse_step=50, progress=False)
+    result = collect_characterisation(rig, SPEC, out, S(readings=3, level_step=50, position_step=1))
     data = read_table(out)
     assert list(data) == ["position", "pulse_width", "torque"]
     levels = [0, 50, 100, 150, 200, 250, 255]  # the step grid, then full scale
@@ -123,9 +133,7 @@ def test_rows_columns_and_bias_free_torque(tmp_path: Path) -> None:
 def test_ramp_consulted_at_current_position_after_compliance(tmp_path: Path) -> None:
     rig = FakeRig(push_at=20.0)
     out = tmp_path / "data.csv"
-    collect_characterisation(
-        rig, NARROW, out, readings=1, pulse_step=40, positions=4, progress=False
-    )
+    collect_characterisation(rig, NARROW, out, S(readings=1, level_step=40, position_step=6))
     data = read_table(out)
     # loaded rows moved one position on: stored under the moved position ...
     moved = data["position"] != np.repeat(collection_targets(NARROW, positions=4), 8)
@@ -145,7 +153,7 @@ def test_saturation_stops_inner_loop(tmp_path: Path) -> None:
     for rig, option in ((FakeRig(saturation=25.0), None), (FakeRig(), 25.0)):
         out = tmp_path / f"data_{option}.csv"
         result = collect_characterisation(
-            rig, SPEC, out, readings=2, pulse_step=10, saturation=option, progress=False
+            rig, SPEC, out, S(readings=2, level_step=10, position_step=1), saturation=option
         )
         data = read_table(out)
         raw = data["torque"] + 5.0 + 0.25 * data["position"]  # what the sensor read
@@ -186,59 +194,183 @@ class InterruptingRig:
         return self.rig.read_torque()
 
 
-@pytest.mark.parametrize("cut", [7, 100, 250])
-def test_resume_after_interruption_gives_the_same_file(tmp_path: Path, cut: int) -> None:
-    def rig() -> Rig:  # noise-free, so two runs can match byte for byte
-        return variable_reluctance_rig(rng=0, noise=0.0)
+RESUME = CollectionSettings(
+    readings=2, bias_readings=2, level_step=32, position_step=3, progress=False
+)
 
-    spec = rig().motor_spec()  # type: ignore[attr-defined]
-    options = {
-        "readings": 2,
-        "bias_readings": 2,
-        "pulse_step": 32,
-        "positions": 16,
-        "progress": False,
-    }
-    whole = tmp_path / "whole.csv"
-    first = collect_characterisation(rig(), spec, whole, **options)  # type: ignore[arg-type]
+
+@pytest.fixture(scope="module")
+def whole_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[bytes, int, int]:
+    """One uninterrupted run on the fake rig: its bytes, its rows and the readings it took."""
+    whole = tmp_path_factory.mktemp("whole") / "whole.csv"
+    counter = InterruptingRig(FakeRig(), 10**9)
+    first = collect_characterisation(counter, SPEC, whole, RESUME)  # type: ignore[arg-type]
+    # 8 targets: the bias (2 readings), then 9 levels of 2 readings
+    assert counter.count == 8 * (2 + 2 * 9) and first.rows == 8 * 9
+    return whole.read_bytes(), first.rows, counter.count
+
+
+def _block_starts(data: bytes) -> list[int]:
+    """Line numbers (0 = header) of the level-0 rows."""
+    return [i for i, x in enumerate(data.decode().splitlines()) if x.split(",")[1:2] == ["0"]]
+
+
+# interrupted inside the first bias, at a block's first row, mid-block, at a block's end
+# (before the record notes it), twice in a row, three times, and on the very last reading
+@pytest.mark.parametrize("cuts", [[1], [2], [3], [20], [21], [50, 37], [7, 7, 7], [159]])
+def test_resume_after_interruption_gives_the_same_file(
+    tmp_path: Path, whole_run: tuple[bytes, int, int], cuts: list[int]
+) -> None:
+    whole, rows, readings = whole_run
+    part = tmp_path / "part.csv"
+    for cut in cuts:
+        assert cut < readings
+        with pytest.raises(Interrupt):
+            collect_characterisation(InterruptingRig(FakeRig(), cut), SPEC, part, RESUME)
+        with part.open("a") as handle:
+            handle.write("37,9")  # a row torn by the power cut
+        assert not (tmp_path / "part.csv.lock").exists()  # the lock goes with the run
+    again = collect_characterisation(FakeRig(), SPEC, part, RESUME)
+    assert part.read_bytes() == whole
+    assert again.rows == rows and again.new_rows <= rows
+    # running again on a complete file measures nothing
+    last = collect_characterisation(FakeRig(), SPEC, part, RESUME)
+    assert (last.resumed_targets, last.new_rows) == (8, 0)
+    assert part.read_bytes() == whole
+
+
+def test_resume_when_cut_between_the_rows_and_the_record(
+    tmp_path: Path, whole_run: tuple[bytes, int, int], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import torquemap.linearize.collect as collect
+
+    part = tmp_path / "part.csv"
+    real = collect.write_record
+    calls = {"n": 0}
+
+    def dying(path: Path, record: object) -> None:
+        calls["n"] += 1
+        if calls["n"] == 5:  # the 4th block's rows are flushed, its record is not written
+            raise Interrupt
+        real(path, record)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(collect, "write_record", dying)
+    with pytest.raises(Interrupt):
+        collect_characterisation(FakeRig(), SPEC, part, RESUME)
+    monkeypatch.setattr(collect, "write_record", real)
+    lines = whole_run[0].decode().splitlines()
+    # the 4th block is in the file ...
+    assert part.read_text().splitlines() == lines[: _block_starts(whole_run[0])[4]]
+    again = collect_characterisation(FakeRig(), SPEC, part, RESUME)
+    assert again.resumed_targets == 3  # ... but not in the record: measured again, not twice
+    assert part.read_bytes() == whole_run[0]
+
+
+def test_resume_without_a_record_goes_by_position(
+    tmp_path: Path, whole_run: tuple[bytes, int, int]
+) -> None:
+    # a file from an older run (no record): its blocks are matched to targets by position,
+    # the last (perhaps cut short) is measured again
+    whole = whole_run[0]
+    part = tmp_path / "part.csv"
+    lines = whole.decode().splitlines(keepends=True)
+    starts = _block_starts(whole)
+    part.write_text("".join(lines[: starts[5] + 4]))  # 5 blocks and 4 rows of the 6th
+    result = collect_characterisation(FakeRig(), SPEC, part, RESUME)
+    assert result.resumed_targets == 5 and part.read_bytes() == whole
+    # other settings: blocks land on this run's targets by position; nothing measured twice
+    part.write_text("".join(lines[: starts[4]]))  # targets 0, 3, 6, 9
+    (tmp_path / "part.csv.collect.json").unlink()
+    result = collect_characterisation(FakeRig(), SPEC, part, S(level_step=32, position_step=1))
+    data = read_table(part)
+    firsts = np.asarray(data["position"])[np.asarray(data["pulse_width"]) == 0]
+    assert result.resumed_targets == 3  # 0, 3 and 6 kept (9, the last, measured again)
+    assert sorted(firsts.tolist()) == list(range(P))  # every target exactly once
+    assert firsts[:3].tolist() == [0, 3, 6]
+
+
+def test_resume_refuses_other_settings_naming_them(tmp_path: Path) -> None:
     part = tmp_path / "part.csv"
     with pytest.raises(Interrupt):
-        collect_characterisation(InterruptingRig(rig(), cut), spec, part, **options)  # type: ignore[arg-type]
-    with part.open("a") as handle:
-        handle.write("37,9")  # a row torn by the power cut
-    cut_rows = len(part.read_text().splitlines()) - 1
-    assert 0 < cut_rows < first.rows
-    again = collect_characterisation(rig(), spec, part, **options)  # type: ignore[arg-type]
-    assert part.read_bytes() == whole.read_bytes()
-    assert again.rows == first.rows and again.new_rows <= first.rows
-    # running again on a complete file only re-measures the last block
-    last = collect_characterisation(rig(), spec, part, **options)  # type: ignore[arg-type]
-    assert last.resumed_targets == 15 and part.read_bytes() == whole.read_bytes()
+        collect_characterisation(InterruptingRig(FakeRig(), 100), SPEC, part, RESUME)
+    before = part.read_bytes()
+    other = dataclasses.replace(RESUME, position_step=1, readings=3)
+    with pytest.raises(InputError) as info:
+        collect_characterisation(FakeRig(), SPEC, part, other)
+    message = str(info.value)
+    assert "position_step (this run 1, the file's 3)" in message
+    assert "readings (this run 3, the file's 2)" in message
+    assert "level_step" not in message and str(part) in message
+    with pytest.raises(InputError, match="motor ramp"):
+        collect_characterisation(FakeRig(), NARROW, part, RESUME)
+    assert part.read_bytes() == before  # refused before any change
+    # the progress bar is not a setting of the data
+    collect_characterisation(FakeRig(), SPEC, part, dataclasses.replace(RESUME, progress=True))
+
+
+def test_a_second_run_on_the_same_file_is_refused(tmp_path: Path) -> None:
+    out = tmp_path / "d.csv"
+    settings = S(readings=1, level_step=100, position_step=6)
+    errors: list[str] = []
+
+    class Meddler(FakeRig):
+        def read_torque(self) -> float:  # a second run starts while the first collects
+            if not errors:
+                try:
+                    collect_characterisation(FakeRig(), SPEC, out, settings)
+                except InputError as exc:
+                    errors.append(str(exc))
+            return super().read_torque()
+
+    result = collect_characterisation(Meddler(), SPEC, out, settings)
+    assert errors and "another collection (pid" in errors[0] and "d.csv" in errors[0]
+    assert result.rows == 4 * 4 and len(out.read_text().splitlines()) == 1 + 16
+    assert not (tmp_path / "d.csv.lock").exists()
+    # a lock held by another live process (here: our parent) refuses; a dead one's is taken
+    lock = tmp_path / "d.csv.lock"
+    lock.write_text(f"{os.getppid()}\n")
+    with pytest.raises(InputError, match=f"another collection \\(pid {os.getppid()}\\)"):
+        collect_characterisation(FakeRig(), SPEC, out, settings)
+    dead = _dead_pid()
+    lock.write_text(f"{dead}\n")
+    again = collect_characterisation(FakeRig(), SPEC, out, settings)
+    assert again.resumed_targets == 4 and not lock.exists()
+
+
+def _dead_pid() -> int:
+    proc = subprocess.Popen(["true"])
+    proc.wait()
+    return proc.pid
 
 
 def test_resume_refuses_other_files(tmp_path: Path) -> None:
     out = tmp_path / "data.csv"
     out.write_text("a,b,c\n1,2,3\n")
     with pytest.raises(InputError, match="header must be 'position,pulse_width,torque'"):
-        collect_characterisation(FakeRig(), SPEC, out, progress=False)
+        collect_characterisation(FakeRig(), SPEC, out, S())
     out.write_text("position,pulse_width,torque\n0,0,0.0\n0,3,1.0\n")
     with pytest.raises(InputError, match="level 3 at line 3 is not on this run's grid"):
-        collect_characterisation(FakeRig(), SPEC, out, pulse_step=2, progress=False)
+        collect_characterisation(FakeRig(), SPEC, out, S(level_step=2))
     out.write_text("position,pulse_width,torque\n0,0,x\n0,2,1.0\n")
     with pytest.raises(InputError, match="malformed row at line 2"):
-        collect_characterisation(FakeRig(), SPEC, out, pulse_step=2, progress=False)
+        collect_characterisation(FakeRig(), SPEC, out, S(level_step=2))
     out.write_text("position,pulse_width,torque\n0,2,1.0\n")
     with pytest.raises(InputError, match="does not start at level 0"):
-        collect_characterisation(FakeRig(), SPEC, out, pulse_step=2, progress=False)
+        collect_characterisation(FakeRig(), SPEC, out, S(level_step=2))
     out.write_text("position,pulse_width,torque\n" + "0,0,0\n" * 5)
-    with pytest.raises(InputError, match="holds 4 position blocks, the run has 2 targets"):
-        collect_characterisation(FakeRig(), SPEC, out, positions=2, progress=False)
+    with pytest.raises(InputError, match="two blocks for target position 0"):
+        collect_characterisation(FakeRig(), SPEC, out, S(position_step=12))
     with pytest.raises(InputError, match="output folder does not exist"):
-        collect_characterisation(FakeRig(), SPEC, tmp_path / "no" / "d.csv", progress=False)
-    with pytest.raises(ValueError, match="readings must be >= 1"):
-        collect_characterisation(FakeRig(), SPEC, tmp_path / "d.csv", readings=0, progress=False)
-    with pytest.raises(ValueError, match="pulse_step must be >= 1"):
-        collect_characterisation(FakeRig(), SPEC, tmp_path / "d.csv", pulse_step=0, progress=False)
+        collect_characterisation(FakeRig(), SPEC, tmp_path / "no" / "d.csv", S())
+    for bad in ({"readings": 0}, {"level_step": 0}, {"position_step": -1}, {"readings": 1.5}):
+        with pytest.raises(InputError, match="must be a positive integer"):
+            S(**bad)
+    # a record whose rows are no longer in the file (edited) is refused
+    good = tmp_path / "good.csv"
+    collect_characterisation(FakeRig(), SPEC, good, S(level_step=100, position_step=6))
+    good.write_text("\n".join(good.read_text().splitlines()[:5]) + "\n")
+    with pytest.raises(InputError, match="record lists 16 rows, the file holds 4"):
+        collect_characterisation(FakeRig(), SPEC, good, S(level_step=100, position_step=6))
 
 
 def _tables() -> dict[str, np.ndarray]:
@@ -255,7 +387,7 @@ def test_verification_looks_up_tables(tmp_path: Path) -> None:
     out = tmp_path / "after.csv"
     tables = _tables()
     result = collect_verification(
-        rig, SPEC, tables, out, readings=1, command_step=16, positions=6, progress=False
+        rig, SPEC, tables, out, S(readings=1, level_step=16, position_step=4)
     )
     data = read_table(out)
     assert list(data) == ["position", "command", "torque"]
@@ -305,18 +437,12 @@ def test_bias_is_averaged_over_its_own_readings(
         counter,  # type: ignore[arg-type]
         SPEC,
         tmp_path / "d.csv",
-        readings=3,
-        bias_readings=bias_readings,
-        pulse_step=50,
-        positions=2,
-        progress=False,
+        S(readings=3, bias_readings=bias_readings, level_step=50, position_step=12),
     )
     assert result.saturated_targets == 0
     assert counter.count == 2 * expected + 3 * result.rows  # default: 10 x readings
-    with pytest.raises(ValueError, match="bias_readings must be >= 1"):
-        collect_characterisation(
-            FakeRig(), SPEC, tmp_path / "e.csv", bias_readings=0, progress=False
-        )
+    with pytest.raises(InputError, match="bias readings must be a positive integer"):
+        S(bias_readings=0)
 
 
 def test_bias_read_on_an_open_contact_keeps_the_torque_at_rest(tmp_path: Path) -> None:
@@ -331,9 +457,8 @@ def test_bias_read_on_an_open_contact_keeps_the_torque_at_rest(tmp_path: Path) -
         spec = rig.motor_spec()
         out = tmp_path / f"{bias_open}.csv"
         collect_characterisation(
-            rig, spec, out, readings=40, bias_open=bias_open, pulse_step=255, positions=32,
-            progress=False,
-        )  # fmt: skip
+            rig, spec, out, S(readings=40, bias_open=bias_open, level_step=255, position_step=8)
+        )
         cols = read_table(out)
         zero = np.asarray(cols["pulse_width"]) == 0
         rows[bias_open] = (np.asarray(cols["position"])[zero], np.asarray(cols["torque"])[zero])
@@ -343,5 +468,5 @@ def test_bias_read_on_an_open_contact_keeps_the_torque_at_rest(tmp_path: Path) -
     assert truth.max() > 0.04  # the case is real: cogging loads the contact somewhere
     assert_allclose(at_rest, truth, atol=0.01)  # 40 readings of 0.02 N m, bias over 400
     assert_allclose(rows[False][1], 0.0, atol=0.01)
-    with pytest.raises(ValueError, match="open_contact"):
-        collect_characterisation(FakeRig(), SPEC, tmp_path / "x.csv", bias_open=True)
+    with pytest.raises(InputError, match="open_contact"):
+        collect_characterisation(FakeRig(), SPEC, tmp_path / "x.csv", S(bias_open=True))

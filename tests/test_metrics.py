@@ -114,8 +114,14 @@ def test_evaluate_with_tables_checks_the_motor() -> None:
         kind="verification",
         path="v.csv",
     )
-    with pytest.raises(InputError, match=r"v.csv: tables are for 1 phases, 16 positions"):
-        evaluate_linearity(other, data, tables=tables)
+    with pytest.raises(
+        InputError,
+        match=r"T.npz: tables are for another motor .*positions per cycle 16 \(the motor: 32\)",
+    ):
+        evaluate_linearity(other, data, tables=tables, tables_path="T.npz")
+    moved = motor_spec("m", phases=1, positions_per_cycle=16, equilibrium_positions=(3,))
+    with pytest.raises(InputError, match=r"equilibrium positions \(0,\) \(the motor: \(3,\)\)"):
+        evaluate_linearity(moved, data, tables=tables)
     # a verification with exactly the nominal torque: zero deviation against the law
     pp, cc = np.meshgrid(np.arange(16), np.arange(128), indexing="ij")
     ideal = LinearizeData(

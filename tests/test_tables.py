@@ -302,3 +302,17 @@ def test_fill_voids_matches_a_cell_by_cell_reference(seed: int, share: float, li
     levels = np.cumsum(rng.uniform(0.5, 2.0, 7))
     got = fill_voids(grid, max_position_gap=None if np.isinf(limit) else int(limit), levels=levels)
     assert_allclose(got, _reference_fill(grid, limit, levels), rtol=1e-12, atol=1e-12)
+
+
+def test_data_that_cannot_make_a_table_is_refused() -> None:
+    spec = three_phase()
+    p, w, t = quadratic_data(spec)
+    top = w == A  # all saturated: every row at full scale
+    with pytest.raises(InputError, match=r"d\.csv: every row has pulse width 255: no torque curve"):
+        build_tables(spec, p[top], w[top], t[top], path="d.csv")
+    # a rig that never reads above its noise: the motor off, the sensor on
+    noise = 0.05 * np.random.default_rng(3).standard_normal(t.size)
+    with pytest.raises(InputError, match=r"never read torque above its noise.*noise of a row"):
+        build_tables(spec, p, w, noise, path="d.csv")
+    # the same noise on a real surface is fine
+    build_tables(spec, p, w, t + noise)

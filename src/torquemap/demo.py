@@ -301,6 +301,7 @@ def _scara(
 def _rig(
     out: Path, motor: Literal["vr", "bldc"], seed: int, steps: Progress
 ) -> tuple[ApmdRow, Section]:
+    from torquemap.linearize.collect import CollectionSettings
     from torquemap.linearize.export import save_tables
     from torquemap.linearize.metrics import evaluate_linearity
     from torquemap.linearize.motor import load_motor
@@ -314,11 +315,13 @@ def _rig(
 
     kind = {"vr": "variable-reluctance", "bldc": "brushless DC"}[motor]
     d = out / f"rig_{motor}"
-    if (d / "verify.csv").exists():
-        (d / "verify.csv").unlink()  # a new run, not a resumed one
+    for old in ("verify.csv", "verify.csv.collect.json"):
+        (d / old).unlink(missing_ok=True)  # a new run, not a resumed one
     steps.run(
         f"characterise the {kind} motor on the simulated rig",
-        lambda: write_rig_data(d, motor=motor, seed=seed, progress=steps),
+        lambda: write_rig_data(
+            d, motor=motor, seed=seed, settings=CollectionSettings(progress=steps)
+        ),
     )
     spec = load_motor(d / "motor.toml")
     data = read_data(d / "data.csv", spec, kind="characterisation")
@@ -335,8 +338,7 @@ def _rig(
             sim=motor,
             seed=seed + 100,
             tables=d / "TABLES.npz",
-            step=2,
-            progress=steps,
+            settings=CollectionSettings(level_step=2, progress=steps),
         ),
     )
     verify = read_data(d / "verify.csv", spec, kind="verification")

@@ -27,7 +27,7 @@ def _weight(text: str) -> float:
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add the ``linearize`` group and its sub-commands."""
-    from torquemap.cli import cmd_linearize_collect
+    from torquemap.cli import cmd_linearize_collect, cmd_linearize_more
 
     group = subparsers.add_parser(
         "linearize",
@@ -152,6 +152,7 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     figures.set_defaults(handler=_figures)
 
     cmd_linearize_collect.register(sub)
+    cmd_linearize_more.register(sub)
 
 
 def _build(args: argparse.Namespace) -> int:
@@ -220,7 +221,8 @@ def _evaluate(args: argparse.Namespace) -> int:
     kind: DataKind = "characterisation" if tables is None else "verification"
     data = args.progress.run("read the data", lambda: read_data(args.data, spec, kind=kind))
     report = args.progress.run(
-        "evaluate linearity", lambda: evaluate_linearity(spec, data, tables=tables)
+        "evaluate linearity",
+        lambda: evaluate_linearity(spec, data, tables=tables, tables_path=args.tables),
     )
     print(format_report(report, title=f"{kind} data {args.data}"))
     if args.out:

@@ -6,11 +6,13 @@ Registered into the ``linearize`` group by :mod:`torquemap.cli.cmd_linearize`.
 from __future__ import annotations
 
 import argparse
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from torquemap.linearize.collect import CollectionSettings
 
 from torquemap.cli.helptext import described
 from torquemap.cli.outputs import output_suffix
-from torquemap.progress import NULL
 
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
@@ -32,37 +34,97 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     )
     collect.add_argument("motor", metavar="MOTOR.toml", help="the motor file")
     collect.add_argument("-o", "--out", metavar="DATA.csv", required=True, help="data file")
-    collect.add_argument("--sim", choices=("vr", "bldc"), required=True, help="simulated motor")
+    which = collect.add_mutually_exclusive_group(required=True)
+    which.add_argument("--sim", choices=("vr", "bldc"), help="simulated motor")
+    which.add_argument(
+        "--random",
+        type=int,
+        metavar="SEED",
+        help="the random motor of `simulate rig --random SEED`",
+    )
     collect.add_argument("--seed", type=int, default=0, help="noise seed, >= 0 (default 0)")
     collect.add_argument(
         "--tables", metavar="TABLES.npz", help="phase tables: verification run instead"
     )
-    collect.add_argument("--readings", type=int, default=10, help="readings per row (default 10)")
-    collect.add_argument(
+    add_settings_arguments(collect, level_flag="--step", level_help="pulse-width or command step")
+    from torquemap.cli.cmd_linearize_more import add_adaptive_arguments
+
+    add_adaptive_arguments(collect)
+    collect.set_defaults(handler=_collect)
+
+
+def add_settings_arguments(
+    parser: argparse.ArgumentParser, *, level_flag: str, level_help: str
+) -> None:
+    """The collection's settings (:class:`CollectionSettings`), the same flags for every command.
+
+    ``level_flag`` is the command's historical name for the level step (``--step`` or
+    ``--pulse-step``); ``--level-step`` is accepted by both. A flag not given keeps the base
+    settings' value (:func:`settings_from`): the paper's, or a random bench's.
+    """
+    parser.add_argument("--readings", type=int, default=None, help="readings per row (default 10)")
+    parser.add_argument(
         "--bias-readings",
         type=int,
         default=None,
         help="readings averaged for the sensor bias at each position (default 10x --readings)",
     )
-    collect.add_argument(
+    parser.add_argument(
         "--bias-open",
         action="store_true",
+        default=None,
         help="read the bias with the contact open, not at rest (where cogging alone loads the "
         "contact, the rows then hold the torque at rest)",
     )
-    collect.add_argument(
-        "--step", type=int, default=4, help="pulse-width or command step (default 4)"
+    parser.add_argument(
+        level_flag,
+        "--level-step",
+        dest="level_step",
+        type=int,
+        default=None,
+        help=f"{level_help} (default 4)",
     )
-    collect.add_argument(
-        "--position-step", type=int, default=4, help="table positions between targets (default 4)"
+    parser.add_argument(
+        "--position-step",
+        type=int,
+        default=None,
+        help="table positions between targets (default 4)",
     )
-    collect.add_argument(
+    parser.add_argument(
         "--transitions",
         action="store_true",
+        default=None,
         help="also target every position where the ramp changes (the phases' hand-over)",
     )
-    collect.add_argument("--no-progress", action="store_true", help="no progress bar (as --quiet)")
-    collect.set_defaults(handler=_collect)
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def settings_from(
+    args: argparse.Namespace, base: CollectionSettings | None = None
+) -> CollectionSettings:
+    """The :class:`CollectionSettings` of parsed :func:`add_settings_arguments` flags; a flag
+    not given keeps ``base``'s value (default: the paper's settings)."""
+    import dataclasses
+
+    from torquemap.linearize.collect import CollectionSettings
+
+    changes = {
+        name: getattr(args, name)
+        for name in (
+            "readings",
+            "bias_readings",
+            "bias_open",
+            "position_step",
+            "level_step",
+            "transitions",
+        )
+        if getattr(args, name) is not None
+    }
+    start = CollectionSettings() if base is None else base
+    from torquemap.progress import NULL
+
+    hook = NULL if args.no_progress else getattr(args, "progress", True)
+    return dataclasses.replace(start, progress=hook, **changes)
 
 
 def _collect(args: argparse.Namespace) -> int:
@@ -74,20 +136,30 @@ def _collect(args: argparse.Namespace) -> int:
 
     output_suffix(args.out, (".csv",), "data")
     spec = load_motor(args.motor)
-    result = collect_on_sim(
-        spec,
-        args.out,
-        sim=args.sim,
-        seed=args.seed,
-        tables=args.tables,
-        readings=args.readings,
-        bias_readings=args.bias_readings,
-        bias_open=args.bias_open,
-        transitions=args.transitions,
-        step=args.step,
-        position_step=args.position_step,
-        progress=NULL if args.no_progress else args.progress,
-    )
+    if args.adaptive:
+        from torquemap.cli.cmd_linearize_more import collect_adaptive_command
+
+        return collect_adaptive_command(args, spec, settings_from(args))
+    if args.random is not None:
+        from torquemap.sim.family import collect_on_random
+
+        result = collect_on_random(
+            spec,
+            args.out,
+            random=args.random,
+            seed=args.seed,
+            tables=args.tables,
+            settings=settings_from(args),
+        )
+    else:
+        result = collect_on_sim(
+            spec,
+            args.out,
+            sim=args.sim,
+            seed=args.seed,
+            tables=args.tables,
+            settings=settings_from(args),
+        )
     resumed = f", resumed after {result.resumed_targets}" if result.resumed_targets else ""
     print(
         f"wrote {result.rows} rows ({result.new_rows} new{resumed}; "

@@ -8,9 +8,9 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from torquemap.cli.cmd_linearize_collect import add_settings_arguments, settings_from
 from torquemap.cli.helptext import described
 from torquemap.cli.outputs import check_outputs
-from torquemap.progress import NULL
 
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
@@ -29,56 +29,51 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
             ],
         ),
     )
-    rig.add_argument("--motor", choices=("vr", "bldc"), required=True, help="motor type")
+    which = rig.add_mutually_exclusive_group(required=True)
+    which.add_argument("--motor", choices=("vr", "bldc"), help="motor type")
+    which.add_argument(
+        "--random",
+        type=int,
+        metavar="SEED",
+        help="a random motor, amplifier and bench of the family (VR or BLDC, 3 or 4 phases, "
+        "dead zones, friction, ...), its ramp and collection settings drawn from SEED; "
+        "collection flags given override the draw",
+    )
     rig.add_argument("--out", metavar="DIR", required=True, help="output folder (created)")
     rig.add_argument("--seed", type=int, default=0, help="noise seed, >= 0 (default 0)")
     rig.add_argument(
-        "--ramping", choices=("narrow", "wide"), default="wide", help="ramping (default wide)"
-    )
-    rig.add_argument("--readings", type=int, default=10, help="readings per row (default 10)")
-    rig.add_argument(
-        "--bias-readings",
-        type=int,
+        "--ramping",
+        choices=("narrow", "wide"),
         default=None,
-        help="readings averaged for the sensor bias at each position (default 10x --readings)",
+        help="ramping (default wide; with --random, drawn)",
     )
-    rig.add_argument(
-        "--bias-open",
-        action="store_true",
-        help="read the bias with the contact open, not at rest (where cogging alone loads the "
-        "contact, the rows then hold the torque at rest)",
-    )
-    rig.add_argument("--pulse-step", type=int, default=4, help="pulse-width step (default 4)")
-    rig.add_argument(
-        "--position-step", type=int, default=4, help="table positions between targets (default 4)"
-    )
-    rig.add_argument(
-        "--transitions",
-        action="store_true",
-        help="also target every position where the ramp changes (the phases' hand-over)",
-    )
-    rig.add_argument("--no-progress", action="store_true", help="no progress bar (as --quiet)")
+    add_settings_arguments(rig, level_flag="--pulse-step", level_help="pulse-width step")
     rig.set_defaults(handler=_rig)
 
 
 def _rig(args: argparse.Namespace) -> int:
-    from torquemap.sim.rig import write_rig_data
+    from torquemap.sim.family import random_bench
+    from torquemap.sim.rig import write_rig_data, write_rig_folder
 
     check_outputs([], folders=[(args.out, ("motor.toml", "data.csv"))])
 
-    result = write_rig_data(
-        args.out,
-        motor=args.motor,
-        seed=args.seed,
-        ramping=args.ramping,
-        readings=args.readings,
-        bias_readings=args.bias_readings,
-        bias_open=args.bias_open,
-        transitions=args.transitions,
-        pulse_step=args.pulse_step,
-        position_step=args.position_step,
-        progress=NULL if args.no_progress else args.progress,
-    )
+    if args.random is None:
+        result = write_rig_data(
+            args.out,
+            motor=args.motor,
+            seed=args.seed,
+            ramping=args.ramping or "wide",
+            settings=settings_from(args),
+        )
+    else:
+        bench = random_bench(args.random, noise_seed=args.seed)
+        result = write_rig_folder(
+            args.out,
+            bench.rig,
+            ramping=args.ramping or bench.ramping,
+            settings=settings_from(args, bench.settings),
+        )
+        print(bench.describe())
     print(
         f"wrote motor.toml and data.csv ({result.rows} rows, {result.targets.size} positions, "
         f"{result.saturated_targets} stopped at sensor saturation) to {args.out}"

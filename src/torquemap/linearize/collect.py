@@ -13,9 +13,15 @@ actuation is looked up again at the new position before measuring (up to 8 times
 is stored under the position the actuation was looked up at, so every row satisfies the DATA.csv
 contract.
 
-Rows are appended and flushed as they are measured. Run the same call again on the same file to
-resume: complete position blocks are kept, the last block (possibly cut short) is measured
-again, and collection continues with the next target (docs/linearize-collect.md).
+The collection's settings travel as one :class:`CollectionSettings`. Rows are appended and
+flushed as they are measured; after each target's block the record ``DATA.csv.collect.json``
+beside the file notes the settings, the motor and the targets done (with their row counts).
+Run the same call again on the same file to resume: the targets the record lists are kept,
+anything after them (a block cut short) is dropped and every target not yet done is measured,
+by position, never by count. A run whose settings or motor differ from the record's is
+refused, naming them. A lock file ``DATA.csv.lock`` (created exclusively, holding the pid)
+keeps a second run off the same file; a lock left by a killed run is taken over
+(docs/linearize-collect.md).
 
 This module talks to hardware only through the :class:`Rig` protocol; it never imports the
 simulator.
@@ -23,12 +29,14 @@ simulator.
 
 from __future__ import annotations
 
+import dataclasses
+import itertools
 import os
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -36,6 +44,15 @@ from numpy.typing import NDArray
 from torquemap.errors import InputError
 from torquemap.io import atomic_output
 from torquemap.linearize.motor import MotorSpec, ramped_actuation
+from torquemap.linearize.resume import (
+    CollectionRecord,
+    collection_lock,
+    differences,
+    motor_identity,
+    read_record,
+    tables_digest,
+    write_record,
+)
 from torquemap.progress import NULL, Progress, reporter
 
 CHARACTERISATION_COLUMNS = ("position", "pulse_width", "torque")
@@ -147,17 +164,119 @@ def collection_targets(
     return np.union1d(even, np.flatnonzero(changes)).astype(np.int64)
 
 
-def _levels(top: int, step: int, what: str) -> list[int]:
-    if step < 1:
-        raise ValueError(f"{what} must be >= 1, got {step}")
+@dataclass(frozen=True, slots=True, eq=False)
+class CollectionSettings:
+    """How a collection measures: one object for collect, the CLI, the simulated rig and benchmarks.
+
+    Attributes
+    ----------
+    readings
+        Sensor readings averaged per row (the paper: 10).
+    bias_readings
+        Sensor readings averaged for the bias at each target; None for
+        ``BIAS_READINGS_FACTOR * readings``. The bias is subtracted from every row of the
+        target's block, so its error is common to all of them and no later averaging removes
+        it: it is measured more precisely than a row.
+    bias_open
+        Read the bias with the contact open: call the rig's ``open_contact()`` (lift the primary
+        joint off its constraint) before the bias readings; the first level closes it again.
+        Without it (the paper's procedure) the bias is read at rest, all phases off, and where
+        the motor's torque at zero current (cogging) alone pushes the contact beyond its
+        friction, that torque is read as bias too: the rows are then relative to the torque at
+        rest.
+    position_step
+        Table positions between targets: ``ceil(P / position_step)`` evenly spaced targets
+        (:func:`collection_targets`); 1 for every position (the paper: 4).
+    level_step
+        Step of the inner loop's level: the base pulse width for characterisation, the torque
+        command for verification (``0, k, 2k, ...`` and finally the top; the paper: 4).
+    transitions
+        Also target every position where the ramp changes (the phases' hand-over).
+    progress
+        Where progress goes (:mod:`torquemap.progress`): a hook, ``True`` for a bar on stderr
+        (plain lines when it is not a terminal), ``False`` for none. Does not change the data.
+
+    Raises
+    ------
+    InputError
+        On a count or step that is not a positive integer.
+
+    Examples
+    --------
+    >>> s = CollectionSettings(readings=40, position_step=2, level_step=2)
+    >>> s.bias_count, s.paper().readings
+    (400, 10)
+    """
+
+    readings: int = 10
+    bias_readings: int | None = None
+    bias_open: bool = False
+    position_step: int = 4
+    level_step: int = 4
+    transitions: bool = False
+    progress: bool | Progress = True
+
+    def __post_init__(self) -> None:
+        for name in ("readings", "position_step", "level_step", "bias_readings"):
+            value = getattr(self, name)
+            if name == "bias_readings" and value is None:
+                continue
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+                raise InputError(
+                    f"{name.replace('_', ' ')} must be a positive integer, got {value!r}"
+                )
+        for name in ("bias_open", "transitions"):
+            if not isinstance(getattr(self, name), bool):
+                raise InputError(f"{name.replace('_', ' ')} must be true or false")
+
+    @staticmethod
+    def paper(**changes: Any) -> CollectionSettings:
+        """The paper's collection (§4.3): 10 readings a row, every 4th position and pulse width."""
+        return CollectionSettings(
+            **{"readings": 10, "position_step": 4, "level_step": 4, **changes}
+        )
+
+    @property
+    def bias_count(self) -> int:
+        """Readings averaged for the bias at each target."""
+        return (
+            BIAS_READINGS_FACTOR * self.readings
+            if self.bias_readings is None
+            else int(self.bias_readings)
+        )
+
+    def positions(self, spec: MotorSpec) -> int:
+        """Number of evenly spaced targets: ``ceil(P / position_step)`` (at most P)."""
+        n = spec.positions_per_cycle
+        return min(n, -(-n // int(self.position_step)))
+
+    def targets(self, spec: MotorSpec) -> NDArray[np.int64]:
+        """The outer loop's targets for ``spec`` (:func:`collection_targets`)."""
+        return collection_targets(
+            spec, positions=self.positions(spec), transitions=self.transitions
+        )
+
+    def as_record(self) -> dict[str, Any]:
+        """The settings that change the data, for the collection record (not ``progress``)."""
+        return {
+            "readings": int(self.readings),
+            "bias_readings": int(self.bias_count),
+            "bias_open": bool(self.bias_open),
+            "position_step": int(self.position_step),
+            "level_step": int(self.level_step),
+            "transitions": bool(self.transitions),
+        }
+
+
+def _levels(top: int, step: int) -> list[int]:
     levels = list(range(0, top + 1, step))
     if levels[-1] != top:
         levels.append(top)
     return levels
 
 
-def _existing_rows(path: Path, header: str, levels: list[int]) -> list[str]:
-    """Lines of complete blocks already in ``path`` (the last block is dropped: redo it)."""
+def _parse_rows(path: Path, header: str, levels: list[int]) -> list[str]:
+    """The data lines of ``path`` (a last line torn by an interruption dropped), checked."""
     if not path.exists() or path.stat().st_size == 0:
         return []
     lines = path.read_text().splitlines()
@@ -167,7 +286,6 @@ def _existing_rows(path: Path, header: str, levels: list[int]) -> list[str]:
         )
     allowed = set(levels)
     rows: list[str] = []
-    starts: list[int] = []
     for number, line in enumerate(lines[1:], start=2):
         parts = line.split(",")
         try:
@@ -186,12 +304,37 @@ def _existing_rows(path: Path, header: str, levels: list[int]) -> list[str]:
                 "(was the file collected with other settings?)",
                 path=path,
             )
-        if level == 0:
-            starts.append(len(rows))
-        elif not starts:
-            raise InputError(f"cannot resume: line {number} does not start at level 0", path=path)
         rows.append(line)
-    return rows[: starts[-1]] if starts else []
+    return rows
+
+
+def _infer_done(
+    path: Path, rows: list[str], targets: NDArray[np.int64], n: int
+) -> tuple[tuple[int, int], ...]:
+    """Targets done in a file without a record (an older run): by the positions in its blocks.
+
+    A block starts at level 0; its target is the last target at or before the block's first
+    position (the outer loop may step over a target). The last block may be cut short: it is
+    dropped and measured again.
+    """
+    starts = [i for i, line in enumerate(rows) if line.split(",")[1] == "0"]
+    if rows and (not starts or starts[0] != 0):
+        raise InputError("cannot resume: line 2 does not start at level 0", path=path)
+    done: list[tuple[int, int]] = []
+    seen: set[int] = set()
+    for a, b in itertools.pairwise(starts):
+        position = int(rows[a].split(",")[0])
+        behind = (position - targets) % n
+        target = int(targets[int(np.argmin(behind))])
+        if target in seen:
+            raise InputError(
+                f"cannot resume: two blocks for target position {target} (line {a + 2}); was "
+                "the file collected with other settings?",
+                path=path,
+            )
+        seen.add(target)
+        done.append((target, b - a))
+    return tuple(done)
 
 
 def _move_to(rig: Rig, target: int, n: int, off: list[int], max_steps: int) -> None:
@@ -214,85 +357,139 @@ def _move_to(rig: Rig, target: int, n: int, off: list[int], max_steps: int) -> N
             )
 
 
+def _resume_state(
+    path: Path,
+    header: str,
+    levels: list[int],
+    targets: NDArray[np.int64],
+    record: CollectionRecord,
+    n: int,
+) -> tuple[list[str], tuple[tuple[int, int], ...]]:
+    """Rows to keep and targets done, from the file and its record; refuses other settings."""
+    rows = _parse_rows(path, header, levels)
+    old = read_record(path) if path.exists() else None  # no data: a record left alone is stale
+    if old is None:
+        if not rows:
+            return [], ()
+        done = _infer_done(path, rows, targets, n)
+    else:
+        problems = []
+        if old.kind != record.kind:
+            problems.append(f"kind (this run {record.kind}, the file's {old.kind})")
+        problems += differences(record.settings, old.settings, "")
+        problems += differences(record.motor, old.motor, "motor ")
+        if problems:
+            raise InputError(
+                "cannot resume: this run's settings differ from the file's: "
+                + "; ".join(problems)
+                + " (use the file's settings, or another output file)",
+                path=path,
+            )
+        done = old.done
+    wanted = set(int(t) for t in targets)
+    stray = [t for t, _ in done if t not in wanted]
+    if stray:
+        raise InputError(
+            f"cannot resume: the file holds target position {stray[0]}, which is not among this "
+            "run's targets (was it collected with other settings?)",
+            path=path,
+        )
+    total = sum(r for _, r in done)
+    if total > len(rows):
+        raise InputError(
+            f"cannot resume: the collection record lists {total} rows, the file holds "
+            f"{len(rows)} (was the file edited?)",
+            path=path,
+        )
+    return rows[:total], done
+
+
 def _collect(
     rig: Rig,
     spec: MotorSpec,
     out_csv: str | os.PathLike[str],
+    settings: CollectionSettings,
     *,
     columns: tuple[str, str, str],
     levels: list[int],
     actuation: Callable[[int, int], Sequence[int]],
-    readings: int,
-    bias_readings: int | None,
-    bias_open: bool,
-    positions: int | None,
-    transitions: bool,
     saturation: float | None,
-    progress: bool | Progress | None,
+    extra: Mapping[str, Any],
 ) -> CollectResult:
     start = time.perf_counter()
-    if readings < 1:
-        raise ValueError(f"readings must be >= 1, got {readings}")
-    bias_count = BIAS_READINGS_FACTOR * readings if bias_readings is None else bias_readings
-    if bias_count < 1:
-        raise ValueError(f"bias_readings must be >= 1, got {bias_count}")
-    if bias_open and not callable(getattr(rig, "open_contact", None)):
-        raise ValueError("bias_open needs a rig with an open_contact() method")
+    if settings.bias_open and not callable(getattr(rig, "open_contact", None)):
+        raise InputError("reading the bias on an open contact needs a rig with open_contact()")
     path = Path(out_csv)
     if not path.parent.exists():
         raise InputError("output folder does not exist", path=path.parent)
     n = spec.positions_per_cycle
-    targets = collection_targets(spec, positions=positions, transitions=transitions)
+    targets = settings.targets(spec)
     header = ",".join(columns)
-    kept = _existing_rows(path, header, levels)
-    done = sum(1 for line in kept if line.split(",")[1] == "0")
-    if done > targets.size:
-        raise InputError(
-            f"cannot resume: the file holds {done} position blocks, the run has {targets.size} "
-            "targets (was it collected with other settings?)",
-            path=path,
-        )
-    with atomic_output(path) as tmp:
-        tmp.write_text("\n".join([header, *kept]) + "\n")
+    kind = "characterisation" if columns == CHARACTERISATION_COLUMNS else "verification"
+    record = CollectionRecord(
+        kind=kind,
+        settings=settings.as_record(),
+        motor={**motor_identity(spec), **extra},
+        done=(),
+    )
     limit = saturation if saturation is not None else getattr(rig, "saturation", None)
-    open_contact = getattr(rig, "open_contact", None) if bias_open else None
+    open_contact = getattr(rig, "open_contact", None) if settings.bias_open else None
     off = [0] * spec.phases
     new_rows = 0
     saturated = 0
-    label = f"collect {targets.size} positions" + (f" (resuming after {done})" if done else "")
-    with path.open("a") as handle, _progress(progress).step(label, total=targets.size) as bar:
-        bar.advance(done)
-        for target in targets[done:]:
-            _move_to(rig, int(target), n, off, max_steps=100 * n)
-            if open_contact is not None:
-                open_contact()  # the sensor reads its bias alone, without the torque at rest
-            bias = float(np.mean([rig.read_torque() for _ in range(bias_count)]))
-            for level in levels:
-                position = rig.read_position()
-                for _ in range(8):
-                    consulted = position
-                    rig.apply(actuation(level, consulted))
-                    rig.settle()
+    with collection_lock(path):
+        kept, done = _resume_state(path, header, levels, targets, record, n)
+        with atomic_output(path) as tmp:
+            tmp.write_text("\n".join([header, *kept]) + "\n")
+        finished = {t for t, _ in done}
+        todo = [int(t) for t in targets if int(t) not in finished]
+        resumed = len(done)
+        done_list = list(done)
+        write_record(path, dataclasses.replace(record, done=tuple(done_list)))
+        label = f"collect {targets.size} positions" + (
+            f" (resuming after {resumed})" if resumed else ""
+        )
+        with (
+            path.open("a") as handle,
+            _progress(settings.progress).step(label, total=int(targets.size)) as bar,
+        ):
+            bar.advance(resumed)
+            for target in todo:
+                _move_to(rig, target, n, off, max_steps=100 * n)
+                if open_contact is not None:
+                    open_contact()  # the sensor reads its bias alone, without the torque at rest
+                bias = float(np.mean([rig.read_torque() for _ in range(settings.bias_count)]))
+                block = 0
+                for level in levels:
                     position = rig.read_position()
-                    if position == consulted:
+                    for _ in range(8):
+                        consulted = position
+                        rig.apply(actuation(level, consulted))
+                        rig.settle()
+                        position = rig.read_position()
+                        if position == consulted:
+                            break
+                    values = [rig.read_torque() for _ in range(settings.readings)]
+                    if limit is not None and max(abs(v) for v in values) >= limit:
+                        saturated += 1
                         break
-                values = [rig.read_torque() for _ in range(readings)]
-                if limit is not None and max(abs(v) for v in values) >= limit:
-                    saturated += 1
-                    break
-                torque = float(np.mean(values)) - bias
-                handle.write(f"{consulted},{level},{torque:.10g}\n")
-                handle.flush()
-                new_rows += 1
-            bar.advance()
-            bar.describe(f"position {int(target)}/{n}")
-        rig.apply(off)
+                    torque = float(np.mean(values)) - bias
+                    handle.write(f"{consulted},{level},{torque:.10g}\n")
+                    handle.flush()
+                    block += 1
+                os.fsync(handle.fileno())
+                done_list.append((target, block))
+                write_record(path, dataclasses.replace(record, done=tuple(done_list)))
+                new_rows += block
+                bar.advance()
+                bar.describe(f"position {target}/{n}")
+            rig.apply(off)
     return CollectResult(
         path=os.fspath(path),
         rows=len(kept) + new_rows,
         new_rows=new_rows,
         targets=targets,
-        resumed_targets=done,
+        resumed_targets=resumed,
         saturated_targets=saturated,
         elapsed=time.perf_counter() - start,
     )
@@ -309,15 +506,9 @@ def collect_characterisation(
     rig: Rig,
     spec: MotorSpec,
     out_csv: str | os.PathLike[str],
+    settings: CollectionSettings | None = None,
     *,
-    readings: int = 10,
-    bias_readings: int | None = None,
-    bias_open: bool = False,
-    pulse_step: int = 1,
-    positions: int | None = None,
-    transitions: bool = False,
     saturation: float | None = None,
-    progress: bool | Progress | None = True,
 ) -> CollectResult:
     """Collect the motor's torque vs position vs pulse width into DATA.csv (paper Fig 12).
 
@@ -329,32 +520,13 @@ def collect_characterisation(
         The motor: cycle length, phases, full-scale pulse width, ramp.
     out_csv
         DATA.csv: columns ``position, pulse_width, torque`` [N m], appended row by row;
-        resumed if it exists.
-    readings
-        Sensor readings averaged per row.
-    bias_readings
-        Sensor readings averaged for the bias at each target (default ``10 * readings``). The
-        bias is subtracted from every row of the target's block, so its error is common to all
-        of them and no later averaging removes it: it is measured more precisely than a row.
-    bias_open
-        Read the bias with the contact open: call the rig's ``open_contact()`` (lift the primary
-        joint off its constraint) before the bias readings; the first level closes it again.
-        Without it (the paper's procedure) the bias is read at rest, all phases off, and where
-        the motor's torque at zero current (cogging) alone pushes the contact beyond its
-        friction, that torque is read as bias too: the rows are then relative to the torque at
-        rest.
-    pulse_step
-        Step of the base pulse width (``0, k, 2k, ...`` and finally ``actuation_max``).
-    positions
-        Number of evenly spaced target positions in the cycle (None: all ``P``).
-    transitions
-        Also target every position where the ramp changes (:func:`collection_targets`).
+        resumed if it exists (by the targets its record lists, see the module docstring).
+    settings
+        Readings, bias, steps, transitions, progress (default: the paper's,
+        :class:`CollectionSettings`). ``level_step`` is the base pulse width's step.
     saturation
         Sensor range [N m]: a reading at or beyond it ends the inner loop, unstored. None: the
         rig's ``saturation`` attribute if it has one, else no check.
-    progress
-        Where progress goes (:mod:`torquemap.progress`): a hook, or ``True`` for a bar on
-        stderr (plain lines when it is not a terminal), ``False``/``None`` for none.
 
     Returns
     -------
@@ -364,23 +536,22 @@ def collect_characterisation(
     Raises
     ------
     InputError
-        If the existing file cannot be resumed (other header, other grid, malformed rows).
+        If the existing file cannot be resumed (other header, other settings or motor than
+        its record's, malformed rows), another run holds the file's lock, or the bias is to be
+        read on an open contact on a rig without ``open_contact()``.
     """
+    s = CollectionSettings() if settings is None else settings
     ramp = spec.ramp
     return _collect(
         rig,
         spec,
         out_csv,
+        s,
         columns=CHARACTERISATION_COLUMNS,
-        levels=_levels(spec.actuation_max, pulse_step, "pulse_step"),
+        levels=_levels(spec.actuation_max, s.level_step),
         actuation=lambda level, position: ramped_actuation(level, position, ramp).tolist(),
-        readings=readings,
-        bias_readings=bias_readings,
-        bias_open=bias_open,
-        positions=positions,
-        transitions=transitions,
         saturation=saturation,
-        progress=progress,
+        extra={},
     )
 
 
@@ -390,15 +561,33 @@ def _phase_tables(spec: MotorSpec, tables: Mapping[str, NDArray[np.integer]]) ->
     for k in range(spec.phases):
         name = f"phase_{k + 1}"
         if name not in tables:
-            raise InputError(f"tables lack {name!r} (have {', '.join(sorted(tables))})")
+            raise InputError(
+                f"tables lack {name!r} (have {', '.join(sorted(tables))}): the motor has "
+                f"{spec.phases} phases; are the tables for another motor?"
+            )
         table = np.asarray(tables[name])
         if table.shape != shape:
-            raise InputError(f"table {name!r} has shape {table.shape}, expected {shape}")
+            raise InputError(
+                f"table {name!r} has shape {table.shape}, expected {shape} (positions per "
+                "cycle x commands): are the tables for another motor?"
+            )
         if not np.issubdtype(table.dtype, np.integer):
             raise InputError(f"table {name!r} must hold integers, got {table.dtype}")
         if table.min() < 0 or table.max() > spec.actuation_max:
             raise InputError(f"table {name!r} holds values outside 0 .. {spec.actuation_max}")
         out[k] = table
+    extra = sorted(
+        name
+        for name in tables
+        if name.startswith("phase_")
+        and name[6:].isdigit()
+        and not 1 <= int(name[6:]) <= spec.phases
+    )
+    if extra:
+        raise InputError(
+            f"tables hold {', '.join(extra)} but the motor has {spec.phases} phases: are the "
+            "tables for another motor?"
+        )
     return out
 
 
@@ -407,29 +596,23 @@ def collect_verification(
     spec: MotorSpec,
     tables: Mapping[str, NDArray[np.integer]],
     out_csv: str | os.PathLike[str],
+    settings: CollectionSettings | None = None,
     *,
-    readings: int = 10,
-    bias_readings: int | None = None,
-    bias_open: bool = False,
-    command_step: int = 1,
-    positions: int | None = None,
-    transitions: bool = False,
     saturation: float | None = None,
-    progress: bool | Progress | None = True,
 ) -> CollectResult:
     """Collect torque vs position vs torque command through the tables (paper §5.3 "after").
 
     As :func:`collect_characterisation`, but the inner loop steps the torque command
-    ``c = 0 .. 2**(bits - 1) - 1`` and phase ``k`` receives ``tables["phase_k"][p, c mod 2**bits]``
-    at the current position ``p``. Writes ``position, command, torque``.
+    ``c = 0 .. 2**(bits - 1) - 1`` (by ``settings.level_step``) and phase ``k`` receives
+    ``tables["phase_k"][p, c mod 2**bits]`` at the current position ``p``. Writes
+    ``position, command, torque``. A resumed run must use the same tables (their digest is in
+    the record).
 
     Parameters
     ----------
     tables
         ``phase_1 .. phase_m``: integer arrays of shape ``(P, 2**command_bits)``.
-    command_step
-        Step of the torque command.
-    readings, bias_readings, bias_open, positions, transitions, saturation, progress
+    rig, spec, out_csv, settings, saturation
         As for :func:`collect_characterisation`.
 
     Raises
@@ -438,24 +621,21 @@ def collect_verification(
         On missing tables, a wrong shape, non-integer or out-of-range entries, or a file that
         cannot be resumed.
     """
+    s = CollectionSettings() if settings is None else settings
     stack = _phase_tables(spec, tables)
     width = 2**spec.command_bits
     return _collect(
         rig,
         spec,
         out_csv,
+        s,
         columns=VERIFICATION_COLUMNS,
-        levels=_levels(width // 2 - 1, command_step, "command_step"),
+        levels=_levels(width // 2 - 1, s.level_step),
         actuation=lambda level, position: stack[
             :, position % spec.positions_per_cycle, level % width
         ].tolist(),
-        readings=readings,
-        bias_readings=bias_readings,
-        bias_open=bias_open,
-        positions=positions,
-        transitions=transitions,
         saturation=saturation,
-        progress=progress,
+        extra={"tables_sha256": tables_digest(stack)},
     )
 
 

@@ -17,6 +17,7 @@ cells that hold data. With every cell present, the means of CAPMD and of PAPMD e
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from typing import Any
 
@@ -219,8 +220,43 @@ def apmd_report(
     )
 
 
+def check_tables_fit(
+    spec: MotorSpec, tables: TableSet, *, path: str | os.PathLike[str] | None = None
+) -> None:
+    """Refuse tables built for another motor: phases, positions per cycle, command bits,
+    full-scale pulse width or equilibria that differ from the motor file's.
+
+    Raises
+    ------
+    InputError
+        Naming every difference (and ``path``, the tables file).
+    """
+    pairs = (
+        ("phases", tables.phases.shape[0], spec.phases),
+        ("positions per cycle", tables.positions_per_cycle, spec.positions_per_cycle),
+        ("command bits", tables.command_bits, spec.command_bits),
+        ("full-scale pulse width", tables.motor_actuation_max, spec.actuation_max),
+        (
+            "equilibrium positions",
+            tuple(tables.equilibrium_positions),
+            tuple(spec.equilibrium_positions),
+        ),
+    )
+    wrong = [f"{name} {got} (the motor: {want})" for name, got, want in pairs if got != want]
+    if wrong:
+        raise InputError(
+            f"tables are for another motor ({tables.motor_name!r}, the motor file is "
+            f"{spec.name!r}): " + "; ".join(wrong),
+            path=path,
+        )
+
+
 def evaluate_linearity(
-    spec: MotorSpec, data: LinearizeData, *, tables: TableSet | None = None
+    spec: MotorSpec,
+    data: LinearizeData,
+    *,
+    tables: TableSet | None = None,
+    tables_path: str | os.PathLike[str] | None = None,
 ) -> LinearityReport:
     """Linearity of characterisation data (before) or of a verification run (after).
 
@@ -233,6 +269,8 @@ def evaluate_linearity(
         ``tables``, verification rows (command = torque command, ``C = 2**(bits-1) - 1``).
     tables
         The tables the verification ran through; adds the APMD against their nominal law.
+    tables_path
+        Their file, named when they are for another motor (:func:`check_tables_fit`).
 
     Returns
     -------
@@ -253,13 +291,7 @@ def evaluate_linearity(
                 command_max=spec.actuation_max,
                 positions_per_cycle=spec.positions_per_cycle,
             )
-        got = (tables.phases.shape[0], tables.positions_per_cycle, tables.command_bits)
-        want = (spec.phases, spec.positions_per_cycle, spec.command_bits)
-        if got != want:
-            raise InputError(
-                f"tables are for {got[0]} phases, {got[1]} positions, {got[2]} command bits; "
-                f"the motor has {want[0]}, {want[1]}, {want[2]}"
-            )
+        check_tables_fit(spec, tables, path=tables_path)
         return apmd_report(
             data.position,
             data.level,

@@ -43,6 +43,7 @@ from torquemap.errors import InputError
 from torquemap.io import numeric_column, read_table
 from torquemap.linearize.denoise import denoise_blocks
 from torquemap.linearize.motor import MotorSpec
+from torquemap.linearize.onset import extend_below, fit_onset
 
 CommandScaling = Literal["linear", "log"]
 Method = Literal["interp", "paper"]
@@ -524,6 +525,31 @@ def _noise_floor(pw: NDArray[np.float64], tau: NDArray[np.float64]) -> float:
     return max(4.0 * sigma, 0.02 * float(np.max(np.abs(tau))), 1e-12)
 
 
+def _check_signal(
+    pos: NDArray[np.int64], pw: NDArray[np.float64], tau: NDArray[np.float64], path: str | None
+) -> None:
+    """Refuse data that cannot make a table: one pulse width only (a saturated amplifier or a
+    step past full scale), or no torque above the sensor's noise."""
+    levels = np.unique(pw)
+    if levels.size < 2:
+        raise InputError(
+            f"every row has pulse width {levels[0]:g}: no torque curve to invert (was the "
+            "amplifier saturated, or the pulse-width step beyond full scale?)",
+            path=path,
+        )
+    sigma = _row_noise(pw, tau)
+    top = np.full(int(pos.max()) + 1, -np.inf)
+    np.maximum.at(top, pos, tau)
+    at_top = float(np.median(top[np.isfinite(top)]))
+    if sigma > 0 and at_top <= 5.0 * sigma:
+        raise InputError(
+            f"the rig never read torque above its noise: the median over positions of the "
+            f"largest torque is {at_top:.3g} N m, the noise of a row {sigma:.3g} N m (is the "
+            "motor powered, the sensor connected?)",
+            path=path,
+        )
+
+
 def _check_phases(
     spec: MotorSpec,
     pos: NDArray[np.int64],
@@ -596,10 +622,11 @@ def _forward_model(
     pw: NDArray[np.float64],
     tau: NDArray[np.float64],
     max_gap: int,
-) -> tuple[NDArray[np.float64], NDArray[np.float64], int, int]:
+) -> tuple[NDArray[np.float64], NDArray[np.float64], int, int, NDArray[np.float64]]:
     """Torque on the (position, measured pulse width) grid, monotone in pulse width.
 
-    Returns the grid (P, n_levels), the levels, the cells filled and the cells averaged.
+    Returns the grid (P, n_levels), the levels, the cells filled, the cells averaged and the
+    cell means before filling (NaN where no rows).
     """
     levels, col = np.unique(pw, return_inverse=True)
     n = spec.positions_per_cycle
@@ -610,7 +637,31 @@ def _forward_model(
     filled = fill_voids(mean, max_position_gap=max_gap, levels=levels)
     voids = int(np.isnan(mean).sum() - np.isnan(filled).sum())
     forward = np.fmax.accumulate(filled, axis=1)
-    return forward, levels, voids, int((count > 1).sum())
+    return forward, levels, voids, int((count > 1).sum()), mean
+
+
+def _fine(
+    forward: NDArray[np.float64], levels: NDArray[np.float64], top: int
+) -> NDArray[np.float64]:
+    """The forward model on every base pulse width ``0 .. top`` (linear between levels; NaN
+    past a position's last known level)."""
+    u = np.arange(top + 1, dtype=np.float64)
+    out = np.full((forward.shape[0], u.size), np.nan)
+    for p, row in enumerate(forward):
+        ok = np.isfinite(row)
+        if ok.sum() >= 2:
+            out[p] = np.interp(u, levels[ok], row[ok], right=np.nan)
+        elif ok.any():
+            out[p, u <= levels[ok][0]] = row[ok][0]
+    return out
+
+
+def _row_noise(pw: NDArray[np.float64], tau: NDArray[np.float64]) -> float:
+    """Noise of one row [N m]: robust spread of the rows at zero pulse width."""
+    zero = tau[pw == 0]
+    if zero.size < 4:
+        return 0.0
+    return float(1.4826 * np.median(np.abs(zero - np.median(zero))))
 
 
 def _invert(
@@ -675,6 +726,7 @@ def build_tables(
     max_gap: int | None = None,
     denoise: bool = True,
     bias_weight: float = 10.0,
+    onset: bool = True,
     path: str | os.PathLike[str] | None = None,
 ) -> TableSet:
     """Build the per-phase torque-linearisation tables from characterisation data (paper §4.3).
@@ -715,6 +767,11 @@ def build_tables(
         Denoising: the weight of each block's bias measurement in rows (the collection's
         ``bias_readings / readings``, 10 by default); each block is re-zeroed on the readings
         its fit censors, weighed against it.
+    onset
+        ``"interp"`` only: below the smallest torque the rig reads reliably (three times a
+        row's noise), extend each position's curve with the physical onset law of
+        :mod:`torquemap.linearize.onset` fitted to the readings above it (the friction zone),
+        and invert on every pulse width.
     path
         The data file, named in error messages.
 
@@ -761,14 +818,16 @@ def build_tables(
     n, m = spec.positions_per_cycle, spec.phases
     gap = max(1, n // (4 * m)) if max_gap is None else int(max_gap)
     floor = _noise_floor(pw, tau)
+    _check_signal(pos, pw, tau, src)
     _check_phases(spec, pos, pw, tau, floor, src)
     _check_coverage(spec, pos, gap, src)
 
     rank = 0
+    raw_tau = tau
     if denoise and method == "interp":
         cleaned = denoise_blocks(pw, tau, bias_weight=bias_weight)
         tau, rank = cleaned.torque, cleaned.rank
-    forward, levels, voids, averaged = _forward_model(spec, pos, pw, tau, gap)
+    forward, levels, voids, averaged, _ = _forward_model(spec, pos, pw, tau, gap)
     reach = np.nanmax(np.where(np.isnan(forward), -np.inf, forward), axis=1)
     if (reach <= floor).any():
         p = int(np.argmax(reach <= floor))
@@ -787,7 +846,29 @@ def build_tables(
     }
     if method == "interp":
         target = torque_from_command(np.arange(cmax + 1), **law)  # type: ignore[arg-type]
-        base = _invert(forward, levels, target)
+        if onset:
+            ramp = np.asarray(spec.ramp, dtype=np.float64)
+            sigma = _row_noise(pw, raw_tau)
+            readable = max(3.0 * sigma, 1e-6 * float(np.max(np.abs(raw_tau))))
+            fine = _fine(forward, levels, spec.actuation_max)
+            fit = fit_onset(
+                forward,
+                levels,
+                ramp,
+                readable=readable,
+                upper=0.3 * torque_max,
+                actuation_max=spec.actuation_max,
+            )
+            fine, _ = extend_below(
+                fine,
+                fit,
+                ramp,
+                readable=readable,
+                actuation_max=spec.actuation_max,
+            )
+            base = _invert(fine, np.arange(spec.actuation_max + 1, dtype=np.float64), target)
+        else:
+            base = _invert(forward, levels, target)
     else:
         index = command_from_torque(tau, **law)  # type: ignore[arg-type]
         base, voids, averaged = _paper_inverse(spec, pos, pw, tau, index, cmax, gap)

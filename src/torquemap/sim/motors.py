@@ -25,6 +25,7 @@ lands in the paper's range (Table 2: VR 58 to 76 %, BLDC 9 to 36 %).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -52,6 +53,13 @@ class Amplifier:
         Current the curve reaches at full scale [A].
     current_limit
         The amplifier's current limit [A].
+    onset
+        Width ``w`` [pulse-width units] of a smooth onset past the dead band: the drive
+        ``d = u - u0`` is replaced by ``d^2 / (2 w)`` below ``w`` and ``d - w / 2`` above (0: a
+        sharp corner).
+    soft_limit
+        ``n`` of a soft current limit ``i / (1 + (i / i_limit)^n)^(1/n)`` (0: the hard
+        ``min(i, i_limit)``).
     """
 
     actuation_max: int = 255
@@ -59,6 +67,8 @@ class Amplifier:
     curve: float = -0.6
     current_max: float = 10.0
     current_limit: float = 9.5
+    onset: float = 0.0
+    soft_limit: float = 0.0
 
 
 def amplifier_current(actuation: ArrayLike, amplifier: Amplifier) -> NDArray[np.float64]:
@@ -71,10 +81,20 @@ def amplifier_current(actuation: ArrayLike, amplifier: Amplifier) -> NDArray[np.
     [0.0, 0.0, 9.5]
     """
     u = np.asarray(actuation, dtype=np.float64)
-    x = np.clip((u - amplifier.dead_band) / (amplifier.actuation_max - amplifier.dead_band), 0, 1)
+    d = np.maximum(u - amplifier.dead_band, 0.0)
+    w = amplifier.onset
+    if w > 0.0:
+        d = np.where(d < w, d * d / (2.0 * w), d - 0.5 * w)
+    x = np.clip(d / (amplifier.actuation_max - amplifier.dead_band), 0, 1)
     a = amplifier.curve
     shape = x if a == 0.0 else np.expm1(-a * x) / math.expm1(-a)
-    out: NDArray[np.float64] = np.minimum(amplifier.current_max * shape, amplifier.current_limit)
+    raw = amplifier.current_max * shape
+    n = amplifier.soft_limit
+    out: NDArray[np.float64]
+    if n > 0.0:
+        out = raw / (1.0 + (raw / amplifier.current_limit) ** n) ** (1.0 / n)
+    else:
+        out = np.minimum(raw, amplifier.current_limit)
     return out
 
 
@@ -105,6 +125,9 @@ class VariableReluctanceMotor:
         ``b2``, skews each phase's torque curve.
     mutual_saturation
         ``mu``, the two-phase interaction.
+    cogging, cogging_periods, cogging_phase
+        Detent torque ``c sin(n 2 pi x / P + phi)`` [N m] that does not depend on the currents
+        (0 by default: the Adept II's VR motors).
     """
 
     positions_per_cycle: int = 512
@@ -117,6 +140,9 @@ class VariableReluctanceMotor:
     current_max: float = 10.0
     second_harmonic: float = 0.15
     mutual_saturation: float = 0.3
+    cogging: float = 0.0
+    cogging_periods: int = 6
+    cogging_phase: float = 0.4
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -139,6 +165,9 @@ class BrushlessDcMotor:
         ``phi`` [rad].
     mutual_saturation
         ``mu``, the two-phase interaction (armature reaction).
+    cogging_periods
+        ``n``, cogging periods per actuation cycle (the cogging is
+        ``c sin(n 2 pi x / P + phi)``).
     """
 
     positions_per_cycle: int = 256
@@ -152,6 +181,7 @@ class BrushlessDcMotor:
     cogging: float = 0.12
     cogging_phase: float = 0.4
     mutual_saturation: float = 0.08
+    cogging_periods: int = 6
 
 
 Motor = VariableReluctanceMotor | BrushlessDcMotor
@@ -165,6 +195,7 @@ def _angles(motor: Motor, position: NDArray[np.float64]) -> NDArray[np.float64]:
     return angles
 
 
+@functools.lru_cache(maxsize=256)
 def _shape_max(coefficients: tuple[tuple[int, float], ...]) -> float:
     u = np.linspace(0.0, 2.0 * np.pi, 4096, endpoint=False)
     s = sum(b * np.sin(n * u) for n, b in coefficients)
@@ -214,6 +245,11 @@ def motor_torque(motor: Motor, position: ArrayLike, current: ArrayLike) -> NDArr
             1.0 + motor.mutual_saturation * others
         )
         out: NDArray[np.float64] = per_phase.sum(axis=-1)
+        if motor.cogging:
+            out = out + motor.cogging * np.sin(
+                2.0 * np.pi * motor.cogging_periods * x / motor.positions_per_cycle
+                + motor.cogging_phase
+            )
         return out
     b3, b5 = motor.harmonics
     coefficients = ((1, 1.0), (3, b3), (5, b5))
@@ -221,6 +257,65 @@ def motor_torque(motor: Motor, position: ArrayLike, current: ArrayLike) -> NDArr
     lin = i / motor.current_max
     others = lin.sum(axis=-1, keepdims=True) - lin
     per_phase = motor.peak_torque * g * lin * shape * (1.0 - motor.mutual_saturation * others)
-    cog = motor.cogging * np.sin(12.0 * np.pi * x / motor.positions_per_cycle + motor.cogging_phase)
+    cog = motor.cogging * np.sin(
+        2.0 * np.pi * motor.cogging_periods * x / motor.positions_per_cycle + motor.cogging_phase
+    )
     total: NDArray[np.float64] = per_phase.sum(axis=-1) + cog
+    return total
+
+
+def torque_at(motor: Motor, position: float, current: list[float]) -> float:
+    """:func:`motor_torque` at one position for one set of phase currents, in plain floats.
+
+    The same law term by term, without numpy's per-call cost: the rig's settling loop calls it
+    thousands of times per collection.
+
+    Examples
+    --------
+    >>> m = VariableReluctanceMotor()
+    >>> a = torque_at(m, 100.3, [9.0, 2.0, 0.0])
+    >>> abs(a - float(motor_torque(m, 100.3, [9.0, 2.0, 0.0]))) < 1e-9
+    True
+    """
+    n = motor.positions_per_cycle
+    two_pi = 2.0 * math.pi
+    total = 0.0
+    if isinstance(motor, VariableReluctanceMotor):
+        b2 = motor.second_harmonic
+        norm = _shape_max(((1, 1.0), (2, b2)))
+        i_s = motor.saturation_current
+        imax = motor.current_max
+        f_max = imax * imax / math.sqrt(1.0 + (imax / i_s) ** 2)
+        sq = [(c / imax) ** 2 for c in current]
+        sq_sum = sum(sq)
+        for k, c in enumerate(current):
+            if c == 0.0:
+                continue
+            u = two_pi * (position - motor.equilibrium[k] - motor.phase_offset[k]) / n
+            shape = -(math.sin(u) + b2 * math.sin(2.0 * u)) / norm
+            f = c * c / math.sqrt(1.0 + (c / i_s) ** 2)
+            total += (motor.peak_torque * motor.phase_gain[k] * f / f_max * shape) / (
+                1.0 + motor.mutual_saturation * (sq_sum - sq[k])
+            )
+        if motor.cogging:
+            total += motor.cogging * math.sin(
+                two_pi * motor.cogging_periods * position / n + motor.cogging_phase
+            )
+        return total
+    b3, b5 = motor.harmonics
+    norm = _shape_max(((1, 1.0), (3, b3), (5, b5)))
+    lin = [c / motor.current_max for c in current]
+    lin_sum = sum(lin)
+    for k, x in enumerate(lin):
+        if x == 0.0:
+            continue
+        u = two_pi * (position - motor.equilibrium[k] - motor.phase_offset[k]) / n
+        shape = -(math.sin(u) + b3 * math.sin(3.0 * u) + b5 * math.sin(5.0 * u)) / norm
+        total += (
+            motor.peak_torque * motor.phase_gain[k] * x * shape
+            * (1.0 - motor.mutual_saturation * (lin_sum - x))
+        )  # fmt: skip
+    total += motor.cogging * math.sin(
+        two_pi * motor.cogging_periods * position / n + motor.cogging_phase
+    )
     return total

@@ -33,13 +33,14 @@ from numpy.typing import ArrayLike, NDArray
 from torquemap.errors import InputError
 from torquemap.io import atomic_outputs, output_folder, toml_writer
 from torquemap.linearize.collect import (
+    CollectionSettings,
     CollectResult,
     collect_characterisation,
     collect_verification,
     read_tables_npz,
 )
 from torquemap.linearize.motor import MotorSpec, RampKind, motor_spec, motor_to_dict
-from torquemap.progress import Progress
+from torquemap.linearize.resume import record_path
 from torquemap.sim.motors import (
     Amplifier,
     BrushlessDcMotor,
@@ -47,6 +48,7 @@ from torquemap.sim.motors import (
     VariableReluctanceMotor,
     amplifier_current,
     motor_torque,
+    torque_at,
 )
 
 
@@ -204,8 +206,9 @@ class SimRig:
         s = self.settings
         held = self.force
         f = held
+        current = amplifier_current(self.actuation, self.amplifier).tolist()
         for _ in range(60):
-            t = float(self.true_torque(self.base + f / s.stiffness, self.actuation))
+            t = torque_at(self.motor, self.base + f / s.stiffness, current)
             if t - s.friction > held:
                 new = t - s.friction
             elif t + s.friction < held:
@@ -330,12 +333,6 @@ def _check_seed(seed: int) -> None:
         raise InputError(f"seed must be a non-negative integer, got {seed!r}")
 
 
-def _positions(spec: MotorSpec, position_step: int) -> int:
-    if isinstance(position_step, bool) or not isinstance(position_step, int) or position_step < 1:
-        raise InputError(f"position step must be a positive integer, got {position_step!r}")
-    return -(-spec.positions_per_cycle // position_step)
-
-
 def collect_on_sim(
     spec: MotorSpec,
     out_csv: str | os.PathLike[str],
@@ -343,13 +340,7 @@ def collect_on_sim(
     sim: Literal["vr", "bldc"],
     seed: int = 0,
     tables: str | os.PathLike[str] | None = None,
-    readings: int = 10,
-    bias_readings: int | None = None,
-    bias_open: bool = False,
-    step: int = 4,
-    position_step: int = 4,
-    transitions: bool = False,
-    progress: bool | Progress | None = True,
+    settings: CollectionSettings | None = None,
 ) -> CollectResult:
     """Run ``linearize collect`` against a simulated rig (resuming ``out_csv`` if it exists).
 
@@ -365,20 +356,8 @@ def collect_on_sim(
         Sensor noise seed (>= 0).
     tables
         TABLES.npz (``phase_1 .. phase_m``, shape ``(P, 2**bits)``) for a verification run.
-    readings
-        Readings averaged per row.
-    bias_readings
-        Readings averaged for the bias at each target (default ``10 * readings``).
-    bias_open
-        Read the bias with the contact open (:meth:`SimRig.open_contact`), not at rest.
-    step
-        Pulse-width step (characterisation) or command step (verification).
-    position_step
-        Spacing of the target positions [table positions]: ``ceil(P / position_step)`` targets.
-    transitions
-        Also target every position where the ramp changes.
-    progress
-        Progress hook (:mod:`torquemap.progress`), or ``True`` for the default reporter.
+    settings
+        The collection's settings (default: the paper's, :class:`CollectionSettings`).
 
     Returns
     -------
@@ -388,16 +367,22 @@ def collect_on_sim(
     Raises
     ------
     InputError
-        On a bad seed or step, a spec that does not match the rig, a bad tables file, or a
-        data file that cannot be resumed.
+        On a bad seed, a spec that does not match the rig, a bad tables file, or a data file
+        that cannot be resumed.
     """
     _check_seed(seed)
     rig = sim_rig(sim, rng=seed)
+    return collect_on_rig(
+        rig, spec, out_csv, f"simulated {sim} motor", tables=tables, settings=settings
+    )
+
+
+def check_rig_fits(rig: SimRig, spec: MotorSpec, what: str) -> None:
+    """Raise InputError (naming the motor file) if ``spec`` does not fit ``rig``."""
     if (spec.phases, spec.positions_per_cycle) != (rig.phases, rig.positions_per_cycle):
         raise InputError(
             f"the motor file has {spec.phases} phases and {spec.positions_per_cycle} positions "
-            f"per cycle; the simulated {sim} motor has {rig.phases} and "
-            f"{rig.positions_per_cycle}",
+            f"per cycle; the {what} has {rig.phases} and {rig.positions_per_cycle}",
             path=spec.path,
         )
     if spec.actuation_max != rig.amplifier.actuation_max:
@@ -406,39 +391,26 @@ def collect_on_sim(
             f"{rig.amplifier.actuation_max}",
             path=spec.path,
         )
-    if step < 1:
-        raise InputError(f"step must be >= 1, got {step}")
-    if readings < 1:
-        raise InputError(f"readings must be >= 1, got {readings}")
-    if bias_readings is not None and bias_readings < 1:
-        raise InputError(f"bias readings must be >= 1, got {bias_readings}")
-    positions = _positions(spec, position_step)
+
+
+def collect_on_rig(
+    rig: SimRig,
+    spec: MotorSpec,
+    out_csv: str | os.PathLike[str],
+    what: str,
+    *,
+    tables: str | os.PathLike[str] | None = None,
+    settings: CollectionSettings | None = None,
+) -> CollectResult:
+    """Characterise (or, with ``tables``, verify) on ``rig`` after checking that ``spec`` fits.
+
+    ``what`` names the rig in the message when the motor file does not match it.
+    """
+    check_rig_fits(rig, spec, what)
+    s = CollectionSettings() if settings is None else settings
     if tables is None:
-        return collect_characterisation(
-            rig,
-            spec,
-            out_csv,
-            readings=readings,
-            bias_readings=bias_readings,
-            bias_open=bias_open,
-            pulse_step=step,
-            positions=positions,
-            transitions=transitions,
-            progress=progress,
-        )
-    return collect_verification(
-        rig,
-        spec,
-        read_tables_npz(tables, spec),
-        out_csv,
-        readings=readings,
-        bias_readings=bias_readings,
-        bias_open=bias_open,
-        command_step=step,
-        positions=positions,
-        transitions=transitions,
-        progress=progress,
-    )
+        return collect_characterisation(rig, spec, out_csv, s)
+    return collect_verification(rig, spec, read_tables_npz(tables, spec), out_csv, s)
 
 
 #: Most readings per row (or per bias measurement) a simulated run takes.
@@ -451,13 +423,7 @@ def write_rig_data(
     motor: Literal["vr", "bldc"] = "vr",
     seed: int = 0,
     ramping: RampKind = "wide",
-    readings: int = 10,
-    bias_readings: int | None = None,
-    bias_open: bool = False,
-    pulse_step: int = 4,
-    position_step: int = 4,
-    transitions: bool = False,
-    progress: bool | Progress | None = False,
+    settings: CollectionSettings | None = None,
 ) -> CollectResult:
     """A full characterisation run on a simulated rig: ``motor.toml`` and ``data.csv`` in a folder.
 
@@ -474,20 +440,8 @@ def write_rig_data(
         Sensor noise seed (>= 0); the output is a function of the arguments alone.
     ramping
         Ramping function written into motor.toml and used for the collection.
-    readings
-        Readings averaged per row.
-    bias_readings
-        Readings averaged for the bias at each target (default ``10 * readings``).
-    bias_open
-        Read the bias with the contact open (:meth:`SimRig.open_contact`), not at rest.
-    pulse_step
-        Pulse-width step.
-    position_step
-        Spacing of the target positions [table positions].
-    transitions
-        Also target every position where the ramp changes.
-    progress
-        Progress hook (:mod:`torquemap.progress`), or ``True`` for the default reporter.
+    settings
+        The collection's settings (default: the paper's, without a progress bar).
 
     Returns
     -------
@@ -497,45 +451,52 @@ def write_rig_data(
     Raises
     ------
     InputError
-        On a bad seed, ramping or step, or an output path that is not a folder.
+        On a bad seed or ramping, or an output path that is not a folder.
     """
     _check_seed(seed)
+    rig = sim_rig(motor, rng=seed)
+    return write_rig_folder(out_dir, rig, ramping=ramping, settings=settings)
+
+
+def write_rig_folder(
+    out_dir: str | os.PathLike[str],
+    rig: SimRig,
+    *,
+    ramping: RampKind = "wide",
+    settings: CollectionSettings | None = None,
+) -> CollectResult:
+    """Characterise ``rig`` into ``out_dir/motor.toml`` and ``out_dir/data.csv`` (whole or not at all).
+
+    Parameters
+    ----------
+    out_dir
+        Output folder (created).
+    rig
+        The simulated bench.
+    ramping
+        Ramping function written into motor.toml and used for the collection.
+    settings
+        The collection's settings (default: the paper's, without a progress bar).
+
+    Returns
+    -------
+    CollectResult
+        What was collected (its ``path`` is the final data.csv).
+    """
     if ramping not in ("narrow", "wide"):
         raise InputError(f"ramping must be narrow or wide, got {ramping!r}")
-    if isinstance(pulse_step, bool) or not isinstance(pulse_step, int) or pulse_step < 1:
-        raise InputError(f"pulse step must be a positive integer, got {pulse_step!r}")
-    if isinstance(readings, bool) or not isinstance(readings, int) or readings < 1:
-        raise InputError(f"readings must be a positive integer, got {readings!r}")
-    if bias_readings is not None and (
-        isinstance(bias_readings, bool) or not isinstance(bias_readings, int) or bias_readings < 1
-    ):
-        raise InputError(f"bias readings must be a positive integer, got {bias_readings!r}")
-    for what, count in (("readings", readings), ("bias readings", bias_readings or 1)):
-        if count > MAX_READINGS:
-            raise InputError(f"{what} must be at most {MAX_READINGS}, got {count}")
-    rig = sim_rig(motor, rng=seed)
+    s = CollectionSettings(progress=False) if settings is None else settings
     spec = rig.motor_spec(ramping=ramping)
-    positions = _positions(spec, position_step)
     out = Path(out_dir)
     target = out / "data.csv"
     # data.csv and motor.toml both or neither; a folder created here is removed on failure
     with output_folder(out), atomic_outputs([target, out / "motor.toml"]) as (tmp, tmp_motor):
         partial = tmp.with_name(tmp.name + ".csv")  # still a recognisable temporary
         try:
-            result = collect_characterisation(
-                rig,
-                spec,
-                partial,
-                readings=readings,
-                bias_readings=bias_readings,
-                bias_open=bias_open,
-                pulse_step=pulse_step,
-                positions=positions,
-                transitions=transitions,
-                progress=progress,
-            )
+            result = collect_characterisation(rig, spec, partial, s)
             os.replace(partial, tmp)
         finally:
             partial.unlink(missing_ok=True)
+            record_path(partial).unlink(missing_ok=True)
         toml_writer(motor_to_dict(spec))(tmp_motor)
     return dataclasses.replace(result, path=os.fspath(target))

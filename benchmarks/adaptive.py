@@ -1,0 +1,120 @@
+"""Adaptive collection against the paper's grid on random motors of the family.
+
+Run: ``.venv/bin/python benchmarks/adaptive.py [N]`` (N random motors, default 6; about 1.5
+minutes each on 2 cores).
+
+For each random bench (:func:`torquemap.sim.family.random_bench`, seeds 0 .. N-1) with the
+paper's collection settings (10 readings a row, every 4th position and pulse width, the bias over
+100 readings): three DATA.csv, each built with ``build_tables`` and scored noise-free (Eq 1 over
+every cell of the torque the sensor would see, motor minus the rig's friction):
+
+* the paper's grid (all its readings);
+* the adaptive collection (:func:`torquemap.linearize.adaptive.collect_adaptive`) within a third
+  of the grid's readings, on a rig with other sensor noise;
+* a uniform grid of about the same readings (every 8th position and pulse width, 29 %), the
+  non-adaptive way to spend a third.
+
+Printed: APMD of each, the ratios to the grid, readings spent; median and worst.
+"""
+
+from __future__ import annotations
+
+import statistics
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from torquemap.linearize.adaptive import collect_adaptive, grid_readings
+from torquemap.linearize.collect import CollectionSettings, collect_characterisation
+from torquemap.linearize.metrics import apmd_report
+from torquemap.linearize.tables import TableSet, build_tables, read_data
+from torquemap.sim.family import random_bench
+from torquemap.sim.rig import SimRig
+
+
+def apmd(rig: SimRig, tables: TableSet) -> tuple[float, float]:
+    """Eq 1 over every cell (p, c > 0) of the sensed torque through the tables, noise-free,
+    and above 10 % command."""
+    n, cmax = tables.positions_per_cycle, tables.command_max
+    p = np.arange(n)
+    act = np.moveaxis(tables.phases[:, :, : cmax + 1], 0, -1)
+    torque = np.maximum(rig.true_torque(p[:, None], act) - rig.settings.friction, 0.0)
+    pp, cc = np.meshgrid(p, np.arange(cmax + 1), indexing="ij")
+    report = apmd_report(
+        pp.ravel(), cc.ravel(), torque.ravel(), command_max=cmax, positions_per_cycle=n
+    )
+    return report.apmd, report.apmd_above_10
+
+
+def main() -> int:
+    count = int(sys.argv[1]) if len(sys.argv) > 1 else 6
+    paper = CollectionSettings.paper(progress=False)
+    third = CollectionSettings(readings=10, position_step=8, level_step=8, progress=False)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        for seed in range(count):
+            bench = random_bench(seed)
+            spec = bench.rig.motor_spec(ramping=bench.ramping)
+            scores = {}
+            for label, settings in (("grid", paper), ("uniform", third)):
+                out = d / f"{seed}-{label}.csv"
+                collect_characterisation(random_bench(seed).rig, spec, out, settings)
+                data = read_data(out, spec, kind="characterisation")
+                tables = build_tables(spec, data.position, data.level, data.torque)
+                scores[label] = apmd(bench.rig, tables)
+            out = d / f"{seed}-adaptive.csv"
+            result = collect_adaptive(
+                random_bench(seed, noise_seed=seed + 1000).rig, spec, out, paper
+            )
+            data = read_data(out, spec, kind="characterisation")
+            tables = build_tables(spec, data.position, data.level, data.torque)
+            scores["adaptive"] = apmd(bench.rig, tables)
+            rows.append(
+                (
+                    bench.describe(),
+                    scores,
+                    result.readings / result.grid_readings,
+                    grid_readings(spec, third) / result.grid_readings,
+                    result.positions,
+                    result.levels.size,
+                )
+            )
+            print(f"  seed {seed} done", file=sys.stderr)
+
+    print("Adaptive collection vs the paper's grid: APMD [%] noise-free, random motors")
+    print(
+        f"{'seed':<5}{'grid':>7}{'adaptive':>9}{'uniform':>8}{'ad/grid':>8}{'un/grid':>8}"
+        f"{'ad reads':>9}{'un reads':>9}{'positions':>10}{'levels':>7}  motor"
+    )
+    for seed, (text, both, frac, ufrac, npos, nlev) in enumerate(rows):
+        sc = {k: v[0] for k, v in both.items()}
+        print(
+            f"{seed:<5}{100 * sc['grid']:>6.2f}%{100 * sc['adaptive']:>8.2f}%"
+            f"{100 * sc['uniform']:>7.2f}%{sc['adaptive'] / sc['grid']:>8.2f}"
+            f"{sc['uniform'] / sc['grid']:>8.2f}{100 * frac:>8.0f}%{100 * ufrac:>8.0f}%"
+            f"{npos:>10}{nlev:>7}  {text.split(': ', 1)[1]}"
+        )
+    ad = [r[1]["adaptive"][0] / r[1]["grid"][0] for r in rows]
+    un = [r[1]["uniform"][0] / r[1]["grid"][0] for r in rows]
+    ad10 = [r[1]["adaptive"][1] / r[1]["grid"][1] for r in rows]
+    print(
+        "above 10 % command [%]: "
+        + "; ".join(
+            f"{s}: grid {100 * r[1]['grid'][1]:.2f} adaptive {100 * r[1]['adaptive'][1]:.2f} "
+            f"uniform {100 * r[1]['uniform'][1]:.2f}"
+            for s, r in enumerate(rows)
+        )
+    )
+    print(f"ratio above 10 %: adaptive median {statistics.median(ad10):.2f} worst {max(ad10):.2f}")
+    print(
+        f"ratio to the grid: adaptive median {statistics.median(ad):.2f} worst {max(ad):.2f}; "
+        f"uniform third median {statistics.median(un):.2f} worst {max(un):.2f}"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

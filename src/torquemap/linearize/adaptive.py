@@ -1,0 +1,452 @@
+"""Adaptive collection: measure where the torque surface bends, not on a fixed grid (beyond §4.3).
+
+The paper's collection measures every 4th position and pulse width. Most of that surface is
+flat in position (a phase's plateau) or straight in pulse width (above the onset), where
+linear interpolation between far fewer rows is as good. :func:`collect_adaptive` spends a budget
+of sensor readings (by default a third of the paper grid's, bias readings included) in passes:
+
+1. A coarse pass: every ``2 position_step``-th position (at most ``P / 4 m`` apart, the gap the
+   table builder interpolates across), every ``2 level_step``-th pulse width.
+2. The pulse widths: from the coarse blocks (their low-rank fit,
+   :func:`torquemap.linearize.denoise.denoise_blocks`, so that the noise is not taken for
+   curvature), the level grid is thinned where the curves are straight, keeping the levels whose removal would cost more than ``tolerance`` of the
+   torque (relative to each level's mean torque, so the onset keeps its density).
+3. Position passes, one sweep of the cycle each: every gap between measured positions gets
+   the score ``gap^2 max_level |second difference| / mean torque`` (the linear interpolation
+   error across it, from the curvature at its ends); the midpoints of the highest-scoring
+   gaps are measured at the kept levels, until the budget is spent.
+
+Every block starts at level 0 after a bias measurement, exactly as in
+:func:`torquemap.linearize.collect.collect_characterisation`, so DATA.csv has the usual format
+and ``linearize build`` (and its low-rank denoising, which completes the levels a block skipped)
+reads it unchanged.
+
+Resuming: a record ``DATA.csv.adaptive.json`` lists the blocks done as (target position, pulse
+widths, rows). The plan is a function of the data alone, so a rerun re-plans from the rows kept
+and continues with the first block not done; a block cut short is measured again.
+
+This module talks to hardware only through the :class:`~torquemap.linearize.collect.Rig`
+protocol; it never imports the simulator.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from torquemap.errors import InputError
+from torquemap.io import atomic_output
+from torquemap.linearize.collect import CHARACTERISATION_COLUMNS, CollectionSettings, Rig
+from torquemap.linearize.denoise import denoise_blocks
+from torquemap.linearize.motor import MotorSpec, ramped_actuation
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class AdaptiveResult:
+    """What an adaptive collection did.
+
+    Attributes
+    ----------
+    path
+        The data file.
+    rows
+        Data rows in the file at the end.
+    readings
+        Sensor readings spent (rows and biases) over the whole file.
+    budget
+        The readings allowed.
+    grid_readings
+        Readings of the full grid of the settings (the reference the budget is a fraction of).
+    blocks
+        Blocks (target visits) in the file.
+    positions
+        Distinct target positions measured.
+    levels
+        Pulse widths of the position passes, shape (k,).
+    resumed_blocks
+        Blocks found done in the file and kept.
+    elapsed
+        Wall time of this call [s].
+    """
+
+    path: str
+    rows: int
+    readings: int
+    budget: int
+    grid_readings: int
+    blocks: int
+    positions: int
+    levels: NDArray[np.int64]
+    resumed_blocks: int
+    elapsed: float
+
+
+def _grid_levels(top: int, step: int) -> list[int]:
+    levels = list(range(0, top + 1, step))
+    if levels[-1] != top:
+        levels.append(top)
+    return levels
+
+
+def grid_readings(spec: MotorSpec, settings: CollectionSettings) -> int:
+    """Sensor readings of the settings' full grid: rows times readings plus the biases."""
+    targets = settings.targets(spec).size
+    levels = len(_grid_levels(spec.actuation_max, settings.level_step))
+    return targets * (levels * settings.readings + settings.bias_count)
+
+
+def _blocks_matrix(
+    rows: list[tuple[int, int, float]], blocks: list[tuple[int, list[int], int]]
+) -> tuple[NDArray[np.int64], dict[int, dict[int, float]]]:
+    """Per target: level -> torque (the block's rows)."""
+    out: dict[int, dict[int, float]] = {}
+    i = 0
+    for target, _levels, count in blocks:
+        out.setdefault(target, {}).update({lv: t for _, lv, t in rows[i : i + count]})
+        i += count
+    return np.array(sorted(out), dtype=np.int64), out
+
+
+def choose_levels(
+    curves: NDArray[np.float64], levels: NDArray[np.int64], *, tolerance: float
+) -> NDArray[np.int64]:
+    """Thin a level grid where every curve is straight (greedy removal, smallest cost first).
+
+    Parameters
+    ----------
+    curves
+        Torque of each coarse block at each level [N m], shape (blocks, k); NaN where missing.
+    levels
+        The levels, increasing, shape (k,).
+    tolerance
+        Largest interpolation error a removal may cause, relative to the mean torque of the
+        removed level over the blocks (and at least ``tolerance`` of the largest torque).
+
+    Returns
+    -------
+    ndarray of int64
+        The levels kept (first and last always), increasing.
+
+    Examples
+    --------
+    >>> lv = np.arange(0, 17, 2)
+    >>> choose_levels(np.array([lv * 1.0]), lv, tolerance=0.01).tolist()  # a straight line
+    [0, 16]
+    """
+    keep = list(range(levels.size))
+    c = np.where(np.isfinite(curves), curves, np.nan)
+    top = float(np.nanmax(np.abs(c)))
+    scale = np.maximum(np.nanmean(np.abs(c), axis=0), max(tolerance, 1e-6) * top + 1e-300)
+    while len(keep) > 2:
+        costs = []
+        for j in range(1, len(keep) - 1):
+            a, b, x = keep[j - 1], keep[j + 1], keep[j]
+            f = (levels[x] - levels[a]) / (levels[b] - levels[a])
+            err = np.abs(c[:, x] - (c[:, a] + f * (c[:, b] - c[:, a])))
+            costs.append(float(np.nanmax(err, initial=0.0)) / float(scale[x]))
+        j = int(np.argmin(costs))
+        if costs[j] > tolerance:
+            break
+        del keep[j + 1]
+    return levels[keep].astype(np.int64)
+
+
+def position_scores(
+    positions: NDArray[np.int64], curves: NDArray[np.float64], period: int
+) -> NDArray[np.float64]:
+    """Interpolation error score of every gap between measured positions (cyclic).
+
+    ``score_i = gap_i^2 max(|d2_i|, |d2_{i+1}|)`` per level over the level's mean torque, the
+    largest over the levels; ``d2`` is the second divided difference at each measured position
+    from its neighbours. Gap ``i`` runs from ``positions[i]`` to the next (shape (n,)).
+    """
+    n = positions.size
+    nxt = np.roll(positions, -1)
+    gap = (nxt - positions) % period
+    gap = np.where(gap == 0, period, gap).astype(np.float64)
+    prev_gap = np.roll(gap, 1)
+    c = np.where(np.isfinite(curves), curves, 0.0)
+    scale = np.maximum(np.abs(c).mean(axis=0), 1e-3 * np.abs(c).max() + 1e-300)
+    slope_next = (np.roll(c, -1, axis=0) - c) / gap[:, None]
+    slope_prev = (c - np.roll(c, 1, axis=0)) / prev_gap[:, None]
+    d2 = np.abs(slope_next - slope_prev) / (0.5 * (gap + prev_gap))[:, None]
+    d2 = d2 / scale[None, :]
+    end = np.maximum(d2, np.roll(d2, -1, axis=0))
+    score: NDArray[np.float64] = gap**2 * end.max(axis=1)
+    if n < 3:
+        score = np.asarray(gap, dtype=np.float64) ** 2
+    return score
+
+
+def _read_state(
+    path: Path, record_path: Path
+) -> tuple[list[tuple[int, int, float]], list[tuple[int, list[int], int]]]:
+    header = ",".join(CHARACTERISATION_COLUMNS)
+    if not path.exists() or path.stat().st_size == 0:
+        return [], []
+    lines = path.read_text().splitlines()
+    if not lines or lines[0].strip() != header:
+        raise InputError(
+            f"existing file is not collection data (header must be {header!r})", path=path
+        )
+    if not record_path.exists():
+        if len(lines) > 1:
+            raise InputError(
+                f"cannot resume an adaptive collection without its record {record_path.name}",
+                path=path,
+            )
+        return [], []
+    try:
+        record = json.loads(record_path.read_text())
+        blocks = [(int(t), [int(v) for v in lv], int(c)) for t, lv, c in record["blocks"]]
+    except (ValueError, KeyError, TypeError) as exc:
+        raise InputError(f"unreadable adaptive record ({exc})", path=record_path) from None
+    rows = []
+    for number, line in enumerate(lines[1:], start=2):
+        parts = line.split(",")
+        try:
+            rows.append((int(parts[0]), int(parts[1]), float(parts[2])))
+        except (ValueError, IndexError):
+            if number == len(lines):
+                break
+            raise InputError(f"cannot resume: malformed row at line {number}", path=path) from None
+    total = sum(c for _, _, c in blocks)
+    if total > len(rows):
+        raise InputError(
+            f"cannot resume: the record lists {total} rows, the file holds {len(rows)}",
+            path=path,
+        )
+    return rows[:total], blocks
+
+
+def collect_adaptive(
+    rig: Rig,
+    spec: MotorSpec,
+    out_csv: str | os.PathLike[str],
+    settings: CollectionSettings | None = None,
+    *,
+    fraction: float = 1.0 / 3.0,
+    tolerance: float = 0.005,
+    row_readings: int | None = None,
+    coarse_level_step: int | None = None,
+    coarse_position_factor: int = 2,
+    saturation: float | None = None,
+) -> AdaptiveResult:
+    """Collect DATA.csv adaptively within a fraction of the settings' grid's readings.
+
+    Parameters
+    ----------
+    rig
+        The bench.
+    spec
+        The motor.
+    out_csv
+        DATA.csv (``position, pulse_width, torque``); resumed if it exists with its record.
+    settings
+        Readings per row and per bias, and the grid whose readings the budget is a fraction of
+        (``position_step``, ``level_step``; default the paper's). ``transitions`` and
+        ``bias_open`` are not used.
+    fraction
+        Budget: this fraction of the grid's readings (rows and biases), in (0, 1].
+    tolerance
+        Relative interpolation error below which a pulse width is not measured (step 2).
+    row_readings
+        Sensor readings averaged per row (default ``settings.readings``); the bias of each
+        block gets ``settings.bias_count`` scaled by the same ratio.
+    coarse_level_step
+        Pulse-width step of the coarse pass (default ``2 settings.level_step``).
+    coarse_position_factor
+        The coarse pass visits every ``coarse_position_factor * settings.position_step``-th
+        position (at most ``P / 4 m`` apart).
+    saturation
+        Sensor range [N m] (default the rig's ``saturation`` attribute): a reading at or beyond
+        it ends the block.
+
+    Returns
+    -------
+    AdaptiveResult
+        Rows, readings spent, positions and levels measured.
+
+    Raises
+    ------
+    InputError
+        A fraction outside (0, 1] or a budget below the coarse pass, an output folder that does not exist, or a file that cannot
+        be resumed (no record, malformed rows, a record listing more rows than the file has).
+    """
+    start = time.perf_counter()
+    grid = CollectionSettings.paper() if settings is None else settings
+    per_row = grid.readings if row_readings is None else int(row_readings)
+    if per_row < 1:
+        raise InputError(f"readings per row must be >= 1, got {row_readings}")
+    s = CollectionSettings(
+        readings=per_row,
+        bias_readings=max(1, round(grid.bias_count * per_row / grid.readings)),
+        position_step=grid.position_step,
+        level_step=grid.level_step,
+        progress=False,
+    )
+    if not 0 < fraction <= 1:
+        raise InputError(f"the budget fraction must be in (0, 1], got {fraction}")
+    path = Path(out_csv)
+    if not path.parent.exists():
+        raise InputError("output folder does not exist", path=path.parent)
+    record_path = path.with_name(path.name + ".adaptive.json")
+    n, top = spec.positions_per_cycle, spec.actuation_max
+    reference = grid_readings(spec, grid)
+    budget = int(fraction * reference)
+    rows, done = _read_state(path, record_path)
+    resumed = len(done)
+    header = ",".join(CHARACTERISATION_COLUMNS)
+    with atomic_output(path) as tmp:
+        tmp.write_text("\n".join([header] + [f"{p},{lv},{t:.10g}" for p, lv, t in rows]) + "\n")
+    limit = saturation if saturation is not None else getattr(rig, "saturation", None)
+    off = [0] * spec.phases
+    cursor = 0  # planned blocks so far; the first ``len(done)`` are in the file
+
+    def spent() -> int:
+        """Readings of the blocks planned so far (on resume, the file may hold more)."""
+        return sum(c * s.readings + s.bias_count for _, _, c in done[:cursor])
+
+    def known() -> tuple[list[tuple[int, int, float]], list[tuple[int, list[int], int]]]:
+        """Rows and blocks planned so far (the plan must not see blocks it has not reached),
+        their torques replaced by the low-rank fit so that the curvature is not the noise's."""
+        blocks = done[:cursor]
+        mine = rows[: sum(c for _, _, c in blocks)]
+        level = np.array([lv for _, lv, _ in mine], dtype=np.int64)
+        fit = denoise_blocks(level, np.array([t for _, _, t in mine])).torque
+        return [(p, lv, float(t)) for (p, lv, _), t in zip(mine, fit, strict=True)], blocks
+
+    def save_record() -> None:
+        with atomic_output(record_path) as tmp:
+            tmp.write_text(json.dumps({"blocks": [[t, lv, c] for t, lv, c in done]}))
+
+    handle = path.open("a")
+
+    def measure(target: int, levels: list[int]) -> None:
+        nonlocal cursor
+        cursor += 1
+        if cursor <= len(done):
+            if done[cursor - 1][0] != target or done[cursor - 1][1] != levels:
+                raise InputError(
+                    f"cannot resume: block {cursor} of the record is position "
+                    f"{done[cursor - 1][0]}, this run plans {target} (other settings?)",
+                    path=path,
+                )
+            return
+        _move(rig, target, n, off)
+        bias = float(np.mean([rig.read_torque() for _ in range(s.bias_count)]))
+        count = 0
+        for level in levels:
+            position = rig.read_position()
+            for _ in range(8):
+                consulted = position
+                rig.apply(ramped_actuation(level, consulted, spec.ramp).tolist())
+                rig.settle()
+                position = rig.read_position()
+                if position == consulted:
+                    break
+            values = [rig.read_torque() for _ in range(s.readings)]
+            if limit is not None and max(abs(v) for v in values) >= limit:
+                break
+            torque = float(np.mean(values)) - bias
+            handle.write(f"{consulted},{level},{torque:.10g}\n")
+            handle.flush()
+            rows.append((consulted, level, torque))
+            count += 1
+        os.fsync(handle.fileno())
+        done.append((target, levels, count))
+        save_record()
+
+    try:
+        # no wider than the gap the table builder interpolates across (P / 4 m)
+        coarse_step = max(1, min(coarse_position_factor * s.position_step, n // (4 * spec.phases)))
+        coarse_targets = sorted(
+            {(j * n) // -(-n // coarse_step) for j in range(-(-n // coarse_step))}
+        )
+        coarse_levels = _grid_levels(top, coarse_level_step or 2 * s.level_step)
+        coarse_cost = len(coarse_targets) * (len(coarse_levels) * s.readings + s.bias_count)
+        if coarse_cost > budget:
+            raise InputError(
+                f"a budget of {budget} readings does not cover the coarse pass ({coarse_cost}: "
+                f"{len(coarse_targets)} positions x {len(coarse_levels)} pulse widths); raise "
+                "the budget or the settings' steps"
+            )
+        for t in coarse_targets:
+            measure(int(t), coarse_levels)
+        targets, table = _blocks_matrix(*known())
+        lv = np.array(coarse_levels, dtype=np.int64)
+        curves = np.array([[table[int(t)].get(int(v), np.nan) for v in lv] for t in targets])
+        kept = [int(v) for v in choose_levels(curves, lv, tolerance=tolerance)]
+        cost = len(kept) * s.readings + s.bias_count
+        min_gap = max(1, s.position_step // 2)
+        while spent() + cost <= budget:
+            targets, table = _blocks_matrix(*known())
+            curves = np.array(
+                [[table[int(t)].get(v, np.nan) for v in kept] for t in targets], dtype=np.float64
+            )
+            curves = _fill_levels(curves)
+            score = position_scores(targets, curves, n)
+            gap = (np.roll(targets, -1) - targets) % n
+            gap = np.where(gap == 0, n, gap)
+            score = np.where(gap >= 2 * min_gap, score, -np.inf)
+            affordable = (budget - spent()) // cost
+            take = min(int(affordable), max(1, targets.size // 4))
+            order = np.argsort(-score, kind="stable")[:take]
+            order = order[np.isfinite(score[order])]
+            if order.size == 0:
+                break
+            new = sorted(int((targets[i] + gap[i] // 2) % n) for i in order)
+            for t in new:
+                measure(t, kept)
+        rig.apply(off)
+    finally:
+        handle.close()
+    targets, _ = _blocks_matrix(rows, done)
+    return AdaptiveResult(
+        path=os.fspath(path),
+        rows=len(rows),
+        readings=spent(),
+        budget=budget,
+        grid_readings=reference,
+        blocks=len(done),
+        positions=int(targets.size),
+        levels=np.array(kept, dtype=np.int64),
+        resumed_blocks=resumed,
+        elapsed=time.perf_counter() - start,
+    )
+
+
+def _fill_levels(curves: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Fill each block's missing levels (above a saturated end) with its last value."""
+    out = curves.copy()
+    for row in out:
+        bad = ~np.isfinite(row)
+        if bad.all():
+            row[:] = 0.0
+        elif bad.any():
+            idx = np.maximum.accumulate(np.where(~bad, np.arange(row.size), 0))
+            row[:] = row[idx]
+    return out
+
+
+def _move(rig: Rig, target: int, n: int, off: list[int]) -> None:
+    """Phases off; step the secondary joint until the position reaches ``target``."""
+    rig.apply(off)
+    rig.settle()
+    distance = (target - rig.read_position()) % n
+    for _ in range(100 * n):
+        if distance == 0:
+            return
+        rig.step_secondary()
+        rig.settle()
+        new = (target - rig.read_position()) % n
+        if new > distance:
+            return  # stepped over the target: measured where it stands
+        distance = new
+    raise RuntimeError(f"the position did not reach {target} after {100 * n} secondary steps")

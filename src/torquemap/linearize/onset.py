@@ -1,0 +1,239 @@
+"""The friction zone: extrapolating each position's torque below what the rig can read.
+
+Below the static friction of the rig (and the amplifier's dead zone) the force sensor reads
+nothing: a characterisation row there is zero plus noise, and the first row that reads torque
+may lie several pulse widths past the point where the sensed torque leaves zero. The lowest
+commands ask for torques in exactly that gap (command 1 is ``1 / 127`` of the
+position-independent torque), so interpolating linearly between the last zero row and the first
+readable one under-actuates them.
+
+Instead, each position's curve is extended down with one physical onset law, the same for
+every motor and fitted to the readings above the gap:
+
+``sensed(p, u) = sum_k G_k(p) psi(r_k(p) u) - F(p)``,  ``psi(a) = max(a - d, 0) ** n``
+
+* ``r_k(p)`` is the ramp (phase ``k``'s share of the base pulse width ``u`` at position ``p``);
+* ``psi`` is the phase torque's onset against actuation: the amplifier's dead zone ``d`` and the
+  rise of torque with current, about ``current ** 2`` for variable reluctance and ``current``
+  for brushless DC motors, times the amplifier's curve near its onset; ``d`` and ``n`` are
+  properties of the amplifier and the motor type, shared by every phase and position, and
+  chosen from the data (a grid search over ``d`` and ``n`` minimising the residual of all
+  positions' fits, each position's ``G`` and ``F`` solved by least squares for each pair);
+* ``G_k(p) >= 0`` is phase ``k``'s torque gain at ``p``; ``F(p)`` the friction less any torque
+  at rest (cogging) at ``p``.
+
+The fit uses, at each position, the part of the curve between the smallest torque the rig reads
+reliably (a few times the noise of a row) and a fraction of the position-independent torque
+(below the saturation of the iron and the amplifier, where the law holds). Below that window
+the curve is replaced by the law (never above the readings it replaces by more than the noise);
+above it the readings stand.
+
+This module never imports the simulator.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+#: Exponents tried for ``psi`` (1: torque ~ current, 2: ~ current squared; between and beyond:
+#: the amplifier's curve and the iron's saturation near the onset).
+EXPONENTS = np.linspace(0.8, 3.2, 13)
+#: Dead zones tried, as fractions of the full-scale pulse width.
+DEAD_ZONES = np.linspace(0.0, 0.3, 31)
+#: Fewest readings in a position's window for it to be fitted.
+MIN_POINTS = 3
+#: Cells the search over dead zones and exponents runs on (spread over the positions).
+SEARCH_CELLS = 4000
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class OnsetFit:
+    """The onset law fitted to a forward model.
+
+    Attributes
+    ----------
+    dead_zone
+        ``d`` [pulse-width units].
+    exponent
+        ``n``.
+    gain
+        ``G_k(p)``, shape (P, m) [N m per unit of ``psi``]; NaN where the position was not fitted.
+    friction
+        ``F(p)`` [N m], shape (P,); NaN where not fitted.
+    fitted
+        Positions whose curve was extended, shape (P,).
+    """
+
+    dead_zone: float
+    exponent: float
+    gain: NDArray[np.float64]
+    friction: NDArray[np.float64]
+    fitted: NDArray[np.bool_]
+
+
+def _psi(a: NDArray[np.float64], d: float, n: float, top: float) -> NDArray[np.float64]:
+    x = np.maximum(a - d, 0.0) / max(top - d, 1.0)
+    out: NDArray[np.float64] = x**n
+    return out
+
+
+def _solve_cells(
+    cp: NDArray[np.int64], design: NDArray[np.float64], y: NDArray[np.float64], n: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Least squares per position over flat cells: ``cp`` (cells,), ``design`` (cells, q),
+    ``y`` (cells,). Returns the coefficients (n, q) and each position's residual sum (n,)."""
+    q = design.shape[1]
+    lhs = np.empty((n, q, q))
+    rhs = np.empty((n, q))
+    for i in range(q):
+        rhs[:, i] = np.bincount(cp, weights=design[:, i] * y, minlength=n)
+        for j in range(i, q):
+            v = np.bincount(cp, weights=design[:, i] * design[:, j], minlength=n)
+            lhs[:, i, j] = lhs[:, j, i] = v
+    lhs += 1e-12 * np.eye(q)[None]
+    coef = np.asarray(np.linalg.solve(lhs, rhs[..., None])[..., 0], dtype=np.float64)
+    res = np.sum(design * coef[cp], axis=1) - y
+    sse = np.bincount(cp, weights=res * res, minlength=n).astype(np.float64)
+    return coef, sse
+
+
+def _cell_design(
+    u: NDArray[np.float64], r: NDArray[np.float64], d: float, n: float, top: float
+) -> NDArray[np.float64]:
+    """(cells, m + 1): psi(r_k u) per phase (0 where the phase is off), then -1."""
+    phi = _psi(r * u[:, None], d, n, top) * (r > 0)
+    return np.concatenate([phi, -np.ones((u.size, 1))], axis=1)
+
+
+def fit_onset(
+    forward: NDArray[np.float64],
+    levels: NDArray[np.float64],
+    ramp: NDArray[np.float64],
+    *,
+    readable: float,
+    upper: float,
+    actuation_max: int,
+) -> OnsetFit:
+    """Fit the onset law to each position's curve between ``readable`` and ``upper`` [N m].
+
+    Parameters
+    ----------
+    forward
+        Sensed torque, shape (P, J), monotone in the level; NaN where unknown.
+    levels
+        Base pulse width of each column, shape (J,).
+    ramp
+        The ramping function, shape (P, m).
+    readable
+        Smallest torque the rig reads reliably [N m].
+    upper
+        Top of the fitting window [N m].
+    actuation_max
+        Full-scale pulse width.
+
+    Returns
+    -------
+    OnsetFit
+        ``d``, ``n`` and per-position gains and friction.
+    """
+    n_pos, m = ramp.shape
+    inside = np.isfinite(forward) & (forward >= readable) & (forward <= upper)
+    enough = inside.sum(axis=1) >= MIN_POINTS
+    inside &= enough[:, None]
+    cp, cj = np.nonzero(inside)
+    y = forward[cp, cj]
+    u = levels[cj]
+    r = ramp[cp]
+    top = float(actuation_max)
+    tried: list[tuple[float, float, float]] = []
+    if cp.size:
+        # the search on at most SEARCH_CELLS cells spread evenly over the positions
+        pick = np.unique(np.linspace(0, cp.size - 1, min(cp.size, SEARCH_CELLS)).astype(int))
+        sp, su, sr, sy = cp[pick], u[pick], r[pick], y[pick]
+        done: dict[tuple[int, int], float] = {}
+
+        def score(i: int, j: int) -> float:
+            if (i, j) not in done:
+                design = _cell_design(su, sr, float(DEAD_ZONES[i] * top), float(EXPONENTS[j]), top)
+                done[(i, j)] = float(np.sum(_solve_cells(sp, design, sy, n_pos)[1]))
+            return done[(i, j)]
+
+        for i in range(DEAD_ZONES.size):  # every pair: the residual has several minima
+            for j in range(EXPONENTS.size):
+                score(i, j)
+        tried = [(v, float(DEAD_ZONES[i] * top), float(EXPONENTS[j])) for (i, j), v in done.items()]
+    d, n = 0.0, 1.0
+    if tried:
+        # among the pairs that fit as well as the best (a linear law's dead zone trades with
+        # the friction exactly), the smallest dead zone: the law then reaches zero torque
+        least = min(t[0] for t in tried)
+        scale = float(np.sum(y * y))
+        good = [t for t in tried if t[0] <= least * (1 + 1e-3) + 1e-12 * scale]
+        _, d, n = min(good, key=lambda t: (t[1], abs(t[0] - least)))
+    coef, _ = _solve_cells(cp, _cell_design(u, r, d, n, top), y, n_pos)
+    active = ramp > 0
+    gain = coef[:, :m] * active
+    ok = enough & np.all(gain >= 0.0, axis=1) & np.any(gain > 0.0, axis=1)
+    gain = np.where(ok[:, None], gain, np.nan)
+    friction = np.where(ok, coef[:, m], np.nan)
+    return OnsetFit(dead_zone=d, exponent=n, gain=gain, friction=friction, fitted=ok)
+
+
+def onset_curve(
+    fit: OnsetFit, ramp: NDArray[np.float64], u: NDArray[np.float64], top: int
+) -> NDArray[np.float64]:
+    """The law's sensed torque at base pulse widths ``u`` (shape (U,)), shape (P, U); NaN
+    where the position was not fitted."""
+    a = ramp[:, None, :] * u[None, :, None]
+    phi = _psi(a, fit.dead_zone, fit.exponent, float(top))
+    g = np.where(np.isfinite(fit.gain), fit.gain, 0.0)
+    out = (
+        np.einsum("pum,pm->pu", phi, g)
+        - np.where(np.isfinite(fit.friction), fit.friction, 0)[:, None]
+    )
+    out = np.maximum(out, 0.0)
+    return np.where(fit.fitted[:, None], out, np.nan)
+
+
+def extend_below(
+    fine: NDArray[np.float64],
+    fit: OnsetFit,
+    ramp: NDArray[np.float64],
+    *,
+    readable: float,
+    actuation_max: int,
+) -> tuple[NDArray[np.float64], int]:
+    """Replace each fitted position's curve below its first reliable reading by the law.
+
+    Parameters
+    ----------
+    fine
+        Sensed torque on every base pulse width ``0 .. actuation_max``, shape (P, A + 1).
+    fit
+        From :func:`fit_onset`.
+    ramp
+        Shape (P, m).
+    readable
+        Smallest torque read reliably [N m].
+    actuation_max
+        ``A``.
+
+    Returns
+    -------
+    ndarray, int
+        The extended curves (monotone in the pulse width) and the cells replaced.
+    """
+    u = np.arange(actuation_max + 1, dtype=np.float64)
+    law = onset_curve(fit, ramp, u, actuation_max)
+    below = np.isfinite(fine) & (fine < readable)
+    # below the first reliable reading only: beyond it the readings stand
+    first = np.argmax(np.isfinite(fine) & (fine >= readable), axis=1)
+    before = u[None, :] < first[:, None]
+    take = below & before & fit.fitted[:, None] & np.isfinite(law)
+    out = np.where(take, np.minimum(law, readable), fine)
+    out = np.fmax.accumulate(np.where(np.isnan(out), -np.inf, out), axis=1)
+    out = np.where(np.isfinite(out), out, np.nan)
+    return out, int(take.sum())

@@ -1,0 +1,90 @@
+"""Homing from the phases' equilibria (torquemap.linearize.homing) on the simulated free motor."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from torquemap.cli.main import main
+from torquemap.errors import InputError
+from torquemap.io import write_toml
+from torquemap.linearize.homing import circular_difference, circular_mean, home_motor
+from torquemap.linearize.motor import motor_spec, motor_to_dict
+from torquemap.sim.free_motor import FreeMotorRig, home_on_sim
+from torquemap.sim.motors import Amplifier, VariableReluctanceMotor, amplifier_current
+
+EQ = (213, 384, 43)
+
+
+def _sine_motor(**kw: object) -> VariableReluctanceMotor:
+    """A VR motor whose phase torque is a pure sine about integer equilibria."""
+    args: dict[str, object] = {
+        "equilibrium": tuple(float(e) for e in EQ),
+        "phase_offset": (0.0, 0.0, 0.0),
+        "phase_gain": (1.0, 1.0, 1.0),
+        "second_harmonic": 0.0,
+    }
+    args.update(kw)
+    return VariableReluctanceMotor(**args)  # type: ignore[arg-type]
+
+
+def _spec(eq: tuple[int, ...] = EQ) -> object:
+    return motor_spec("sine", phases=3, positions_per_cycle=512, equilibrium_positions=eq)
+
+
+def test_offset_and_hysteresis_match_the_closed_form() -> None:
+    # Phase torque A sin(2 pi (e - x) / P): with friction band f the motor stops where
+    # A sin(2 pi d / P) = f, d = P asin(f / A) / (2 pi) short of e on the side it came from.
+    motor, amp = _sine_motor(), Amplifier()
+    f = 2.0
+    rig = FreeMotorRig(motor, amp, friction=f, friction_spread=0.0, encoder_offset=100.0)
+    rig.x = 300.0
+    result = home_motor(rig, _spec())  # type: ignore[arg-type]
+    i = float(amplifier_current(255, amp))
+    s = motor.saturation_current
+    a = motor.peak_torque * (i**2 / math.sqrt(1 + (i / s) ** 2)) / (10.0**2 / math.sqrt(2.5625))
+    d = 512 * math.asin(f / a) / (2 * math.pi)
+    # integer equilibria and offset: the readings are e + 100 -+ round(d), symmetric
+    np.testing.assert_array_equal(result.hysteresis, -2 * round(d))
+    assert result.offset == pytest.approx(100.0, abs=1e-9)
+    # one direction alone is biased by the friction: the reason for walking both ways
+    one_way = circular_mean(result.forward - np.array(EQ), 512)
+    assert one_way == pytest.approx(100.0 - round(d), abs=1e-9)
+
+
+def test_repeatability_on_the_default_motor_is_within_the_friction_hysteresis() -> None:
+    from torquemap.sim.rig import sim_rig
+
+    ms = sim_rig("vr", rng=0).motor_spec()
+    results, truth = home_on_sim(ms, sim="vr", seed=3, repeats=4)
+    err = circular_difference([r.offset for r in results], truth, 512)
+    # bound: the motor file's equilibria are rounded (0.5) and each reading is rounded (0.5)
+    assert np.all(np.abs(err) <= 1.0)
+
+
+def test_dead_phase_and_wrong_motor_file_are_input_errors() -> None:
+    dead = FreeMotorRig(
+        _sine_motor(phase_gain=(1.0, 0.0, 1.0)), Amplifier(), friction=1.0, friction_spread=0.0
+    )
+    with pytest.raises(InputError, match="phase 2 did not pull the motor"):
+        home_motor(dead, _spec())  # type: ignore[arg-type]
+    rig = FreeMotorRig(_sine_motor(), Amplifier(), friction=1.0, friction_spread=0.0)
+    with pytest.raises(InputError, match="another motor"):
+        home_motor(rig, _spec((213, 300, 43)))  # type: ignore[arg-type]
+    two = motor_spec("two", phases=2, positions_per_cycle=512, equilibrium_positions=(0, 256))
+    with pytest.raises(InputError, match="at least 3 phases"):
+        home_motor(rig, two)
+
+
+def test_cli_home(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from torquemap.sim.rig import sim_rig
+
+    path = tmp_path / "motor.toml"
+    write_toml(path, motor_to_dict(sim_rig("bldc", rng=0).motor_spec()))
+    assert main(["linearize", "home", str(path), "--sim", "bldc", "--repeats", "1"]) == 0
+    assert "repeatability: std" in capsys.readouterr().out
+    assert main(["linearize", "home", str(path), "--sim", "vr"]) == 2
+    assert "the simulated vr motor has 3 and 512" in capsys.readouterr().err
