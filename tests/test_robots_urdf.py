@@ -1,0 +1,229 @@
+"""The ``urdf`` robot kind: kinematics and dynamics against independent references."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from torquemap.errors import InputError
+from torquemap.robots.urdf import UrdfArm, arm_from_table, urdf_arm
+
+DATA = Path(__file__).parent / "data" / "arm"
+TWO_LINK = DATA / "two_link.urdf"
+ERD = Path(sys.prefix).glob(
+    "lib/python3*/site-packages/cmeel.prefix/share/example-robot-data/robots"
+)
+ROBOTS = next(iter(ERD), None)
+
+# two_link.urdf: l1 = 0.4, lc1 = 0.2, m1 = 2.0, I1zz = 0.03; lc2 = 0.12, m2 = 1.2, I2zz = 0.01
+L1, LC1, M1, I1 = 0.4, 0.2, 2.0, 0.03
+L2, LC2, M2, I2 = 0.3, 0.12, 1.2, 0.01
+G = 9.81
+
+
+def _two_link(gravity: tuple[float, float, float] = (0.0, -G, 0.0)) -> UrdfArm:
+    return urdf_arm(TWO_LINK, ["shoulder", "elbow"], end_effector="tool", gravity=gravity)
+
+
+def _closed_form(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+    """Textbook two-link dynamics (Spong, Hutchinson & Vidyasagar, section 7.3), gravity -y."""
+    c2, s2 = np.cos(q[:, 1]), np.sin(q[:, 1])
+    m11 = I1 + I2 + M1 * LC1**2 + M2 * (L1**2 + LC2**2 + 2 * L1 * LC2 * c2)
+    m12 = I2 + M2 * (LC2**2 + L1 * LC2 * c2)
+    m22 = I2 + M2 * LC2**2
+    h = M2 * L1 * LC2 * s2
+    c1, c12 = np.cos(q[:, 0]), np.cos(q[:, 0] + q[:, 1])
+    g1 = (M1 * LC1 + M2 * L1) * G * c1 + M2 * LC2 * G * c12
+    g2 = M2 * LC2 * G * c12
+    tau1 = m11 * qdd[:, 0] + m12 * qdd[:, 1] - h * (2 * qd[:, 0] * qd[:, 1] + qd[:, 1] ** 2) + g1
+    tau2 = m12 * qdd[:, 0] + m22 * qdd[:, 1] + h * qd[:, 0] ** 2 + g2
+    return np.stack([tau1, tau2], axis=1)
+
+
+def _states(n: int, nj: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    return (
+        rng.uniform(-1.5, 1.5, (n, nj)),
+        rng.standard_normal((n, nj)),
+        rng.standard_normal((n, nj)),
+    )
+
+
+def test_two_link_dynamics_match_closed_form() -> None:
+    arm = _two_link()
+    q, qd, qdd = _states(20, 2, 0)
+    # both are exact; the tolerance is float rounding
+    assert_allclose(arm.inverse_dynamics(q, qd, qdd), _closed_form(q, qd, qdd), atol=1e-12)
+    assert_allclose(
+        arm.regressor(q, qd, qdd) @ arm.parameters(), _closed_form(q, qd, qdd), atol=1e-12
+    )
+
+
+def test_two_link_kinematics_and_base_parameters() -> None:
+    arm = _two_link()
+    q = np.array([[0.3, -0.7]])
+    x = L1 * np.cos(0.3) + L2 * np.cos(-0.4)
+    y = L1 * np.sin(0.3) + L2 * np.sin(-0.4)
+    assert_allclose(arm.forward_kinematics(q), [[x, y, 0.0]], atol=1e-14)
+    assert arm.wrench_axes == ("fx", "fy", "fz")
+    # Khalil & Dombre: a planar 2R arm has 6 base parameters with gravity in its plane
+    # (ZZ1R, MX1R, MY1R, ZZ2, MX2, MY2) and 4 without (the first link's moments drop out)
+    assert len(arm.parameter_names) == 6
+    assert len(_two_link((0.0, 0.0, -G)).parameter_names) == 4
+    named = dict(zip(arm.parameter_names, arm.parameters(), strict=True))
+    assert_allclose(named["shoulder.mx"], M1 * LC1 + M2 * L1, rtol=1e-12)
+    assert_allclose(named["shoulder.Izz"], I1 + M1 * LC1**2 + M2 * L1**2, rtol=1e-12)
+
+
+def test_two_link_wrench_inverts_jacobian_transpose() -> None:
+    arm = _two_link()
+    q = np.array([[0.3, 1.1], [1.0, -0.8]])
+    force = np.array([[3.0, -2.0, 0.0], [-1.0, 4.0, 0.0]])
+    tau = np.einsum("nij,ni->nj", arm.jacobian(q), force)
+    w = arm.wrench_from_joint_torque(q, tau, damping=1e-6)
+    # a 2-joint arm sees the in-plane force only; the damping biases it by ~damping^2
+    assert_allclose(w.wrench, force, atol=1e-8)
+    assert not w.singular.any()
+    assert arm.wrench_from_joint_torque([[0.3, 0.0]], [[1.0, 1.0]]).singular[0]
+
+
+@pytest.mark.skipif(ROBOTS is None, reason="example-robot-data not installed")
+@pytest.mark.parametrize(
+    ("urdf", "joints", "ee", "base_count"),
+    [
+        # Gaz, Cognetti, Oliva, Robuffo Giordano & De Luca (2019): the Panda has 43 base
+        # inertial parameters (without friction)
+        (
+            "panda_description/urdf/panda.urdf",
+            [f"panda_joint{i}" for i in range(1, 8)],
+            "panda_hand_tcp",
+            43,
+        ),
+        (
+            "ur_description/urdf/ur5_robot.urdf",
+            [
+                "shoulder_pan_joint",
+                "shoulder_lift_joint",
+                "elbow_joint",
+                "wrist_1_joint",
+                "wrist_2_joint",
+                "wrist_3_joint",
+            ],
+            "tool0",
+            None,
+        ),
+    ],
+)
+def test_example_arms(urdf: str, joints: list[str], ee: str, base_count: int | None) -> None:
+    assert ROBOTS is not None
+    arm = urdf_arm(ROBOTS / urdf, joints, end_effector=ee)
+    nj = len(joints)
+    q, qd, qdd = _states(6, nj, 1)
+    tau = arm.inverse_dynamics(q, qd, qdd)
+    # regressor linear in the parameters: exact up to rounding
+    assert_allclose(arm.full_regressor(q, qd, qdd) @ arm.full_parameters, tau, atol=1e-10)
+    assert_allclose(arm.regressor(q, qd, qdd) @ arm.parameters(), tau, atol=1e-9)
+    if base_count is not None:
+        assert len(arm.parameter_names) == base_count
+    # M(q) qdd + (RNEA at zero acceleration) == RNEA, and g(q) == RNEA at rest
+    M = arm.mass_matrix(q)
+    assert_allclose(
+        np.einsum("nij,nj->ni", M, qdd) + arm.inverse_dynamics(q, qd, 0 * qdd), tau, atol=1e-10
+    )
+    assert_allclose(arm.gravity_torque(q), arm.inverse_dynamics(q, 0 * qd, 0 * qdd), atol=1e-10)
+    # C qd + g == RNEA at zero acceleration; dM/dt == C + C^T by central differences
+    C = arm.coriolis_matrix(q, qd)
+    assert_allclose(
+        np.einsum("nij,nj->ni", C, qd) + arm.gravity_torque(q),
+        arm.inverse_dynamics(q, qd, 0 * qdd),
+        atol=1e-10,
+    )
+    h = 1e-6
+    dM = (arm.mass_matrix(q + h * qd) - arm.mass_matrix(q - h * qd)) / (2 * h)
+    # central difference: error O(h^2) plus rounding ~1e-16 / h
+    assert_allclose(dM, C + np.swapaxes(C, 1, 2), atol=1e-8)
+    # Jacobian: position rows against central differences of forward kinematics
+    J = arm.spatial_jacobian(q[:2])
+    for k in range(nj):
+        e = np.zeros(nj)
+        e[k] = h
+        fd = (arm.forward_kinematics(q[:2] + e) - arm.forward_kinematics(q[:2] - e)) / (2 * h)
+        assert_allclose(J[:, :3, k], fd, atol=1e-8)
+        R_plus = arm.end_effector_rotation(q[:2] + e)
+        R_minus = arm.end_effector_rotation(q[:2] - e)
+        skew = (R_plus - R_minus) @ np.swapaxes(arm.end_effector_rotation(q[:2]), 1, 2) / (2 * h)
+        omega = np.stack([skew[:, 2, 1], skew[:, 0, 2], skew[:, 1, 0]], axis=1)
+        assert_allclose(J[:, 3:, k], omega, atol=1e-7)
+
+
+def test_parameters_round_trip_through_the_robot_table(tmp_path: Path) -> None:
+    arm = _two_link()
+    pi = arm.full_parameters.copy()
+    pi[10] += 0.5  # elbow body mass + 0.5 kg
+    changed = arm.with_full_parameters(pi)
+    q, qd, qdd = _states(5, 2, 2)
+    assert not np.allclose(changed.inverse_dynamics(q, qd, qdd), arm.inverse_dynamics(q, qd, qdd))
+    table = changed.to_dict()
+    assert "inertial" in table
+    table["urdf"] = str(TWO_LINK)
+    again = arm_from_table(table, ["shoulder", "elbow"], path=None, base_dir=None)
+    assert_allclose(again.full_parameters, pi, atol=1e-12)
+    beta = arm.parameters() * 1.1
+    assert_allclose(arm.with_parameters(beta).parameters(), beta, rtol=1e-12)
+
+
+def _table(**kw: object) -> dict[str, object]:
+    head: dict[str, object] = {
+        "kinematics": "urdf",
+        "urdf": "two_link.urdf",
+        "end_effector": "tool",
+    }
+    head.update(kw)
+    return head
+
+
+@pytest.mark.parametrize(
+    ("head", "joints", "match"),
+    [
+        (_table(urdf="nope.urdf"), ["shoulder"], "URDF file not found"),
+        (_table(end_effector="hand"), ["shoulder"], "end_effector 'hand' is not a link"),
+        (_table(), ["shoulder", "wrist"], "joint 'wrist' is not a movable joint"),
+        (_table(), ["shoulder", "tool_joint"], "joint 'tool_joint' is fixed"),
+        (_table(), ["shoulder", "shoulder"], "listed twice"),
+        (_table(gravity=[0, 1]), ["shoulder"], "gravity must be"),
+        (_table(colour="red"), ["shoulder"], "unknown key 'colour'"),
+    ],
+)
+def test_bad_robot_table(head: dict[str, object], joints: list[str], match: str) -> None:
+    with pytest.raises(InputError, match=match):
+        arm_from_table(head, joints, path="robot.toml", base_dir=DATA)
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("<robot name='x'><link name='a'/>", "not a valid URDF"),
+        ("<model/>", "root element is <model>"),
+        (
+            "<robot name='x'><link name='a'/><link name='b'/><link name='c'/>"
+            "<joint name='j1' type='revolute'><parent link='a'/><child link='b'/></joint>"
+            "<joint name='j2' type='revolute'><parent link='b'/><child link='c'/></joint>"
+            "<joint name='j3' type='revolute'><parent link='a'/><child link='c'/></joint></robot>",
+            "closed chain: link 'c' has two parent joints",
+        ),
+        (
+            "<robot name='x'><link name='w'/><link name='b'/>"
+            "<joint name='fl' type='floating'><parent link='w'/><child link='b'/></joint></robot>",
+            "'fl' is floating: torquemap needs a fixed-base arm",
+        ),
+    ],
+)
+def test_bad_urdf(tmp_path: Path, text: str, match: str) -> None:
+    (tmp_path / "arm.urdf").write_text(text)
+    with pytest.raises(InputError, match=match) as info:
+        arm_from_table(_table(urdf="arm.urdf"), ["j1"], path="robot.toml", base_dir=tmp_path)
+    assert info.value.path is not None and info.value.path.endswith("arm.urdf")
