@@ -15,6 +15,7 @@ from torquemap import __version__
 from torquemap.cli import (
     cmd_demo,
     cmd_estimate,
+    cmd_excite,
     cmd_identify,
     cmd_import,
     cmd_linearize,
@@ -27,6 +28,7 @@ _MODULES = (
     cmd_simulate,
     cmd_identify,
     cmd_estimate,
+    cmd_excite,
     cmd_linearize,
     cmd_demo,
     cmd_report,

@@ -46,28 +46,20 @@ PARAMETER_SUFFIXES: tuple[str, ...] = (
 _MOVABLE = {"revolute", "continuous", "prismatic"}
 _BASE_SAMPLES = 60
 _RANK_TOLERANCE = 1e-8
+DAMPING = 1e-3
+"""Default damping of the pseudo-inverse of ``J^T`` [m]."""
+SINGULAR_THRESHOLD = 0.02
+"""Default smallest singular value of the end-effector Jacobian [m] below which a pose is
+flagged singular (a 1 N m joint-torque error then maps to 50 N or more)."""
 
 
 @dataclass(frozen=True, slots=True, eq=False)
 class WrenchResult:
-    """End-effector wrench recovered from joint torques.
-
-    Attributes
-    ----------
-    wrench
-        Shape (n, len(wrench_axes)): force [N] (and moment [N m]) exerted by the environment on
-        the end effector, base frame axes, moment about the end-effector origin.
-    singular
-        Shape (n,): True where the pose is near a singularity (the smallest singular value of the
-        Jacobian below the threshold); the wrench there is the damped solution, unreliable.
-    sigma
-        Shape (n, len(wrench_axes)): one standard deviation [N, N m] propagated from the
-        torque sigmas given, or None when none were given.
-    """
+    """End-effector wrench (force [N], moment [N m]) and the singular-pose mask, shape (n, m)
+    and (n,)."""
 
     wrench: NDArray[np.float64]
     singular: NDArray[np.bool_]
-    sigma: NDArray[np.float64] | None = None
 
 
 def _urdf_error(message: str, path: Path) -> InputError:
@@ -230,6 +222,7 @@ class UrdfArm:
     """
 
     kind: ClassVar[str] = "urdf"
+    head_keys: ClassVar[frozenset[str]] = frozenset({"urdf", "end_effector", "gravity", "inertial"})
 
     urdf: str
     urdf_path: Path
@@ -245,6 +238,23 @@ class UrdfArm:
     _index: tuple[_Index, ...] = field(repr=False)
 
     # ---------------------------------------------------------------- description
+    @property
+    def has_dynamics(self) -> bool:
+        """True: the URDF's rigid bodies are modelled."""
+        return True
+
+    @classmethod
+    def from_table(
+        cls,
+        head: Mapping[str, Any],
+        joint_names: tuple[str, ...],
+        *,
+        path: str | os.PathLike[str] | None = None,
+        base_dir: str | os.PathLike[str] | None = None,
+    ) -> UrdfArm:
+        """From the ``[robot]`` table of a robot file (see :func:`arm_from_table`)."""
+        return arm_from_table(head, joint_names, path=path, base_dir=base_dir)
+
     @property
     def wrench_axes(self) -> tuple[str, ...]:
         """``("fx", "fy", "fz")``, and ``("mx", "my", "mz")`` too with six or more joints."""
@@ -312,21 +322,20 @@ class UrdfArm:
         return self.with_full_parameters(pi)
 
     # ---------------------------------------------------------------- helpers
-    def _config(self, q: NDArray[np.float64]) -> NDArray[np.float64]:
-        cfg = pin.neutral(self._model)
+    def _configs(self, q: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Pinocchio configurations (n, nq) of joint positions (n, nj); locked joints at 0."""
+        cfg = np.tile(pin.neutral(self._model), (q.shape[0], 1))
         for k, ix in enumerate(self._index):
             if ix.nq == 2:
-                cfg[ix.idx_q] = math.cos(q[k])
-                cfg[ix.idx_q + 1] = math.sin(q[k])
+                cfg[:, ix.idx_q] = np.cos(q[:, k])
+                cfg[:, ix.idx_q + 1] = np.sin(q[:, k])
             else:
-                cfg[ix.idx_q] = q[k]
-        out: NDArray[np.float64] = cfg
-        return out
+                cfg[:, ix.idx_q] = q[:, k]
+        return cfg
 
-    def _tangent(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
-        v = np.zeros(self._model.nv)
-        for k, ix in enumerate(self._index):
-            v[ix.idx_v] = x[k]
+    def _tangents(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        v = np.zeros((x.shape[0], self._model.nv))
+        v[:, self._order()] = x
         return v
 
     def _order(self) -> NDArray[np.intp]:
@@ -348,8 +357,8 @@ class UrdfArm:
         (qq,) = self._rows(q)
         data = self._model.createData()
         out = np.empty((qq.shape[0], 3))
-        for i, row in enumerate(qq):
-            pin.framesForwardKinematics(self._model, data, self._config(row))
+        for i, row in enumerate(self._configs(qq)):
+            pin.framesForwardKinematics(self._model, data, row)
             out[i] = data.oMf[self._frame].translation
         return out
 
@@ -358,8 +367,8 @@ class UrdfArm:
         (qq,) = self._rows(q)
         data = self._model.createData()
         out = np.empty((qq.shape[0], 3, 3))
-        for i, row in enumerate(qq):
-            pin.framesForwardKinematics(self._model, data, self._config(row))
+        for i, row in enumerate(self._configs(qq)):
+            pin.framesForwardKinematics(self._model, data, row)
             out[i] = data.oMf[self._frame].rotation
         return out
 
@@ -369,9 +378,9 @@ class UrdfArm:
         data = self._model.createData()
         order = self._order()
         out = np.empty((qq.shape[0], 6, len(self.joint_names)))
-        for i, row in enumerate(qq):
+        for i, row in enumerate(self._configs(qq)):
             J = pin.computeFrameJacobian(
-                self._model, data, self._config(row), self._frame, pin.LOCAL_WORLD_ALIGNED
+                self._model, data, row, self._frame, pin.LOCAL_WORLD_ALIGNED
             )
             out[i] = J[:, order]
         return out
@@ -392,10 +401,9 @@ class UrdfArm:
         data = self._model.createData()
         order = self._order()
         out = np.empty_like(qq)
+        cq, cv, ca = self._configs(qq), self._tangents(vv), self._tangents(aa)
         for i in range(qq.shape[0]):
-            tau = pin.rnea(
-                self._model, data, self._config(qq[i]), self._tangent(vv[i]), self._tangent(aa[i])
-            )
+            tau = pin.rnea(self._model, data, cq[i], cv[i], ca[i])
             out[i] = tau[order]
         return out
 
@@ -405,10 +413,9 @@ class UrdfArm:
         data = self._model.createData()
         order = self._order()
         out = np.empty((qq.shape[0], len(order), self.full_parameters.size))
+        cq, cv, ca = self._configs(qq), self._tangents(vv), self._tangents(aa)
         for i in range(qq.shape[0]):
-            Y = pin.computeJointTorqueRegressor(
-                self._model, data, self._config(qq[i]), self._tangent(vv[i]), self._tangent(aa[i])
-            )
+            Y = pin.computeJointTorqueRegressor(self._model, data, cq[i], cv[i], ca[i])
             out[i] = Y[order]
         return out
 
@@ -422,8 +429,8 @@ class UrdfArm:
         data = self._model.createData()
         order = self._order()
         out = np.empty((qq.shape[0], len(order), len(order)))
-        for i, row in enumerate(qq):
-            M = pin.crba(self._model, data, self._config(row))
+        for i, row in enumerate(self._configs(qq)):
+            M = pin.crba(self._model, data, row)
             M = np.triu(M) + np.triu(M, 1).T
             out[i] = M[np.ix_(order, order)]
         return out
@@ -434,10 +441,9 @@ class UrdfArm:
         data = self._model.createData()
         order = self._order()
         out = np.empty((qq.shape[0], len(order), len(order)))
+        cq, cv = self._configs(qq), self._tangents(vv)
         for i in range(qq.shape[0]):
-            C = pin.computeCoriolisMatrix(
-                self._model, data, self._config(qq[i]), self._tangent(vv[i])
-            )
+            C = pin.computeCoriolisMatrix(self._model, data, cq[i], cv[i])
             out[i] = C[np.ix_(order, order)]
         return out
 
@@ -447,21 +453,57 @@ class UrdfArm:
         data = self._model.createData()
         order = self._order()
         out = np.empty_like(qq)
-        for i, row in enumerate(qq):
-            out[i] = pin.computeGeneralizedGravity(self._model, data, self._config(row))[order]
+        for i, row in enumerate(self._configs(qq)):
+            out[i] = pin.computeGeneralizedGravity(self._model, data, row)[order]
         return out
 
     # ---------------------------------------------------------------- wrench
+    def wrench_map(
+        self,
+        q: ArrayLike,
+        *,
+        damping: float = DAMPING,
+        singular_threshold: float | None = None,
+    ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+        """The damped pseudo-inverse of ``J^T`` and the singular-pose mask.
+
+        Parameters
+        ----------
+        q
+            Joint positions [rad], shape (n, nj).
+        damping
+            ``lambda`` in ``A = (J J^T + lambda^2 I)^-1 J`` [m, the force rows' unit].
+        singular_threshold
+            Poses whose Jacobian's smallest singular value is below this [m] are singular
+            (default :data:`SINGULAR_THRESHOLD`).
+
+        Returns
+        -------
+        (A, singular)
+            ``A`` of shape (n, len(wrench_axes), nj) with ``wrench = A @ tau``; ``singular``
+            of shape (n,).
+        """
+        (qq,) = self._rows(q)
+        J = self.jacobian(qq)
+        m = J.shape[1]
+        A = np.linalg.solve(J @ np.swapaxes(J, 1, 2) + damping**2 * np.eye(m), J)
+        guard = SINGULAR_THRESHOLD if singular_threshold is None else singular_threshold
+        s = np.linalg.svd(J, compute_uv=False)
+        return A, s[:, -1] < guard
+
     def wrench_from_joint_torque(
         self,
         q: ArrayLike,
         tau: ArrayLike,
         *,
-        damping: float = 1e-3,
-        sigma: ArrayLike | None = None,
-        min_singular: float = 0.02,
+        singular_threshold: float | None = None,
+        damping: float = DAMPING,
     ) -> WrenchResult:
-        """End-effector wrench from external joint torques, ``J^T w = tau``, damped.
+        """Wrench exerted by the environment on the end effector from joint torques.
+
+        Solves ``J(q)^T w = tau`` through the damped pseudo-inverse of :meth:`wrench_map`
+        (least squares with seven or more joints, the smallest wrench with fewer than the
+        wrench's components).
 
         Parameters
         ----------
@@ -469,32 +511,22 @@ class UrdfArm:
             Joint positions [rad], shape (n, nj).
         tau
             External joint torques [N m] (exerted by the environment), shape (n, nj).
+        singular_threshold
+            Smallest singular value of the Jacobian [m] below which a pose is flagged
+            singular (default :data:`SINGULAR_THRESHOLD`); the wrench there is NaN.
         damping
-            Damping ``lambda`` of the pseudo-inverse ``w = (J J^T + lambda^2 I)^-1 J tau``
-            [m for force rows].
-        sigma
-            One standard deviation of ``tau`` [N m], shape (n, nj), independent joints; gives
-            :attr:`WrenchResult.sigma`.
-        min_singular
-            Poses whose Jacobian's smallest singular value is below this [m] are flagged.
+            Damping of the pseudo-inverse [m].
 
         Returns
         -------
         WrenchResult
-            Wrench rows in the order of :attr:`wrench_axes`.
+            Wrench rows in the order of :attr:`wrench_axes` [N, N m] and the singular mask.
         """
         qq, tt = self._rows(q, tau)
-        J = self.jacobian(qq)
-        m = J.shape[1]
-        A = np.linalg.solve(J @ np.swapaxes(J, 1, 2) + damping**2 * np.eye(m), J)  # (n, m, nj)
+        A, singular = self.wrench_map(qq, damping=damping, singular_threshold=singular_threshold)
         w = np.einsum("nij,nj->ni", A, tt)
-        s = np.linalg.svd(J, compute_uv=False)
-        singular = s[:, -1] < min_singular
-        sig = None
-        if sigma is not None:
-            (ss,) = self._rows(sigma)
-            sig = np.sqrt(np.einsum("nij,nj->ni", A**2, ss**2))
-        return WrenchResult(wrench=w, singular=singular, sigma=sig)
+        w[singular] = np.nan
+        return WrenchResult(wrench=w, singular=singular)
 
     # ---------------------------------------------------------------- files
     def inertial_table(self) -> dict[str, dict[str, Any]]:
