@@ -60,7 +60,8 @@ def _true_arm(nominal: UrdfArm) -> UrdfArm:
 
 def _robot(arm: UrdfArm) -> Robot:
     joints = tuple(
-        Joint(name=n, gear_ratio=g, torque_constant=KT) for n, g in zip(arm.joint_names, GEAR, strict=True)
+        Joint(name=n, gear_ratio=g, torque_constant=KT)
+        for n, g in zip(arm.joint_names, GEAR, strict=True)
     )
     return Robot(name="two-link", kinematics="urdf", link_lengths=(), joints=joints, arm=arm)
 
@@ -68,7 +69,11 @@ def _robot(arm: UrdfArm) -> Robot:
 def _joint_models(friction: bool) -> dict[str, JointModel]:
     out = {}
     for k, name in enumerate(("shoulder", "elbow")):
-        law = _law(0.03 if k == 0 else 0.02) if friction else _law(0.0).with_linear_parameters(np.zeros(5))
+        law = (
+            _law(0.03 if k == 0 else 0.02)
+            if friction
+            else _law(0.0).with_linear_parameters(np.zeros(5))
+        )
         pdtv = (PdtvLine(order=2.0, amplitude=0.004, phase=0.3),) if (friction and k == 0) else ()
         out[name] = JointModel(
             inertia=InertiaModel(constant=ARMATURE[k] if friction else 0.0), friction=law, pdtv=pdtv
@@ -80,7 +85,9 @@ def _simulate(
     arm: UrdfArm, seed: int, *, force: bool, duration: float = 20.0
 ) -> tuple[Log, np.ndarray]:
     """A log at 1 kHz and the force [N] on the end effector (zeros when ``force`` is False)."""
-    traj = exciting_trajectory(arm, duration=duration, period=10.0, rate=1000.0, iterations=10, rng=seed)
+    traj = exciting_trajectory(
+        arm, duration=duration, period=10.0, rate=1000.0, iterations=10, rng=seed
+    )
     t, q, qd, qdd = traj.t, traj.q, traj.qd, traj.qdd
     rng = np.random.default_rng(seed)
     F = np.zeros((t.size, 3))
@@ -107,7 +114,9 @@ def _simulate(
 
 @pytest.fixture(scope="module")
 def bench() -> dict[str, object]:
-    nominal = urdf_arm(TWO_LINK, ["shoulder", "elbow"], end_effector="tool", gravity=(0.0, -9.81, 0.0))
+    nominal = urdf_arm(
+        TWO_LINK, ["shoulder", "elbow"], end_effector="tool", gravity=(0.0, -9.81, 0.0)
+    )
     true_arm = _true_arm(nominal)
     free, _ = _simulate(true_arm, 1, force=False)
     task, force = _simulate(true_arm, 2, force=True)
@@ -115,9 +124,7 @@ def bench() -> dict[str, object]:
     # the identification keeps the laws' nonlinear settings (Stribeck velocity, transition)
     start = dataclasses.replace(
         start,
-        joints={
-            n: dataclasses.replace(jm, friction=_law(0.0)) for n, jm in start.joints.items()
-        },
+        joints={n: dataclasses.replace(jm, friction=_law(0.0)) for n, jm in start.joints.items()},
     )
     result = identify_arm(start, [free], max_samples=3000, pdtv_max_order=4)
     oracle = Model(robot=_robot(true_arm), joints=_joint_models(friction=True))
@@ -149,7 +156,11 @@ def test_identification_recovers_the_simulated_arm(bench: dict[str, object]) -> 
     assert np.all(np.abs(beta - truth) < 4 * sigma + 1e-9), (beta, truth, sigma)
     # ... and the tool the URDF lacks is found: elbow.mx moves by m_tool * 0.3 m = 0.15 kg m
     named = dict(zip(arm.parameter_names, beta, strict=True))
-    assert_allclose(named["elbow.mx"] - dict(zip(arm.parameter_names, urdf, strict=True))["elbow.mx"], 0.15, atol=0.005)
+    assert_allclose(
+        named["elbow.mx"] - dict(zip(arm.parameter_names, urdf, strict=True))["elbow.mx"],
+        0.15,
+        atol=0.005,
+    )
     # the elbow's rotor inertia is recovered (motor side); the shoulder's shows in joint 1 only,
     # as the shoulder's ZZ1R does, so only their sum (joint side) is identifiable
     joints = result.model.joints
@@ -238,11 +249,15 @@ def test_consistency_check_names_the_body() -> None:
 
 
 def test_arm_needed() -> None:
-    robot = Robot(
-        name="", kinematics="none", link_lengths=(), joints=(Joint("a", 10.0, 0.1),)
-    )
+    robot = Robot(name="", kinematics="none", link_lengths=(), joints=(Joint("a", 10.0, 0.1),))
     model = Model(robot=robot, joints={"a": JointModel()})
-    log = Log(t=np.arange(10.0), q=np.zeros((10, 1)), motor_torque=np.zeros((10, 1)), joint_names=("a",), path="x.csv")
+    log = Log(
+        t=np.arange(10.0),
+        q=np.zeros((10, 1)),
+        motor_torque=np.zeros((10, 1)),
+        joint_names=("a",),
+        path="x.csv",
+    )
     with pytest.raises(InputError, match="rigid-body dynamics"):
         identify_arm(model, [log])
     with pytest.raises(InputError, match="rigid-body dynamics"):

@@ -202,7 +202,7 @@ def exciting_trajectory(
     vmax = arm.velocity_limits
     speed = speed_fraction * np.where(np.isfinite(vmax), vmax, 2.0)
     nj = len(arm.joint_names)
-    w = 2.0 * np.pi / period * np.arange(1, harmonics + 1)
+    w: NDArray[np.float64] = 2.0 * np.pi / period * np.arange(1, harmonics + 1, dtype=np.float64)
     grid = np.linspace(0.0, period, max(8 * harmonics, 40), endpoint=False)
 
     def candidate(a: NDArray[np.float64], b: NDArray[np.float64]) -> float:

@@ -233,8 +233,8 @@ def consistent_parameters(
         return np.concatenate([_from_log_cholesky(theta[10 * b : 10 * b + 10]) for b in range(nb)])
 
     def residual(theta: NDArray[np.float64]) -> NDArray[np.float64]:
-        out: NDArray[np.float64] = np.linalg.solve(L, pi_of(theta) - estimate)
-        return out
+        out = np.linalg.solve(L, pi_of(theta) - estimate)
+        return np.asarray(out, dtype=np.float64)
 
     theta0 = np.concatenate([_to_log_cholesky(start[10 * b : 10 * b + 10]) for b in range(nb)])
     fit = least_squares(residual, theta0, method="lm", max_nfev=200 * theta0.size)

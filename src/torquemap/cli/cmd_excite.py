@@ -124,7 +124,7 @@ def estimate_arm_command(
         )
     model = load_model(model_path)
     log = read_log(log_path, model.robot)
-    est = estimate_arm(model, log, method=method, cutoff=cutoff, window=window)  # type: ignore[arg-type]
+    est = estimate_arm(model, log, method=method, cutoff=cutoff, window=window)
     write_table(output, arm_forces_columns(est))
     for w in est.warnings:
         print(f"torquemap: warning: {w}", file=sys.stderr)

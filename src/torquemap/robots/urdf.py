@@ -28,6 +28,7 @@ import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
 from torquemap.errors import InputError
+from torquemap.robots import WrenchResult, register_arm
 
 PARAMETER_SUFFIXES: tuple[str, ...] = (
     "m",
@@ -51,15 +52,6 @@ DAMPING = 1e-3
 SINGULAR_THRESHOLD = 0.02
 """Default smallest singular value of the end-effector Jacobian [m] below which a pose is
 flagged singular (a 1 N m joint-torque error then maps to 50 N or more)."""
-
-
-@dataclass(frozen=True, slots=True, eq=False)
-class WrenchResult:
-    """End-effector wrench (force [N], moment [N m]) and the singular-pose mask, shape (n, m)
-    and (n,)."""
-
-    wrench: NDArray[np.float64]
-    singular: NDArray[np.bool_]
 
 
 def _urdf_error(message: str, path: Path) -> InputError:
@@ -191,6 +183,7 @@ class BaseParameters:
         return b
 
 
+@register_arm
 @dataclass(frozen=True, slots=True, eq=False)
 class UrdfArm:
     """An arm read from a URDF (the ``urdf`` kind of ``torquemap.robots``).
@@ -486,7 +479,8 @@ class UrdfArm:
         (qq,) = self._rows(q)
         J = self.jacobian(qq)
         m = J.shape[1]
-        A = np.linalg.solve(J @ np.swapaxes(J, 1, 2) + damping**2 * np.eye(m), J)
+        gram = J @ np.swapaxes(J, 1, 2) + damping**2 * np.eye(m)
+        A = np.asarray(np.linalg.solve(gram, J), dtype=np.float64)
         guard = SINGULAR_THRESHOLD if singular_threshold is None else singular_threshold
         s = np.linalg.svd(J, compute_uv=False)
         return A, s[:, -1] < guard
