@@ -227,3 +227,106 @@ def test_bad_urdf(tmp_path: Path, text: str, match: str) -> None:
     with pytest.raises(InputError, match=match) as info:
         arm_from_table(_table(urdf="arm.urdf"), ["j1"], path="robot.toml", base_dir=tmp_path)
     assert info.value.path is not None and info.value.path.endswith("arm.urdf")
+
+
+ROBOT_TOML = """
+[robot]
+name = "vertical two-link"
+kinematics = "urdf"
+urdf = "two_link.urdf"
+end_effector = "tool"
+gravity = [0.0, -9.81, 0.0]
+
+[joints.elbow]
+gear_ratio = 40
+torque_constant = 0.1
+encoder_counts_per_rev = 0
+
+[joints.shoulder]
+gear_ratio = 60
+torque_constant = 0.1
+"""
+
+
+def _robot_dir(tmp_path: Path, text: str = ROBOT_TOML) -> Path:
+    (tmp_path / "two_link.urdf").write_text(TWO_LINK.read_text())
+    (tmp_path / "robot.toml").write_text(text)
+    return tmp_path / "robot.toml"
+
+
+def test_robot_file_round_trip(tmp_path: Path) -> None:
+    from torquemap.io import write_toml
+    from torquemap.model import load_model, model_to_dict
+
+    model = load_model(_robot_dir(tmp_path))
+    arm = model.robot.arm
+    assert isinstance(arm, UrdfArm)
+    # file order (elbow first), not the URDF's: columns follow the file
+    assert arm.joint_names == ("elbow", "shoulder")
+    assert model.robot.joints[0].encoder_counts_per_rev is None
+    q = np.array([[0.4, 0.2]])  # elbow, shoulder
+    ref = _two_link()
+    assert_allclose(arm.jacobian(q)[0], ref.jacobian(q[:, ::-1])[0][:, ::-1], atol=1e-14)
+    pi = arm.full_parameters.copy()
+    pi[10] += 0.25
+    changed = arm_from_table(
+        {**arm.to_dict(), "urdf": str(TWO_LINK)}, arm.joint_names, path=None, base_dir=None
+    ).with_full_parameters(pi)
+    doc = model_to_dict(
+        type(model)(robot=type(model.robot)(
+            name=model.robot.name, kinematics="urdf", link_lengths=(),
+            joints=model.robot.joints, arm=changed), joints=model.joints)
+    )  # fmt: skip
+    doc["robot"]["urdf"] = "two_link.urdf"
+    write_toml(tmp_path / "model.toml", doc)
+    again = load_model(tmp_path / "model.toml")
+    assert isinstance(again.robot.arm, UrdfArm)
+    assert_allclose(again.robot.arm.full_parameters, pi, atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "match"),
+    [
+        ('end_effector = "tool"', 'end_effector = "gripper"', "end_effector 'gripper' is not"),
+        ("[joints.elbow]", "[joints.wrist]", "joint 'wrist' is not a movable joint"),
+        ('urdf = "two_link.urdf"', 'urdf = "other.urdf"', "URDF file not found"),
+        ("[joints.shoulder]", "[joints.elbow]", "not valid TOML"),
+    ],
+)
+def test_bad_robot_file_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], old: str, new: str, match: str
+) -> None:
+    from torquemap.cli.main import main
+
+    path = _robot_dir(tmp_path, ROBOT_TOML.replace(old, new))
+    status = main(["excite", str(path), "-o", str(tmp_path / "traj.csv")])
+    err = capsys.readouterr().err
+    assert status == 2
+    assert err.count("\n") == 1 and match in err, err
+    assert str(tmp_path) in err
+    assert not (tmp_path / "traj.csv").exists()
+
+
+def test_excite_cli_within_limits(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from torquemap.cli.main import main
+    from torquemap.io import read_table
+
+    path = _robot_dir(tmp_path)
+    out = tmp_path / "traj.csv"
+    argv = ["excite", str(path), "-o", str(out), "--duration", "10", "--rate", "100"]
+    assert main(argv) == 0
+    assert "condition number" in capsys.readouterr().out
+    cols = read_table(out)
+    assert list(cols)[:3] == ["t", "q_elbow", "q_shoulder"]
+    arm = _two_link()
+    lo, hi = arm.position_limits  # shoulder, elbow
+    for name, k in (("shoulder", 0), ("elbow", 1)):
+        q = cols[f"q_{name}"]
+        assert lo[k] <= q.min() and q.max() <= hi[k]
+        assert np.abs(cols[f"qd_{name}"]).max() <= 0.7 * arm.velocity_limits[k] + 1e-9
+        # starts and ends at rest at the middle of the range
+        assert_allclose([q[0], q[-1]], 0.5 * (lo[k] + hi[k]), atol=1e-12)
+        assert_allclose([cols[f"qd_{name}"][0], cols[f"qdd_{name}"][-1]], 0.0, atol=1e-12)
+        # velocity is the derivative of position (central differences at 100 Hz, 0.2 Hz motion)
+        fd = np.gradient(q, cols["t"])
+        assert_allclose(fd[1:-1], cols[f"qd_{name}"][1:-1], atol=2e-3)

@@ -127,12 +127,13 @@ def _scale_into_limits(
     speed: NDArray[np.float64],
     period: float,
 ) -> None:
-    t = np.linspace(0.0, period, 400, endpoint=False)
+    t = np.linspace(0.0, period, 2000, endpoint=False)
     zero = np.zeros(a.shape[0])
     q, qd, _ = fourier_trajectory(t, zero, a, b, period=period)
     reach = np.max(np.abs(q), axis=0) / half_range
     fast = np.max(np.abs(qd), axis=0) / speed
-    factor = 1.0 / np.maximum(np.maximum(reach, fast), 1e-12)
+    # 0.5 % margin: the peaks may fall between the grid's samples
+    factor = 0.995 / np.maximum(np.maximum(reach, fast), 1e-12)
     a *= factor[:, None]
     b *= factor[:, None]
 
