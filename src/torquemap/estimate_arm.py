@@ -23,6 +23,7 @@ velocity does not determine.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -143,14 +144,32 @@ def momentum_observer(
     >>> round(float(r[-1, 0]), 6)
     0.5
     """
+    from scipy.signal import lfilter
+
     n = t.size
     r = np.zeros_like(momentum)
     h = np.diff(t)
     a = np.exp(-gain * h)
-    dp = np.diff(momentum, axis=0)
+    drive = np.diff(momentum, axis=0) / h[:, None] - power_terms[:-1]
+    if np.allclose(h, h[0], rtol=1e-9, atol=0.0):
+        # a uniform step: one first-order recursion, done by lfilter along time
+        r[1:] = lfilter([1.0 - a[0]], [1.0, -a[0]], drive, axis=0)
+        return r
     for k in range(1, n):
-        r[k] = a[k - 1] * r[k - 1] + (1.0 - a[k - 1]) * (dp[k - 1] / h[k - 1] - power_terms[k - 1])
+        r[k] = a[k - 1] * r[k - 1] + (1.0 - a[k - 1]) * drive[k - 1]
     return r
+
+
+def noise_bandwidth(method: ArmMethod, cutoff: float, *, zero_phase: bool = False) -> float:
+    """Equivalent noise bandwidth [Hz] of a method's final filter.
+
+    Forward-backward second-order Butterworth: ``|H|^4 = (1 + (f/fc)^4)^-2`` integrates to
+    ``3 pi / (8 sqrt 2) fc``; the momentum observer ``K / (s + K)``: ``pi / 2 fc``; run both
+    ways (``K^2 / (K^2 + w^2)``): ``pi / 4 fc``.
+    """
+    if method == "acceleration":
+        return 3.0 * math.pi / (8.0 * math.sqrt(2.0)) * cutoff
+    return (math.pi / 4.0 if zero_phase else math.pi / 2.0) * cutoff
 
 
 def _sigma(
@@ -158,8 +177,14 @@ def _sigma(
     arm: Any,
     signals: ArmSignals,
     tau_ext_shape: tuple[int, int],
+    bandwidth: float,
 ) -> tuple[NDArray[np.float64], list[str]]:
-    """One-sigma external torque [N m] from the identification's covariance and noise."""
+    """One-sigma external torque [N m] from the identification's covariance and noise.
+
+    The identification's residual was seen through the differentiator's kernel, whose noise
+    bandwidth is ``1.2 / (2 window)``; the estimate's own filter passes ``bandwidth`` of it
+    (white residual assumed: residual model errors slower than that are underestimated).
+    """
     n, nj = tau_ext_shape
     warnings: list[str] = []
     info = model.notes.get("arm") if isinstance(model.notes, Mapping) else None
@@ -168,8 +193,10 @@ def _sigma(
     gear = signals.gear
     if isinstance(info, Mapping) and "covariance" in info and "residual_sigma" in info:
         noise = np.asarray(info["residual_sigma"], dtype=float)
+        window = float(info.get("window", signals.window))
+        noise_share = min(1.0, bandwidth / (1.2 / (2.0 * window)))
         if noise.shape == (nj,):
-            var += (gear * noise) ** 2
+            var += noise_share * (gear * noise) ** 2
         names: list[str] = list(arm.parameter_names)
         orders = []
         for joint in robot.joints:
@@ -292,7 +319,8 @@ def estimate_arm(
             # in reversed time dp/dt' = -(power + tau_ext): the observer then follows -tau_ext
             back = momentum_observer(-signals.t[::-1], p[::-1], -power[::-1], gain=gain)
             tau_ext = 0.5 * (tau_ext - back[::-1])
-    sigma, warnings = _sigma(model, arm, signals, tau_ext.shape)
+    bandwidth = noise_bandwidth(method, cutoff, zero_phase=zero_phase)
+    sigma, warnings = _sigma(model, arm, signals, tau_ext.shape, bandwidth)
     A, singular = arm.wrench_map(signals.q, singular_threshold=singular_threshold)
     wrench = np.einsum("nij,nj->ni", A, tau_ext)
     wrench_sigma = np.sqrt(np.einsum("nij,nj->ni", A**2, sigma**2))

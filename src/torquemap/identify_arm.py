@@ -177,11 +177,12 @@ def _from_log_cholesky(theta: NDArray[np.float64]) -> NDArray[np.float64]:
     ``J = U U^T`` with ``U`` upper triangular of positive diagonal, so every ``theta`` gives a
     physically consistent body (positive mass, triangle inequalities)."""
     a, d1, d2, d3, s12, s23, s13, t1, t2, t3 = theta
-    U = math.exp(a) * np.array(
+    e = np.exp(np.clip([a, d1, d2, d3], -50.0, 50.0))
+    U = e[0] * np.array(
         [
-            [math.exp(d1), s12, s13, t1],
-            [0.0, math.exp(d2), s23, t2],
-            [0.0, 0.0, math.exp(d3), t3],
+            [e[1], s12, s13, t1],
+            [0.0, e[2], s23, t2],
+            [0.0, 0.0, e[3], t3],
             [0.0, 0.0, 0.0, 1.0],
         ]
     )
@@ -232,73 +233,111 @@ def consistent_parameters(
     def pi_of(theta: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.concatenate([_from_log_cholesky(theta[10 * b : 10 * b + 10]) for b in range(nb)])
 
+    Linv = np.linalg.inv(L)
+
     def residual(theta: NDArray[np.float64]) -> NDArray[np.float64]:
-        out = np.linalg.solve(L, pi_of(theta) - estimate)
-        return np.asarray(out, dtype=np.float64)
+        return np.asarray(Linv @ (pi_of(theta) - estimate), dtype=np.float64)
+
+    def jacobian(theta: NDArray[np.float64]) -> NDArray[np.float64]:
+        # each body's parameters depend on its own coordinates only: a block-diagonal
+        # derivative, by central differences body by body
+        D = np.zeros((estimate.size, theta.size))
+        h = 1e-6
+        for b in range(nb):
+            sl = slice(10 * b, 10 * b + 10)
+            for i in range(10):
+                e = np.zeros(10)
+                e[i] = h
+                plus = _from_log_cholesky(theta[sl] + e)
+                minus = _from_log_cholesky(theta[sl] - e)
+                D[sl, 10 * b + i] = (plus - minus) / (2 * h)
+        return np.asarray(Linv @ D, dtype=np.float64)
 
     theta0 = np.concatenate([_to_log_cholesky(start[10 * b : 10 * b + 10]) for b in range(nb)])
-    fit = least_squares(residual, theta0, method="lm", max_nfev=200 * theta0.size)
+    fit = least_squares(
+        residual, theta0, jac=jacobian, method="trf", x_scale="jac", max_nfev=50 * nb
+    )
     return pi_of(fit.x)
 
 
-def _stack(
+def _rigid_rows(
+    arm: Any, signals: Sequence[ArmSignals], picks: Sequence[NDArray[np.intp]]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The regressor over the gears (m, nj, P) and the smoothed motor torques (m, nj)."""
+    ys, taus = [], []
+    for sig, idx in zip(signals, picks, strict=True):
+        Y = arm.full_regressor(sig.q[idx], sig.qd[idx], sig.qdd[idx])
+        ys.append(Y / sig.gear[None, :, None])
+        taus.append(sig.smooth(sig.motor_torque)[idx])
+    return np.concatenate(ys, axis=0), np.concatenate(taus, axis=0)
+
+
+def _joint_blocks(
     model: Model,
     signals: Sequence[ArmSignals],
     picks: Sequence[NDArray[np.intp]],
     orders: Sequence[tuple[float, ...]],
-) -> tuple[NDArray[np.float64], NDArray[np.float64], list[NDArray[np.float64]]]:
-    """Rows of all joints: (Y / N, per-joint blocks), motor torque, per-joint blocks."""
-    arm: Any = model.robot.arm
-    robot = model.robot
-    nj = len(robot.joints)
-    ys, taus = [], []
-    blocks: list[list[NDArray[np.float64]]] = [[] for _ in range(nj)]
-    for sig, idx in zip(signals, picks, strict=True):
-        Y = arm.full_regressor(sig.q[idx], sig.qd[idx], sig.qdd[idx])  # (m, nj, P)
-        ys.append(Y / sig.gear[None, :, None])
-        taus.append(sig.smooth(sig.motor_torque)[idx])
-        for k, joint in enumerate(robot.joints):
-            cols = joint_columns(model.joints[joint.name], sig, k, orders[k], smooth=True)
-            blocks[k].append(cols[idx])
-    return (
-        np.concatenate(ys, axis=0),
-        np.concatenate(taus, axis=0),
-        [np.concatenate(b, axis=0) for b in blocks],
-    )
+) -> list[NDArray[np.float64]]:
+    """Per joint, the columns (m, c_j) of its motor-side terms at the picked samples."""
+    out = []
+    for k, joint in enumerate(model.robot.joints):
+        parts = [
+            joint_columns(model.joints[joint.name], sig, k, orders[k], smooth=True)[idx]
+            for sig, idx in zip(signals, picks, strict=True)
+        ]
+        out.append(np.concatenate(parts, axis=0))
+    return out
 
 
-def _design(
-    Y: NDArray[np.float64], blocks: Sequence[NDArray[np.float64]]
-) -> tuple[NDArray[np.float64], list[slice]]:
-    """The full design matrix (m nj, P + sum c_j), rows joint-major, and each joint's slice."""
-    m, nj, P = Y.shape
-    widths = [b.shape[1] for b in blocks]
-    A = np.zeros((nj, m, P + sum(widths)))
-    slices = []
-    start = P
-    for k in range(nj):
-        A[k, :, :P] = Y[:, k, :]
-        A[k, :, start : start + widths[k]] = blocks[k]
-        slices.append(slice(start, start + widths[k]))
-        start += widths[k]
-    return A.reshape(nj * m, -1), slices
+def _slices(P: int, blocks: Sequence[NDArray[np.float64]]) -> list[slice]:
+    out, start = [], P
+    for b in blocks:
+        out.append(slice(start, start + b.shape[1]))
+        start += b.shape[1]
+    return out
+
+
+def _predict(
+    Y: NDArray[np.float64], blocks: Sequence[NDArray[np.float64]], x: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Motor torques (m, nj) of parameters ``x``."""
+    P = Y.shape[2]
+    out: NDArray[np.float64] = Y @ x[:P]
+    for k, (b, sl) in enumerate(zip(blocks, _slices(P, blocks), strict=True)):
+        out[:, k] += b @ x[sl]
+    return out
 
 
 def _solve(
-    A: NDArray[np.float64],
-    y: NDArray[np.float64],
+    Y: NDArray[np.float64],
+    tau: NDArray[np.float64],
+    blocks: Sequence[NDArray[np.float64]],
     weight: NDArray[np.float64],
     mean: NDArray[np.float64],
     sigma: NDArray[np.float64],
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """MAP estimate and posterior covariance of ``y = A x + e``, ``e ~ 1/weight``, prior N."""
-    Aw = A * weight[:, None]
-    H = Aw.T @ A + np.diag(1.0 / sigma**2)
-    g = Aw.T @ y + mean / sigma**2
-    # scale for a well-conditioned inverse
+    """MAP estimate and posterior covariance of the motor torques' regression, prior
+    ``N(mean, sigma^2)``, joint ``j``'s rows of weight ``weight[j]``.
+
+    The design is ``[Y_j | 0 .. B_j .. 0]`` per joint; its normal equations are assembled
+    block by block (the joint blocks never meet), far cheaper than the dense product.
+    """
+    P = Y.shape[2]
+    H = np.diag(1.0 / sigma**2)
+    g = mean / sigma**2
+    for k, (b, sl) in enumerate(zip(blocks, _slices(P, blocks), strict=True)):
+        w = weight[k]
+        Yk = Y[:, k, :]
+        H[:P, :P] += w * Yk.T @ Yk
+        cross = w * Yk.T @ b
+        H[:P, sl] += cross
+        H[sl, :P] += cross.T
+        H[sl, sl] += w * b.T @ b
+        g[:P] += w * Yk.T @ tau[:, k]
+        g[sl] += w * b.T @ tau[:, k]
+    # scaled for a well-conditioned inverse
     d = 1.0 / np.sqrt(np.diag(H))
-    Hs = H * d[:, None] * d[None, :]
-    cov = np.linalg.inv(Hs) * d[:, None] * d[None, :]
+    cov = np.linalg.inv(H * d[:, None] * d[None, :]) * d[:, None] * d[None, :]
     cov = 0.5 * (cov + cov.T)
     return cov @ g, cov
 
@@ -374,48 +413,40 @@ def identify_arm(
     def fit(
         orders: Sequence[tuple[float, ...]], noise: NDArray[np.float64]
     ) -> tuple[
-        NDArray[np.float64],
-        NDArray[np.float64],
-        NDArray[np.float64],
-        NDArray[np.float64],
-        list[slice],
-        NDArray[np.float64],
+        NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], list[NDArray[np.float64]]
     ]:
-        Y, tau, blocks = _stack(model, signals, picks, orders)
-        A, slices = _design(Y, blocks)
-        y = tau.T.reshape(-1)  # joint-major, as the design's rows
-        weight = np.repeat(1.0 / noise**2, m) / inflation
-        mean = np.zeros(A.shape[1])
+        blocks = _joint_blocks(model, signals, picks, orders)
+        slices = _slices(P, blocks)
+        n_all = P + sum(b.shape[1] for b in blocks)
+        mean = np.zeros(n_all)
         mean[:P] = pi0
-        sd = np.empty(A.shape[1])
+        sd = np.empty(n_all)
         sd[:P] = _prior_sigma(pi0)
         for k, joint in enumerate(robot.joints):
             names = column_names(joint.name, model.joints[joint.name], orders[k])
             for i, name in zip(range(slices[k].start, slices[k].stop), names, strict=True):
-                part = name.split(".")[1]
-                sd[i] = PRIOR_JOINT.get(part, 1.0)
-        x, cov = _solve(A, y, weight, mean, sd)
-        residual = (y - A @ x).reshape(nj, m).T
-        return x, cov, residual, A, slices, weight
+                sd[i] = PRIOR_JOINT.get(name.split(".")[1], 1.0)
+        x, cov = _solve(Y, tau, blocks, 1.0 / (noise**2 * inflation), mean, sd)
+        return x, cov, tau - _predict(Y, blocks, x), blocks
 
     # The smoothed torques' noise is correlated over the window: a parabolic kernel of width w
     # passes white noise as 1.2 D / w independent samples over a duration D. Rows closer than
     # that count less (else the covariance would claim more than the data holds).
     duration = sum(float(s.t[k[-1]] - s.t[k[0]]) for s, k in zip(signals, inner, strict=True))
     inflation = max(1.0, m * window / (1.2 * max(duration, 1e-12)))
+    Y, tau = _rigid_rows(arm, signals, picks)
     no_lines: list[tuple[float, ...]] = [() for _ in range(nj)]
-    scale = np.array(
-        [np.std(np.concatenate([s.motor_torque[:, k] for s in signals])) for k in range(nj)]
-    )
-    noise = 0.1 * scale + 1e-9
-    x, cov, residual, A, slices, weight = fit(no_lines, noise)
+    noise = 0.1 * np.std(tau, axis=0) + 1e-9
+    x, cov, residual, blocks = fit(no_lines, noise)
     noise = np.sqrt(np.mean(residual**2, axis=0)) + 1e-12
     orders = no_lines
     if pdtv_max_order > 0:
         orders = _pick_pdtv(signals, picks, residual, pdtv_max_order)
-    x, cov, residual, A, slices, weight = fit(orders, noise)
+    x, cov, residual, blocks = fit(orders, noise)
     noise = np.sqrt(np.mean(residual**2, axis=0)) + 1e-12
-    x, cov, residual, A, slices, weight = fit(orders, noise)
+    x, cov, residual, blocks = fit(orders, noise)
+    slices = _slices(P, blocks)
+    weight = 1.0 / (noise**2 * inflation)
     residual_sigma = np.sqrt(np.mean(residual**2, axis=0))
 
     if body_consistency(x[:P], arm.body_names):
@@ -426,22 +457,13 @@ def identify_arm(
         x = x.copy()
         x[P:] += cov[P:, :P] @ np.linalg.solve(cov[:P, :P], shift)
         x[:P] = target
-        residual = (
-            (
-                np.concatenate(
-                    [s.smooth(s.motor_torque)[i] for s, i in zip(signals, picks, strict=True)]
-                ).T.reshape(-1)
-                - A @ x
-            )
-            .reshape(nj, m)
-            .T
-        )
+        residual = tau - _predict(Y, blocks, x)
     full = x[:P]
     full_sigma = np.sqrt(np.diag(cov)[:P])
     base = arm.base
     B = base.matrix(P)
-    n_joint = A.shape[1] - P
-    T = np.zeros((B.shape[0] + n_joint, A.shape[1]))
+    n_joint = x.size - P
+    T = np.zeros((B.shape[0] + n_joint, x.size))
     T[: B.shape[0], :P] = B
     T[B.shape[0] :, P:] = np.eye(n_joint)
     theta = T @ x
@@ -486,9 +508,10 @@ def identify_arm(
         )
         for b, name in enumerate(arm.body_names)
     )
-    Ab = A[:, base.independent] * np.sqrt(weight)[:, None]
-    sv = np.linalg.svd(Ab, compute_uv=False)
-    condition = float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
+    Yb = Y[:, :, base.independent]
+    gram = np.einsum("mki,mkj,k->ij", Yb, Yb, weight)
+    ev = np.linalg.eigvalsh(gram)
+    condition = float(np.sqrt(ev[-1] / ev[0])) if ev[0] > 0 else math.inf
 
     new_arm = arm.with_full_parameters(full)
     new_robot = dataclasses.replace(robot, arm=new_arm)

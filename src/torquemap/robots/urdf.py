@@ -421,11 +421,13 @@ class UrdfArm:
         (qq,) = self._rows(q)
         data = self._model.createData()
         order = self._order()
-        out = np.empty((qq.shape[0], len(order), len(order)))
+        nv = self._model.nv
+        raw = np.empty((qq.shape[0], nv, nv))
         for i, row in enumerate(self._configs(qq)):
-            M = pin.crba(self._model, data, row)
-            M = np.triu(M) + np.triu(M, 1).T
-            out[i] = M[np.ix_(order, order)]
+            raw[i] = pin.crba(self._model, data, row)
+        upper = np.triu(np.ones((nv, nv), dtype=bool))
+        full = np.where(upper, raw, np.swapaxes(raw, 1, 2))  # CRBA fills the upper triangle
+        out: NDArray[np.float64] = full[:, order][:, :, order]
         return out
 
     def coriolis_matrix(self, q: ArrayLike, qd: ArrayLike) -> NDArray[np.float64]:
@@ -433,11 +435,12 @@ class UrdfArm:
         qq, vv = self._rows(q, qd)
         data = self._model.createData()
         order = self._order()
-        out = np.empty((qq.shape[0], len(order), len(order)))
+        nv = self._model.nv
+        raw = np.empty((qq.shape[0], nv, nv))
         cq, cv = self._configs(qq), self._tangents(vv)
         for i in range(qq.shape[0]):
-            C = pin.computeCoriolisMatrix(self._model, data, cq[i], cv[i])
-            out[i] = C[np.ix_(order, order)]
+            raw[i] = pin.computeCoriolisMatrix(self._model, data, cq[i], cv[i])
+        out: NDArray[np.float64] = raw[:, order][:, :, order]
         return out
 
     def gravity_torque(self, q: ArrayLike) -> NDArray[np.float64]:
