@@ -172,6 +172,31 @@ def noise_bandwidth(method: ArmMethod, cutoff: float, *, zero_phase: bool = Fals
     return (math.pi / 4.0 if zero_phase else math.pi / 2.0) * cutoff
 
 
+def _measured_share(
+    info: Mapping[str, Any], noise: NDArray[np.float64], bandwidth: float
+) -> NDArray[np.float64] | None:
+    """Share of the residual variance left at the estimate's filter, from the residual's
+    low-passed sigmas the identification measured (log-log interpolation over the cut-off of
+    the Butterworth with the same noise bandwidth); None when the model lacks them."""
+    cut = info.get("residual_lowpass_hz")
+    table = info.get("residual_sigma_lowpass")
+    if not isinstance(cut, list) or not isinstance(table, list) or not cut:
+        return None
+    fc = np.asarray(cut, dtype=float)
+    sig = np.asarray(table, dtype=float)
+    if sig.shape != (fc.size, noise.size):
+        return None
+    equivalent = bandwidth / (3.0 * math.pi / (8.0 * math.sqrt(2.0)))
+    out = np.empty(noise.size)
+    for k in range(noise.size):
+        ok = np.isfinite(sig[:, k]) & (sig[:, k] > 0)
+        if not ok.any():
+            return None
+        value = np.exp(np.interp(np.log(equivalent), np.log(fc[ok]), np.log(sig[ok, k])))
+        out[k] = min(1.0, (value / max(noise[k], 1e-300)) ** 2)
+    return out
+
+
 def _sigma(
     model: Model,
     arm: Any,
@@ -194,7 +219,10 @@ def _sigma(
     if isinstance(info, Mapping) and "covariance" in info and "residual_sigma" in info:
         noise = np.asarray(info["residual_sigma"], dtype=float)
         window = float(info.get("window", signals.window))
-        noise_share = min(1.0, bandwidth / (1.2 / (2.0 * window)))
+        noise_share = np.full(nj, min(1.0, bandwidth / (1.2 / (2.0 * window))))
+        measured = _measured_share(info, noise, bandwidth)
+        if measured is not None:
+            noise_share = measured
         if noise.shape == (nj,):
             var += noise_share * (gear * noise) ** 2
         names: list[str] = list(arm.parameter_names)

@@ -49,6 +49,12 @@ PRIOR_INERTIA_FLOOR = 0.01
 """Absolute floor [kg m^2] of the prior deviation of inertias about the joint (plus 30 %)."""
 PRIOR_JOINT = {"armature": 1e-2, "friction": 1.0, "pdtv": 1.0}
 """Weak prior deviations of the joint terms (motor side: kg m^2, N m or N m s/rad, N m)."""
+RESIDUAL_CUTOFFS = (0.25, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0)
+"""Cut-offs [Hz] at which the residual's low-passed standard deviation is measured and kept in
+the model (``[identification.arm] residual_sigma_lowpass``): the estimate's noise at its own
+filter, measured rather than assumed white."""
+RESIDUAL_SPAN = 8.0
+"""Length [s] of the contiguous stretch of the first log on which that is measured."""
 PDTV_SIGNIFICANCE = 5.0
 """A PDTV line is kept when its amplitude exceeds this many standard errors."""
 
@@ -448,6 +454,7 @@ def identify_arm(
     slices = _slices(P, blocks)
     weight = 1.0 / (noise**2 * inflation)
     residual_sigma = np.sqrt(np.mean(residual**2, axis=0))
+    lowpassed = _lowpassed_residual(model, arm, signals[0], inner[0], orders, x)
 
     if body_consistency(x[:P], arm.body_names):
         # project onto physically consistent bodies, and move the joint terms with them
@@ -523,6 +530,8 @@ def identify_arm(
         "logs": [log.path for log in logs],
         "condition_number": condition,
         "residual_sigma": [float(s) for s in residual_sigma],
+        "residual_lowpass_hz": list(RESIDUAL_CUTOFFS),
+        "residual_sigma_lowpass": [[float(v) for v in row] for row in lowpassed],
         "parameter_names": names,
         "parameters": [float(v) for v in theta],
         "covariance": [[float(v) for v in row] for row in theta_cov],
@@ -547,6 +556,39 @@ def identify_arm(
         consistent=not problems,
         warnings=tuple(warnings),
     )
+
+
+def _lowpassed_residual(
+    model: Model,
+    arm: Any,
+    signal: ArmSignals,
+    inner: NDArray[np.intp],
+    orders: Sequence[tuple[float, ...]],
+    x: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """Standard deviation (len(RESIDUAL_CUTOFFS), nj) of the motor-side residual on a
+    contiguous stretch, after a zero-phase low-pass at each cut-off (NaN where the stretch is
+    too short or the cut-off above Nyquist)."""
+    from torquemap.filters import lowpass
+
+    t = signal.t
+    stop = int(np.searchsorted(t, t[inner[0]] + RESIDUAL_SPAN))
+    idx = np.arange(inner[0], min(max(stop, inner[0] + 3), inner[-1] + 1))
+    Y = arm.full_regressor(signal.q[idx], signal.qd[idx], signal.qdd[idx])
+    Y = Y / signal.gear[None, :, None]
+    blocks = [
+        joint_columns(model.joints[j.name], signal, k, orders[k], smooth=True)[idx]
+        for k, j in enumerate(model.robot.joints)
+    ]
+    resid = signal.smooth(signal.motor_torque)[idx] - _predict(Y, blocks, x)
+    out = np.full((len(RESIDUAL_CUTOFFS), resid.shape[1]), np.nan)
+    for i, fc in enumerate(RESIDUAL_CUTOFFS):
+        for k in range(resid.shape[1]):
+            try:
+                out[i, k] = float(np.std(lowpass(t[idx], resid[:, k], cutoff=fc)))
+            except InputError:
+                break
+    return out
 
 
 def _pick_pdtv(
