@@ -269,3 +269,73 @@ def test_arm_needed() -> None:
         identify_arm(model, [log])
     with pytest.raises(InputError, match="rigid-body dynamics"):
         estimate_arm(model, log)
+
+
+def test_cli_identify_and_estimate(
+    bench: dict[str, object], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from torquemap.cli.main import main
+    from torquemap.io import read_table, write_table
+
+    (tmp_path / "two_link.urdf").write_text(TWO_LINK.read_text())
+    (tmp_path / "robot.toml").write_text(
+        '[robot]\nkinematics = "urdf"\nurdf = "two_link.urdf"\nend_effector = "tool"\n'
+        "gravity = [0.0, -9.81, 0.0]\n"
+        "[joints.shoulder]\ngear_ratio = 60\ntorque_constant = 0.1\n"
+        "[joints.shoulder.friction]\nstribeck_velocity = 5.0\nzero_velocity = 0.5\n"
+        'transition = "smooth"\n'
+        "[joints.elbow]\ngear_ratio = 40\ntorque_constant = 0.1\n"
+        "[joints.elbow.friction]\nstribeck_velocity = 5.0\nzero_velocity = 0.5\n"
+        'transition = "smooth"\n'
+    )
+    task = bench["task"]
+    assert isinstance(task, Log)
+    # a short free log: 8 s of the task's motion would hold the force, so simulate one here
+    nominal = bench["nominal"]
+    assert isinstance(nominal, UrdfArm)
+    free, _ = _simulate(_true_arm(nominal), 3, force=False, duration=10.0)
+    short = Log(
+        t=task.t[:6000], q=task.q[:6000], motor_torque=task.motor_torque[:6000],
+        joint_names=task.joint_names, path=task.path,
+    )  # fmt: skip
+    for name, log in (("free.csv", free), ("task.csv", short)):
+        cols = {"t": log.t}
+        for k, j in enumerate(log.joint_names):
+            cols[f"q_{j}"] = log.q[:, k]
+            cols[f"tau_{j}"] = log.motor_torque[:, k]
+        write_table(tmp_path / name, cols)
+    (tmp_path / "out").mkdir()
+    model = tmp_path / "out" / "model.toml"
+    assert (
+        main(
+            ["identify", str(tmp_path / "robot.toml"), str(tmp_path / "free.csv"), "-o", str(model)]
+        )
+        == 0
+    )
+    out = capsys.readouterr().out
+    assert "physically consistent" in out and "body elbow" in out
+    assert 'urdf = "../two_link.urdf"' in model.read_text()
+    for method in ("acceleration", "momentum"):
+        forces = tmp_path / f"forces_{method}.csv"
+        argv = ["estimate", str(model), str(tmp_path / "task.csv"), "-o", str(forces)]
+        assert main([*argv, "--method", method]) == 0
+        cols = read_table(forces)
+        assert list(cols) == [
+            "t", "tau_ext_shoulder", "tau_ext_elbow", "tau_ext_shoulder_sigma",
+            "tau_ext_elbow_sigma", "fx", "fy", "fz", "fx_sigma", "fy_sigma", "fz_sigma", "flag",
+        ]  # fmt: skip
+    assert (
+        main(
+            [
+                "estimate",
+                str(model),
+                str(tmp_path / "task.csv"),
+                "-o",
+                str(tmp_path / "f.csv"),
+                "--method",
+                "paper",
+            ]
+        )
+        == 2
+    )
+    assert "an arm takes acceleration or momentum" in capsys.readouterr().err

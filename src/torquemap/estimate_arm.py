@@ -41,6 +41,7 @@ from torquemap.arm_model import (
 )
 from torquemap.errors import InputError
 from torquemap.filters import lowpass
+from torquemap.identify_arm import is_rigid_body_arm
 from torquemap.io import Log
 from torquemap.model import Model
 
@@ -311,7 +312,7 @@ def estimate_arm(
         the Nyquist frequency, or a log too short for the window.
     """
     arm: Any = model.robot.arm
-    if not getattr(arm, "has_dynamics", False) or not hasattr(arm, "mass_matrix"):
+    if not is_rigid_body_arm(arm):
         raise InputError(
             f"estimate_arm needs an arm with rigid-body dynamics (kinematics = 'urdf'), "
             f"not {model.robot.kinematics!r}"

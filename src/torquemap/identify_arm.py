@@ -348,6 +348,14 @@ def _solve(
     return cov @ g, cov
 
 
+def is_rigid_body_arm(arm: Any) -> bool:
+    """True when ``arm`` models rigid-body dynamics in full (the ``urdf`` kind): the arm
+    identification and estimation apply."""
+    return bool(getattr(arm, "has_dynamics", False)) and all(
+        hasattr(arm, name) for name in ("full_regressor", "mass_matrix", "wrench_map")
+    )
+
+
 def identify_arm(
     model: Model,
     logs: Sequence[Log],
@@ -388,7 +396,7 @@ def identify_arm(
         When the arm has no rigid-body dynamics, or the logs are too short.
     """
     arm: Any = model.robot.arm
-    if not getattr(arm, "has_dynamics", False) or not hasattr(arm, "full_regressor"):
+    if not is_rigid_body_arm(arm):
         raise InputError(
             f"identify_arm needs an arm with rigid-body dynamics (kinematics = 'urdf'), "
             f"not {model.robot.kinematics!r}"

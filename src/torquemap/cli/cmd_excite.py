@@ -76,16 +76,24 @@ def _excite(args: argparse.Namespace) -> int:
     return 0
 
 
-def identify_arm_command(robot_path: str, log_paths: Sequence[str], output: str) -> int:
-    """``torquemap identify`` for an arm with rigid-body dynamics: load, identify, write, print."""
+def identify_arm_command(model: Any, log_paths: Sequence[str], output: str) -> int:
+    """``torquemap identify`` for an arm with rigid-body dynamics: identify, write, print."""
+    import os
+    from pathlib import Path
+
     from torquemap.identify_arm import identify_arm
     from torquemap.io import read_log, write_toml
-    from torquemap.model import load_model, model_to_dict
+    from torquemap.model import model_to_dict
 
-    model = load_model(robot_path)
     logs = [read_log(path, model.robot) for path in log_paths]
     result = identify_arm(model, logs)
-    write_toml(output, model_to_dict(result.model))
+    doc = model_to_dict(result.model)
+    # the URDF is found relative to the model file: rewrite its path for the output's folder
+    arm: Any = result.model.robot.arm
+    urdf = Path(arm.urdf_path).resolve()
+    folder = Path(output).resolve().parent
+    doc["robot"]["urdf"] = os.path.relpath(urdf, folder)
+    write_toml(output, doc)
     for w in result.warnings:
         print(f"torquemap: warning: {w}", file=sys.stderr)
     print(
@@ -108,29 +116,43 @@ def identify_arm_command(robot_path: str, log_paths: Sequence[str], output: str)
 
 
 def estimate_arm_command(
-    model_path: str, log_path: str, output: str, *, method: str, cutoff: float, window: float
+    model: Any,
+    log_path: str,
+    output: str,
+    *,
+    method: str,
+    cutoff: float,
+    window: float,
+    zero_phase: bool = False,
 ) -> int:
     """``torquemap estimate`` for an arm with rigid-body dynamics."""
     import numpy as np
 
     from torquemap.errors import InputError
-    from torquemap.estimate_arm import ARM_METHODS, arm_forces_columns, estimate_arm
+    from torquemap.estimate_arm import arm_forces_columns, estimate_arm
     from torquemap.io import read_log, write_table
-    from torquemap.model import load_model
 
-    if method not in ARM_METHODS:
+    if method not in ("acceleration", "momentum"):
         raise InputError(
-            f"--method {method} is for single joints; an arm takes {' or '.join(ARM_METHODS)}"
+            f"--method {method} is for single joints; an arm takes acceleration or momentum"
         )
-    model = load_model(model_path)
     log = read_log(log_path, model.robot)
-    est = estimate_arm(model, log, method=method, cutoff=cutoff, window=window)
+    est = estimate_arm(
+        model,
+        log,
+        method="momentum" if method == "momentum" else "acceleration",
+        cutoff=cutoff,
+        window=window,
+        zero_phase=zero_phase,
+    )
     write_table(output, arm_forces_columns(est))
     for w in est.warnings:
         print(f"torquemap: warning: {w}", file=sys.stderr)
     ok = est.flag == 0
-    force = est.wrench[ok, :3]
-    summary = f"|F| median {np.median(np.linalg.norm(force, axis=1)):.4g} N" if ok.any() else ""
-    print(f"{method}: {int(ok.sum())}/{ok.size} samples sound, {summary}")
+    summary = ""
+    if ok.any():
+        force = est.wrench[ok, :3]
+        summary = f", |F| median {np.median(np.linalg.norm(force, axis=1)):.4g} N"
+    print(f"{method}: {int(ok.sum())}/{ok.size} samples sound{summary}")
     print(f"wrote {output}")
     return 0

@@ -46,6 +46,12 @@ def _identify(args: argparse.Namespace) -> int:
     from torquemap.model import load_model, model_to_dict
 
     model = load_model(args.robot)
+    from torquemap.identify_arm import is_rigid_body_arm
+
+    if is_rigid_body_arm(model.robot.arm):  # an arm with a URDF: docs/arm.md
+        from torquemap.cli.cmd_excite import identify_arm_command
+
+        return identify_arm_command(model, args.logs, args.output)
     logs = [read_log(path, model.robot) for path in args.logs]
     result = identify_model(model, logs, joints=args.joint, max_order=args.max_order)
     write_toml(args.output, model_to_dict(result.model))
