@@ -330,3 +330,50 @@ def test_excite_cli_within_limits(tmp_path: Path, capsys: pytest.CaptureFixture[
         # velocity is the derivative of position (central differences at 100 Hz, 0.2 Hz motion)
         fd = np.gradient(q, cols["t"])
         assert_allclose(fd[1:-1], cols[f"qd_{name}"][1:-1], atol=2e-3)
+
+
+@pytest.mark.skipif(ROBOTS is None, reason="example-robot-data not installed")
+@pytest.mark.parametrize(
+    ("urdf", "joints"),
+    [
+        ("panda_description/urdf/panda.urdf", [f"panda_joint{i}" for i in range(1, 8)]),
+        ("ur_description/urdf/ur5_robot.urdf",
+         ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint",
+          "wrist_2_joint", "wrist_3_joint"]),
+    ],
+)  # fmt: skip
+def test_inverse_dynamics_matches_mujoco(urdf: str, joints: list[str]) -> None:
+    """A second engine: MuJoCo's inverse dynamics of the same URDF (meshes dropped, the URDF's
+    joint damping and MuJoCo's constraints switched off)."""
+    import re
+
+    mujoco = pytest.importorskip("mujoco")
+    assert ROBOTS is not None
+    text = (ROBOTS / urdf).read_text()
+    text = re.sub(r"<(visual|collision)>.*?</\1>", "", text, flags=re.S)
+    text = re.sub(
+        r"(<robot[^>]*>)",
+        r'\1<mujoco><compiler fusestatic="false" discardvisual="true"/></mujoco>',
+        text,
+        count=1,
+    )
+    model = mujoco.MjModel.from_xml_string(text)
+    model.dof_damping[:] = 0.0
+    model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
+    data = mujoco.MjData(model)
+    index = [model.joint(j).dofadr[0] for j in joints]
+    arm = urdf_arm(ROBOTS / urdf, joints, end_effector=arm_ee(urdf))
+    lo, hi = arm.position_limits
+    rng = np.random.default_rng(3)
+    for _ in range(4):
+        q = rng.uniform(np.maximum(lo, -3), np.minimum(hi, 3))
+        qd, qdd = rng.standard_normal((2, len(joints)))
+        data.qpos[:] = data.qvel[:] = data.qacc[:] = 0.0
+        data.qpos[index], data.qvel[index], data.qacc[index] = q, qd, qdd
+        mujoco.mj_inverse(model, data)
+        # two engines, the same rigid bodies: agreement to rounding (torques of 1-100 N m)
+        assert_allclose(arm.inverse_dynamics(q, qd, qdd)[0], data.qfrc_inverse[index], atol=1e-8)
+
+
+def arm_ee(urdf: str) -> str:
+    return "panda_hand_tcp" if "panda" in urdf else "tool0"
