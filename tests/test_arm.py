@@ -293,9 +293,9 @@ def test_cli_identify_and_estimate(
     # a short free log: 8 s of the task's motion would hold the force, so simulate one here
     nominal = bench["nominal"]
     assert isinstance(nominal, UrdfArm)
-    free, _ = _simulate(_true_arm(nominal), 3, force=False, duration=10.0)
+    free, _ = _simulate(_true_arm(nominal), 3, force=False, duration=6.0)
     short = Log(
-        t=task.t[:6000], q=task.q[:6000], motor_torque=task.motor_torque[:6000],
+        t=task.t[:4000], q=task.q[:4000], motor_torque=task.motor_torque[:4000],
         joint_names=task.joint_names, path=task.path,
     )  # fmt: skip
     for name, log in (("free.csv", free), ("task.csv", short)):
