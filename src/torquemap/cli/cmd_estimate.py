@@ -51,10 +51,11 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     )
     p.add_argument(
         "--method",
-        choices=METHODS,
+        choices=(*METHODS, "acceleration", "momentum"),
         default="model",
         help="model (default): subtract the PDTV model; paper: notch in the position domain "
-        "per monotonic pass; lowpass; raw (Eq 7 only)",
+        "per monotonic pass; lowpass; raw (Eq 7 only); for an arm with a URDF (docs/arm.md): acceleration (default there) "
+        "or momentum (generalised-momentum observer)",
     )
     p.add_argument(
         "--cutoff",
@@ -87,6 +88,11 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         "or the model's zero_velocity if larger",
     )
     p.add_argument(
+        "--zero-phase",
+        action="store_true",
+        help="momentum method: run the observer forwards and backwards (no lag, offline)",
+    )
+    p.add_argument(
         "--figure",
         metavar="FIG.png",
         default=None,
@@ -109,6 +115,23 @@ def _estimate(args: argparse.Namespace) -> int:
     if args.figure:
         check_figure(args.figure)
     model = load_model(args.model)
+    from torquemap.identify_arm import is_rigid_body_arm
+
+    if is_rigid_body_arm(model.robot.arm):  # an arm with a URDF: docs/arm.md
+        from torquemap.cli.cmd_excite import estimate_arm_command
+
+        method = "acceleration" if args.method == "model" else args.method
+        return estimate_arm_command(
+            model, args.log, args.output, method=method, cutoff=args.cutoff,
+            window=args.window, zero_phase=args.zero_phase,
+        )  # fmt: skip
+    if args.method in ("acceleration", "momentum"):
+        from torquemap.errors import InputError
+
+        raise InputError(
+            f"--method {args.method} needs an arm with a URDF (kinematics = 'urdf')",
+            path=args.model,
+        )
     log = args.progress.run("read the log", lambda: read_log(args.log, model.robot))
     est = args.progress.run(
         f"estimate ({args.method} method)",

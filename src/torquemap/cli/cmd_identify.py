@@ -169,6 +169,12 @@ def _identify(args: argparse.Namespace) -> int:
 
     output_suffix(args.output, (".toml",), "model")
     model = load_model(args.robot)
+    from torquemap.identify_arm import is_rigid_body_arm
+
+    if is_rigid_body_arm(model.robot.arm):  # an arm with a URDF: docs/arm.md
+        from torquemap.cli.cmd_excite import identify_arm_command
+
+        return identify_arm_command(model, args.logs, args.output)
     progress = args.progress
     logs = progress.run(
         f"read {len(args.logs)} log{'s' if len(args.logs) > 1 else ''}",

@@ -1,0 +1,158 @@
+"""CLI: ``excite`` an exciting trajectory for identifying an arm (docs/arm.md); and the arm's
+``identify`` / ``estimate`` handlers, which those commands call for arms with rigid-body dynamics.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+
+def register(subparsers: argparse._SubParsersAction[Any]) -> None:
+    """Add ``excite`` to subparsers."""
+    p = subparsers.add_parser(
+        "excite",
+        help="an exciting trajectory (Fourier series within the URDF's limits) for identification",
+        description="Write an exciting trajectory for an arm with a URDF: a Fourier series per "
+        "joint that starts and ends at rest at the middle of each joint's range, stays inside "
+        "the URDF's position and velocity limits, and is chosen for a well-conditioned "
+        "base-parameter regressor. Run it on the robot (after moving to the first row), log "
+        "t, q_<j> and i_<j> or tau_<j>, and give the log to `torquemap identify`. "
+        "No collision checking: try it slowly first.",
+        epilog="example: torquemap excite robot.toml -o excite.csv --duration 60",
+    )
+    p.add_argument("robot", metavar="ROBOT.toml")
+    p.add_argument("-o", "--output", metavar="TRAJ.csv|TRAJ.parquet", required=True)
+    p.add_argument("--duration", type=float, default=30.0, metavar="S", help="length [s] (30)")
+    p.add_argument(
+        "--period", type=float, default=10.0, metavar="S", help="fundamental period [s] (10)"
+    )
+    p.add_argument("--harmonics", type=int, default=5, help="harmonics per joint (5)")
+    p.add_argument("--rate", type=float, default=500.0, metavar="HZ", help="sample rate (500)")
+    p.add_argument(
+        "--speed-fraction",
+        type=float,
+        default=0.7,
+        metavar="F",
+        help="fraction of each joint's URDF velocity limit used at most (0.7)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="seed of the random search (0)")
+    p.set_defaults(handler=_excite)
+
+
+def _excite(args: argparse.Namespace) -> int:
+    from torquemap.errors import InputError
+    from torquemap.excite import exciting_trajectory, trajectory_columns
+    from torquemap.io import write_table
+    from torquemap.robot import load_robot
+
+    robot = load_robot(args.robot)
+    arm: Any = robot.arm
+    if not hasattr(arm, "position_limits"):
+        raise InputError("excite needs an arm with a URDF (kinematics = 'urdf')", path=args.robot)
+    if not 0 < args.speed_fraction <= 1:
+        raise InputError(f"--speed-fraction must be in (0, 1], got {args.speed_fraction}")
+    traj = exciting_trajectory(
+        arm,
+        duration=args.duration,
+        period=args.period,
+        harmonics=args.harmonics,
+        rate=args.rate,
+        speed_fraction=args.speed_fraction,
+        rng=args.seed,
+    )
+    write_table(args.output, trajectory_columns(traj))
+    print(
+        f"{len(traj.joint_names)} joints, {traj.t[-1]:.4g} s, condition number of the base "
+        f"regressor {traj.condition_number:.4g}"
+    )
+    print(
+        "start pose [rad]: "
+        + ", ".join(f"{n}={c:.4f}" for n, c in zip(traj.joint_names, traj.centre, strict=True))
+    )
+    print(f"wrote {args.output}")
+    return 0
+
+
+def identify_arm_command(model: Any, log_paths: Sequence[str], output: str) -> int:
+    """``torquemap identify`` for an arm with rigid-body dynamics: identify, write, print."""
+    import os
+    from pathlib import Path
+
+    from torquemap.identify_arm import identify_arm
+    from torquemap.io import read_log, write_toml
+    from torquemap.model import model_to_dict
+
+    logs = [read_log(path, model.robot) for path in log_paths]
+    result = identify_arm(model, logs)
+    doc = model_to_dict(result.model)
+    # the URDF is found relative to the model file: rewrite its path for the output's folder
+    arm: Any = result.model.robot.arm
+    urdf = Path(arm.urdf_path).resolve()
+    folder = Path(output).resolve().parent
+    doc["robot"]["urdf"] = os.path.relpath(urdf, folder)
+    write_toml(output, doc)
+    for w in result.warnings:
+        print(f"torquemap: warning: {w}", file=sys.stderr)
+    print(
+        f"arm: {len(result.parameter_names)} parameters from {result.samples} samples, "
+        f"condition number {result.condition_number:.4g}, "
+        f"{'physically consistent' if result.consistent else 'NOT physically consistent'}"
+    )
+    for m in result.masses:
+        print(f"  body {m.body}: mass {m.identified:.4g} +- {m.sigma:.2g} kg (URDF {m.urdf:.4g})")
+    for k, name in enumerate(result.model.robot.joint_names):
+        jm = result.model.joints[name]
+        levels = jm.friction.static_levels()
+        print(
+            f"  {name}: armature {jm.inertia.constant:.4g} kg m^2, friction at rest "
+            f"+{levels[0]:.4g}/-{levels[1]:.4g} N m, {len(jm.pdtv)} PDTV lines, residual "
+            f"{result.residual_sigma[k]:.3g} N m (motor side)"
+        )
+    print(f"wrote {output}")
+    return 0
+
+
+def estimate_arm_command(
+    model: Any,
+    log_path: str,
+    output: str,
+    *,
+    method: str,
+    cutoff: float,
+    window: float,
+    zero_phase: bool = False,
+) -> int:
+    """``torquemap estimate`` for an arm with rigid-body dynamics."""
+    import numpy as np
+
+    from torquemap.errors import InputError
+    from torquemap.estimate_arm import arm_forces_columns, estimate_arm
+    from torquemap.io import read_log, write_table
+
+    if method not in ("acceleration", "momentum"):
+        raise InputError(
+            f"--method {method} is for single joints; an arm takes acceleration or momentum"
+        )
+    log = read_log(log_path, model.robot)
+    est = estimate_arm(
+        model,
+        log,
+        method="momentum" if method == "momentum" else "acceleration",
+        cutoff=cutoff,
+        window=window,
+        zero_phase=zero_phase,
+    )
+    write_table(output, arm_forces_columns(est))
+    for w in est.warnings:
+        print(f"torquemap: warning: {w}", file=sys.stderr)
+    ok = est.flag == 0
+    summary = ""
+    if ok.any():
+        force = est.wrench[ok, :3]
+        summary = f", |F| median {np.median(np.linalg.norm(force, axis=1)):.4g} N"
+    print(f"{method}: {int(ok.sum())}/{ok.size} samples sound{summary}")
+    print(f"wrote {output}")
+    return 0

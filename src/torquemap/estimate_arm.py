@@ -1,0 +1,393 @@
+"""External torques and end-effector wrench of an arm with rigid-body dynamics (docs/arm.md).
+
+Two methods, both on the identified model of :mod:`torquemap.identify_arm`:
+
+``acceleration``
+    ``tau_ext = M(q) qdd + C(q, qd) qd + g(q) - tau_drive`` at every sample, with ``tau_drive``
+    the drives' joint torque net of the motor-side friction, PDTV and rotor inertia
+    (:func:`torquemap.arm_model.drive_torque`), the accelerations from the differentiator and
+    the torques smoothed by the same kernel; then a zero-phase low-pass at ``cutoff``.
+``momentum``
+    The generalised-momentum observer (De Luca & Mattone 2003; Haddadin, De Luca & Albu-Schaeffer
+    2017, Eq 31): with ``p = M'(q) qd`` (``M'`` includes the reflected rotor inertias),
+    ``r = K (p - p(0) - integral(tau_drive + C^T qd - g + r) dt)`` follows ``tau_ext`` through a
+    first-order lag of bandwidth ``K = 2 pi cutoff``. No acceleration is needed; it is causal,
+    as on a robot controller.
+
+The wrench on the end effector comes from the damped pseudo-inverse of ``J^T``
+(:meth:`torquemap.robots.urdf.UrdfArm.wrench_from_joint_torque`). Sigmas combine the
+identification's parameter covariance (the external torque is linear in every identified
+parameter) and its residual noise, plus, near zero motor speed, the friction at rest that the
+velocity does not determine.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from torquemap.arm_model import (
+    ArmSignals,
+    arm_signals,
+    column_names,
+    drive_torque,
+    joint_columns,
+    joint_parameters,
+)
+from torquemap.errors import InputError
+from torquemap.filters import lowpass
+from torquemap.identify_arm import is_rigid_body_arm
+from torquemap.io import Log
+from torquemap.model import Model
+
+ArmMethod = Literal["acceleration", "momentum"]
+ARM_METHODS: tuple[ArmMethod, ...] = ("acceleration", "momentum")
+
+FLAG_SINGULAR = 1
+"""Flag bit: the pose is near a singularity; the wrench is NaN (the joint torques stand)."""
+SIGMA_STRIDE = 10
+"""The parameter part of the sigmas is computed on every this-many samples and interpolated."""
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class ArmEstimate:
+    """External torques and wrench estimated from one log of an arm.
+
+    Attributes
+    ----------
+    t
+        Time [s], shape (n,).
+    joint_names
+        Joints, robot file order.
+    q
+        Smoothed joint positions [rad], shape (n, nj).
+    tau_ext
+        Joint-side torque exerted by the environment [N m], shape (n, nj).
+    tau_ext_sigma
+        Its standard deviation [N m], shape (n, nj).
+    wrench_axes
+        Names of the wrench components (``fx, fy, fz`` and with six or more joints
+        ``mx, my, mz``).
+    wrench
+        Force [N] and moment [N m] exerted by the environment on the end effector, base frame,
+        shape (n, len(wrench_axes)); NaN at singular poses.
+    wrench_sigma
+        Its standard deviation, same shape.
+    flag
+        ``FLAG_SINGULAR`` where the pose is near a singularity, else 0, shape (n,).
+    method
+        ``"acceleration"`` or ``"momentum"``.
+    zero_phase
+        True for the forward-backward momentum observer.
+    cutoff
+        Low-pass cut-off or observer bandwidth [Hz].
+    warnings
+        One line each.
+    """
+
+    t: NDArray[np.float64]
+    joint_names: tuple[str, ...]
+    q: NDArray[np.float64]
+    tau_ext: NDArray[np.float64]
+    tau_ext_sigma: NDArray[np.float64]
+    wrench_axes: tuple[str, ...]
+    wrench: NDArray[np.float64]
+    wrench_sigma: NDArray[np.float64]
+    flag: NDArray[np.int64]
+    method: ArmMethod
+    zero_phase: bool
+    cutoff: float
+    warnings: tuple[str, ...] = ()
+
+
+def momentum_observer(
+    t: NDArray[np.float64],
+    momentum: NDArray[np.float64],
+    power_terms: NDArray[np.float64],
+    *,
+    gain: float,
+) -> NDArray[np.float64]:
+    """The generalised-momentum residual ``r``, which follows the external torque.
+
+    Parameters
+    ----------
+    t
+        Time [s], shape (n,).
+    momentum
+        ``p = M(q) qd`` [N m s], shape (n, nj).
+    power_terms
+        ``tau_drive + C(q, qd)^T qd - g(q)`` [N m], shape (n, nj): ``dp/dt`` without the
+        external torque.
+    gain
+        Observer gain ``K`` [1/s]; ``r`` is ``tau_ext`` through ``K / (s + K)``.
+
+    Returns
+    -------
+    ndarray
+        ``r`` [N m], shape (n, nj), zero at the first sample.
+
+    Notes
+    -----
+    Discretised exactly for a piecewise-constant ``power_terms + tau_ext`` over each step
+    ``h``: ``r_k = e^{-K h} r_{k-1} + (1 - e^{-K h}) (dp_k / h - power_{k-1})``, which is the
+    continuous observer's response and stays stable at any ``K h``.
+
+    Examples
+    --------
+    >>> t = np.arange(2001) * 1e-3
+    >>> p = 0.5 * t[:, None]   # a constant external torque 0.5 N m, nothing else
+    >>> r = momentum_observer(t, p, np.zeros((2001, 1)), gain=50.0)
+    >>> round(float(r[-1, 0]), 6)
+    0.5
+    """
+    from scipy.signal import lfilter
+
+    n = t.size
+    r = np.zeros_like(momentum)
+    h = np.diff(t)
+    a = np.exp(-gain * h)
+    drive = np.diff(momentum, axis=0) / h[:, None] - power_terms[:-1]
+    if np.allclose(h, h[0], rtol=1e-9, atol=0.0):
+        # a uniform step: one first-order recursion, done by lfilter along time
+        r[1:] = lfilter([1.0 - a[0]], [1.0, -a[0]], drive, axis=0)
+        return r
+    for k in range(1, n):
+        r[k] = a[k - 1] * r[k - 1] + (1.0 - a[k - 1]) * drive[k - 1]
+    return r
+
+
+def noise_bandwidth(method: ArmMethod, cutoff: float, *, zero_phase: bool = False) -> float:
+    """Equivalent noise bandwidth [Hz] of a method's final filter.
+
+    Forward-backward second-order Butterworth: ``|H|^4 = (1 + (f/fc)^4)^-2`` integrates to
+    ``3 pi / (8 sqrt 2) fc``; the momentum observer ``K / (s + K)``: ``pi / 2 fc``; run both
+    ways (``K^2 / (K^2 + w^2)``): ``pi / 4 fc``.
+    """
+    if method == "acceleration":
+        return 3.0 * math.pi / (8.0 * math.sqrt(2.0)) * cutoff
+    return (math.pi / 4.0 if zero_phase else math.pi / 2.0) * cutoff
+
+
+def _measured_share(
+    info: Mapping[str, Any], noise: NDArray[np.float64], bandwidth: float
+) -> NDArray[np.float64] | None:
+    """Share of the residual variance left at the estimate's filter, from the residual's
+    low-passed sigmas the identification measured (log-log interpolation over the cut-off of
+    the Butterworth with the same noise bandwidth); None when the model lacks them."""
+    cut = info.get("residual_lowpass_hz")
+    table = info.get("residual_sigma_lowpass")
+    if not isinstance(cut, list) or not isinstance(table, list) or not cut:
+        return None
+    fc = np.asarray(cut, dtype=float)
+    sig = np.asarray(table, dtype=float)
+    if sig.shape != (fc.size, noise.size):
+        return None
+    equivalent = bandwidth / (3.0 * math.pi / (8.0 * math.sqrt(2.0)))
+    out = np.empty(noise.size)
+    for k in range(noise.size):
+        ok = np.isfinite(sig[:, k]) & (sig[:, k] > 0)
+        if not ok.any():
+            return None
+        value = np.exp(np.interp(np.log(equivalent), np.log(fc[ok]), np.log(sig[ok, k])))
+        out[k] = min(1.0, (value / max(noise[k], 1e-300)) ** 2)
+    return out
+
+
+def _sigma(
+    model: Model,
+    arm: Any,
+    signals: ArmSignals,
+    tau_ext_shape: tuple[int, int],
+    bandwidth: float,
+) -> tuple[NDArray[np.float64], list[str]]:
+    """One-sigma external torque [N m] from the identification's covariance and noise.
+
+    The identification's residual was seen through the differentiator's kernel, whose noise
+    bandwidth is ``1.2 / (2 window)``; the estimate's own filter passes ``bandwidth`` of it
+    (white residual assumed: residual model errors slower than that are underestimated).
+    """
+    n, nj = tau_ext_shape
+    warnings: list[str] = []
+    info = model.notes.get("arm") if isinstance(model.notes, Mapping) else None
+    var = np.zeros((n, nj))
+    robot = model.robot
+    gear = signals.gear
+    if isinstance(info, Mapping) and "covariance" in info and "residual_sigma" in info:
+        noise = np.asarray(info["residual_sigma"], dtype=float)
+        window = float(info.get("window", signals.window))
+        noise_share = np.full(nj, min(1.0, bandwidth / (1.2 / (2.0 * window))))
+        measured = _measured_share(info, noise, bandwidth)
+        if measured is not None:
+            noise_share = measured
+        if noise.shape == (nj,):
+            var += noise_share * (gear * noise) ** 2
+        names: list[str] = list(arm.parameter_names)
+        orders = []
+        for joint in robot.joints:
+            _, o = joint_parameters(model.joints[joint.name])
+            orders.append(o)
+            names += column_names(joint.name, model.joints[joint.name], o)
+        if names == list(info.get("parameter_names", [])):
+            cov = np.asarray(info["covariance"], dtype=float)
+            idx = np.unique(np.r_[np.arange(0, n, SIGMA_STRIDE), n - 1])
+            Yb = arm.regressor(signals.q[idx], signals.qd[idx], signals.qdd[idx])
+            pb = Yb.shape[-1]
+            start = pb
+            part = np.empty((idx.size, nj))
+            for k, joint in enumerate(robot.joints):
+                cols = joint_columns(model.joints[joint.name], signals, k, orders[k], smooth=True)
+                cols = cols[idx]
+                width = cols.shape[1]
+                sel = np.r_[np.arange(pb), np.arange(start, start + width)]
+                row = np.concatenate([Yb[:, k, :], gear[k] * cols], axis=1)  # joint side
+                C = cov[np.ix_(sel, sel)]
+                part[:, k] = np.einsum("ni,ij,nj->n", row, C, row)
+                start += width
+            for k in range(nj):
+                var[:, k] += np.interp(np.arange(n), idx, np.maximum(part[:, k], 0.0))
+        else:
+            warnings.append(
+                "the model's parameters differ from those its covariance was identified for; "
+                "sigmas hold the residual noise only"
+            )
+    else:
+        warnings.append("the model holds no identification covariance; sigmas are friction only")
+    for k, joint in enumerate(robot.joints):
+        law = model.joints[joint.name].friction
+        levels = law.static_levels()
+        rest = 0.5 * (abs(levels[0]) + abs(levels[1]))
+        w = gear[k] * signals.qd[:, k]
+        near = np.exp(-((w / max(law.zero_velocity, 1e-9)) ** 2))
+        var[:, k] += (gear[k] * rest * near) ** 2
+    return np.sqrt(var), warnings
+
+
+def estimate_arm(
+    model: Model,
+    log: Log,
+    *,
+    method: ArmMethod = "acceleration",
+    cutoff: float = 2.0,
+    window: float = 0.05,
+    singular_threshold: float | None = None,
+    zero_phase: bool = False,
+) -> ArmEstimate:
+    """Estimate the external joint torques and end-effector wrench of an arm.
+
+    Parameters
+    ----------
+    model
+        Identified model of an arm with rigid-body dynamics (:func:`identify_arm`); a plain
+        URDF robot file works too (the URDF's inertial parameters, no friction).
+    log
+        The log.
+    method
+        ``"acceleration"`` or ``"momentum"`` (see the module docstring).
+    cutoff
+        Low-pass cut-off, or the observer's bandwidth [Hz].
+    window
+        Differentiator window [s].
+    singular_threshold
+        Smallest singular value of the Jacobian [m] below which a pose is flagged (the arm's
+        default when None).
+    zero_phase
+        ``momentum`` only: average the observer run forwards and backwards in time, which
+        removes its lag (response ``K^2 / (K^2 + w^2)``, no phase) for logs processed offline.
+        The default is the causal observer a robot controller runs.
+
+    Returns
+    -------
+    ArmEstimate
+        Torques, wrench, sigmas and flags.
+
+    Raises
+    ------
+    InputError
+        When the arm has no rigid-body dynamics, on an unknown method, a cut-off at or above
+        the Nyquist frequency, or a log too short for the window.
+    """
+    arm: Any = model.robot.arm
+    if not is_rigid_body_arm(arm):
+        raise InputError(
+            f"estimate_arm needs an arm with rigid-body dynamics (kinematics = 'urdf'), "
+            f"not {model.robot.kinematics!r}"
+        )
+    if method not in ARM_METHODS:
+        raise InputError(f"method must be one of {', '.join(ARM_METHODS)}, got {method!r}")
+    if not cutoff > 0:
+        raise InputError(f"cutoff must be positive, got {cutoff!r}")
+    robot = model.robot
+    joints = dict(model.joints)
+    signals = arm_signals(log, robot, window=window)
+    drive = drive_torque(robot, joints, signals, smooth=method == "acceleration")
+    if method == "acceleration":
+        raw = arm.inverse_dynamics(signals.q, signals.qd, signals.qdd) - drive
+        tau_ext = np.column_stack(
+            [lowpass(signals.t, raw[:, k], cutoff=cutoff) for k in range(raw.shape[1])]
+        )
+    else:
+        armature = np.array(
+            [joints[j.name].inertia.constant * j.gear_ratio**2 for j in robot.joints]
+        )
+        M = arm.mass_matrix(signals.q)
+        M[:, np.arange(M.shape[1]), np.arange(M.shape[1])] += armature
+        p = np.einsum("nij,nj->ni", M, signals.qd)
+        C = arm.coriolis_matrix(signals.q, signals.qd)
+        g = arm.gravity_torque(signals.q)
+        power = drive + np.einsum("nji,nj->ni", C, signals.qd) - g
+        # the armature's inertia is in p; its torque must not be subtracted twice
+        power += armature * signals.qdd
+        gain = 2.0 * np.pi * cutoff
+        tau_ext = momentum_observer(signals.t, p, power, gain=gain)
+        if zero_phase:
+            # in reversed time dp/dt' = -(power + tau_ext): the observer then follows -tau_ext
+            back = momentum_observer(-signals.t[::-1], p[::-1], -power[::-1], gain=gain)
+            tau_ext = 0.5 * (tau_ext - back[::-1])
+    bandwidth = noise_bandwidth(method, cutoff, zero_phase=zero_phase)
+    sigma, warnings = _sigma(model, arm, signals, tau_ext.shape, bandwidth)
+    A, singular = arm.wrench_map(signals.q, singular_threshold=singular_threshold)
+    wrench = np.einsum("nij,nj->ni", A, tau_ext)
+    wrench_sigma = np.sqrt(np.einsum("nij,nj->ni", A**2, sigma**2))
+    wrench[singular] = np.nan
+    flag = np.where(singular, FLAG_SINGULAR, 0).astype(np.int64)
+    if singular.any():
+        warnings.append(
+            f"{int(singular.sum())} of {singular.size} samples at near-singular poses "
+            "(wrench NaN, flag 1)"
+        )
+    return ArmEstimate(
+        t=signals.t,
+        joint_names=robot.joint_names,
+        q=signals.q,
+        tau_ext=tau_ext,
+        tau_ext_sigma=sigma,
+        wrench_axes=tuple(arm.wrench_axes),
+        wrench=wrench,
+        wrench_sigma=wrench_sigma,
+        flag=flag,
+        method=method,
+        zero_phase=zero_phase and method == "momentum",
+        cutoff=cutoff,
+        warnings=tuple(warnings),
+    )
+
+
+def arm_forces_columns(estimate: ArmEstimate) -> dict[str, NDArray[Any]]:
+    """The forces file's columns (docs/formats.md): ``t``, ``tau_ext_<j>``,
+    ``tau_ext_<j>_sigma``, the wrench axes and their ``_sigma``, ``flag``."""
+    out: dict[str, NDArray[Any]] = {"t": estimate.t}
+    for k, name in enumerate(estimate.joint_names):
+        out[f"tau_ext_{name}"] = estimate.tau_ext[:, k]
+    for k, name in enumerate(estimate.joint_names):
+        out[f"tau_ext_{name}_sigma"] = estimate.tau_ext_sigma[:, k]
+    for k, axis in enumerate(estimate.wrench_axes):
+        out[axis] = estimate.wrench[:, k]
+    for k, axis in enumerate(estimate.wrench_axes):
+        out[f"{axis}_sigma"] = estimate.wrench_sigma[:, k]
+    out["flag"] = estimate.flag
+    return out

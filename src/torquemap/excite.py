@@ -1,0 +1,258 @@
+"""Exciting trajectories for identifying an arm's inertial parameters (``torquemap excite``).
+
+Each joint follows a finite Fourier series (Swevers, Ganseman, Tukel, De Schutter & Van Brussel
+1997, Eq 21)::
+
+    q_j(t) = c_j + sum_l a_jl / (w l) sin(w l t) - b_jl / (w l) cos(w l t),   w = 2 pi / period
+
+with the coefficients constrained so that every period starts and ends at ``c_j`` at rest with
+zero acceleration (the user moves the robot to the first row first), scaled into the URDF's
+position and velocity limits, and chosen by a random search for the smallest condition number
+of the base-parameter regressor stacked over one period.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from torquemap.errors import InputError
+
+
+class _Limited(Protocol):
+    joint_names: tuple[str, ...]
+
+    @property
+    def position_limits(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
+
+    @property
+    def velocity_limits(self) -> NDArray[np.float64]: ...
+
+    def regressor(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> NDArray[np.float64]: ...
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class ExcitingTrajectory:
+    """A periodic exciting trajectory.
+
+    Attributes
+    ----------
+    t
+        Time [s], shape (n,).
+    q, qd, qdd
+        Joint position [rad], velocity [rad/s], acceleration [rad/s^2], shape (n, nj).
+    joint_names
+        The joints, robot file order.
+    period
+        Fundamental period [s].
+    centre
+        ``c_j`` [rad], the start and end pose, shape (nj,).
+    sine, cosine
+        Coefficients ``a_jl`` and ``b_jl`` [rad/s], shape (nj, harmonics).
+    condition_number
+        Condition number of the base regressor stacked over one period [-].
+    """
+
+    t: NDArray[np.float64]
+    q: NDArray[np.float64]
+    qd: NDArray[np.float64]
+    qdd: NDArray[np.float64]
+    joint_names: tuple[str, ...]
+    period: float
+    centre: NDArray[np.float64]
+    sine: NDArray[np.float64]
+    cosine: NDArray[np.float64]
+    condition_number: float
+
+
+def fourier_trajectory(
+    t: ArrayLike,
+    centre: ArrayLike,
+    sine: ArrayLike,
+    cosine: ArrayLike,
+    *,
+    period: float,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Position [rad], velocity [rad/s] and acceleration [rad/s^2] of the Fourier series.
+
+    Parameters
+    ----------
+    t
+        Time [s], shape (n,).
+    centre
+        Shape (nj,) [rad].
+    sine, cosine
+        ``a_jl``, ``b_jl`` [rad/s], shape (nj, L).
+    period
+        Fundamental period [s].
+
+    Returns
+    -------
+    (q, qd, qdd)
+        Each shape (n, nj).
+
+    Examples
+    --------
+    >>> q, qd, qdd = fourier_trajectory([0.0], [0.5], [[1.0]], [[0.0]], period=1.0)
+    >>> float(q[0, 0]), float(qd[0, 0])
+    (0.5, 1.0)
+    """
+    tt = np.asarray(t, dtype=np.float64)[:, None, None]
+    a = np.asarray(sine, dtype=np.float64)[None]
+    b = np.asarray(cosine, dtype=np.float64)[None]
+    w = 2.0 * np.pi / period * np.arange(1, a.shape[-1] + 1)
+    s, c = np.sin(w * tt), np.cos(w * tt)
+    q = np.asarray(centre, dtype=np.float64) + np.sum((a * s - b * c) / w, axis=-1)
+    qd = np.sum(a * c + b * s, axis=-1)
+    qdd = np.sum(w * (-a * s + b * c), axis=-1)
+    return q, qd, qdd
+
+
+def _constrain(a: NDArray[np.float64], b: NDArray[np.float64], w: NDArray[np.float64]) -> None:
+    """Project each joint's coefficients onto q(0) = c, qd(0) = 0, qdd(0) = 0 (in place)."""
+    # sum_l a_l = 0 (velocity); sum_l b_l / w_l = 0 (position) and sum_l b_l w_l = 0 (accel.)
+    a -= a.mean(axis=1, keepdims=True)
+    cons = np.stack([1.0 / w, w])  # (2, L)
+    proj = np.eye(w.size) - cons.T @ np.linalg.solve(cons @ cons.T, cons)
+    b[:] = b @ proj.T
+
+
+def _scale_into_limits(
+    a: NDArray[np.float64],
+    b: NDArray[np.float64],
+    half_range: NDArray[np.float64],
+    speed: NDArray[np.float64],
+    period: float,
+) -> None:
+    t = np.linspace(0.0, period, 2000, endpoint=False)
+    zero = np.zeros(a.shape[0])
+    q, qd, _ = fourier_trajectory(t, zero, a, b, period=period)
+    reach = np.max(np.abs(q), axis=0) / half_range
+    fast = np.max(np.abs(qd), axis=0) / speed
+    # 0.5 % margin: the peaks may fall between the grid's samples
+    factor = 0.995 / np.maximum(np.maximum(reach, fast), 1e-12)
+    a *= factor[:, None]
+    b *= factor[:, None]
+
+
+def _condition(arm: _Limited, q: Any, qd: Any, qdd: Any) -> float:
+    Y = arm.regressor(q, qd, qdd)
+    W = Y.reshape(-1, Y.shape[-1])
+    # through the Gram matrix: a small symmetric eigenproblem, much cheaper than an SVD of W
+    ev = np.linalg.eigvalsh(W.T @ W)
+    return float(np.sqrt(ev[-1] / ev[0])) if ev[0] > 0 else float("inf")
+
+
+def exciting_trajectory(
+    arm: _Limited,
+    *,
+    duration: float = 30.0,
+    period: float = 10.0,
+    harmonics: int = 5,
+    rate: float = 500.0,
+    iterations: int = 80,
+    position_margin: float = 0.1,
+    speed_fraction: float = 0.7,
+    rng: np.random.Generator | int | None = 0,
+) -> ExcitingTrajectory:
+    """An exciting trajectory within the arm's limits, chosen for a well-conditioned regressor.
+
+    Parameters
+    ----------
+    arm
+        The arm (``torquemap.robots.urdf.UrdfArm``): its limits and base regressor are used.
+    duration
+        Length [s]; whole periods, rounded up.
+    period
+        Fundamental period [s].
+    harmonics
+        Number of harmonics per joint.
+    rate
+        Sample rate of the output [Hz].
+    iterations
+        Candidate coefficient sets tried by the random search.
+    position_margin
+        Fraction of each joint's range kept free at both ends [-].
+    speed_fraction
+        Fraction of each joint's velocity limit used at most [-].
+    rng
+        Random generator or seed.
+
+    Returns
+    -------
+    ExcitingTrajectory
+        The trajectory and its condition number.
+
+    Raises
+    ------
+    InputError
+        On a non-positive duration, period or rate.
+    """
+    if not (duration > 0 and period > 0 and rate > 0 and harmonics >= 1):
+        raise InputError("duration, period and rate must be positive, harmonics >= 1")
+    gen = np.random.default_rng(rng)
+    lo, hi = arm.position_limits
+    lo = np.where(np.isfinite(lo), lo, -np.pi)
+    hi = np.where(np.isfinite(hi), hi, np.pi)
+    margin = position_margin * (hi - lo)
+    centre = 0.5 * (lo + hi)
+    half_range = np.maximum(0.5 * (hi - lo) - margin, 1e-6)
+    vmax = arm.velocity_limits
+    speed = speed_fraction * np.where(np.isfinite(vmax), vmax, 2.0)
+    nj = len(arm.joint_names)
+    w: NDArray[np.float64] = 2.0 * np.pi / period * np.arange(1, harmonics + 1, dtype=np.float64)
+    grid = np.linspace(0.0, period, max(8 * harmonics, 40), endpoint=False)
+
+    def candidate(a: NDArray[np.float64], b: NDArray[np.float64]) -> float:
+        _constrain(a, b, w)
+        _scale_into_limits(a, b, half_range, speed, period)
+        q, qd, qdd = fourier_trajectory(grid, centre, a, b, period=period)
+        return _condition(arm, q, qd, qdd)
+
+    best_a = gen.standard_normal((nj, harmonics))
+    best_b = gen.standard_normal((nj, harmonics))
+    best = candidate(best_a, best_b)
+    step = 1.0
+    for k in range(1, iterations):
+        if k < iterations // 3:
+            a = gen.standard_normal((nj, harmonics))
+            b = gen.standard_normal((nj, harmonics))
+        else:
+            scale = np.abs(best_a).mean() + np.abs(best_b).mean()
+            a = best_a + step * scale * gen.standard_normal((nj, harmonics))
+            b = best_b + step * scale * gen.standard_normal((nj, harmonics))
+        value = candidate(a, b)
+        if value < best:
+            best, best_a, best_b = value, a, b
+        elif k >= iterations // 3:
+            step = max(step * 0.97, 0.05)
+    periods = int(np.ceil(duration / period - 1e-9))
+    t = np.arange(round(periods * period * rate) + 1) / rate
+    q, qd, qdd = fourier_trajectory(t, centre, best_a, best_b, period=period)
+    return ExcitingTrajectory(
+        t=t,
+        q=q,
+        qd=qd,
+        qdd=qdd,
+        joint_names=tuple(arm.joint_names),
+        period=period,
+        centre=centre,
+        sine=best_a,
+        cosine=best_b,
+        condition_number=best,
+    )
+
+
+def trajectory_columns(trajectory: ExcitingTrajectory) -> dict[str, NDArray[np.float64]]:
+    """Columns ``t``, ``q_<j>``, ``qd_<j>``, ``qdd_<j>`` of a trajectory file (docs/formats.md)."""
+    out = {"t": trajectory.t}
+    for k, name in enumerate(trajectory.joint_names):
+        out[f"q_{name}"] = trajectory.q[:, k]
+    for k, name in enumerate(trajectory.joint_names):
+        out[f"qd_{name}"] = trajectory.qd[:, k]
+    for k, name in enumerate(trajectory.joint_names):
+        out[f"qdd_{name}"] = trajectory.qdd[:, k]
+    return out

@@ -1,0 +1,640 @@
+"""Identify an arm with rigid-body dynamics from free-motion logs (docs/arm.md).
+
+All joints at once, all samples at once: the motor-side equation of
+:mod:`torquemap.arm_model` is linear in the arm's full inertial parameters ``pi`` (ten per
+body), each joint's rotor inertia, friction-law parameters and PDTV lines. Only the base
+combinations of ``pi`` show in joint torques; the rest are held by a Gaussian prior centred on
+the URDF's values (ridge regression toward the prior, a maximum a posteriori estimate), so that
+
+* a short log suffices: what the log does not excite stays at the URDF's value;
+* a wrong or missing tool mass is found: the data moves the last bodies' parameters away from
+  the prior where it speaks;
+* the full parameter vector stays physical (positive masses, positive-definite inertias) unless
+  the data insists, which is checked and reported.
+
+Rows are weighted by each joint's residual noise (two passes: the first pass measures it). The
+posterior covariance ``(A^T W A + P)^-1`` gives the sigmas of every parameter and, in
+estimation, of the external torques.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from torquemap.arm_model import (
+    ArmSignals,
+    arm_signals,
+    column_names,
+    joint_columns,
+    pdtv_lines,
+)
+from torquemap.errors import InputError
+from torquemap.io import Log
+from torquemap.model import InertiaModel, JointModel, Model
+
+PRIOR_MASS_FRACTION = 0.3
+"""Prior standard deviation of each body's mass, relative to the URDF's [-] ..."""
+PRIOR_MASS_FLOOR = 0.5
+"""... plus this [kg]: a tool of the order of a kilogram is not ruled out by the prior."""
+PRIOR_LENGTH = 0.1
+"""Lever [m] that turns the mass deviation into first-moment deviations [kg m] (plus 30 %)."""
+PRIOR_INERTIA_FLOOR = 0.01
+"""Absolute floor [kg m^2] of the prior deviation of inertias about the joint (plus 30 %)."""
+PRIOR_JOINT = {"armature": 1e-2, "friction": 1.0, "pdtv": 1.0}
+"""Weak prior deviations of the joint terms (motor side: kg m^2, N m or N m s/rad, N m)."""
+RESIDUAL_CUTOFFS = (0.25, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0)
+"""Cut-offs [Hz] at which the residual's low-passed standard deviation is measured and kept in
+the model (``[identification.arm] residual_sigma_lowpass``): the estimate's noise at its own
+filter, measured rather than assumed white."""
+RESIDUAL_SPAN = 8.0
+"""Length [s] of the contiguous stretch of the first log on which that is measured."""
+PDTV_SIGNIFICANCE = 5.0
+"""A PDTV line is kept when its amplitude exceeds this many standard errors."""
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class BodyMass:
+    """One body's mass, URDF against identified.
+
+    Attributes
+    ----------
+    body
+        Body name (the joint that moves it).
+    urdf, identified, sigma
+        Mass [kg]: the URDF's, the identified one and its standard deviation.
+    """
+
+    body: str
+    urdf: float
+    identified: float
+    sigma: float
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class ArmIdentification:
+    """Result of :func:`identify_arm`.
+
+    Attributes
+    ----------
+    model
+        The identified model: the arm with its identified inertial parameters (the model
+        file's ``[robot.inertial]``), per joint armature (``[joints.<j>.inertia] constant``),
+        friction and PDTV, and ``[identification.arm]`` with the covariance for sigmas.
+    parameter_names
+        Names of ``parameters``: the arm's base parameters, then each joint's terms.
+    parameters
+        Identified values, shape (p,).
+    covariance
+        Posterior covariance of ``parameters``, shape (p, p).
+    full_parameters
+        The identified full inertial parameters, shape (10 nb,) (``arm.full_parameter_names``).
+    full_sigma
+        Their posterior standard deviations (the prior's where the data says nothing).
+    residual_sigma
+        Per joint: standard deviation of the motor-side torque residual [N m].
+    masses
+        Each body's mass, URDF against identified.
+    condition_number
+        Of the weighted base-parameter part of the design matrix [-].
+    samples
+        Samples used (all logs).
+    consistent
+        True when every body has a positive mass and a positive-definite inertia about its
+        centre of mass satisfying the triangle inequalities.
+    warnings
+        One line each.
+    """
+
+    model: Model
+    parameter_names: tuple[str, ...]
+    parameters: NDArray[np.float64]
+    covariance: NDArray[np.float64]
+    full_parameters: NDArray[np.float64]
+    full_sigma: NDArray[np.float64]
+    residual_sigma: NDArray[np.float64]
+    masses: tuple[BodyMass, ...]
+    condition_number: float
+    samples: int
+    consistent: bool
+    warnings: tuple[str, ...] = ()
+
+
+def _prior_sigma(pi0: NDArray[np.float64]) -> NDArray[np.float64]:
+    out = np.empty_like(pi0)
+    for b in range(pi0.size // 10):
+        p = pi0[10 * b : 10 * b + 10]
+        s_m = PRIOR_MASS_FRACTION * abs(p[0]) + PRIOR_MASS_FLOOR
+        out[10 * b] = s_m
+        out[10 * b + 1 : 10 * b + 4] = PRIOR_MASS_FRACTION * np.abs(p[1:4]) + s_m * PRIOR_LENGTH
+        out[10 * b + 4 : 10 * b + 10] = (
+            PRIOR_MASS_FRACTION * np.abs(p[4:]) + s_m * PRIOR_LENGTH**2 + PRIOR_INERTIA_FLOOR
+        )
+    return out
+
+
+def body_consistency(full: NDArray[np.float64], body_names: Sequence[str]) -> list[str]:
+    """Problems with the physical consistency of full inertial parameters (empty: consistent).
+
+    Per body: mass > 0; the inertia about the centre of mass ``I_c = I_o - m [c]x^T [c]x``
+    positive definite; its principal moments satisfy the triangle inequalities
+    (Sousa & Cortesao 2014).
+    """
+    problems = []
+    for b, name in enumerate(body_names):
+        p = full[10 * b : 10 * b + 10]
+        m = p[0]
+        if not m > 0:
+            problems.append(f"body {name}: mass {m:.4g} kg is not positive")
+            continue
+        c = p[1:4] / m
+        Io = np.array([[p[4], p[5], p[7]], [p[5], p[6], p[8]], [p[7], p[8], p[9]]])
+        cx = np.array([[0.0, -c[2], c[1]], [c[2], 0.0, -c[0]], [-c[1], c[0], 0.0]])
+        Ic = Io - m * cx.T @ cx
+        ev = np.linalg.eigvalsh(Ic)
+        if ev[0] <= 0:
+            problems.append(
+                f"body {name}: inertia about the centre of mass is not positive definite "
+                f"(smallest principal moment {ev[0]:.3g} kg m^2)"
+            )
+        elif ev[2] > ev[0] + ev[1] + 1e-12 * ev[2]:
+            problems.append(f"body {name}: principal moments violate the triangle inequality")
+    return problems
+
+
+def _pseudo_inertia(p: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The 4x4 pseudo-inertia ``[[Sigma, h], [h^T, m]]`` of one body's ten parameters."""
+    inertia = np.array([[p[4], p[5], p[7]], [p[5], p[6], p[8]], [p[7], p[8], p[9]]])
+    J = np.empty((4, 4))
+    J[:3, :3] = 0.5 * np.trace(inertia) * np.eye(3) - inertia
+    J[:3, 3] = J[3, :3] = p[1:4]
+    J[3, 3] = p[0]
+    return J
+
+
+def _from_log_cholesky(theta: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Ten inertial parameters of the log-Cholesky coordinates of Rucker & Wensing (2022):
+    ``J = U U^T`` with ``U`` upper triangular of positive diagonal, so every ``theta`` gives a
+    physically consistent body (positive mass, triangle inequalities)."""
+    a, d1, d2, d3, s12, s23, s13, t1, t2, t3 = theta
+    e = np.exp(np.clip([a, d1, d2, d3], -50.0, 50.0))
+    U = e[0] * np.array(
+        [
+            [e[1], s12, s13, t1],
+            [0.0, e[2], s23, t2],
+            [0.0, 0.0, e[3], t3],
+            [0.0, 0.0, 0.0, 1.0],
+        ]
+    )
+    J = U @ U.T
+    sigma = J[:3, :3]
+    inertia = np.trace(sigma) * np.eye(3) - sigma
+    return np.array(
+        [
+            J[3, 3], J[0, 3], J[1, 3], J[2, 3],
+            inertia[0, 0], inertia[0, 1], inertia[1, 1], inertia[0, 2], inertia[1, 2],
+            inertia[2, 2],
+        ]
+    )  # fmt: skip
+
+
+def _to_log_cholesky(p: NDArray[np.float64]) -> NDArray[np.float64]:
+    J = _pseudo_inertia(p)
+    ev = np.linalg.eigvalsh(J)
+    if ev[0] <= 1e-9 * max(ev[-1], 1e-12):
+        J = J + (1e-9 * max(ev[-1], 1e-12) - min(ev[0], 0.0)) * np.eye(4)
+    rev = np.eye(4)[::-1]
+    U = rev @ np.linalg.cholesky(rev @ J @ rev) @ rev
+    a = math.log(U[3, 3])
+    U = U / U[3, 3]
+    return np.array(
+        [a, math.log(U[0, 0]), math.log(U[1, 1]), math.log(U[2, 2]),
+         U[0, 1], U[1, 2], U[0, 2], U[0, 3], U[1, 3], U[2, 3]]
+    )  # fmt: skip
+
+
+def consistent_parameters(
+    estimate: NDArray[np.float64],
+    covariance: NDArray[np.float64],
+    start: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """The physically consistent full parameters closest to ``estimate`` in its covariance.
+
+    Minimises ``(pi - estimate)^T covariance^-1 (pi - estimate)`` over consistent ``pi``
+    (every body's pseudo-inertia positive definite, Wensing, Kim & Slotine 2017), through the
+    log-Cholesky coordinates of each body, from ``start`` (the URDF's values, consistent).
+    Directions the data pins down have small variance and stay; the others give way.
+    """
+    from scipy.optimize import least_squares
+
+    nb = estimate.size // 10
+    L = np.linalg.cholesky(covariance + 1e-15 * np.trace(covariance) * np.eye(estimate.size))
+
+    def pi_of(theta: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.concatenate([_from_log_cholesky(theta[10 * b : 10 * b + 10]) for b in range(nb)])
+
+    Linv = np.linalg.inv(L)
+
+    def residual(theta: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.asarray(Linv @ (pi_of(theta) - estimate), dtype=np.float64)
+
+    def jacobian(theta: NDArray[np.float64]) -> NDArray[np.float64]:
+        # each body's parameters depend on its own coordinates only: a block-diagonal
+        # derivative, by central differences body by body
+        D = np.zeros((estimate.size, theta.size))
+        h = 1e-6
+        for b in range(nb):
+            sl = slice(10 * b, 10 * b + 10)
+            for i in range(10):
+                e = np.zeros(10)
+                e[i] = h
+                plus = _from_log_cholesky(theta[sl] + e)
+                minus = _from_log_cholesky(theta[sl] - e)
+                D[sl, 10 * b + i] = (plus - minus) / (2 * h)
+        return np.asarray(Linv @ D, dtype=np.float64)
+
+    theta0 = np.concatenate([_to_log_cholesky(start[10 * b : 10 * b + 10]) for b in range(nb)])
+    fit = least_squares(
+        residual, theta0, jac=jacobian, method="trf", x_scale="jac", max_nfev=50 * nb
+    )
+    return pi_of(fit.x)
+
+
+def _rigid_rows(
+    arm: Any, signals: Sequence[ArmSignals], picks: Sequence[NDArray[np.intp]]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The regressor over the gears (m, nj, P) and the smoothed motor torques (m, nj)."""
+    ys, taus = [], []
+    for sig, idx in zip(signals, picks, strict=True):
+        Y = arm.full_regressor(sig.q[idx], sig.qd[idx], sig.qdd[idx])
+        ys.append(Y / sig.gear[None, :, None])
+        taus.append(sig.smooth(sig.motor_torque)[idx])
+    return np.concatenate(ys, axis=0), np.concatenate(taus, axis=0)
+
+
+def _joint_blocks(
+    model: Model,
+    signals: Sequence[ArmSignals],
+    picks: Sequence[NDArray[np.intp]],
+    orders: Sequence[tuple[float, ...]],
+) -> list[NDArray[np.float64]]:
+    """Per joint, the columns (m, c_j) of its motor-side terms at the picked samples."""
+    out = []
+    for k, joint in enumerate(model.robot.joints):
+        parts = [
+            joint_columns(model.joints[joint.name], sig, k, orders[k], smooth=True)[idx]
+            for sig, idx in zip(signals, picks, strict=True)
+        ]
+        out.append(np.concatenate(parts, axis=0))
+    return out
+
+
+def _slices(P: int, blocks: Sequence[NDArray[np.float64]]) -> list[slice]:
+    out, start = [], P
+    for b in blocks:
+        out.append(slice(start, start + b.shape[1]))
+        start += b.shape[1]
+    return out
+
+
+def _predict(
+    Y: NDArray[np.float64], blocks: Sequence[NDArray[np.float64]], x: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Motor torques (m, nj) of parameters ``x``."""
+    P = Y.shape[2]
+    out: NDArray[np.float64] = Y @ x[:P]
+    for k, (b, sl) in enumerate(zip(blocks, _slices(P, blocks), strict=True)):
+        out[:, k] += b @ x[sl]
+    return out
+
+
+def _solve(
+    Y: NDArray[np.float64],
+    tau: NDArray[np.float64],
+    blocks: Sequence[NDArray[np.float64]],
+    weight: NDArray[np.float64],
+    mean: NDArray[np.float64],
+    sigma: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """MAP estimate and posterior covariance of the motor torques' regression, prior
+    ``N(mean, sigma^2)``, joint ``j``'s rows of weight ``weight[j]``.
+
+    The design is ``[Y_j | 0 .. B_j .. 0]`` per joint; its normal equations are assembled
+    block by block (the joint blocks never meet), far cheaper than the dense product.
+    """
+    P = Y.shape[2]
+    H = np.diag(1.0 / sigma**2)
+    g = mean / sigma**2
+    for k, (b, sl) in enumerate(zip(blocks, _slices(P, blocks), strict=True)):
+        w = weight[k]
+        Yk = Y[:, k, :]
+        H[:P, :P] += w * Yk.T @ Yk
+        cross = w * Yk.T @ b
+        H[:P, sl] += cross
+        H[sl, :P] += cross.T
+        H[sl, sl] += w * b.T @ b
+        g[:P] += w * Yk.T @ tau[:, k]
+        g[sl] += w * b.T @ tau[:, k]
+    # scaled for a well-conditioned inverse
+    d = 1.0 / np.sqrt(np.diag(H))
+    cov = np.linalg.inv(H * d[:, None] * d[None, :]) * d[:, None] * d[None, :]
+    cov = 0.5 * (cov + cov.T)
+    return cov @ g, cov
+
+
+def is_rigid_body_arm(arm: Any) -> bool:
+    """True when ``arm`` models rigid-body dynamics in full (the ``urdf`` kind): the arm
+    identification and estimation apply."""
+    return bool(getattr(arm, "has_dynamics", False)) and all(
+        hasattr(arm, name) for name in ("full_regressor", "mass_matrix", "wrench_map")
+    )
+
+
+def identify_arm(
+    model: Model,
+    logs: Sequence[Log],
+    *,
+    window: float = 0.05,
+    max_samples: int = 6000,
+    pdtv_max_order: int = 12,
+    rng: np.random.Generator | int | None = 0,
+) -> ArmIdentification:
+    """Identify an arm's base inertial parameters and its joints from free-motion logs.
+
+    Parameters
+    ----------
+    model
+        A robot (or model) whose arm has rigid-body dynamics (``kinematics = "urdf"``). Its
+        joints' friction laws fix the laws' nonlinear settings (Stribeck velocity, transition).
+    logs
+        Free-motion logs (no contact): an exciting trajectory (``torquemap excite``).
+    window
+        Differentiator window [s].
+    max_samples
+        At most this many samples (drawn at random over all logs, the first and last window of
+        each left out) enter the regression; more add time, not accuracy.
+    pdtv_max_order
+        PDTV lines of integer order 1 .. this [CPR] are searched per joint on the residual and
+        kept when significant (0: none).
+    rng
+        Random generator or seed (for the sample draw).
+
+    Returns
+    -------
+    ArmIdentification
+        The model and the diagnostics.
+
+    Raises
+    ------
+    InputError
+        When the arm has no rigid-body dynamics, or the logs are too short.
+    """
+    arm: Any = model.robot.arm
+    if not is_rigid_body_arm(arm):
+        raise InputError(
+            f"identify_arm needs an arm with rigid-body dynamics (kinematics = 'urdf'), "
+            f"not {model.robot.kinematics!r}"
+        )
+    if not logs:
+        raise InputError("no logs given")
+    gen = np.random.default_rng(rng)
+    robot = model.robot
+    nj = len(robot.joints)
+    signals = [arm_signals(log, robot, window=window) for log in logs]
+    inner = []
+    for sig in signals:
+        keep = np.flatnonzero((sig.t >= sig.t[0] + window) & (sig.t <= sig.t[-1] - window))
+        inner.append(keep)
+    total = sum(k.size for k in inner)
+    if total < 10 * nj:
+        raise InputError(f"logs hold {total} usable samples; record a longer exciting motion")
+    share = min(1.0, max_samples / total)
+    picks = [
+        np.sort(gen.choice(k, size=max(1, round(k.size * share)), replace=False)) for k in inner
+    ]
+    m = sum(p.size for p in picks)
+
+    pi0 = np.asarray(arm.nominal_parameters, dtype=np.float64)
+    P = pi0.size
+    warnings: list[str] = []
+
+    def fit(
+        orders: Sequence[tuple[float, ...]], noise: NDArray[np.float64]
+    ) -> tuple[
+        NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], list[NDArray[np.float64]]
+    ]:
+        blocks = _joint_blocks(model, signals, picks, orders)
+        slices = _slices(P, blocks)
+        n_all = P + sum(b.shape[1] for b in blocks)
+        mean = np.zeros(n_all)
+        mean[:P] = pi0
+        sd = np.empty(n_all)
+        sd[:P] = _prior_sigma(pi0)
+        for k, joint in enumerate(robot.joints):
+            names = column_names(joint.name, model.joints[joint.name], orders[k])
+            for i, name in zip(range(slices[k].start, slices[k].stop), names, strict=True):
+                sd[i] = PRIOR_JOINT.get(name.split(".")[1], 1.0)
+        x, cov = _solve(Y, tau, blocks, 1.0 / (noise**2 * inflation), mean, sd)
+        return x, cov, tau - _predict(Y, blocks, x), blocks
+
+    # The smoothed torques' noise is correlated over the window: a parabolic kernel of width w
+    # passes white noise as 1.2 D / w independent samples over a duration D. Rows closer than
+    # that count less (else the covariance would claim more than the data holds).
+    duration = sum(float(s.t[k[-1]] - s.t[k[0]]) for s, k in zip(signals, inner, strict=True))
+    inflation = max(1.0, m * window / (1.2 * max(duration, 1e-12)))
+    Y, tau = _rigid_rows(arm, signals, picks)
+    no_lines: list[tuple[float, ...]] = [() for _ in range(nj)]
+    noise = 0.1 * np.std(tau, axis=0) + 1e-9
+    x, cov, residual, blocks = fit(no_lines, noise)
+    noise = np.sqrt(np.mean(residual**2, axis=0)) + 1e-12
+    orders = no_lines
+    if pdtv_max_order > 0:
+        orders = _pick_pdtv(signals, picks, residual, pdtv_max_order)
+    x, cov, residual, blocks = fit(orders, noise)
+    noise = np.sqrt(np.mean(residual**2, axis=0)) + 1e-12
+    x, cov, residual, blocks = fit(orders, noise)
+    slices = _slices(P, blocks)
+    weight = 1.0 / (noise**2 * inflation)
+    residual_sigma = np.sqrt(np.mean(residual**2, axis=0))
+    lowpassed = _lowpassed_residual(model, arm, signals[0], inner[0], orders, x)
+
+    if body_consistency(x[:P], arm.body_names):
+        # project onto physically consistent bodies, and move the joint terms with them
+        # (the Gaussian conditional of the joint terms given the inertial parameters)
+        target = consistent_parameters(x[:P], cov[:P, :P], pi0)
+        shift = target - x[:P]
+        x = x.copy()
+        x[P:] += cov[P:, :P] @ np.linalg.solve(cov[:P, :P], shift)
+        x[:P] = target
+        residual = tau - _predict(Y, blocks, x)
+    full = x[:P]
+    full_sigma = np.sqrt(np.diag(cov)[:P])
+    base = arm.base
+    B = base.matrix(P)
+    n_joint = x.size - P
+    T = np.zeros((B.shape[0] + n_joint, x.size))
+    T[: B.shape[0], :P] = B
+    T[B.shape[0] :, P:] = np.eye(n_joint)
+    theta = T @ x
+    theta_cov = T @ cov @ T.T
+    names: list[str] = list(arm.parameter_names)
+
+    joints: dict[str, JointModel] = {}
+    for k, joint in enumerate(robot.joints):
+        jm = model.joints[joint.name]
+        names += column_names(joint.name, jm, orders[k])
+        v = x[slices[k]]
+        nf = len(jm.friction.linear_parameter_names)
+        armature = float(v[0])
+        if armature < 0:
+            warnings.append(
+                f"joint {joint.name}: identified rotor inertia {armature:.3g} kg m^2 < 0 "
+                "(not excited enough); kept as identified"
+            )
+        friction = jm.friction.with_linear_parameters(v[1 : 1 + nf])
+        levels = friction.static_levels()
+        if min(levels) < 0:
+            warnings.append(
+                f"joint {joint.name}: identified friction at rest is negative ({levels[0]:.3g}, "
+                f"{levels[1]:.3g} N m); the motion may not have reversed slowly enough"
+            )
+        joints[joint.name] = dataclasses.replace(
+            jm,
+            inertia=InertiaModel(constant=armature, cos_elbow=0.0),
+            friction=friction,
+            pdtv=pdtv_lines(orders[k], v[1 + nf :]),
+        )
+
+    problems = body_consistency(full, arm.body_names)
+    for p in problems:
+        warnings.append(f"not physically consistent: {p}")
+    masses = tuple(
+        BodyMass(
+            body=name,
+            urdf=float(pi0[10 * b]),
+            identified=float(full[10 * b]),
+            sigma=float(full_sigma[10 * b]),
+        )
+        for b, name in enumerate(arm.body_names)
+    )
+    Yb = Y[:, :, base.independent]
+    gram = np.einsum("mki,mkj,k->ij", Yb, Yb, weight)
+    ev = np.linalg.eigvalsh(gram)
+    condition = float(np.sqrt(ev[-1] / ev[0])) if ev[0] > 0 else math.inf
+
+    new_arm = arm.with_full_parameters(full)
+    new_robot = dataclasses.replace(robot, arm=new_arm)
+    notes: dict[str, Any] = dict(model.notes)
+    notes["arm"] = {
+        "method": "MAP regression of all joints on the URDF prior (docs/arm.md)",
+        "window": window,
+        "samples": m,
+        "logs": [log.path for log in logs],
+        "condition_number": condition,
+        "residual_sigma": [float(s) for s in residual_sigma],
+        "residual_lowpass_hz": list(RESIDUAL_CUTOFFS),
+        "residual_sigma_lowpass": [[float(v) for v in row] for row in lowpassed],
+        "parameter_names": names,
+        "parameters": [float(v) for v in theta],
+        "covariance": [[float(v) for v in row] for row in theta_cov],
+        "masses": {
+            bm.body: {"urdf": bm.urdf, "identified": bm.identified, "sigma": bm.sigma}
+            for bm in masses
+        },
+        "warnings": list(warnings),
+    }
+    out_model = dataclasses.replace(model, robot=new_robot, joints=joints, notes=notes)
+    return ArmIdentification(
+        model=out_model,
+        parameter_names=tuple(names),
+        parameters=theta,
+        covariance=theta_cov,
+        full_parameters=full,
+        full_sigma=full_sigma,
+        residual_sigma=residual_sigma,
+        masses=masses,
+        condition_number=condition,
+        samples=m,
+        consistent=not problems,
+        warnings=tuple(warnings),
+    )
+
+
+def _lowpassed_residual(
+    model: Model,
+    arm: Any,
+    signal: ArmSignals,
+    inner: NDArray[np.intp],
+    orders: Sequence[tuple[float, ...]],
+    x: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """Standard deviation (len(RESIDUAL_CUTOFFS), nj) of the motor-side residual on a
+    contiguous stretch, after a zero-phase low-pass at each cut-off (NaN where the stretch is
+    too short or the cut-off above Nyquist)."""
+    from torquemap.filters import lowpass
+
+    t = signal.t
+    stop = int(np.searchsorted(t, t[inner[0]] + RESIDUAL_SPAN))
+    idx = np.arange(inner[0], min(max(stop, inner[0] + 3), inner[-1] + 1))
+    Y = arm.full_regressor(signal.q[idx], signal.qd[idx], signal.qdd[idx])
+    Y = Y / signal.gear[None, :, None]
+    blocks = [
+        joint_columns(model.joints[j.name], signal, k, orders[k], smooth=True)[idx]
+        for k, j in enumerate(model.robot.joints)
+    ]
+    resid = signal.smooth(signal.motor_torque)[idx] - _predict(Y, blocks, x)
+    out = np.full((len(RESIDUAL_CUTOFFS), resid.shape[1]), np.nan)
+    for i, fc in enumerate(RESIDUAL_CUTOFFS):
+        for k in range(resid.shape[1]):
+            try:
+                out[i, k] = float(np.std(lowpass(t[idx], resid[:, k], cutoff=fc)))
+            except InputError:
+                break
+    return out
+
+
+def _pick_pdtv(
+    signals: Sequence[ArmSignals],
+    picks: Sequence[NDArray[np.intp]],
+    residual: NDArray[np.float64],
+    max_order: int,
+) -> list[tuple[float, ...]]:
+    """Per joint, the integer orders whose cos/sin fit of the residual is significant."""
+    nj = residual.shape[1]
+    out: list[tuple[float, ...]] = []
+    orders = np.arange(1, max_order + 1, dtype=float)
+    for k in range(nj):
+        theta = np.concatenate(
+            [s.gear[k] * s.q_measured[idx, k] for s, idx in zip(signals, picks, strict=True)]
+        )
+        X = np.concatenate(
+            [np.cos(np.outer(theta, orders)), np.sin(np.outer(theta, orders))], axis=1
+        )
+        coef, *_ = np.linalg.lstsq(X, residual[:, k], rcond=None)
+        dof = max(X.shape[0] - X.shape[1], 1)
+        s2 = float(np.sum((residual[:, k] - X @ coef) ** 2) / dof)
+        try:
+            cov = s2 * np.linalg.inv(X.T @ X)
+        except np.linalg.LinAlgError:
+            out.append(())
+            continue
+        keep = []
+        for i, order in enumerate(orders):
+            c, s = coef[i], coef[max_order + i]
+            amp = math.hypot(c, s)
+            se = math.sqrt(max(cov[i, i], cov[max_order + i, max_order + i]))
+            if amp > PDTV_SIGNIFICANCE * se:
+                keep.append(float(order))
+        out.append(tuple(keep))
+    return out
+
+
+def masses_table(result: ArmIdentification) -> Mapping[str, tuple[float, float, float]]:
+    """``{body: (urdf, identified, sigma)}`` masses [kg], for printing."""
+    return {m.body: (m.urdf, m.identified, m.sigma) for m in result.masses}
