@@ -112,7 +112,7 @@ def test_log_from_columns_refuses_ragged_arrays() -> None:
         ({"gear_ratio": -1.0}, "gear_ratio must be positive"),
         ({"gear_ratio": float("nan")}, "gear_ratio must be positive"),
         ({"torque_constant": 0}, "torque_constant must be positive"),
-        ({"encoder_counts_per_rev": 0}, "encoder_counts_per_rev must be a positive integer"),
+        ({"encoder_counts_per_rev": 0}, "encoder_counts_per_rev must be an integer"),
         ({"position_unit": "deg"}, "position_unit must be one of"),
     ],
 )

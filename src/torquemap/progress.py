@@ -121,6 +121,7 @@ class PlainProgress(Progress):
 
     @contextmanager
     def step(self, label: str, *, total: float | None = None) -> Iterator[Step]:
+        """One step: a line when it ends (plain lines for a pipe)."""
         line = _Line(label, time.perf_counter())
         delay = SHOW_AFTER if self.after is None else self.after
         timer = None
@@ -218,6 +219,7 @@ class RichProgress(Progress):
 
     @contextmanager
     def step(self, label: str, *, total: float | None = None) -> Iterator[Step]:
+        """One step: a spinner or bar on the terminal, then a line when it ends."""
         bar = self._live()
         task = bar.add_task(label, total=total)
         self._depth += 1

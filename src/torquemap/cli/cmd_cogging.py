@@ -15,8 +15,12 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         description="Anti-cogging (PDTV) maps: calibrate with `identify` (or "
         "`identify --quasi-static` from position holds), export with `pdtv-map`, load into the "
         "drive (docs/odrive.md, docs/moteus.md), then `cogging verify`.",
+        epilog="example:\n  torquemap cogging verify model.toml sweep_after.csv sweep.csv",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    sub = group.add_subparsers(dest="cogging_command", metavar="COMMAND")
+    sub = group.add_subparsers(
+        dest="cogging_command", metavar="COMMAND", help="verify: ripple before and after"
+    )
     sub.required = True
     v = sub.add_parser(
         "verify",
@@ -25,8 +29,9 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         "loop supplied and the speed ripple in LOG_AFTER (a constant-speed sweep with the map "
         "applied) against LOG_BEFORE (the same sweep without it) or, without LOG_BEFORE, "
         "against the model's line amplitudes (docs/odrive.md).",
-        epilog="example: torquemap cogging verify model.toml sweep_after.csv sweep.csv "
+        epilog="example:\n  torquemap cogging verify model.toml sweep_after.csv sweep.csv "
         "--require 80",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     v.add_argument("model", metavar="MODEL.toml", help="the model the map was exported from")
     v.add_argument("after", metavar="LOG_AFTER", help="sweep with the map applied (.csv/.parquet)")

@@ -106,14 +106,13 @@ def _estimate(args: argparse.Namespace) -> int:
 
     from torquemap.estimate import estimate_forces, forces_columns
 
-    check_outputs([(args.output, TABLE_SUFFIXES), (args.figure, FIGURE)], [args.model, args.log])
-
     from torquemap.io import Writer, figure_writer, read_log, write_all
     from torquemap.model import load_model
 
     check_table(args.output)
     if args.figure:
         check_figure(args.figure)
+    check_outputs([(args.output, TABLE_SUFFIXES), (args.figure, FIGURE)], [args.model, args.log])
     model = load_model(args.model)
     from torquemap.identify_arm import is_rigid_body_arm
 

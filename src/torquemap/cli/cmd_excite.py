@@ -21,10 +21,17 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         "base-parameter regressor. Run it on the robot (after moving to the first row), log "
         "t, q_<j> and i_<j> or tau_<j>, and give the log to `torquemap identify`. "
         "No collision checking: try it slowly first.",
-        epilog="example: torquemap excite robot.toml -o excite.csv --duration 60",
+        epilog="example:\n  torquemap excite robot.toml -o excite.csv --duration 60",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("robot", metavar="ROBOT.toml")
-    p.add_argument("-o", "--output", metavar="TRAJ.csv|TRAJ.parquet", required=True)
+    p.add_argument("robot", metavar="ROBOT.toml", help="robot file of kind urdf")
+    p.add_argument(
+        "-o",
+        "--output",
+        metavar="TRAJ.csv|TRAJ.parquet",
+        required=True,
+        help="trajectory to write (t, q_<j>, qd_<j>, qdd_<j>)",
+    )
     p.add_argument("--duration", type=float, default=30.0, metavar="S", help="length [s] (30)")
     p.add_argument(
         "--period", type=float, default=10.0, metavar="S", help="fundamental period [s] (10)"

@@ -165,9 +165,8 @@ def _identify(args: argparse.Namespace) -> int:
     from torquemap.io import read_log, write_toml
     from torquemap.model import load_model, model_to_dict
 
-    check_outputs([(args.output, TOML)], [args.robot, *args.logs])
-
     output_suffix(args.output, (".toml",), "model")
+    check_outputs([(args.output, TOML)], [args.robot, *args.logs])
     model = load_model(args.robot)
     from torquemap.identify_arm import is_rigid_body_arm
 
@@ -211,10 +210,9 @@ def _spectrum(args: argparse.Namespace) -> int:
     from torquemap.io import read_log
     from torquemap.model import load_model
 
-    check_outputs([(args.output, FIGURE)], [args.model, args.log])
-
     if args.output:
         check_figure(args.output)
+    check_outputs([(args.output, FIGURE)], [args.model, args.log])
     model = load_model(args.model)
     log = args.progress.run("read the log", lambda: read_log(args.log, model.robot))
     model.robot.joint(args.joint)
@@ -257,6 +255,8 @@ def _pdtv_map(args: argparse.Namespace) -> int:
 
     file_format = _map_format(args.output, args.format)
     suffixes = {"csv": (".csv", ".parquet"), "json": (".json",), "c-header": (".h",)}[file_format]
+    if args.format is not None and Path(args.output).suffix.lower() not in _MAP_FORMATS:
+        suffixes = (Path(args.output).suffix.lower(),)  # --format names what the suffix does not
     check_outputs([(args.output, suffixes)], [args.model])
     model = load_model(args.model)
     table = pdtv_map(model, args.joint, bins=args.bins)

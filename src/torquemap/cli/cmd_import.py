@@ -71,10 +71,10 @@ def _rosbag(args: argparse.Namespace) -> int:
     from torquemap.cli.outputs import TABLE, check_outputs
     from torquemap.robot import load_robot
 
-    check_outputs([(args.output, TABLE)], [args.bag, args.robot])
     from torquemap.rosbag import import_rosbag
 
     check_table(args.output, (".parquet", ".csv"))
+    check_outputs([(args.output, TABLE)], [args.bag, args.robot])
     robot = load_robot(args.robot)
     states = args.progress.run(
         f"read {args.topic} from the bag",

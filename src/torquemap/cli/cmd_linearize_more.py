@@ -20,6 +20,8 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         "energised alone, reached from below and from above), repeatedly, with the motor "
         "displaced by hand in between, and report the counter offset and its repeatability "
         "(Adept II paper, Table 1). See docs/linearize-homing.md.",
+        epilog="example:\n  torquemap linearize home rig/motor.toml --sim vr --repeats 20",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     home.add_argument("motor", metavar="MOTOR.toml", help="the motor file (equilibria)")
     home.add_argument("--sim", choices=("vr", "bldc"), required=True, help="simulated motor")
@@ -50,6 +52,9 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         "'linearize collect --position-step 86 --step 64' for 512 positions per cycle) and "
         "write the second joint's DATA.csv, to be built with 'linearize build' (Adept II "
         "paper, section 6.2). See docs/linearize-transfer.md.",
+        epilog="example:\n  torquemap linearize transfer j1/motor.toml j1/data.csv j2/motor.toml "
+        "j2/few.csv -o j2/data.csv",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     transfer.add_argument("first_motor", metavar="FIRST.toml", help="the first joint's motor file")
     transfer.add_argument("first_data", metavar="FIRST.csv", help="its full characterisation")

@@ -34,9 +34,8 @@ def _report(args: argparse.Namespace) -> int:
     from torquemap.cli.outputs import HTML, check_outputs
     from torquemap.user_report import write_user_report
 
-    check_outputs([(args.output, HTML)], [args.model, *args.logs])
-
     output_suffix(args.output, (".html", ".htm"), "report")
+    check_outputs([(args.output, HTML)], [args.model, *args.logs])
     report = args.progress.run(
         "write the report", lambda: write_user_report(args.model, args.logs, args.output)
     )

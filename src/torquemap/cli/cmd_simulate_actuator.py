@@ -19,11 +19,12 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         "DIR/holds.csv (holds at --positions angles out and back, as on-device anti-cogging "
         "calibration), DIR/sweep.csv (a 3 rad/s sweep) and DIR/truth.toml. With --map, write "
         "only DIR/sweep_after.csv: the same sweep with that map applied as feed-forward.",
-        epilog="example: torquemap simulate actuator --out stand && torquemap identify "
-        "stand/robot.toml stand/holds.csv --quasi-static -o stand/model.toml && torquemap "
-        "pdtv-map stand/model.toml --joint a --bins 1024 -o stand/cog.csv && torquemap simulate "
-        "actuator --out stand --map stand/cog.csv && torquemap cogging verify stand/model.toml "
-        "stand/sweep_after.csv stand/sweep.csv",
+        epilog="examples:\n  torquemap simulate actuator --out stand\n"
+        "  torquemap identify stand/robot.toml stand/holds.csv --quasi-static -o stand/model.toml\n"
+        "  torquemap pdtv-map stand/model.toml --joint a --bins 1024 -o stand/cog.csv\n"
+        "  torquemap simulate actuator --out stand --map stand/cog.csv\n"
+        "  torquemap cogging verify stand/model.toml stand/sweep_after.csv stand/sweep.csv",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("--out", metavar="DIR", required=True, help="output folder (created)")
     p.add_argument("--seed", type=int, default=0, help="noise seed, >= 0 (default 0)")
