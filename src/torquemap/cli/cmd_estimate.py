@@ -105,7 +105,6 @@ def _estimate(args: argparse.Namespace) -> int:
     import numpy as np
 
     from torquemap.estimate import estimate_forces, forces_columns
-
     from torquemap.io import Writer, figure_writer, read_log, write_all
     from torquemap.model import load_model
 

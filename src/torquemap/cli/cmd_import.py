@@ -70,7 +70,6 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
 def _rosbag(args: argparse.Namespace) -> int:
     from torquemap.cli.outputs import TABLE, check_outputs
     from torquemap.robot import load_robot
-
     from torquemap.rosbag import import_rosbag
 
     check_table(args.output, (".parquet", ".csv"))
