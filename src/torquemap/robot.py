@@ -58,7 +58,7 @@ class Joint:
     position_unit: PositionUnit = "rad"
 
     def __post_init__(self) -> None:
-        where = f"joint {self.name!r}"
+        where = f"joint {self.name!r}:"
         _in_range(self.gear_ratio, GEAR_RATIO_RANGE, f"{where} gear_ratio", None)
         _in_range(self.torque_constant, TORQUE_CONSTANT_RANGE, f"{where} torque_constant", None)
         cpr = self.encoder_counts_per_rev

@@ -164,6 +164,10 @@ def collection_targets(
     return np.union1d(even, np.flatnonzero(changes)).astype(np.int64)
 
 
+#: Most readings averaged per row or per bias: a guard against typos (days of collection).
+MAX_READINGS = 100_000
+
+
 @dataclass(frozen=True, slots=True, eq=False)
 class CollectionSettings:
     """How a collection measures: one object for collect, the CLI, the simulated rig and benchmarks.
@@ -224,6 +228,12 @@ class CollectionSettings:
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
                 raise InputError(
                     f"{name.replace('_', ' ')} must be a positive integer, got {value!r}"
+                )
+        for name in ("readings", "bias_readings"):
+            value = getattr(self, name)
+            if value is not None and value > MAX_READINGS:
+                raise InputError(
+                    f"{name.replace('_', ' ')} must be at most {MAX_READINGS}, got {value}"
                 )
         for name in ("bias_open", "transitions"):
             if not isinstance(getattr(self, name), bool):

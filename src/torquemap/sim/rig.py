@@ -414,7 +414,6 @@ def collect_on_rig(
 
 
 #: Most readings per row (or per bias measurement) a simulated run takes.
-MAX_READINGS = 100_000
 
 
 def write_rig_data(
