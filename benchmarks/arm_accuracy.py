@@ -26,6 +26,7 @@ import argparse
 import dataclasses
 import tempfile
 import time
+import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -36,7 +37,7 @@ from torquemap.friction_law import StribeckFriction
 from torquemap.identify_arm import identify_arm
 from torquemap.io import Log, read_log, read_table
 from torquemap.model import InertiaModel, JointModel, Model, PdtvLine, load_model
-from torquemap.robot import load_robot, read_toml
+from torquemap.robot import load_robot
 from torquemap.robots.urdf import urdf_arm
 from torquemap.sim import arm as sim
 
@@ -47,14 +48,21 @@ METHODS = (
 )
 
 
-def _guess_law() -> StribeckFriction:
+def _guess_law(true_shape: bool = False) -> StribeckFriction:
+    if true_shape:  # diagnostic: the truth's nonlinear settings
+        return StribeckFriction(
+            stribeck_velocity=sim.STRIBECK_VEL,
+            zero_velocity=sim.TANH_VEL,
+            stribeck_exponent=1.0,
+            transition="smooth",
+        )
     return StribeckFriction(stribeck_velocity=5.0, zero_velocity=0.5, transition="smooth")
 
 
 def _oracle(robot_path: Path, folder: Path) -> Model:
     robot = load_robot(robot_path)
-    truth = read_toml(folder / "truth.toml")
-    arm = urdf_arm(folder / "truth.urdf", sim.JOINTS, end_effector=sim.END_EFFECTOR)
+    truth = tomllib.loads((folder / "truth.toml").read_text())
+    arm: Any = urdf_arm(folder / "truth.urdf", sim.JOINTS, end_effector=sim.END_EFFECTOR)
     joints = {}
     for name in sim.JOINTS:
         j = truth["joints"][name]
@@ -99,6 +107,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     parser.add_argument("--cutoff", type=float, default=2.0, help="low-pass cut-off [Hz]")
+    parser.add_argument(
+        "--true-law-shape",
+        action="store_true",
+        help="diagnostic: identify with the true friction law's shape (exponent, velocities)",
+    )
     args = parser.parse_args()
     rows: list[tuple[int, str, dict[str, tuple[float, float]]]] = []
     for seed in args.seeds:
@@ -110,7 +123,8 @@ def main() -> None:
             robot_path = d / "robot.toml"
             start = load_model(robot_path)
             guess = {
-                n: dataclasses.replace(jm, friction=_guess_law()) for n, jm in start.joints.items()
+                n: dataclasses.replace(jm, friction=_guess_law(args.true_law_shape))
+                for n, jm in start.joints.items()
             }
             free = read_log(d / "free.csv", start.robot)
             task = read_log(d / "task.csv", start.robot)
