@@ -101,3 +101,11 @@ def test_files_parse(panda: dict[str, object], tmp_path: Path) -> None:
     assert np.all(np.abs(log.q - run.q) <= 1.01 * step)
     kt = sim.TORQUE_CONSTANT
     assert_allclose(log.motor_torque, kt * run.current)
+
+
+def test_cli_refuses_a_negative_seed(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    from torquemap.cli.main import main
+
+    assert main(["simulate", "arm", "--out", str(tmp_path / "b"), "--random", "-1"]) == 2
+    assert "--random" in capsys.readouterr().err
+    assert not (tmp_path / "b").exists()
