@@ -62,9 +62,10 @@ def _guess_law(true_shape: bool = False) -> StribeckFriction:
 def _oracle(robot_path: Path, folder: Path) -> Model:
     robot = load_robot(robot_path)
     truth = tomllib.loads((folder / "truth.toml").read_text())
-    arm: Any = urdf_arm(folder / "truth.urdf", sim.JOINTS, end_effector=sim.END_EFFECTOR)
+    spec = sim.ARMS[truth["arm"]]
+    arm: Any = urdf_arm(folder / "truth.urdf", spec.joints, end_effector=spec.end_effector)
     joints = {}
-    for name in sim.JOINTS:
+    for name in spec.joints:
         j = truth["joints"][name]
         law = StribeckFriction(  # the true law is this one with exponent 1 and a tanh blend
             coulomb_positive=j["coulomb"],
@@ -106,6 +107,7 @@ def _errors(
 def main() -> None:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    parser.add_argument("--arms", nargs="+", default=["panda", "ur5"], choices=sorted(sim.ARMS))
     parser.add_argument("--cutoff", type=float, default=2.0, help="low-pass cut-off [Hz]")
     parser.add_argument(
         "--true-law-shape",
@@ -113,12 +115,15 @@ def main() -> None:
         help="diagnostic: identify with the true friction law's shape (exponent, velocities)",
     )
     args = parser.parse_args()
-    rows: list[tuple[int, str, dict[str, tuple[float, float]]]] = []
-    for seed in args.seeds:
+    rows: list[tuple[str, str, dict[str, tuple[float, float]]]] = []
+    keys = []
+    for arm_name, seed in [(a, s) for a in args.arms for s in args.seeds]:
+        key = f"{arm_name}, seed {seed}"
+        keys.append(key)
         with tempfile.TemporaryDirectory() as tmp:
             d = Path(tmp)
             t0 = time.perf_counter()
-            sim.write_arm_bench(d, seed=seed)
+            sim.write_arm_bench(d, seed=seed, arm=arm_name)
             t_sim = time.perf_counter() - t0
             robot_path = d / "robot.toml"
             start = load_model(robot_path)
@@ -135,7 +140,7 @@ def main() -> None:
             t_id = time.perf_counter() - t0
             fz = np.asarray(truth["fz"])[np.asarray(truth["t"]) > 2.0]
             print(
-                f"seed {seed}: simulated in {t_sim:.1f} s, identified in {t_id:.1f} s, "
+                f"{key}: simulated in {t_sim:.1f} s, identified in {t_id:.1f} s, "
                 f"fz {fz.min():.1f}..{fz.max():.1f} N, consistent={result.consistent}"
             )
             for label, model in (
@@ -143,11 +148,11 @@ def main() -> None:
                 ("identified", result.model),
                 ("oracle", oracle),
             ):
-                rows.append((seed, label, _errors(model, task, truth, args.cutoff)))
-    _print(rows, args.seeds)
+                rows.append((key, label, _errors(model, task, truth, args.cutoff)))
+    _print(rows, keys)
 
 
-def _print(rows: list[tuple[int, str, dict[str, tuple[float, float]]]], seeds: list[int]) -> None:
+def _print(rows: list[tuple[str, str, dict[str, tuple[float, float]]]], seeds: list[str]) -> None:
     labels = [m[0] for m in METHODS]
     print()
     print("| arm | model | " + " | ".join(labels) + " |")
@@ -161,7 +166,7 @@ def _print(rows: list[tuple[int, str, dict[str, tuple[float, float]]]], seeds: l
             if label == "identified":
                 cell += f" ({f / table[(seed, 'oracle')][m][0]:.2f}x oracle)"
             cells.append(cell)
-        print(f"| Panda, seed {seed} | {label} | " + " | ".join(cells) + " |")
+        print(f"| {seed} | {label} | " + " | ".join(cells) + " |")
     print()
     for m in labels:
         ratio = [table[(s, "identified")][m][0] / table[(s, "oracle")][m][0] for s in seeds]

@@ -109,3 +109,22 @@ def test_cli_refuses_a_negative_seed(capsys: pytest.CaptureFixture[str], tmp_pat
     assert main(["simulate", "arm", "--out", str(tmp_path / "b"), "--random", "-1"]) == 2
     assert "--random" in capsys.readouterr().err
     assert not (tmp_path / "b").exists()
+
+
+def test_ur5_obeys_pinocchio(tmp_path: Path) -> None:
+    spec = sim.UR5
+    nominal = sim._stripped(sim.panda_urdf(spec), spec)
+    truth = sim.random_truth(4, nominal, len(spec.joints))
+    true_text = sim.true_urdf(nominal, truth, spec)
+    (tmp_path / "true.urdf").write_text(true_text)
+    nominal_text = ET.tostring(nominal, encoding="unicode")
+    reference, surface = sim.task_reference(nominal_text, 2.5, 4, spec)
+    run = sim.run_arm(
+        true_text, nominal_text, truth, reference, surface=surface, seed=4, noise=False, spec=spec
+    )
+    arm = urdf_arm(tmp_path / "true.urdf", spec.joints, end_effector=spec.end_effector)
+    armature = np.asarray(spec.armature) * np.asarray(spec.gear) ** 2
+    rigid = arm.inverse_dynamics(run.q, run.qd, run.qdd) + armature * run.qdd
+    contact = np.einsum("nij,ni->nj", arm.jacobian(run.q)[:, :3], run.wrench[:, :3])
+    assert run.wrench[run.t > 2.0, 2].min() > 4.0
+    assert_allclose(run.drive + contact, rigid, atol=1e-9 * np.abs(run.drive).max())

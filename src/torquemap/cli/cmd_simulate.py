@@ -42,15 +42,21 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     figures.set_defaults(handler=_figures)
     arm = benches.add_parser(
         "arm",
-        help="a Panda in MuJoCo unlike its URDF: free.csv, task.csv (5-20 N on a surface), truth",
-        description="Simulate a Panda (example-robot-data) in MuJoCo whose true masses differ "
+        help="a Panda (or UR5) in MuJoCo unlike its URDF: free.csv, task.csv (5-20 N on a surface), truth",
+        description="Simulate a Panda or a UR5 (example-robot-data) in MuJoCo whose true masses differ "
         "from its URDF by up to 15 %% and which carries a 0.8 kg tool, and write robot.toml, "
-        "panda.urdf, free.csv, task.csv, truth.csv, truth.toml and truth.urdf into DIR "
+        "panda.urdf (or ur5.urdf), free.csv, task.csv, truth.csv, truth.toml and truth.urdf into DIR "
         "(docs/arm.md).",
     )
     arm.add_argument("--out", metavar="DIR", required=True, help="output folder (created)")
     arm.add_argument(
         "--random", metavar="SEED", type=int, default=0, help="seed of the true arm (default 0)"
+    )
+    arm.add_argument(
+        "--arm",
+        choices=("panda", "ur5"),
+        default="panda",
+        help="the example-robot-data arm (default panda)",
     )
     arm.add_argument("--free-duration", type=float, default=20.0, help="[s] (default 20)")
     arm.add_argument("--task-duration", type=float, default=15.0, help="[s] (default 15)")
@@ -80,6 +86,7 @@ def _arm(args: argparse.Namespace) -> int:
         seed=args.random,
         free_duration=args.free_duration,
         task_duration=args.task_duration,
+        arm=args.arm,
     )
     print(f"wrote {', '.join(p.name for p in paths)} to {args.out}")
     return 0

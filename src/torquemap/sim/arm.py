@@ -30,12 +30,74 @@ from scipy.interpolate import CubicSpline
 
 from torquemap.errors import InputError
 
-JOINTS: tuple[str, ...] = tuple(f"panda_joint{k}" for k in range(1, 8))
-"""The Panda's actuated joints."""
-END_EFFECTOR = "panda_hand_tcp"
-GEAR = (100.0, 100.0, 100.0, 100.0, 80.0, 80.0, 80.0)
+
+@dataclass(frozen=True, slots=True, eq=False)
+class ArmSpec:
+    """One arm of ``example-robot-data`` as the bench drives it.
+
+    Attributes
+    ----------
+    name
+        ``"panda"`` or ``"ur5"``.
+    urdf
+        Path under the ``robots`` folder.
+    joints
+        Actuated joints, in order.
+    end_effector
+        The URDF link whose origin is the end effector.
+    gear
+        Gear ratios.
+    armature
+        Rotor inertia per joint [kg m^2], motor side.
+    ready
+        Start pose of the task, end effector pointing down [rad].
+    tool_parent
+        The link the tool hangs from (``TOOL_OFFSET`` along its z axis).
+    """
+
+    name: str
+    urdf: str
+    joints: tuple[str, ...]
+    end_effector: str
+    gear: tuple[float, ...]
+    armature: tuple[float, ...]
+    ready: tuple[float, ...]
+    tool_parent: str
+
+
+PANDA = ArmSpec(
+    name="panda",
+    urdf="panda_description/urdf/panda.urdf",
+    joints=tuple(f"panda_joint{k}" for k in range(1, 8)),
+    end_effector="panda_hand_tcp",
+    gear=(100.0, 100.0, 100.0, 100.0, 80.0, 80.0, 80.0),
+    armature=(3e-5, 3e-5, 3e-5, 3e-5, 1.5e-5, 1.5e-5, 1.5e-5),
+    ready=(0.0, -0.5, 0.0, -2.2, 0.0, 1.7, 0.785),
+    tool_parent="panda_link8",
+)
+UR5 = ArmSpec(
+    name="ur5",
+    urdf="ur_description/urdf/ur5_robot.urdf",
+    joints=(
+        "shoulder_pan_joint",
+        "shoulder_lift_joint",
+        "elbow_joint",
+        "wrist_1_joint",
+        "wrist_2_joint",
+        "wrist_3_joint",
+    ),
+    end_effector="tool0",
+    gear=(100.0, 100.0, 100.0, 80.0, 80.0, 80.0),
+    armature=(6e-5, 6e-5, 6e-5, 2e-5, 2e-5, 2e-5),
+    ready=(0.0, -1.9, 1.9, -1.57, -1.57, 0.0),
+    tool_parent="tool0",
+)
+ARMS = {"panda": PANDA, "ur5": UR5}
+JOINTS = PANDA.joints
+END_EFFECTOR = PANDA.end_effector
+GEAR = PANDA.gear
+ARMATURE = PANDA.armature
 TORQUE_CONSTANT = 0.1  # [N m / A], motor side
-ARMATURE = (3e-5, 3e-5, 3e-5, 3e-5, 1.5e-5, 1.5e-5, 1.5e-5)  # [kg m^2], motor side
 COUNTS = 16384  # encoder counts per motor revolution
 CURRENT_NOISE = 0.02  # [A], standard deviation
 TOOL_MASS = 0.8  # [kg]
@@ -45,7 +107,6 @@ TIMESTEP = 1e-3  # [s], MuJoCo and the controller
 SURFACE_STIFFNESS = 1000.0  # [N/m]
 SURFACE_DAMPING = 20.0  # [N s/m]
 SURFACE_FRICTION = 0.3  # sliding friction coefficient
-READY = (0.0, -0.5, 0.0, -2.2, 0.0, 1.7, 0.785)  # [rad], hand pointing down
 
 
 def robots_folder() -> Path:
@@ -63,9 +124,9 @@ def robots_folder() -> Path:
     return found
 
 
-def panda_urdf() -> Path:
-    """The Panda URDF of ``example-robot-data``."""
-    return robots_folder() / "panda_description" / "urdf" / "panda.urdf"
+def panda_urdf(spec: ArmSpec | None = None) -> Path:
+    """The URDF of ``example-robot-data`` for ``spec`` (default the Panda)."""
+    return robots_folder() / (spec or PANDA).urdf
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -98,14 +159,13 @@ TANH_VEL = 1.5  # [rad/s], motor side
 RIPPLE_ORDER = 2.0
 
 
-def random_truth(seed: int, nominal: ET.Element) -> ArmTruth:
+def random_truth(seed: int, nominal: ET.Element, n: int = 7) -> ArmTruth:
     """Draw the true arm's deviations from the URDF for ``seed``."""
     rng = np.random.default_rng(seed)
     links = [
         link.get("name", "") for link in nominal.iter("link") if link.find("inertial") is not None
     ]
     scale = {name: float(1.0 + rng.uniform(-MASS_SPREAD, MASS_SPREAD)) for name in links}
-    n = len(JOINTS)
     return ArmTruth(
         mass_scale=scale,
         coulomb=rng.uniform(0.005, 0.012, n),
@@ -131,14 +191,14 @@ def ripple(truth: ArmTruth, motor_angle: NDArray[np.float64]) -> NDArray[np.floa
     return out
 
 
-def _stripped(urdf: Path) -> ET.Element:
+def _stripped(urdf: Path, spec: ArmSpec = PANDA) -> ET.Element:
     root = ET.parse(urdf).getroot()
     for parent in list(root.iter()):
         for child in list(parent):
-            if child.tag in ("visual", "collision", "dynamics"):
+            if child.tag in ("visual", "collision", "dynamics", "transmission", "gazebo"):
                 parent.remove(child)
-    for joint in root.iter("joint"):
-        if joint.get("name") not in JOINTS and joint.get("type") != "fixed":
+    for joint in root.findall("joint"):
+        if joint.get("name") not in spec.joints and joint.get("type") != "fixed":
             joint.set("type", "fixed")  # the fingers: locked at zero, as torquemap does
             for tag in ("limit", "axis", "mimic"):
                 for e in joint.findall(tag):
@@ -146,7 +206,7 @@ def _stripped(urdf: Path) -> ET.Element:
     return root
 
 
-def true_urdf(nominal: ET.Element, truth: ArmTruth) -> str:
+def true_urdf(nominal: ET.Element, truth: ArmTruth, spec: ArmSpec = PANDA) -> str:
     """The true arm's URDF text: scaled links, the tool, no meshes, fingers fixed."""
     root = ET.fromstring(ET.tostring(nominal))
     for link in root.iter("link"):
@@ -170,13 +230,15 @@ def true_urdf(nominal: ET.Element, truth: ArmTruth) -> str:
         inertial, "inertia", ixx=repr(r2), ixy="0", ixz="0", iyy=repr(r2), iyz="0", izz=repr(r2)
     )
     joint = ET.SubElement(root, "joint", name="tool_joint", type="fixed")
-    ET.SubElement(joint, "parent", link="panda_link8")
+    ET.SubElement(joint, "parent", link=spec.tool_parent)
     ET.SubElement(joint, "child", link="tool")
     ET.SubElement(joint, "origin", xyz=f"0 0 {TOOL_OFFSET}", rpy="0 0 0")
     return ET.tostring(root, encoding="unicode")
 
 
-def _mujoco_model(urdf_text: str, armature: NDArray[np.float64]) -> mujoco.MjModel:
+def _mujoco_model(
+    urdf_text: str, armature: NDArray[np.float64], spec: ArmSpec = PANDA
+) -> mujoco.MjModel:
     root = ET.fromstring(urdf_text)
     mj = ET.SubElement(root, "mujoco")
     ET.SubElement(
@@ -192,7 +254,7 @@ def _mujoco_model(urdf_text: str, armature: NDArray[np.float64]) -> mujoco.MjMod
     model.opt.timestep = TIMESTEP
     model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
     names = [model.joint(k).name for k in range(model.njnt)]
-    if tuple(names) != JOINTS:
+    if tuple(names) != spec.joints:
         raise InputError(f"unexpected MuJoCo joints {names}")
     model.dof_armature[:] = armature
     return model
@@ -247,20 +309,21 @@ def run_arm(
     surface: float | None,
     seed: int,
     noise: bool = True,
+    spec: ArmSpec = PANDA,
 ) -> ArmRun:
     """Simulate the true arm tracking ``reference`` = (q, qd, qdd) sampled at 1 kHz.
 
     ``surface`` is the height [m] of a compliant horizontal surface, or None.
     """
-    gear = np.asarray(GEAR)
-    armature = np.asarray(ARMATURE) * gear**2  # joint side
-    model = _mujoco_model(true_text, armature)
+    gear = np.asarray(spec.gear)
+    armature = np.asarray(spec.armature) * gear**2  # joint side
+    model = _mujoco_model(true_text, armature, spec)
     data = mujoco.MjData(model)
     nominal, ndata = _pin_model(nominal_text)
     q_ref, qd_ref, qdd_ref = reference
     n, nj = q_ref.shape
     rng = np.random.default_rng(seed + 1000)
-    tcp = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, END_EFFECTOR)
+    tcp = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, spec.end_effector)
     kp, kd = 50.0**2, 2.0 * 50.0
     data.qpos[:] = q_ref[0]
     data.qvel[:] = qd_ref[0]
@@ -324,15 +387,15 @@ def _spline(
 
 
 def task_reference(
-    nominal_text: str, duration: float, seed: int
+    nominal_text: str, duration: float, seed: int, spec: ArmSpec = PANDA
 ) -> tuple[tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]], float]:
     """A reference pressing the end effector 5-20 mm into a surface along a circle.
 
     Returns the reference (q, qd, qdd) at 1 kHz and the surface height [m].
     """
     model, data = _pin_model(nominal_text)
-    frame = model.getFrameId(END_EFFECTOR)
-    q0 = np.asarray(READY)
+    frame = model.getFrameId(spec.end_effector)
+    q0 = np.asarray(spec.ready)
     pin.framesForwardKinematics(model, data, q0)
     start = data.oMf[frame].copy()
     surface = float(start.translation[2]) - 0.01
@@ -363,13 +426,13 @@ def task_reference(
 
 
 def free_reference(
-    nominal_path: Path, duration: float, seed: int, *, iterations: int = 8
+    nominal_path: Path, duration: float, seed: int, *, iterations: int = 8, spec: ArmSpec = PANDA
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """An exciting trajectory (``torquemap.excite``) at 1 kHz on the nominal arm."""
     from torquemap.excite import exciting_trajectory
     from torquemap.robots.urdf import urdf_arm
 
-    arm: Any = urdf_arm(nominal_path, JOINTS, end_effector=END_EFFECTOR)
+    arm: Any = urdf_arm(nominal_path, spec.joints, end_effector=spec.end_effector)
     traj = exciting_trajectory(
         arm,
         duration=duration,
@@ -381,18 +444,18 @@ def free_reference(
     return traj.q, traj.qd, traj.qdd
 
 
-def _log_columns(run: ArmRun) -> dict[str, NDArray[Any]]:
+def _log_columns(run: ArmRun, spec: ArmSpec = PANDA) -> dict[str, NDArray[Any]]:
     cols: dict[str, NDArray[Any]] = {"t": run.t}
-    for k, name in enumerate(JOINTS):
+    for k, name in enumerate(spec.joints):
         cols[f"q_{name}"] = run.counts[:, k]
         cols[f"i_{name}"] = run.current[:, k]
     return cols
 
 
-def robot_toml(urdf_name: str) -> dict[str, Any]:
-    """The robot file (kind ``urdf``) of the simulated Panda."""
+def robot_toml(urdf_name: str, spec: ArmSpec = PANDA) -> dict[str, Any]:
+    """The robot file (kind ``urdf``) of the simulated arm."""
     joints: dict[str, Any] = {}
-    for name, g in zip(JOINTS, GEAR, strict=True):
+    for name, g in zip(spec.joints, spec.gear, strict=True):
         joints[name] = {
             "gear_ratio": g,
             "torque_constant": TORQUE_CONSTANT,
@@ -401,10 +464,10 @@ def robot_toml(urdf_name: str) -> dict[str, Any]:
         }
     return {
         "robot": {
-            "name": "Panda (simulated)",
+            "name": f"{spec.name} (simulated)",
             "kinematics": "urdf",
             "urdf": urdf_name,
-            "end_effector": END_EFFECTOR,
+            "end_effector": spec.end_effector,
             "gravity": [0.0, 0.0, -9.81],
         },
         "joints": joints,
@@ -418,6 +481,7 @@ def write_arm_bench(
     free_duration: float = 20.0,
     task_duration: float = 15.0,
     iterations: int = 8,
+    arm: str = "panda",
 ) -> list[Path]:
     """Simulate the Panda bench and write its files into ``out``.
 
@@ -425,7 +489,8 @@ def write_arm_bench(
     ``task.csv`` (logs ``t, q_<j>`` [counts], ``i_<j>`` [A]), ``truth.csv`` (``t, fx, fy, fz,
     mx, my, mz``: the wrench by the surface on the end effector during the task, base frame),
     ``truth.toml`` (the hidden deviations) and ``truth.urdf`` (the true arm, tool included).
-    ``iterations`` is the exciting trajectory's random search (``torquemap.excite``).
+    ``arm`` is ``"panda"`` or ``"ur5"`` (the URDF is then ``ur5.urdf``). ``iterations`` is the
+    exciting trajectory's random search (``torquemap.excite``).
 
     Returns
     -------
@@ -436,36 +501,44 @@ def write_arm_bench(
 
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
-    source = panda_urdf()
-    nominal = _stripped(source)
+    if arm not in ARMS:
+        raise InputError(f"unknown arm {arm!r} (known: {', '.join(ARMS)})")
+    spec = ARMS[arm]
+    source = panda_urdf(spec)
+    nominal = _stripped(source, spec)
     nominal_text = ET.tostring(nominal, encoding="unicode")
-    truth = random_truth(seed, nominal)
-    true_text = true_urdf(nominal, truth)
-    urdf_copy = folder / "panda.urdf"
+    truth = random_truth(seed, nominal, len(spec.joints))
+    true_text = true_urdf(nominal, truth, spec)
+    urdf_name = f"{spec.name}.urdf"
+    urdf_copy = folder / urdf_name
     urdf_copy.write_text(source.read_text())
     free = run_arm(
         true_text,
         nominal_text,
         truth,
-        free_reference(urdf_copy, free_duration, seed, iterations=iterations),
+        free_reference(urdf_copy, free_duration, seed, iterations=iterations, spec=spec),
         surface=None,
         seed=seed,
+        spec=spec,
     )
-    reference, surface = task_reference(nominal_text, task_duration, seed)
-    task = run_arm(true_text, nominal_text, truth, reference, surface=surface, seed=seed + 1)
-    write_table(folder / "free.csv", _log_columns(free))
-    write_table(folder / "task.csv", _log_columns(task))
+    reference, surface = task_reference(nominal_text, task_duration, seed, spec)
+    task = run_arm(
+        true_text, nominal_text, truth, reference, surface=surface, seed=seed + 1, spec=spec
+    )
+    write_table(folder / "free.csv", _log_columns(free, spec))
+    write_table(folder / "task.csv", _log_columns(task, spec))
     truth_cols: dict[str, NDArray[Any]] = {"t": task.t}
     for k, axis in enumerate(("fx", "fy", "fz", "mx", "my", "mz")):
         truth_cols[axis] = task.wrench[:, k]
     write_table(folder / "truth.csv", truth_cols)
     (folder / "truth.urdf").write_text(true_text)
-    write_toml(folder / "robot.toml", robot_toml("panda.urdf"))
+    write_toml(folder / "robot.toml", robot_toml(urdf_name, spec))
     write_toml(
         folder / "truth.toml",
         {
             "seed": seed,
-            "tool": {"mass": TOOL_MASS, "offset": TOOL_OFFSET, "parent": "panda_link8"},
+            "arm": spec.name,
+            "tool": {"mass": TOOL_MASS, "offset": TOOL_OFFSET, "parent": spec.tool_parent},
             "mass_scale": truth.mass_scale,
             "surface": {
                 "height": surface,
@@ -475,7 +548,7 @@ def write_arm_bench(
             },
             "joints": {
                 name: {
-                    "armature": ARMATURE[k],
+                    "armature": spec.armature[k],
                     "coulomb": float(truth.coulomb[k]),
                     "stribeck": float(truth.stribeck[k]),
                     "stribeck_velocity": STRIBECK_VEL,
@@ -485,9 +558,9 @@ def write_arm_bench(
                     "ripple_order": RIPPLE_ORDER,
                     "ripple_phase": float(truth.ripple_phase[k]),
                 }
-                for k, name in enumerate(JOINTS)
+                for k, name in enumerate(spec.joints)
             },
         },
     )
-    names = ("robot.toml", "panda.urdf", "free.csv", "task.csv", "truth.csv", "truth.toml")
+    names = ("robot.toml", urdf_name, "free.csv", "task.csv", "truth.csv", "truth.toml")
     return [folder / n for n in (*names, "truth.urdf")]
