@@ -10,8 +10,10 @@ acceleration method, the causal momentum observer and the zero-phase one, and pr
 force error [N] (and moment error [N m]) against the simulator's truth for:
 
 * the URDF as given (no friction, no rotor inertia, no tool),
-* the identified model (the friction law's shape guessed: Stribeck exponent 2, velocity 5 rad/s,
-  smooth transition 0.5 rad/s, where the truth has exponent 1, 3 rad/s and a 1.5 rad/s tanh),
+* the identified model (``--law``: the friction law's shape is not fitted; by default the robot
+  file's default law, linear transition 1e-3 rad/s, Stribeck velocity 1 rad/s, exponent 2;
+  ``guess``: smooth transition 0.5 rad/s, Stribeck 5 rad/s; ``true``: the truth's exponent 1,
+  3 rad/s and 1.5 rad/s tanh),
 * the oracle: the true URDF (tool included), the true rotor inertia, friction and ripple through
   the same estimator.
 
@@ -48,8 +50,10 @@ METHODS = (
 )
 
 
-def _guess_law(true_shape: bool = False) -> StribeckFriction:
-    if true_shape:  # diagnostic: the truth's nonlinear settings
+def _law(shape: str) -> StribeckFriction:
+    if shape == "default":  # what `torquemap identify robot.toml` fits: the law's defaults
+        return StribeckFriction()
+    if shape == "true":  # diagnostic: the truth's nonlinear settings
         return StribeckFriction(
             stribeck_velocity=sim.STRIBECK_VEL,
             zero_velocity=sim.TANH_VEL,
@@ -110,9 +114,12 @@ def main() -> None:
     parser.add_argument("--arms", nargs="+", default=["panda", "ur5"], choices=sorted(sim.ARMS))
     parser.add_argument("--cutoff", type=float, default=2.0, help="low-pass cut-off [Hz]")
     parser.add_argument(
-        "--true-law-shape",
-        action="store_true",
-        help="diagnostic: identify with the true friction law's shape (exponent, velocities)",
+        "--law",
+        choices=("default", "guess", "true"),
+        default="default",
+        help="friction law shape to identify with: the robot file's default (linear "
+        "transition 1e-3 rad/s, Stribeck 1 rad/s, exponent 2), a guess (smooth 0.5 rad/s, "
+        "Stribeck 5 rad/s) or the truth's (diagnostic)",
     )
     args = parser.parse_args()
     rows: list[tuple[str, str, dict[str, tuple[float, float]]]] = []
@@ -128,7 +135,7 @@ def main() -> None:
             robot_path = d / "robot.toml"
             start = load_model(robot_path)
             guess = {
-                n: dataclasses.replace(jm, friction=_guess_law(args.true_law_shape))
+                n: dataclasses.replace(jm, friction=_law(args.law))
                 for n, jm in start.joints.items()
             }
             free = read_log(d / "free.csv", start.robot)
