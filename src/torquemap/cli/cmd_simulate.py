@@ -67,6 +67,27 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         "--model", metavar="MODEL.toml", default=None, help="use this model, not a new one"
     )
     figures.set_defaults(handler=_figures)
+    arm = benches.add_parser(
+        "arm",
+        help="a Panda (or UR5) in MuJoCo unlike its URDF: free.csv, task.csv (5-20 N on a surface), truth",
+        description="Simulate a Panda or a UR5 (example-robot-data) in MuJoCo whose true masses differ "
+        "from its URDF by up to 15 %% and which carries a 0.8 kg tool, and write robot.toml, "
+        "panda.urdf (or ur5.urdf), free.csv, task.csv, truth.csv, truth.toml and truth.urdf into DIR "
+        "(docs/arm.md).",
+    )
+    arm.add_argument("--out", metavar="DIR", required=True, help="output folder (created)")
+    arm.add_argument(
+        "--random", metavar="SEED", type=int, default=0, help="seed of the true arm (default 0)"
+    )
+    arm.add_argument(
+        "--arm",
+        choices=("panda", "ur5"),
+        default="panda",
+        help="the example-robot-data arm (default panda)",
+    )
+    arm.add_argument("--free-duration", type=float, default=20.0, help="[s] (default 20)")
+    arm.add_argument("--task-duration", type=float, default=15.0, help="[s] (default 15)")
+    arm.set_defaults(handler=_arm)
     cmd_simulate_rig.register(benches)
     cmd_fleet.register_simulate(benches)
     cmd_simulate_actuator.register(benches)
@@ -82,6 +103,26 @@ def _scara(args: argparse.Namespace) -> int:
         lambda: write_scara_bench(args.out, seed=args.seed),
     )
     print(f"wrote {', '.join(_FILES)} to {args.out}")
+    return 0
+
+
+def _arm(args: argparse.Namespace) -> int:
+    from torquemap.errors import InputError
+    from torquemap.sim.arm import write_arm_bench
+
+    if args.random < 0:
+        raise InputError(f"--random must be >= 0, got {args.random}")
+    for name in ("free_duration", "task_duration"):
+        if not 2.0 <= getattr(args, name) <= 600.0:
+            raise InputError(f"--{name.replace('_', '-')} must be in [2, 600] s")
+    paths = write_arm_bench(
+        args.out,
+        seed=args.random,
+        free_duration=args.free_duration,
+        task_duration=args.task_duration,
+        arm=args.arm,
+    )
+    print(f"wrote {', '.join(p.name for p in paths)} to {args.out}")
     return 0
 
 
