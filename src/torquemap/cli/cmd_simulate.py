@@ -74,6 +74,10 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         "from its URDF by up to 15 %% and which carries a 0.8 kg tool, and write robot.toml, "
         "panda.urdf (or ur5.urdf), free.csv, task.csv, truth.csv, truth.toml and truth.urdf into DIR "
         "(docs/arm.md).",
+        epilog="examples:\n  torquemap simulate arm --out arm --random 1\n"
+        "  torquemap identify arm/robot.toml arm/free.csv -o arm/model.toml\n"
+        "  torquemap estimate arm/model.toml arm/task.csv -o arm/forces.csv",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     arm.add_argument("--out", metavar="DIR", required=True, help="output folder (created)")
     arm.add_argument(
