@@ -312,7 +312,9 @@ def random_bench(seed: int) -> ScaraBench:
     bench = dataclasses.replace(bench, axes=(drawn[0], drawn[1]))
     circle = _circle(rng, l1, l2)
     bench = dataclasses.replace(bench, circle=circle)
-    ref = circle_reference(bench)
+    # The circle's joint motion, sampled at 200 Hz (enough for its peak speed and elbow range).
+    coarse = dataclasses.replace(bench.controller, servo_rate=200.0)
+    ref = circle_reference(dataclasses.replace(bench, controller=coarse))
     ratios = np.array([ax.gear_ratio for ax in bench.axes])
     peak = float(np.max(np.abs(ref.qd) * ratios))
     fastest = peak * _uniform(rng, RANGES.fastest_margin)
