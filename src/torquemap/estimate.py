@@ -41,8 +41,7 @@ from numpy.typing import NDArray
 from torquemap.errors import InputError
 from torquemap.filters import differentiate, lowpass
 from torquemap.io import Log
-from torquemap.kinematics import force_from_joint_torque
-from torquemap.model import Model, friction_torque, inertia_at, pdtv_torque
+from torquemap.model import Model, friction_torque, pdtv_torque
 from torquemap.pdtv import (
     PositionSignal,
     bins_per_revolution,
@@ -113,8 +112,9 @@ class ForceEstimate:
     tau_ext
         External torque exerted by the environment on each joint [N m, joint side], shape (n, nj).
     force
-        Force exerted by the environment on the end effector [N], base frame, shape (n, 2);
-        NaN at singular poses. None unless the robot is planar2r.
+        Wrench exerted by the environment on the end effector [N, N m], base frame, shape
+        (n, len(wrench_axes)); NaN at singular poses. None when the robot's arm has no end
+        effector.
     flag
         Bitwise OR of ``FLAG_*`` per sample, shape (n,); 0 where the estimate is sound.
     passes
@@ -125,6 +125,8 @@ class ForceEstimate:
         The low-pass cut-off [Hz] (NaN for ``raw``).
     warnings
         One line each.
+    wrench_axes
+        Names of the columns of ``force`` (``("fx", "fy")`` for a planar arm).
     """
 
     t: NDArray[np.float64]
@@ -142,6 +144,7 @@ class ForceEstimate:
     method: Method
     cutoff: float
     warnings: tuple[str, ...] = ()
+    wrench_axes: tuple[str, ...] = ()
 
 
 def estimation_signal(
@@ -179,7 +182,7 @@ def estimation_signal(
     t_est = np.empty((n, nj))
     angle = np.empty((n, nj))
     velocity = np.empty((n, nj))
-    elbow = log.q[:, 1] if robot.kinematics == "planar2r" and nj >= 2 else np.zeros(n)
+    modulation = robot.arm.inertia_modulation(log.q)
     span = float(log.t[-1] - log.t[0])
     if span < window:
         raise InputError(
@@ -193,7 +196,7 @@ def estimation_signal(
         except InputError as exc:
             raise InputError(exc.message, path=log.path) from None
         jm = model.joints[joint.name]
-        inertia = inertia_at(jm, elbow) if k == 0 else inertia_at(jm, np.zeros(n))
+        inertia = jm.inertia.constant + jm.inertia.cos_elbow * modulation[:, k]
         t_est[:, k] = (
             log.motor_torque[:, k]
             - inertia * d.acceleration
@@ -427,7 +430,8 @@ def estimate_forces(
         Shortest monotonic pass the position-domain filter processes [motor revolutions]
         (``paper``); a notch of width ``w`` needs a few ``1 / w`` revolutions to settle.
     min_sin_elbow
-        Singular-pose guard for planar2r (:func:`torquemap.kinematics.force_from_joint_torque`).
+        Singular-pose guard of the arm (:meth:`torquemap.robots.Arm.wrench_from_joint_torque`;
+        for planar2r the smallest ``|sin q2|``).
     bridge_reversals
         Longest stretch [s] of undetermined friction (:func:`reversal_mask`: a joint slower
         than its friction model's ``zero_velocity``, widened by half the differentiator window)
@@ -498,7 +502,7 @@ def estimate_forces(
         jm = model.joints[joint.name]
         w0 = max(bands[joint.name], 1e-9)
         rest = np.zeros(n, dtype=bool)
-        if jm.friction.coulomb_positive > 0 or jm.friction.coulomb_negative > 0:
+        if max(jm.friction.static_levels()) > 0:
             rest = reversal_mask(log.t, velocity[:, k], band=w0, window=window)
             flag[rest] |= FLAG_LOW_SPEED
         rests.append(rest)
@@ -582,16 +586,13 @@ def estimate_forces(
     gear = np.array([j.gear_ratio for j in robot.joints])
     tau_ext = -external * gear
     force = None
-    if robot.kinematics == "planar2r":
-        l1, l2 = robot.link_lengths[0], robot.link_lengths[1]
-        f = force_from_joint_torque(
-            log.q[:, :2], tau_ext[:, :2], (l1, l2), min_sin_elbow=min_sin_elbow
-        )
-        force = f.force
+    if robot.arm.wrench_axes:
+        f = robot.arm.wrench_from_joint_torque(log.q, tau_ext, singular_threshold=min_sin_elbow)
+        force = f.wrench
         flag[f.singular] |= FLAG_SINGULAR
         if f.singular.any():
             warnings.append(
-                f"{int(f.singular.sum())} samples near a singular pose (|sin q2| < "
+                f"{int(f.singular.sum())} samples near a singular pose (guard "
                 f"{min_sin_elbow:g}): force not estimated there"
             )
     for k, joint in enumerate(robot.joints):
@@ -617,6 +618,7 @@ def estimate_forces(
         method=method,
         cutoff=float("nan") if method == "raw" else float(cutoff),
         warnings=tuple(warnings),
+        wrench_axes=robot.arm.wrench_axes if force is not None else (),
     )
 
 
@@ -668,7 +670,7 @@ def forces_columns(estimate: ForceEstimate) -> dict[str, NDArray[Any]]:
     for k, name in enumerate(estimate.joint_names):
         cols[f"tau_ext_{name}"] = estimate.tau_ext[:, k]
     if estimate.force is not None:
-        cols["fx"] = estimate.force[:, 0]
-        cols["fy"] = estimate.force[:, 1]
+        for a, axis in enumerate(estimate.wrench_axes):
+            cols[axis] = estimate.force[:, a]
     cols["flag"] = estimate.flag
     return cols
