@@ -364,3 +364,19 @@ def test_simulate_bench_in_memory_matches_the_files(short_random: Path) -> None:
     # CSV holds float64 text to full precision: a round trip is exact.
     for name, col in files.sweep.items():
         assert_allclose(log[name], col, rtol=0, atol=0)
+
+
+def test_true_friction_is_a_friction_law() -> None:
+    from torquemap.friction_law import FrictionLaw
+    from torquemap.sim.truth_law import TrueFriction
+
+    law = TrueFriction(LUGRE)
+    assert isinstance(law, FrictionLaw)
+    w = np.linspace(-6, 6, 101)
+    # The linear view reproduces the static law (two implementations of it).
+    assert_allclose(law.basis(w) @ law.linear_parameters(), friction_torque(w, LUGRE), atol=1e-15)
+    again = law.with_linear_parameters(law.linear_parameters() * 2)
+    assert_allclose(again.torque(w), 2 * (law.basis(w) @ law.linear_parameters()), atol=1e-15)
+    # With time, the LuGre law integrates its bristles: the same as lugre_response.
+    t = np.arange(w.size) * 1e-3
+    assert_allclose(law.torque(w, t=t), lugre_response(t, w, LUGRE).torque, rtol=1e-15)

@@ -172,9 +172,8 @@ def truth_document(bench: ScaraBench, *, seed: int) -> dict[str, Any]:
     ``[[joints.<j>.pdtv]]``; everything else under ``[identification.bench]``.
 
     A friction law the model file cannot hold (a LuGre law, per-direction viscous friction or
-    Stribeck velocity, a Stribeck exponent other than 2) is written as its closest static
-    law in the model's form (its steady state, with the two directions' viscous
-    coefficients and Stribeck velocities averaged) and in full under
+    Stribeck velocity) is written as its closest static law in the model's form (its steady
+    state, with the two directions' viscous coefficients and Stribeck velocities averaged) and in full under
     ``[identification.bench.friction.<j>]``; a delayed current channel as
     ``[identification.joints.<j>] channel_delay`` (what identification records), so that the
     file used as a model undoes it.
@@ -205,6 +204,8 @@ def truth_document(bench: ScaraBench, *, seed: int) -> dict[str, Any]:
             else math.sqrt(f.stribeck_velocity * vs_neg),
             "zero_velocity": f.zero_velocity,
         }
+        if f.stribeck_exponent != 2.0:
+            spec["friction"]["stribeck_exponent"] = f.stribeck_exponent
         spec["pdtv"] = [
             {"order": h.order, "amplitude": h.amplitude, "phase": h.phase, "direction": h.direction}
             for h in ax.pdtv
