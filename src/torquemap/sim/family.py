@@ -128,6 +128,13 @@ class Ranges:
 #: The ranges of :func:`random_bench`.
 RANGES = Ranges()
 
+#: Encoder counts per motor revolution a random axis draws from: an ODrive-style 8192 up to
+#: 20-bit absolute encoders. Coarser ones (2000 lines) let the servo's quantised velocity
+#: estimate chatter the current by a fair share of the friction, and the oracle's error on the
+#: circle grows to ~10 % of the spring force: the family would measure the servo, not the
+#: estimator.
+ENCODERS = (8192, 16384, 65536, 131072, 1048576)
+
 #: Least ``|sin q_b|`` on a random bench's circle (the elbow stays clear of its singularities).
 MIN_SIN_ELBOW = 0.4
 
@@ -288,7 +295,7 @@ def random_bench(seed: int) -> ScaraBench:
                 rotor_inertia=_log_uniform(rng, RANGES.rotor_inertia),
                 friction=Friction(0.0, 0.0, 0.0, 0.0, 0.0),  # drawn below, with the inertia
                 pdtv=(),
-                encoder_counts_per_rev=int(rng.choice([2000, 4000, 4096, 8000, 8192, 16384])),
+                encoder_counts_per_rev=int(rng.choice(ENCODERS)),
                 current_noise=noise,
                 ripple_amplitude=noise * float(rng.uniform(0.0, 1.5)),
                 ripple_frequency=float(rng.uniform(100.0, 400.0)),
