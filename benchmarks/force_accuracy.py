@@ -8,7 +8,7 @@ RMS error in N and in % of the paper's 3.5 N. The oracle runs the model method w
 simulator's true inertia, friction and PDTV (truth.toml). Errors are scored on the samples no
 estimate flagged; the column "all" scores every sample.
 
-Table 2, the family (issue 12): ``N`` robots drawn by :func:`torquemap.sim.family.random_bench`
+Table 2, the family (issue 12): ``N`` robots drawn by :func:`torquemap.sim.scara_family.random_bench`
 (seeds 1..N; other gear ratios, friction laws of other forms, PDTV, log rates, delays, gaps,
 circles and springs). Per robot and method the RMS force error over the samples the method
 answers (``flag == 0``), in % of that robot's spring force; the ratio to the oracle (RMS over
@@ -48,7 +48,7 @@ from torquemap.identify import identify_model
 from torquemap.io import log_from_columns, read_log, read_table
 from torquemap.model import Model, load_model, model_from_dict
 from torquemap.sim.bench import simulate_bench, write_scara_bench
-from torquemap.sim.family import random_bench
+from torquemap.sim.scara_family import random_bench
 from torquemap.sim.scara import ScaraBench
 from torquemap.sim.score import PAPER_FORCE, common_mask, force_error
 from torquemap.sim.trajectory import circle_reference

@@ -38,7 +38,7 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         default=None,
         metavar="SEED",
         help="draw the robot, its friction laws, PDTV, logger and scenarios at random "
-        "(torquemap.sim.family) instead of the paper's bench; truth.toml says what was drawn",
+        "(torquemap.sim.scara_family) instead of the paper's bench; truth.toml says what was drawn",
     )
     scara.set_defaults(handler=_scara)
     figures = benches.add_parser(
@@ -58,7 +58,7 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
 
 def _scara(args: argparse.Namespace) -> int:
     from torquemap.sim.bench import write_scara_bench
-    from torquemap.sim.family import random_bench_or_error
+    from torquemap.sim.scara_family import random_bench_or_error
 
     bench = None if args.random is None else random_bench_or_error(args.random)
     seed = args.seed if args.seed is not None else (args.random or 0)

@@ -380,7 +380,7 @@ def write_scara_bench(
         Seed of the noise (the sweep and the circle use independent streams).
     bench
         Parameters; default :func:`~torquemap.sim.scara.default_bench` (the paper's);
-        :func:`torquemap.sim.family.random_bench` draws others.
+        :func:`torquemap.sim.scara_family.random_bench` draws others.
 
     Raises
     ------

@@ -11,7 +11,7 @@ Joint side: the rigid planar 2R arm (mass matrix, Coriolis). Motor side: rotor i
 (harmonics of the motor angle). The gears are rigid: motor angle = gear_ratio * joint angle.
 
 Beyond the paper's bench (the defaults), the parameters also describe the random family of
-:mod:`torquemap.sim.family`: friction laws of other forms than the one identification fits (a
+:mod:`torquemap.sim.scara_family`: friction laws of other forms than the one identification fits (a
 Stribeck exponent other than 2, viscous friction and Stribeck velocity per direction, a LuGre
 bristle model, :mod:`torquemap.sim.lugre`), directional PDTV lines, and logs written at another
 rate than the servo's, with jitter, gaps and a delayed current channel (:class:`Logging`).
@@ -68,7 +68,7 @@ class Lugre:
     static law of :class:`Friction`; at rest and through reversals the bristles act as a
     spring (pre-sliding, hysteresis, frictional lag). The velocity-dependent damping keeps the
     law dissipative when ``bristle_damping * damping_velocity < 4 sqrt(2 e) min(g)`` (Olsson et
-    al., 1998); :func:`torquemap.sim.family.random_bench` draws within that bound.
+    al., 1998); :func:`torquemap.sim.scara_family.random_bench` draws within that bound.
 
     Attributes
     ----------
@@ -458,7 +458,7 @@ class ScaraBench:
     logging
         How the logs are written (default: every servo tick).
     random_seed
-        The seed :func:`torquemap.sim.family.random_bench` drew this bench from; None for a
+        The seed :func:`torquemap.sim.scara_family.random_bench` drew this bench from; None for a
         bench built by hand (the paper's).
     """
 

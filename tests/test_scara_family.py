@@ -19,10 +19,10 @@ from numpy.testing import assert_allclose
 from torquemap.cli.main import main
 from torquemap.io import read_table
 from torquemap.model import load_model
-from torquemap.sim import family
+from torquemap.sim import scara_family as family
 from torquemap.sim.bench import simulate_bench, simulate_sweep
 from torquemap.sim.engine import _friction, _friction_general, _static_constants
-from torquemap.sim.family import MIN_SIN_ELBOW, RANGES, random_bench
+from torquemap.sim.scara_family import MIN_SIN_ELBOW, RANGES, random_bench
 from torquemap.sim.logger import delayed_ticks, logged_ticks
 from torquemap.sim.lugre import bristle_energy, lugre_constants, lugre_response, lugre_update
 from torquemap.sim.scara import (
