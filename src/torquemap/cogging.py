@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Literal
 
@@ -72,6 +73,11 @@ class LineRipple:
         return _removed(self.speed_before, self.speed_after)
 
 
+def _rss(values: Iterable[float]) -> float:
+    """Root sum of squares (NaN propagates: a ripple not measured stays unknown)."""
+    return float(np.sqrt(sum(v**2 for v in values)))
+
+
 def _removed(before: float, after: float) -> float:
     if not (before > 0 and math.isfinite(after)):
         return math.nan
@@ -106,22 +112,22 @@ class CoggingVerification:
     @property
     def torque_before(self) -> float:
         """Root sum of squares of the lines' torque ripple before [N m]."""
-        return float(np.sqrt(sum(ln.torque_before**2 for ln in self.lines)))
+        return _rss(ln.torque_before for ln in self.lines)
 
     @property
     def torque_after(self) -> float:
         """Root sum of squares of the lines' torque ripple after [N m]."""
-        return float(np.sqrt(sum(ln.torque_after**2 for ln in self.lines)))
+        return _rss(ln.torque_after for ln in self.lines)
 
     @property
     def speed_before(self) -> float:
         """Root sum of squares of the lines' speed ripple before [rad/s] (NaN: no before-log)."""
-        return float(np.sqrt(sum(ln.speed_before**2 for ln in self.lines)))
+        return _rss(ln.speed_before for ln in self.lines)
 
     @property
     def speed_after(self) -> float:
         """Root sum of squares of the lines' speed ripple after [rad/s]."""
-        return float(np.sqrt(sum(ln.speed_after**2 for ln in self.lines)))
+        return _rss(ln.speed_after for ln in self.lines)
 
     @property
     def torque_removed(self) -> float:
