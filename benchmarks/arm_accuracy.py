@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 import tempfile
 import time
 import tomllib
@@ -66,7 +67,7 @@ def _law(shape: str) -> StribeckFriction:
 def _oracle(robot_path: Path, folder: Path) -> Model:
     robot = load_robot(robot_path)
     truth = tomllib.loads((folder / "truth.toml").read_text())
-    spec = sim.ARMS[truth["arm"]]
+    spec = sim.arm_spec(truth["arm"])
     arm: Any = urdf_arm(folder / "truth.urdf", spec.joints, end_effector=spec.end_effector)
     joints = {}
     for name in spec.joints:
@@ -100,11 +101,12 @@ def _errors(
         est = estimate_arm(model, task, method=method, cutoff=cutoff, zero_phase=zero_phase)  # type: ignore[arg-type]
         ok = (est.flag == 0) & (t > 2.0) & (t < t[-1] - 0.5) & np.isfinite(est.wrench).all(axis=1)
         ef = est.wrench[ok, :3] - force[ok]
-        em = est.wrench[ok, 3:6] - moment[ok]
-        out[label] = (
-            float(np.sqrt(np.mean(np.sum(ef**2, axis=1)))),
-            float(np.sqrt(np.mean(np.sum(em**2, axis=1)))),
-        )
+        if est.wrench.shape[1] >= 6:
+            em = est.wrench[ok, 3:6] - moment[ok]
+            moment_error = float(np.sqrt(np.mean(np.sum(em**2, axis=1))))
+        else:  # fewer than six joints: no moments estimated
+            moment_error = math.nan
+        out[label] = (float(np.sqrt(np.mean(np.sum(ef**2, axis=1)))), moment_error)
     return out
 
 

@@ -36,6 +36,7 @@ from torquemap.arm_model import (
     pdtv_lines,
 )
 from torquemap.errors import InputError
+from torquemap.friction_law import StribeckFriction
 from torquemap.io import Log
 from torquemap.model import InertiaModel, JointModel, Model
 
@@ -57,6 +58,24 @@ RESIDUAL_SPAN = 8.0
 """Length [s] of the contiguous stretch of the first log on which that is measured."""
 PDTV_SIGNIFICANCE = 5.0
 """A PDTV line is kept when its amplitude exceeds this many standard errors."""
+CONTACT_THRESHOLD = 3.0
+"""With ``exclude_contact``: a sample is contact when a joint's residual exceeds this many
+robust standard deviations (1.4826 times the median absolute deviation) ..."""
+CONTACT_MARGIN = 2.0
+"""... and so are its neighbours within this many differentiator windows (the smoothing spreads
+a contact, and a force rises from zero)."""
+CONTACT_ITERATIONS = 12
+"""At most this many fits while the set of contact samples changes."""
+SHAPE_WIDTHS = np.geomspace(1e-3, 0.5, 10)
+"""Transition widths searched, relative to the joint's observed motor speed range [-]."""
+SHAPE_STRIBECK = np.geomspace(0.01, 2.0, 8)
+"""Stribeck velocities searched, relative to the joint's observed motor speed range [-]."""
+SHAPE_EXPONENTS = (1.0, 2.0)
+"""Stribeck exponents searched (exponential and Gaussian forms)."""
+SHAPE_ROWS = 2000
+"""At most this many of the regression's rows enter the friction-shape search."""
+SHAPE_KERNEL_POINTS = 12
+"""The smoothing kernel is evaluated at this many points in the friction-shape search."""
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -110,6 +129,8 @@ class ArmIdentification:
         centre of mass satisfying the triangle inequalities.
     warnings
         One line each.
+    excluded
+        Samples left out as contact (``exclude_contact``), of ``samples + excluded`` drawn.
     """
 
     model: Model
@@ -124,6 +145,7 @@ class ArmIdentification:
     samples: int
     consistent: bool
     warnings: tuple[str, ...] = ()
+    excluded: int = 0
 
 
 def _prior_sigma(pi0: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -227,43 +249,69 @@ def consistent_parameters(
     """The physically consistent full parameters closest to ``estimate`` in its covariance.
 
     Minimises ``(pi - estimate)^T covariance^-1 (pi - estimate)`` over consistent ``pi``
-    (every body's pseudo-inertia positive definite, Wensing, Kim & Slotine 2017), through the
-    log-Cholesky coordinates of each body, from ``start`` (the URDF's values, consistent).
-    Directions the data pins down have small variance and stay; the others give way.
+    (every body's pseudo-inertia ``J_b(pi)`` positive semi-definite, Wensing, Kim & Slotine
+    2017). The pseudo-inertia is linear in ``pi``, so this is a convex problem (a semidefinite
+    program); it is solved by a primal barrier method: damped Newton steps on
+    ``Q(pi) / 2 - mu sum_b log det J_b(pi)`` from ``start`` (the URDF's values, strictly
+    consistent), ``mu`` divided by 10 until the duality gap ``4 nb mu`` is below 1e-6 (in units
+    of the squared Mahalanobis distance). Directions the data pins down have small variance and
+    stay; the others give way.
     """
-    from scipy.optimize import least_squares
-
     nb = estimate.size // 10
-    L = np.linalg.cholesky(covariance + 1e-15 * np.trace(covariance) * np.eye(estimate.size))
+    n = estimate.size
+    H = np.linalg.inv(covariance + 1e-15 * np.trace(covariance) * np.eye(n))
+    H = 0.5 * (H + H.T)
+    # basis: the pseudo-inertia of each unit parameter (linear map)
+    A = np.array([_pseudo_inertia(np.eye(10)[i]) for i in range(10)])  # (10, 4, 4)
 
-    def pi_of(theta: NDArray[np.float64]) -> NDArray[np.float64]:
-        return np.concatenate([_from_log_cholesky(theta[10 * b : 10 * b + 10]) for b in range(nb)])
-
-    Linv = np.linalg.inv(L)
-
-    def residual(theta: NDArray[np.float64]) -> NDArray[np.float64]:
-        return np.asarray(Linv @ (pi_of(theta) - estimate), dtype=np.float64)
-
-    def jacobian(theta: NDArray[np.float64]) -> NDArray[np.float64]:
-        # each body's parameters depend on its own coordinates only: a block-diagonal
-        # derivative, by central differences body by body
-        D = np.zeros((estimate.size, theta.size))
-        h = 1e-6
+    def blocks(pi: NDArray[np.float64]) -> list[NDArray[np.float64]] | None:
+        out = []
         for b in range(nb):
-            sl = slice(10 * b, 10 * b + 10)
-            for i in range(10):
-                e = np.zeros(10)
-                e[i] = h
-                plus = _from_log_cholesky(theta[sl] + e)
-                minus = _from_log_cholesky(theta[sl] - e)
-                D[sl, 10 * b + i] = (plus - minus) / (2 * h)
-        return np.asarray(Linv @ D, dtype=np.float64)
+            J = np.einsum("i,ijk->jk", pi[10 * b : 10 * b + 10], A)
+            try:
+                np.linalg.cholesky(J)
+            except np.linalg.LinAlgError:
+                return None
+            out.append(J)
+        return out
 
-    theta0 = np.concatenate([_to_log_cholesky(start[10 * b : 10 * b + 10]) for b in range(nb)])
-    fit = least_squares(
-        residual, theta0, jac=jacobian, method="trf", x_scale="jac", max_nfev=50 * nb
-    )
-    return pi_of(fit.x)
+    def phi(pi: NDArray[np.float64], mu: float) -> float:
+        Js = blocks(pi)
+        if Js is None:
+            return math.inf
+        d = pi - estimate
+        return float(0.5 * d @ H @ d - mu * sum(np.linalg.slogdet(J)[1] for J in Js))
+
+    pi = np.asarray(start, dtype=np.float64).copy()
+    if blocks(pi) is None:  # the start must be strictly consistent: lift its eigenvalues
+        pi = np.concatenate(
+            [_from_log_cholesky(_to_log_cholesky(pi[10 * b : 10 * b + 10])) for b in range(nb)]
+        )
+    mu = max(1.0, 0.5 * float((pi - estimate) @ H @ (pi - estimate)) / (4 * nb))
+    while 4 * nb * mu > 1e-6:
+        for _ in range(50):
+            Js = blocks(pi)
+            assert Js is not None
+            grad = H @ (pi - estimate)
+            hess = H.copy()
+            for b, J in enumerate(Js):
+                Ji = np.linalg.inv(J)
+                M = np.einsum("jk,ikl->ijl", Ji, A)  # J^-1 A_i
+                sl = slice(10 * b, 10 * b + 10)
+                grad[sl] -= mu * np.einsum("ijj->i", M)
+                hess[sl, sl] += mu * np.einsum("ijk,lkj->il", M, M)
+            step = -np.linalg.solve(hess, grad)
+            decrement = float(-grad @ step)
+            if decrement < 1e-10:
+                break
+            f0, alpha = phi(pi, mu), 1.0
+            while alpha > 1e-12 and phi(pi + alpha * step, mu) > f0 - 0.25 * alpha * decrement:
+                alpha *= 0.5
+            if alpha <= 1e-12:
+                break
+            pi = pi + alpha * step
+        mu *= 0.1
+    return pi
 
 
 def _rigid_rows(
@@ -363,6 +411,8 @@ def identify_arm(
     window: float = 0.05,
     max_samples: int = 6000,
     pdtv_max_order: int = 12,
+    fit_friction_shape: bool = True,
+    exclude_contact: bool = False,
     rng: np.random.Generator | int | None = 0,
 ) -> ArmIdentification:
     """Identify an arm's base inertial parameters and its joints from free-motion logs.
@@ -371,7 +421,7 @@ def identify_arm(
     ----------
     model
         A robot (or model) whose arm has rigid-body dynamics (``kinematics = "urdf"``). Its
-        joints' friction laws fix the laws' nonlinear settings (Stribeck velocity, transition).
+        joints' friction laws give the laws' kinds and starting shapes.
     logs
         Free-motion logs (no contact): an exciting trajectory (``torquemap excite``).
     window
@@ -382,6 +432,15 @@ def identify_arm(
     pdtv_max_order
         PDTV lines of integer order 1 .. this [CPR] are searched per joint on the residual and
         kept when significant (0: none).
+    fit_friction_shape
+        Fit each joint's friction-law shape (transition width, Stribeck velocity and exponent,
+        smooth transition) to the data (:func:`fit_friction_shapes`); False keeps the model
+        file's shape and fits only the law's linear parameters.
+    exclude_contact
+        The logs may hold contact (a leg's stance phases, a bump): find the samples whose
+        residual is an outlier (:func:`contact_free_rows`: iteratively, more than
+        :data:`CONTACT_THRESHOLD` robust standard deviations on any joint, widened by
+        :data:`CONTACT_MARGIN` differentiator windows on each side) and identify from the rest.
     rng
         Random generator or seed (for the sample draw).
 
@@ -424,11 +483,17 @@ def identify_arm(
     P = pi0.size
     warnings: list[str] = []
 
+    current = model
+
     def fit(
-        orders: Sequence[tuple[float, ...]], noise: NDArray[np.float64]
+        orders: Sequence[tuple[float, ...]],
+        noise: NDArray[np.float64],
+        rows: NDArray[np.bool_] | None = None,
     ) -> tuple[
         NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], list[NDArray[np.float64]]
     ]:
+        """Fit on ``rows`` (default all); the residual is returned for every row."""
+        model = current
         blocks = _joint_blocks(model, signals, picks, orders)
         slices = _slices(P, blocks)
         n_all = P + sum(b.shape[1] for b in blocks)
@@ -440,7 +505,10 @@ def identify_arm(
             names = column_names(joint.name, model.joints[joint.name], orders[k])
             for i, name in zip(range(slices[k].start, slices[k].stop), names, strict=True):
                 sd[i] = PRIOR_JOINT.get(name.split(".")[1], 1.0)
-        x, cov = _solve(Y, tau, blocks, 1.0 / (noise**2 * inflation), mean, sd)
+        if rows is None:
+            x, cov = _solve(Y, tau, blocks, 1.0 / (noise**2 * inflation), mean, sd)
+        else:
+            x, cov = _solve(Y[rows], tau[rows], [b[rows] for b in blocks], 1.0 / noise**2, mean, sd)
         return x, cov, tau - _predict(Y, blocks, x), blocks
 
     # The smoothed torques' noise is correlated over the window: a parabolic kernel of width w
@@ -451,14 +519,51 @@ def identify_arm(
     Y, tau = _rigid_rows(arm, signals, picks)
     no_lines: list[tuple[float, ...]] = [() for _ in range(nj)]
     noise = 0.1 * np.std(tau, axis=0) + 1e-9
+    excluded = 0
+    if exclude_contact:
+        free = contact_free_rows(lambda rows: fit(no_lines, noise, rows)[2], signals, picks)
+        excluded = int(np.count_nonzero(~free))
+        if np.count_nonzero(free) < 10 * nj:
+            raise InputError(
+                f"only {np.count_nonzero(free)} samples are free of contact; record more "
+                "motion without contact"
+            )
+        parts = np.split(free, np.cumsum([p.size for p in picks])[:-1])
+        picks = [p[k] for p, k in zip(picks, parts, strict=True)]
+        Y, tau = Y[free], tau[free]
+        duration *= float(np.count_nonzero(free)) / m
+        m = int(np.count_nonzero(free))
+        inflation = max(1.0, m * window / (1.2 * max(duration, 1e-12)))
+        if excluded:
+            warnings.append(
+                f"{excluded} of {excluded + m} samples excluded as contact (residual outliers)"
+            )
     x, cov, residual, blocks = fit(no_lines, noise)
+
+    def reshape(
+        x: NDArray[np.float64], blocks: Sequence[NDArray[np.float64]]
+    ) -> dict[str, JointModel]:
+        target = tau - Y @ x[:P]
+        others = []
+        for k, joint in enumerate(robot.joints):
+            nf = len(current.joints[joint.name].friction.linear_parameter_names)
+            others.append(np.delete(blocks[k], np.s_[1 : 1 + nf], axis=1))
+        return fit_friction_shapes(current, signals, picks, target, others, rng=gen)
+
+    if fit_friction_shape:
+        current = dataclasses.replace(current, joints=reshape(x, blocks))
+        x, cov, residual, blocks = fit(no_lines, noise)
     noise = np.sqrt(np.mean(residual**2, axis=0)) + 1e-12
     orders = no_lines
     if pdtv_max_order > 0:
         orders = _pick_pdtv(signals, picks, residual, pdtv_max_order)
     x, cov, residual, blocks = fit(orders, noise)
+    if fit_friction_shape:  # again, with the PDTV lines and the refitted bodies
+        current = dataclasses.replace(current, joints=reshape(x, blocks))
+        x, cov, residual, blocks = fit(orders, noise)
     noise = np.sqrt(np.mean(residual**2, axis=0)) + 1e-12
     x, cov, residual, blocks = fit(orders, noise)
+    model = dataclasses.replace(model, joints=current.joints)
     slices = _slices(P, blocks)
     weight = 1.0 / (noise**2 * inflation)
     residual_sigma = np.sqrt(np.mean(residual**2, axis=0))
@@ -535,6 +640,7 @@ def identify_arm(
         "method": "MAP regression of all joints on the URDF prior (docs/arm.md)",
         "window": window,
         "samples": m,
+        "excluded_as_contact": excluded,
         "logs": [log.path for log in logs],
         "condition_number": condition,
         "residual_sigma": [float(s) for s in residual_sigma],
@@ -563,6 +669,7 @@ def identify_arm(
         samples=m,
         consistent=not problems,
         warnings=tuple(warnings),
+        excluded=excluded,
     )
 
 
@@ -638,3 +745,208 @@ def _pick_pdtv(
 def masses_table(result: ArmIdentification) -> Mapping[str, tuple[float, float, float]]:
     """``{body: (urdf, identified, sigma)}`` masses [kg], for printing."""
     return {m.body: (m.urdf, m.identified, m.sigma) for m in result.masses}
+
+
+def _kernel(t: NDArray[np.float64], window: float) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
+    """Offsets (L,) [samples] and weights (L,) of :func:`smooth_as_acceleration`'s kernel on a
+    uniform grid at the log's median step: its response to an impulse."""
+    from torquemap.filters import smooth_as_acceleration, uniform_step
+
+    dt = uniform_step(t)
+    half = math.ceil(window / dt) + 2
+    grid = np.arange(4 * half + 1, dtype=np.float64) * dt
+    impulse = np.zeros(grid.size)
+    impulse[2 * half] = 1.0
+    response = smooth_as_acceleration(grid, impulse, window=window)
+    response -= smooth_as_acceleration(grid, np.zeros(grid.size), window=window)
+    keep = np.flatnonzero(np.abs(response) > 1e-9 * np.max(np.abs(response)))
+    # y[i] = sum_j K[j] x[i + j]: the response at i to an impulse at c is K[c - i]
+    offsets = (2 * half - keep)[::-1].astype(np.intp)
+    weights = response[keep][::-1].copy()
+    if offsets.size > SHAPE_KERNEL_POINTS:  # coarser: every stride-th sample, weights summed
+        stride = math.ceil(offsets.size / SHAPE_KERNEL_POINTS)
+        groups = np.arange(offsets.size) // stride
+        summed = np.asarray(np.bincount(groups, weights=weights), dtype=np.float64)
+        centre = np.bincount(groups, weights=weights * offsets) / summed
+        return np.round(centre).astype(np.intp), summed
+    return offsets, weights
+
+
+def _shape_of(law: StribeckFriction, params: NDArray[np.float64]) -> StribeckFriction:
+    width, stribeck, exponent = (float(v) for v in params)
+    return dataclasses.replace(
+        law,
+        zero_velocity=width,
+        stribeck_velocity=stribeck,
+        stribeck_exponent=exponent,
+        transition="smooth",
+    )
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class _ShapeProblem:
+    """One joint's friction-shape search: the motor velocities around each row (m, L), the
+    smoothing weights (L,), the joint's other columns (m, c) and the target (m,)."""
+
+    law: StribeckFriction
+    velocity: NDArray[np.float64]
+    weights: NDArray[np.float64]
+    other: NDArray[np.float64]
+    y: NDArray[np.float64]
+
+    def rss(self, params: NDArray[np.float64]) -> float:
+        """Residual sum of squares [N^2 m^2] of the best linear fit with shape ``params``."""
+        trial = _shape_of(self.law, params)
+        cols = trial.basis(self.velocity.reshape(-1)).reshape(*self.velocity.shape, -1)
+        A = np.concatenate([np.einsum("mlc,l->mc", cols, self.weights), self.other], axis=1)
+        coef, *_ = np.linalg.lstsq(A, self.y, rcond=None)
+        return float(np.sum((self.y - A @ coef) ** 2))
+
+
+def fit_friction_shapes(
+    model: Model,
+    signals: Sequence[ArmSignals],
+    picks: Sequence[NDArray[np.intp]],
+    target: NDArray[np.float64],
+    others: Sequence[NDArray[np.float64]],
+    *,
+    rows: int = SHAPE_ROWS,
+    rng: np.random.Generator | None = None,
+) -> dict[str, JointModel]:
+    """Per joint, the nonlinear shape of its friction law, by variable projection.
+
+    For joint ``k`` the motor torque left once the rigid bodies are taken out, ``target[:, k]``
+    (smoothed, at the picked samples), is regressed on the friction law's linear columns
+    (smoothed alike) and the joint's other columns ``others[k]`` (rotor inertia, PDTV); the
+    law's transition width ``zero_velocity``, Stribeck velocity and exponent are chosen for the
+    smallest residual: a log-spaced grid scaled by the joint's observed motor speed range (the
+    99th percentile of ``|N qd|``: :data:`SHAPE_WIDTHS`, :data:`SHAPE_STRIBECK`, for each of
+    :data:`SHAPE_EXPONENTS`), refined by Nelder-Mead on the logarithms of the two velocities.
+    The smooth (``tanh``) transition is fitted. Only :class:`StribeckFriction` laws are
+    shaped; other laws are returned unchanged.
+
+    The smoothing of the friction columns is approximated, for the search only, by the
+    differentiator's kernel on a uniform grid at the log's median step (gathered around each
+    picked sample); the caller refits with the exact columns.
+
+    Returns
+    -------
+    dict
+        The joint models with their friction laws' shapes replaced.
+    """
+    from scipy.optimize import minimize
+
+    gen = rng if rng is not None else np.random.default_rng(0)
+    m = target.shape[0]
+    sub = np.sort(gen.choice(m, size=min(rows, m), replace=False))
+    kernels = [_kernel(sig.t, sig.window) for sig in signals]
+    out = dict(model.joints)
+    for k, joint in enumerate(model.robot.joints):
+        jm = model.joints[joint.name]
+        law = jm.friction
+        if not isinstance(law, StribeckFriction):
+            continue
+        gear = float(signals[0].gear[k])
+        windows = []
+        for sig, idx, (offsets, _) in zip(signals, picks, kernels, strict=True):
+            at = np.clip(idx[:, None] + offsets[None, :], 0, sig.t.size - 1)
+            windows.append(gear * sig.qd[at, k])
+        if len({w.shape[1] for w in windows}) != 1:
+            continue  # logs at different rates: keep the law as given
+        weights = kernels[0][1]
+        velocity = np.concatenate(windows, axis=0)[sub]
+        y = target[sub, k]
+        other = others[k][sub]
+        scale = float(np.percentile(np.abs(velocity[:, velocity.shape[1] // 2]), 99))
+        if not scale > 0:
+            continue
+
+        problem = _ShapeProblem(law, velocity, weights, other, y)
+        rss = problem.rss
+
+        best = (math.inf, np.array([law.zero_velocity, law.stribeck_velocity, 1.0]))
+        for exponent in SHAPE_EXPONENTS:
+            for wr in SHAPE_WIDTHS:
+                for sr in SHAPE_STRIBECK:
+                    params = np.array([wr * scale, sr * scale, exponent])
+                    value = rss(params)
+                    if value < best[0]:
+                        best = (value, params)
+        exponent = float(best[1][2])
+
+        lo = np.log([SHAPE_WIDTHS[0] * scale, SHAPE_STRIBECK[0] * scale])
+        hi = np.log([SHAPE_WIDTHS[-1] * scale, SHAPE_STRIBECK[-1] * scale])
+
+        def rss_log(
+            z: NDArray[np.float64],
+            exponent: float = exponent,
+            rss: Any = rss,
+            lo: NDArray[np.float64] = lo,
+            hi: NDArray[np.float64] = hi,
+        ) -> float:
+            w, v = np.exp(np.clip(z, lo, hi))  # within the searched grid's bounds
+            return float(rss(np.array([w, v, exponent])))
+
+        start = np.log(best[1][:2])
+        refined = minimize(
+            rss_log,
+            start,
+            method="Nelder-Mead",
+            options={"xatol": 0.02, "fatol": 1e-12, "maxfev": 60, "initial_simplex": None},
+        )
+        z = np.clip(refined.x, lo, hi) if refined.fun < best[0] else start
+        params = np.array([math.exp(z[0]), math.exp(z[1]), exponent])
+        out[joint.name] = dataclasses.replace(jm, friction=_shape_of(law, params))
+    return out
+
+
+def contact_free_rows(
+    residual_of: Any,
+    signals: Sequence[ArmSignals],
+    picks: Sequence[NDArray[np.intp]],
+    *,
+    threshold: float = CONTACT_THRESHOLD,
+    margin: float = CONTACT_MARGIN,
+    iterations: int = CONTACT_ITERATIONS,
+) -> NDArray[np.bool_]:
+    """Rows free of contact, by iterated residual-based rejection (a robust fit).
+
+    ``residual_of(rows)`` fits the model on the rows marked True and returns the residual
+    (m, nj) of every row. Starting from all rows, a row is rejected when any joint's residual
+    exceeds ``threshold`` robust standard deviations of the kept rows' residuals (1.4826 times
+    their median absolute deviation), and so is every row within ``margin`` differentiator
+    windows of a rejected one in time (contact lasts, and its onset is small); refit on the
+    rest and repeat until the set no longer changes (at most ``iterations`` fits).
+
+    Returns
+    -------
+    ndarray of bool
+        Shape (m,), True for the rows to identify from.
+    """
+    m = sum(p.size for p in picks)
+    keep = np.ones(m, dtype=bool)
+    for _ in range(iterations):
+        r = residual_of(keep)
+        centre = np.median(r[keep], axis=0)
+        scale = 1.4826 * np.median(np.abs(r[keep] - centre), axis=0) + 1e-300
+        bad = np.any(np.abs(r - centre) > threshold * scale, axis=1)
+        new = np.ones(m, dtype=bool)
+        start = 0
+        for sig, idx in zip(signals, picks, strict=True):
+            rows = slice(start, start + idx.size)
+            start += idx.size
+            hit = idx[bad[rows]]
+            if hit.size == 0:
+                continue
+            # every picked sample within margin * window of a rejected one
+            t_hit = sig.t[hit]
+            t_idx = sig.t[idx]
+            pos = np.searchsorted(t_hit, t_idx)
+            before = np.abs(t_idx - t_hit[np.clip(pos - 1, 0, hit.size - 1)])
+            after = np.abs(t_hit[np.clip(pos, 0, hit.size - 1)] - t_idx)
+            near = np.minimum(before, after) <= margin * sig.window
+            new[rows] = ~near
+        if np.array_equal(new, keep):
+            break
+        keep = new
+    return keep

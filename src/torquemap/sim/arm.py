@@ -30,6 +30,12 @@ from scipy.interpolate import CubicSpline
 
 from torquemap.errors import InputError
 
+TOOL_MASS = 0.8  # [kg]
+TOOL_OFFSET = 0.1  # [m] beyond the flange (panda_link8), along its z axis
+SURFACE_STIFFNESS = 1000.0  # [N/m]
+SURFACE_DAMPING = 20.0  # [N s/m]
+SURFACE_FRICTION = 0.3  # sliding friction coefficient
+
 
 @dataclass(frozen=True, slots=True, eq=False)
 class ArmSpec:
@@ -52,7 +58,16 @@ class ArmSpec:
     ready
         Start pose of the task, end effector pointing down [rad].
     tool_parent
-        The link the tool hangs from (``TOOL_OFFSET`` along its z axis).
+        The link the tool hangs from (``tool_offset`` in its frame).
+    tool_mass
+        The tool's mass [kg] (a 3 cm ball).
+    tool_offset
+        The tool's position in ``tool_parent``'s frame [m].
+    surface_stiffness, surface_damping, surface_friction
+        The compliant surface (or ground) of the task: [N/m], [N s/m], sliding coefficient [-].
+    urdf_text
+        The URDF itself when it is not a file of ``example-robot-data`` (``urdf`` is then the
+        file name written into the bench folder).
     """
 
     name: str
@@ -63,6 +78,12 @@ class ArmSpec:
     armature: tuple[float, ...]
     ready: tuple[float, ...]
     tool_parent: str
+    tool_mass: float = TOOL_MASS
+    tool_offset: tuple[float, float, float] = (0.0, 0.0, TOOL_OFFSET)
+    surface_stiffness: float = SURFACE_STIFFNESS
+    surface_damping: float = SURFACE_DAMPING
+    surface_friction: float = SURFACE_FRICTION
+    urdf_text: str | None = None
 
 
 PANDA = ArmSpec(
@@ -100,13 +121,23 @@ ARMATURE = PANDA.armature
 TORQUE_CONSTANT = 0.1  # [N m / A], motor side
 COUNTS = 16384  # encoder counts per motor revolution
 CURRENT_NOISE = 0.02  # [A], standard deviation
-TOOL_MASS = 0.8  # [kg]
-TOOL_OFFSET = 0.1  # [m] beyond the flange (panda_link8), along its z axis
 MASS_SPREAD = 0.15
 TIMESTEP = 1e-3  # [s], MuJoCo and the controller
-SURFACE_STIFFNESS = 1000.0  # [N/m]
-SURFACE_DAMPING = 20.0  # [N s/m]
-SURFACE_FRICTION = 0.3  # sliding friction coefficient
+
+
+ARM_NAMES = ("panda", "ur5", "leg")
+"""The benches :func:`write_arm_bench` simulates (``leg``: :mod:`torquemap.sim.leg`)."""
+
+
+def arm_spec(name: str) -> ArmSpec:
+    """The bench's :class:`ArmSpec` by name (one of :data:`ARM_NAMES`); InputError otherwise."""
+    if name == "leg":
+        from torquemap.sim.leg import LEG
+
+        return LEG
+    if name not in ARMS:
+        raise InputError(f"unknown arm {name!r} (known: {', '.join(ARM_NAMES)})")
+    return ARMS[name]
 
 
 def robots_folder() -> Path:
@@ -191,8 +222,13 @@ def ripple(truth: ArmTruth, motor_angle: NDArray[np.float64]) -> NDArray[np.floa
     return out
 
 
-def _stripped(urdf: Path, spec: ArmSpec = PANDA) -> ET.Element:
-    root = ET.parse(urdf).getroot()
+def source_text(spec: ArmSpec) -> str:
+    """The nominal URDF's text: ``spec.urdf_text`` or the file of ``example-robot-data``."""
+    return spec.urdf_text if spec.urdf_text is not None else panda_urdf(spec).read_text()
+
+
+def _stripped(urdf: Path | str, spec: ArmSpec = PANDA) -> ET.Element:
+    root = ET.parse(urdf).getroot() if isinstance(urdf, Path) else ET.fromstring(urdf)
     for parent in list(root.iter()):
         for child in list(parent):
             if child.tag in ("visual", "collision", "dynamics", "transmission", "gazebo"):
@@ -224,15 +260,15 @@ def true_urdf(nominal: ET.Element, truth: ArmTruth, spec: ArmSpec = PANDA) -> st
     tool = ET.SubElement(root, "link", name="tool")
     inertial = ET.SubElement(tool, "inertial")
     ET.SubElement(inertial, "origin", xyz="0 0 0", rpy="0 0 0")
-    ET.SubElement(inertial, "mass", value=repr(TOOL_MASS))
-    r2 = 2.0 / 5.0 * TOOL_MASS * 0.03**2  # a 3 cm radius ball
+    ET.SubElement(inertial, "mass", value=repr(spec.tool_mass))
+    r2 = 2.0 / 5.0 * spec.tool_mass * 0.03**2  # a 3 cm radius ball
     ET.SubElement(
         inertial, "inertia", ixx=repr(r2), ixy="0", ixz="0", iyy=repr(r2), iyz="0", izz=repr(r2)
     )
     joint = ET.SubElement(root, "joint", name="tool_joint", type="fixed")
     ET.SubElement(joint, "parent", link=spec.tool_parent)
     ET.SubElement(joint, "child", link="tool")
-    ET.SubElement(joint, "origin", xyz=f"0 0 {TOOL_OFFSET}", rpy="0 0 0")
+    ET.SubElement(joint, "origin", xyz=" ".join(repr(v) for v in spec.tool_offset), rpy="0 0 0")
     return ET.tostring(root, encoding="unicode")
 
 
@@ -348,9 +384,9 @@ def run_arm(
             v = velocity[3:]
             depth = surface - p[2]
             if depth > 0.0:
-                normal = max(SURFACE_STIFFNESS * depth - SURFACE_DAMPING * v[2], 0.0)
+                normal = max(spec.surface_stiffness * depth - spec.surface_damping * v[2], 0.0)
                 slide = v[:2] / math.sqrt(v[0] ** 2 + v[1] ** 2 + 1e-4)
-                force = np.array([*(-SURFACE_FRICTION * normal * slide), normal])
+                force = np.array([*(-spec.surface_friction * normal * slide), normal])
                 wrench[k, :3] = force
                 data.xfrc_applied[tcp, :3] = force
                 data.xfrc_applied[tcp, 3:] = np.cross(p - data.xipos[tcp], force)
@@ -489,7 +525,9 @@ def write_arm_bench(
     ``task.csv`` (logs ``t, q_<j>`` [counts], ``i_<j>`` [A]), ``truth.csv`` (``t, fx, fy, fz,
     mx, my, mz``: the wrench by the surface on the end effector during the task, base frame),
     ``truth.toml`` (the hidden deviations) and ``truth.urdf`` (the true arm, tool included).
-    ``arm`` is ``"panda"`` or ``"ur5"`` (the URDF is then ``ur5.urdf``). ``iterations`` is the
+    ``arm`` is ``"panda"``, ``"ur5"`` (the URDF is then ``ur5.urdf``) or ``"leg"`` (the
+    vertical two-link leg of :mod:`torquemap.sim.leg`, ``leg.urdf``, stepping on a compliant
+    ground in ``task.csv``; ``free.csv`` is its motion in the air). ``iterations`` is the
     exciting trajectory's random search (``torquemap.excite``).
 
     Returns
@@ -501,17 +539,15 @@ def write_arm_bench(
 
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
-    if arm not in ARMS:
-        raise InputError(f"unknown arm {arm!r} (known: {', '.join(ARMS)})")
-    spec = ARMS[arm]
-    source = panda_urdf(spec)
+    spec = arm_spec(arm)
+    source = source_text(spec)
     nominal = _stripped(source, spec)
     nominal_text = ET.tostring(nominal, encoding="unicode")
     truth = random_truth(seed, nominal, len(spec.joints))
     true_text = true_urdf(nominal, truth, spec)
     urdf_name = f"{spec.name}.urdf"
     urdf_copy = folder / urdf_name
-    urdf_copy.write_text(source.read_text())
+    urdf_copy.write_text(source)
     free = run_arm(
         true_text,
         nominal_text,
@@ -521,7 +557,12 @@ def write_arm_bench(
         seed=seed,
         spec=spec,
     )
-    reference, surface = task_reference(nominal_text, task_duration, seed, spec)
+    if spec.name == "leg":
+        from torquemap.sim.leg import leg_task_reference
+
+        reference, surface = leg_task_reference(task_duration, seed)
+    else:
+        reference, surface = task_reference(nominal_text, task_duration, seed, spec)
     task = run_arm(
         true_text, nominal_text, truth, reference, surface=surface, seed=seed + 1, spec=spec
     )
@@ -538,13 +579,17 @@ def write_arm_bench(
         {
             "seed": seed,
             "arm": spec.name,
-            "tool": {"mass": TOOL_MASS, "offset": TOOL_OFFSET, "parent": spec.tool_parent},
+            "tool": {
+                "mass": spec.tool_mass,
+                "offset": list(spec.tool_offset),
+                "parent": spec.tool_parent,
+            },
             "mass_scale": truth.mass_scale,
             "surface": {
                 "height": surface,
-                "stiffness": SURFACE_STIFFNESS,
-                "damping": SURFACE_DAMPING,
-                "friction": SURFACE_FRICTION,
+                "stiffness": spec.surface_stiffness,
+                "damping": spec.surface_damping,
+                "friction": spec.surface_friction,
             },
             "joints": {
                 name: {
