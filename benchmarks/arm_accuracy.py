@@ -1,24 +1,30 @@
-"""Wrench accuracy on the MuJoCo Panda bench: the URDF as given, identified, and an oracle.
+"""Wrench accuracy on the MuJoCo benches: the URDF as given, identified, and an oracle.
 
-One command: ``python benchmarks/arm_accuracy.py [--seeds 0 1 2] [--cutoff HZ]``. For each seed
-it simulates the Panda bench (``torquemap simulate arm``: MuJoCo, true masses within 15 % of the
-URDF, a 0.8 kg tool the URDF lacks, gears, rotor inertia, a friction law of another form than
-the fitted one, torque ripple, encoder quantisation, current noise, computed-torque control on
-the nominal model), identifies the arm from ``free.csv`` (``identify_arm``), estimates the
-wrench on ``task.csv`` (the end effector pressing 5-20 N on a surface while it slides) with the
-acceleration method, the causal momentum observer and the zero-phase one, and prints the RMS
-force error [N] (and moment error [N m]) against the simulator's truth for:
+One command: ``python benchmarks/arm_accuracy.py [--seeds 0 1 2] [--arms panda ur5 leg]``. For
+each arm and seed it simulates the bench (``torquemap simulate arm``: MuJoCo, true masses within
+15 % of the URDF, a tool the URDF lacks, gears, rotor inertia, a friction law of another form
+than the fitted one, torque ripple, encoder quantisation, current noise, computed-torque control
+on the nominal model), identifies the arm from ``free.csv`` (``identify_arm``), estimates the
+wrench on ``task.csv`` (Panda, UR5: the end effector pressing 5-20 N on a surface while it
+slides; leg: the foot stepping on a compliant ground) with the acceleration method, the causal
+momentum observer and the zero-phase one, and prints the RMS force error [N] (and moment error
+[N m]) against the simulator's truth for:
 
 * the URDF as given (no friction, no rotor inertia, no tool),
-* the identified model (``--law``: the friction law's shape is not fitted; by default the robot
-  file's default law, linear transition 1e-3 rad/s, Stribeck velocity 1 rad/s, exponent 2;
-  ``guess``: smooth transition 0.5 rad/s, Stribeck 5 rad/s; ``true``: the truth's exponent 1,
-  3 rad/s and 1.5 rad/s tanh),
+* the identified model (``--law fit``, the default and what ``torquemap identify`` does: every
+  joint's friction shape fitted; ``default``, ``guess`` and ``true`` keep a given shape and fit
+  only the law's linear parameters: the robot file's default law, linear transition 1e-3 rad/s,
+  Stribeck velocity 1 rad/s, exponent 2; smooth 0.5 rad/s and Stribeck 5 rad/s; the truth's
+  exponent 1, 3 rad/s and 1.5 rad/s tanh),
+* for the leg also the model identified from ``task.csv`` alone, its contact samples found and
+  excluded (``exclude_contact``: identified from the flight phases),
 * the oracle: the true URDF (tool included), the true rotor inertia, friction and ripple through
   the same estimator.
 
-Scored on samples the estimator did not flag, after the 2 s descent onto the surface and before
-the last 0.5 s. Targets (issue 13): identified <= 1.5x the oracle on every arm, and at least 3x
+Scored on samples the estimator did not flag, after the first 2 s and before the last 0.5 s,
+with a 2 Hz low-pass for the arms (slow forces) and 10 Hz for the leg (``--leg-cutoff``: its
+contact lasts 0.3-0.5 s per step, which a 2 Hz filter smears into 2 N of error even with the
+true model). Targets (issue 13): identified <= 1.5x the oracle on every arm, and at least 3x
 better than the URDF as given.
 """
 
@@ -52,7 +58,7 @@ METHODS = (
 
 
 def _law(shape: str) -> StribeckFriction:
-    if shape == "default":  # what `torquemap identify robot.toml` fits: the law's defaults
+    if shape in ("default", "fit"):  # what `torquemap identify robot.toml` fits: the law's defaults
         return StribeckFriction()
     if shape == "true":  # diagnostic: the truth's nonlinear settings
         return StribeckFriction(
@@ -113,15 +119,21 @@ def _errors(
 def main() -> None:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
-    parser.add_argument("--arms", nargs="+", default=["panda", "ur5"], choices=sorted(sim.ARMS))
-    parser.add_argument("--cutoff", type=float, default=2.0, help="low-pass cut-off [Hz]")
+    parser.add_argument(
+        "--arms", nargs="+", default=["panda", "ur5", "leg"], choices=list(sim.ARM_NAMES)
+    )
+    parser.add_argument("--cutoff", type=float, default=2.0, help="low-pass cut-off [Hz], arms")
+    parser.add_argument(
+        "--leg-cutoff", type=float, default=10.0, help="low-pass cut-off [Hz], the leg"
+    )
     parser.add_argument(
         "--law",
-        choices=("default", "guess", "true"),
-        default="default",
-        help="friction law shape to identify with: the robot file's default (linear "
-        "transition 1e-3 rad/s, Stribeck 1 rad/s, exponent 2), a guess (smooth 0.5 rad/s, "
-        "Stribeck 5 rad/s) or the truth's (diagnostic)",
+        choices=("fit", "default", "guess", "true"),
+        default="fit",
+        help="fit: the friction shape fitted per joint (default); or a fixed shape, only the "
+        "law's linear parameters fitted: the robot file's default (linear transition 1e-3 "
+        "rad/s, Stribeck 1 rad/s, exponent 2), a guess (smooth 0.5 rad/s, Stribeck 5 rad/s) "
+        "or the truth's (diagnostic)",
     )
     args = parser.parse_args()
     rows: list[tuple[str, str, dict[str, tuple[float, float]]]] = []
@@ -145,19 +157,41 @@ def main() -> None:
             truth = read_table(d / "truth.csv")
             oracle = _oracle(robot_path, d)
             t0 = time.perf_counter()
-            result = identify_arm(dataclasses.replace(start, joints=guess), [free])
+            shaped = args.law == "fit"
+            result = identify_arm(
+                dataclasses.replace(start, joints=guess), [free], fit_friction_shape=shaped
+            )
             t_id = time.perf_counter() - t0
             fz = np.asarray(truth["fz"])[np.asarray(truth["t"]) > 2.0]
             print(
                 f"{key}: simulated in {t_sim:.1f} s, identified in {t_id:.1f} s, "
-                f"fz {fz.min():.1f}..{fz.max():.1f} N, consistent={result.consistent}"
+                f"fz {fz.min():.1f}..{fz.max():.1f} N, consistent={result.consistent}",
+                flush=True,
             )
-            for label, model in (
+            models = [
                 ("URDF as given", start),
                 ("identified", result.model),
                 ("oracle", oracle),
-            ):
-                rows.append((key, label, _errors(model, task, truth, args.cutoff)))
+            ]
+            if arm_name == "leg":  # identified from the task's flight phases alone
+                t0 = time.perf_counter()
+                flight = identify_arm(
+                    dataclasses.replace(start, joints=guess),
+                    [task],
+                    fit_friction_shape=shaped,
+                    exclude_contact=True,
+                )
+                contact = np.asarray(truth["fz"]) > 0
+                print(
+                    f"{key}: from task.csv in {time.perf_counter() - t0:.1f} s, "
+                    f"{flight.excluded} of {flight.excluded + flight.samples} samples excluded "
+                    f"as contact (truth: {contact.mean():.0%} of the log in contact)",
+                    flush=True,
+                )
+                models.insert(2, ("identified (task, contact excluded)", flight.model))
+            cutoff = args.leg_cutoff if arm_name == "leg" else args.cutoff
+            for label, model in models:
+                rows.append((key, label, _errors(model, task, truth, cutoff)))
     _print(rows, keys)
 
 
@@ -171,19 +205,27 @@ def _print(rows: list[tuple[str, str, dict[str, tuple[float, float]]]], seeds: l
         cells = []
         for m in labels:
             f, mo = errs[m]
-            cell = f"{f:.3g} N / {mo:.3g} N m"
-            if label == "identified":
+            cell = f"{f:.3g} N" + ("" if math.isnan(mo) else f" / {mo:.3g} N m")
+            if label.startswith("identified"):
                 cell += f" ({f / table[(seed, 'oracle')][m][0]:.2f}x oracle)"
             cells.append(cell)
         print(f"| {seed} | {label} | " + " | ".join(cells) + " |")
     print()
-    for m in labels:
-        ratio = [table[(s, "identified")][m][0] / table[(s, "oracle")][m][0] for s in seeds]
-        gain = [table[(s, "URDF as given")][m][0] / table[(s, "identified")][m][0] for s in seeds]
-        print(
-            f"{m}: identified/oracle median {np.median(ratio):.2f}x worst {max(ratio):.2f}x; "
-            f"URDF/identified median {np.median(gain):.0f}x worst {min(gain):.0f}x"
-        )
+    for group in ("panda", "ur5", "leg", ""):
+        keys = [s for s in seeds if s.startswith(group)]
+        if not keys:
+            continue
+        print(f"{group or 'all'} ({len(keys)} benches):")
+        for m in labels:
+            ratio = [table[(s, "identified")][m][0] / table[(s, "oracle")][m][0] for s in keys]
+            gain = [
+                table[(s, "URDF as given")][m][0] / table[(s, "identified")][m][0] for s in keys
+            ]
+            print(
+                f"  {m}: identified/oracle median {np.median(ratio):.2f}x worst "
+                f"{max(ratio):.2f}x; URDF/identified median {np.median(gain):.1f}x worst "
+                f"{min(gain):.1f}x"
+            )
 
 
 if __name__ == "__main__":

@@ -83,7 +83,9 @@ def _excite(args: argparse.Namespace) -> int:
     return 0
 
 
-def identify_arm_command(model: Any, log_paths: Sequence[str], output: str) -> int:
+def identify_arm_command(
+    model: Any, log_paths: Sequence[str], output: str, *, exclude_contact: bool = False
+) -> int:
     """``torquemap identify`` for an arm with rigid-body dynamics: identify, write, print."""
     import os
     from pathlib import Path
@@ -93,7 +95,7 @@ def identify_arm_command(model: Any, log_paths: Sequence[str], output: str) -> i
     from torquemap.model import model_to_dict
 
     logs = [read_log(path, model.robot) for path in log_paths]
-    result = identify_arm(model, logs)
+    result = identify_arm(model, logs, exclude_contact=exclude_contact)
     doc = model_to_dict(result.model)
     # the URDF is found relative to the model file: rewrite its path for the output's folder
     arm: Any = result.model.robot.arm

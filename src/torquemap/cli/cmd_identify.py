@@ -77,6 +77,12 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         help="the logs hold position holds, not sweeps: PDTV from the mean holding torque "
         "(docs/odrive.md)",
     )
+    p.add_argument(
+        "--exclude-contact",
+        action="store_true",
+        help="arms with a URDF: the logs may hold contact (a leg's stance phases); find the "
+        "contact samples as residual outliers and identify from the rest (docs/arm.md)",
+    )
     p.set_defaults(handler=_identify)
 
     s = subparsers.add_parser(
@@ -173,7 +179,9 @@ def _identify(args: argparse.Namespace) -> int:
     if is_rigid_body_arm(model.robot.arm):  # an arm with a URDF: docs/arm.md
         from torquemap.cli.cmd_excite import identify_arm_command
 
-        return identify_arm_command(model, args.logs, args.output)
+        return identify_arm_command(
+            model, args.logs, args.output, exclude_contact=args.exclude_contact
+        )
     progress = args.progress
     logs = progress.run(
         f"read {len(args.logs)} log{'s' if len(args.logs) > 1 else ''}",

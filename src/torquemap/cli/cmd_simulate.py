@@ -82,12 +82,15 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     figures.set_defaults(handler=_figures)
     arm = benches.add_parser(
         "arm",
-        help="a Panda (or UR5) in MuJoCo unlike its URDF: free.csv, task.csv (5-20 N on a surface), truth",
+        help="a Panda (or UR5, or a leg) in MuJoCo unlike its URDF: free.csv, task.csv (5-20 N on a surface), truth",
         description="Simulate a Panda or a UR5 (example-robot-data) in MuJoCo whose true masses differ "
         "from its URDF by up to 15 %% and which carries a 0.8 kg tool, and write robot.toml, "
         "panda.urdf (or ur5.urdf), free.csv, task.csv, truth.csv, truth.toml and truth.urdf into DIR "
-        "(docs/arm.md).",
+        "(docs/arm.md). --arm leg: a vertical two-link leg (gravity in its plane, a 0.3 kg mass "
+        "its URDF lacks) whose foot steps on a compliant ground in task.csv; leg.urdf "
+        "(docs/arm-bench.md).",
         epilog="examples:\n  torquemap simulate arm --out arm --random 1\n"
+        "  torquemap simulate arm --arm leg --out leg\n"
         "  torquemap identify arm/robot.toml arm/free.csv -o arm/model.toml\n"
         "  torquemap estimate arm/model.toml arm/task.csv -o arm/forces.csv",
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -98,9 +101,9 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     )
     arm.add_argument(
         "--arm",
-        choices=("panda", "ur5"),
+        choices=("panda", "ur5", "leg"),
         default="panda",
-        help="the example-robot-data arm (default panda)",
+        help="the example-robot-data arm, or the two-link leg (default panda)",
     )
     arm.add_argument("--free-duration", type=float, default=20.0, help="[s] (default 20)")
     arm.add_argument("--task-duration", type=float, default=15.0, help="[s] (default 15)")
