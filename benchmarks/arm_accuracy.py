@@ -35,7 +35,6 @@ import dataclasses
 import math
 import tempfile
 import time
-import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -45,9 +44,7 @@ from torquemap.estimate_arm import estimate_arm
 from torquemap.friction_law import StribeckFriction
 from torquemap.identify_arm import identify_arm
 from torquemap.io import Log, read_log, read_table
-from torquemap.model import InertiaModel, JointModel, Model, PdtvLine, load_model
-from torquemap.robot import load_robot
-from torquemap.robots.urdf import urdf_arm
+from torquemap.model import Model, load_model
 from torquemap.sim import arm as sim
 
 METHODS = (
@@ -71,29 +68,7 @@ def _law(shape: str) -> StribeckFriction:
 
 
 def _oracle(robot_path: Path, folder: Path) -> Model:
-    robot = load_robot(robot_path)
-    truth = tomllib.loads((folder / "truth.toml").read_text())
-    spec = sim.arm_spec(truth["arm"])
-    arm: Any = urdf_arm(folder / "truth.urdf", spec.joints, end_effector=spec.end_effector)
-    joints = {}
-    for name in spec.joints:
-        j = truth["joints"][name]
-        law = StribeckFriction(  # the true law is this one with exponent 1 and a tanh blend
-            coulomb_positive=j["coulomb"],
-            coulomb_negative=j["coulomb"],
-            viscous=j["viscous"],
-            stribeck_positive=j["stribeck"],
-            stribeck_negative=j["stribeck"],
-            stribeck_velocity=j["stribeck_velocity"],
-            zero_velocity=j["tanh_velocity"],
-            stribeck_exponent=1.0,
-            transition="smooth",
-        )
-        line = PdtvLine(order=j["ripple_order"], amplitude=j["ripple"], phase=j["ripple_phase"])
-        joints[name] = JointModel(
-            inertia=InertiaModel(constant=j["armature"]), friction=law, pdtv=(line,)
-        )
-    return Model(robot=dataclasses.replace(robot, arm=arm), joints=joints)
+    return sim.oracle_model(robot_path, folder)
 
 
 def _errors(

@@ -783,24 +783,41 @@ def _shape_of(law: StribeckFriction, params: NDArray[np.float64]) -> StribeckFri
     )
 
 
-@dataclass(frozen=True, slots=True, eq=False)
 class _ShapeProblem:
     """One joint's friction-shape search: the motor velocities around each row (m, L), the
-    smoothing weights (L,), the joint's other columns (m, c) and the target (m,)."""
+    smoothing weights (L,), the joint's other columns (m, c) and the target (m,).
 
-    law: StribeckFriction
-    velocity: NDArray[np.float64]
-    weights: NDArray[np.float64]
-    other: NDArray[np.float64]
-    y: NDArray[np.float64]
+    The other columns are projected out once (QR); each trial then costs one evaluation of
+    the law's columns and a 5 x 5 solve (small products by ``einsum``: many small LAPACK
+    calls on a loaded machine with threaded BLAS were the search's cost)."""
+
+    def __init__(
+        self,
+        law: StribeckFriction,
+        velocity: NDArray[np.float64],
+        weights: NDArray[np.float64],
+        other: NDArray[np.float64],
+        y: NDArray[np.float64],
+    ) -> None:
+        self.law = law
+        self.velocity = velocity
+        self.weights = weights
+        self.q, _ = np.linalg.qr(other)
+        self.y = y - self.q @ (self.q.T @ y)
+        self.yy = float(np.einsum("m,m->", self.y, self.y))
 
     def rss(self, params: NDArray[np.float64]) -> float:
         """Residual sum of squares [N^2 m^2] of the best linear fit with shape ``params``."""
         trial = _shape_of(self.law, params)
         cols = trial.basis(self.velocity.reshape(-1)).reshape(*self.velocity.shape, -1)
-        A = np.concatenate([np.einsum("mlc,l->mc", cols, self.weights), self.other], axis=1)
-        coef, *_ = np.linalg.lstsq(A, self.y, rcond=None)
-        return float(np.sum((self.y - A @ coef) ** 2))
+        F = np.einsum("mlc,l->mc", cols, self.weights)
+        F = F - self.q @ np.einsum("mk,mc->kc", self.q, F)
+        scale = np.sqrt(np.einsum("mc,mc->c", F, F)) + 1e-300
+        F = F / scale
+        G = np.einsum("mi,mj->ij", F, F)
+        g = np.einsum("mi,m->i", F, self.y)
+        coef = np.linalg.lstsq(G, g, rcond=1e-10)[0]
+        return max(self.yy - float(g @ coef), 0.0)
 
 
 def fit_friction_shapes(

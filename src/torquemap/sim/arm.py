@@ -609,3 +609,47 @@ def write_arm_bench(
     )
     names = ("robot.toml", urdf_name, "free.csv", "task.csv", "truth.csv", "truth.toml")
     return [folder / n for n in (*names, "truth.urdf")]
+
+
+def oracle_model(robot_path: str | os.PathLike[str], folder: str | os.PathLike[str]) -> Any:
+    """The model of a bench's TRUE arm (for scoring only): ``truth.urdf`` (tool included), the
+    true rotor inertia, friction law (``StribeckFriction`` with exponent 1 and a ``tanh``
+    blend is the truth's form) and ripple, from ``truth.toml``; the robot file ``robot_path``
+    gives the joints.
+
+    Returns
+    -------
+    torquemap.model.Model
+    """
+    import dataclasses
+    import tomllib
+
+    from torquemap.friction_law import StribeckFriction
+    from torquemap.model import InertiaModel, JointModel, Model, PdtvLine
+    from torquemap.robot import load_robot
+    from torquemap.robots.urdf import urdf_arm
+
+    robot = load_robot(robot_path)
+    bench = Path(folder)
+    truth = tomllib.loads((bench / "truth.toml").read_text())
+    spec = arm_spec(truth["arm"])
+    arm: Any = urdf_arm(bench / "truth.urdf", spec.joints, end_effector=spec.end_effector)
+    joints = {}
+    for name in spec.joints:
+        j = truth["joints"][name]
+        law = StribeckFriction(
+            coulomb_positive=j["coulomb"],
+            coulomb_negative=j["coulomb"],
+            viscous=j["viscous"],
+            stribeck_positive=j["stribeck"],
+            stribeck_negative=j["stribeck"],
+            stribeck_velocity=j["stribeck_velocity"],
+            zero_velocity=j["tanh_velocity"],
+            stribeck_exponent=1.0,
+            transition="smooth",
+        )
+        line = PdtvLine(order=j["ripple_order"], amplitude=j["ripple"], phase=j["ripple_phase"])
+        joints[name] = JointModel(
+            inertia=InertiaModel(constant=j["armature"]), friction=law, pdtv=(line,)
+        )
+    return Model(robot=dataclasses.replace(robot, arm=arm), joints=joints)
