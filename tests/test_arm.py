@@ -121,7 +121,7 @@ def bench() -> dict[str, object]:
     free, _ = _simulate(true_arm, 1, force=False)
     task, force = _simulate(true_arm, 2, force=True)
     start = Model(robot=_robot(nominal), joints=_joint_models(friction=False) | {})
-    # the identification keeps the laws' nonlinear settings (Stribeck velocity, transition)
+    # the laws start at the truth's shape (the shape search then refines it)
     start = dataclasses.replace(
         start,
         joints={n: dataclasses.replace(jm, friction=_law(0.0)) for n, jm in start.joints.items()},
@@ -136,6 +136,7 @@ def bench() -> dict[str, object]:
         "oracle": oracle,
         "task": task,
         "force": force,
+        "free": free,
     }
 
 
@@ -231,6 +232,79 @@ def _sound(flag: np.ndarray) -> np.ndarray:
     ok = flag == 0
     ok[:2000] = ok[-2000:] = False  # the filters' start-up and end effects
     return ok
+
+
+def test_friction_shape_is_fitted_from_the_data(bench: dict[str, object]) -> None:
+    """From the robot file's default law (linear transition 1e-3 rad/s, Stribeck 1 rad/s,
+    exponent 2) the shape search finds the simulated law's (smooth 0.5 rad/s, Stribeck 5 rad/s,
+    exponent 2), and the wrench is as good as with the true shape given; keeping the default
+    shape is far worse."""
+    free, task, force = bench["free"], bench["task"], bench["force"]
+    start, fixed_true = bench["start"], bench["result"]
+    assert isinstance(free, Log) and isinstance(task, Log) and isinstance(force, np.ndarray)
+    assert isinstance(start, Model)
+    default = dataclasses.replace(
+        start,
+        joints={
+            n: dataclasses.replace(jm, friction=StribeckFriction())
+            for n, jm in start.joints.items()
+        },
+    )
+    fitted = identify_arm(default, [free], max_samples=1500, pdtv_max_order=4)
+    for name in ("shoulder", "elbow"):
+        law = fitted.model.joints[name].friction
+        assert isinstance(law, StribeckFriction)
+        assert law.transition == "smooth" and law.stribeck_exponent == 2.0
+        assert_allclose(law.zero_velocity, 0.5, rtol=0.25)
+        assert_allclose(law.stribeck_velocity, 5.0, rtol=0.25)
+
+    def rms(model: Model) -> float:
+        est = estimate_arm(model, task)
+        ok = _sound(est.flag)
+        return float(np.sqrt(np.mean(np.sum((est.wrench[ok, :2] - force[ok, :2]) ** 2, axis=1))))
+
+    kept = identify_arm(
+        default, [free], max_samples=1500, pdtv_max_order=4, fit_friction_shape=False
+    )
+    e_fitted = rms(fitted.model)
+    assert e_fitted < 1.15 * rms(fixed_true.model)  # type: ignore[attr-defined]
+    assert rms(kept.model) > 2.0 * e_fitted
+
+
+def test_consistent_parameters_is_the_nearest_consistent_point() -> None:
+    """The barrier method against a second algorithm (SLSQP on the smallest eigenvalue of the
+    pseudo-inertia), on one body made inconsistent: a consistent result, no farther in the
+    covariance metric than SLSQP's."""
+    from scipy.optimize import minimize
+
+    from torquemap.identify_arm import _pseudo_inertia, consistent_parameters
+
+    nominal = urdf_arm(TWO_LINK, ["shoulder", "elbow"], end_effector="tool")
+    pi0 = nominal.full_parameters[10:20].copy()
+    rng = np.random.default_rng(3)
+    A = rng.standard_normal((10, 10))
+    cov = A @ A.T * 1e-4 + np.diag(np.abs(pi0) + 1e-3) ** 2 * 0.05
+    estimate = pi0.copy()
+    estimate[9] -= 0.05  # Izz below what the mass and centre of mass need
+    assert body_consistency(estimate, ["elbow"])
+    got = consistent_parameters(estimate, cov, pi0)
+    assert not body_consistency(got, ["elbow"])
+    H = np.linalg.inv(cov)
+
+    def cost(p: np.ndarray) -> float:
+        return float((p - estimate) @ H @ (p - estimate))
+
+    ref = minimize(
+        cost,
+        pi0,
+        jac=lambda p: 2.0 * H @ (p - estimate),
+        method="SLSQP",
+        constraints=[{"type": "ineq", "fun": lambda p: np.linalg.eigvalsh(_pseudo_inertia(p))[0]}],
+        options={"maxiter": 50, "ftol": 1e-12},
+    )
+    assert np.linalg.eigvalsh(_pseudo_inertia(ref.x))[0] > -1e-6
+    assert cost(got) <= cost(ref.x) * (1 + 1e-3) + 1e-6
+    assert cost(got) < cost(pi0)
 
 
 def test_momentum_observer_is_a_first_order_lag() -> None:

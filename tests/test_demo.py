@@ -34,6 +34,9 @@ def test_demo_files(demo: tuple[Path, str]) -> None:
         "rig_vr/TABLES.npz",
         "rig_vr/verify.csv",
         "rig_bldc/TABLES.npz",
+        "arm/model.toml",
+        "arm/forces.csv",
+        "arm/truth.csv",
     ):
         assert (out / name).is_file(), name
 
@@ -49,6 +52,10 @@ def test_demo_summary_numbers(demo: tuple[Path, str]) -> None:
         assert m, motor
         assert float(m.group(2)) < 0.1 * float(m.group(1))
     assert "76.1/58.3" in text  # the paper's numbers are printed beside ours
+    # the MuJoCo Panda: the identified arm near the true one, far better than its URDF
+    identified = _rms(text, "identified, acceleration")
+    assert identified < 1.5 * _rms(text, "oracle (true arm), acceleration")
+    assert identified < _rms(text, "URDF as given, acceleration") / 20
 
 
 @pytest.mark.skipif(CHROMIUM is None, reason="no Chromium installed")

@@ -660,8 +660,62 @@ def _holds_section(model: Model, log: Log, path: str) -> _LogResult | None:
     return _LogResult(section=section, views=(), sweep=False, path=path, kind="holds")
 
 
+def _arm_force_section(model: Model, log: Log, path: str) -> _LogResult:
+    """An arm with a URDF (docs/arm.md): the wrench the acceleration method estimates."""
+    from torquemap.estimate_arm import estimate_arm
+    from torquemap.plots.arm import wrench_charts
+
+    paragraphs = [
+        f"{log.t.size} samples over {log.t[-1] - log.t[0]:.3g} s "
+        f"(median step {1e3 * float(np.median(np.diff(log.t))):.3g} ms). The wrench on the "
+        "end effector estimated with the arm's rigid-body model (acceleration method, 2 Hz "
+        "low-pass; `torquemap estimate --method momentum` for the observer)."
+    ]
+    try:
+        est = estimate_arm(model, log)
+    except InputError as exc:
+        return _LogResult(
+            Section(
+                f"Log: {Path(path).name}",
+                tuple(paragraphs),
+                warnings=(f"no force estimate: {exc.message}",),
+            ),
+            (),
+            False,
+            path,
+            "forces",
+        )
+    ok = (est.flag == 0) & np.isfinite(est.wrench).all(axis=1)
+    rows = []
+    for k, axis in enumerate(est.wrench_axes):
+        if ok.any():
+            unit = "N" if axis.startswith("f") else "N m"
+            w, sw = est.wrench[ok, k], est.wrench_sigma[ok, k]
+            rows.append(
+                (f"{axis} [{unit}]", float(np.mean(w)), float(np.std(w)), float(np.median(sw)))
+            )
+    section = Section(
+        f"Log: {Path(path).name}",
+        paragraphs=tuple(paragraphs),
+        tables=(
+            table(
+                ("estimate (sound samples)", "mean", "std", "median sigma"),
+                rows,
+                caption=f"{ok.mean():.1%} of samples sound; the rest near a singular pose.",
+            ),
+        ),
+        charts=tuple(wrench_charts({"acceleration": est})),
+        warnings=tuple(dict.fromkeys(est.warnings)),
+    )
+    return _LogResult(section, (), False, path, "forces")
+
+
 def _log_result(model: Model, path: str) -> _LogResult:
     log = read_log(path, model.robot)
+    from torquemap.identify_arm import is_rigid_body_arm
+
+    if is_rigid_body_arm(model.robot.arm):
+        return _arm_force_section(model, log, path)
     try:
         swept = _sweep_section(model, log, path)
     except InputError:

@@ -10,9 +10,10 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add ``demo`` to subparsers."""
     p = subparsers.add_parser(
         "demo",
-        help="simulate both benches, identify, estimate, build tables, write a report",
+        help="simulate the benches, identify, estimate, build tables, write a report",
         description="Run torquemap end to end on the built-in simulated benches (the SCARA of "
-        "Simpson, Cook & Li and the Adept II linearisation rig) and write DIR/report.html. "
+        "Simpson, Cook & Li, a Panda arm in MuJoCo and the Adept II linearisation rig) and "
+        "write DIR/report.html. "
         "Each step is reported on stderr (--quiet: none); the summary goes to stdout.",
         epilog="example:\n  torquemap demo --out demo-out\n  torquemap demo --out demo-out "
         "--seed 3 --quiet > summary.txt",
