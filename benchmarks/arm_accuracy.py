@@ -102,6 +102,13 @@ def main() -> None:
         "--leg-cutoff", type=float, default=10.0, help="low-pass cut-off [Hz], the leg"
     )
     parser.add_argument(
+        "--free-centre",
+        choices=("middle", "task"),
+        default="middle",
+        help="the exciting motion swings about the middle of the joints' ranges (default) or "
+        "about the task's start pose (excite --centre)",
+    )
+    parser.add_argument(
         "--law",
         choices=("fit", "default", "guess", "true"),
         default="fit",
@@ -119,7 +126,7 @@ def main() -> None:
         with tempfile.TemporaryDirectory() as tmp:
             d = Path(tmp)
             t0 = time.perf_counter()
-            sim.write_arm_bench(d, seed=seed, arm=arm_name)
+            sim.write_arm_bench(d, seed=seed, arm=arm_name, free_centre=args.free_centre)
             t_sim = time.perf_counter() - t0
             robot_path = d / "robot.toml"
             start = load_model(robot_path)

@@ -332,6 +332,31 @@ def test_excite_cli_within_limits(tmp_path: Path, capsys: pytest.CaptureFixture[
         assert_allclose(fd[1:-1], cols[f"qd_{name}"][1:-1], atol=2e-3)
 
 
+def test_excite_centre(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``--centre``: the motion swings about the given pose (starts and ends there at rest),
+    still inside the limits; a centre outside them is one line of error."""
+    from torquemap.cli.main import main
+    from torquemap.io import read_table
+
+    path = _robot_dir(tmp_path)
+    arm = _two_link()
+    lo, hi = arm.position_limits
+    centre = {"elbow": 1.5, "shoulder": -1.0}  # in the robot file's order: elbow, shoulder
+    out = tmp_path / "traj.csv"
+    argv = ["excite", str(path), "-o", str(out), "--duration", "10", "--rate", "100"]
+    assert main([*argv, "--centre", "1.5,-1.0"]) == 0
+    assert "elbow=1.5000, shoulder=-1.0000" in capsys.readouterr().out
+    cols = read_table(out)
+    for name, k in (("shoulder", 0), ("elbow", 1)):
+        q = cols[f"q_{name}"]
+        assert_allclose([q[0], q[-1]], centre[name], atol=1e-12)
+        assert lo[k] <= q.min() and q.max() <= hi[k]
+        assert np.ptp(q) > 0.1  # it moves
+    assert main([*argv, "--centre", "2.4,0"]) == 2  # beyond the elbow's limit less 10 %
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "centre is outside" in err and "elbow=2.4" in err
+
+
 @pytest.mark.skipif(ROBOTS is None, reason="example-robot-data not installed")
 @pytest.mark.parametrize(
     ("urdf", "joints"),

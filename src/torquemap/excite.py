@@ -156,6 +156,7 @@ def exciting_trajectory(
     iterations: int = 80,
     position_margin: float = 0.1,
     speed_fraction: float = 0.7,
+    centre: ArrayLike | None = None,
     rng: np.random.Generator | int | None = 0,
 ) -> ExcitingTrajectory:
     """An exciting trajectory within the arm's limits, chosen for a well-conditioned regressor.
@@ -178,6 +179,10 @@ def exciting_trajectory(
         Fraction of each joint's range kept free at both ends [-].
     speed_fraction
         Fraction of each joint's velocity limit used at most [-].
+    centre
+        Pose [rad] the motion swings about and starts and ends at, shape (nj,); default the
+        middle of each joint's range. Excite about the poses the robot will work at: a model
+        identified elsewhere extrapolates there (docs/arm-bench.md, the UR5).
     rng
         Random generator or seed.
 
@@ -198,8 +203,25 @@ def exciting_trajectory(
     lo = np.where(np.isfinite(lo), lo, -np.pi)
     hi = np.where(np.isfinite(hi), hi, np.pi)
     margin = position_margin * (hi - lo)
-    centre = 0.5 * (lo + hi)
-    half_range = np.maximum(0.5 * (hi - lo) - margin, 1e-6)
+    if centre is None:
+        mid = 0.5 * (lo + hi)
+    else:
+        mid = np.asarray(centre, dtype=np.float64).reshape(-1)
+        if mid.size != lo.size or not np.all(np.isfinite(mid)):
+            raise InputError(f"centre needs {lo.size} finite joint angles, got {mid.size}")
+        if np.any(mid < lo + margin) or np.any(mid > hi - margin):
+            raise InputError(
+                "centre is outside the joints' limits (less the position margin): "
+                + ", ".join(
+                    f"{n}={c:.4g}"
+                    for n, c, a, b in zip(
+                        arm.joint_names, mid, lo + margin, hi - margin, strict=True
+                    )
+                    if not a <= c <= b
+                )
+            )
+    centre = mid
+    half_range = np.maximum(np.minimum(centre - lo, hi - centre) - margin, 1e-6)
     vmax = arm.velocity_limits
     speed = speed_fraction * np.where(np.isfinite(vmax), vmax, 2.0)
     nj = len(arm.joint_names)

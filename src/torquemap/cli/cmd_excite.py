@@ -45,6 +45,13 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         metavar="F",
         help="fraction of each joint's URDF velocity limit used at most (0.7)",
     )
+    p.add_argument(
+        "--centre",
+        default=None,
+        metavar="Q1,Q2,...",
+        help="pose [rad] to swing about, one angle per joint in the robot file's order "
+        "(default: the middle of each joint's range); excite about the poses the robot works at",
+    )
     p.add_argument("--seed", type=int, default=0, help="seed of the random search (0)")
     p.set_defaults(handler=_excite)
 
@@ -61,6 +68,14 @@ def _excite(args: argparse.Namespace) -> int:
         raise InputError("excite needs an arm with a URDF (kinematics = 'urdf')", path=args.robot)
     if not 0 < args.speed_fraction <= 1:
         raise InputError(f"--speed-fraction must be in (0, 1], got {args.speed_fraction}")
+    centre = None
+    if args.centre is not None:
+        try:
+            centre = [float(v) for v in args.centre.split(",")]
+        except ValueError:
+            raise InputError(
+                f"--centre must be comma-separated angles [rad], got {args.centre!r}"
+            ) from None
     traj = exciting_trajectory(
         arm,
         duration=args.duration,
@@ -68,6 +83,7 @@ def _excite(args: argparse.Namespace) -> int:
         harmonics=args.harmonics,
         rate=args.rate,
         speed_fraction=args.speed_fraction,
+        centre=centre,
         rng=args.seed,
     )
     write_table(args.output, trajectory_columns(traj))

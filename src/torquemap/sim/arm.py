@@ -462,9 +462,16 @@ def task_reference(
 
 
 def free_reference(
-    nominal_path: Path, duration: float, seed: int, *, iterations: int = 8, spec: ArmSpec = PANDA
+    nominal_path: Path,
+    duration: float,
+    seed: int,
+    *,
+    iterations: int = 8,
+    spec: ArmSpec = PANDA,
+    centre: NDArray[np.float64] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """An exciting trajectory (``torquemap.excite``) at 1 kHz on the nominal arm."""
+    """An exciting trajectory (``torquemap.excite``) at 1 kHz on the nominal arm, about
+    ``centre`` (default the middle of the joints' ranges)."""
     from torquemap.excite import exciting_trajectory
     from torquemap.robots.urdf import urdf_arm
 
@@ -475,6 +482,7 @@ def free_reference(
         period=min(10.0, duration),
         rate=1.0 / TIMESTEP,
         iterations=iterations,
+        centre=centre,
         rng=seed,
     )
     return traj.q, traj.qd, traj.qdd
@@ -518,6 +526,7 @@ def write_arm_bench(
     task_duration: float = 15.0,
     iterations: int = 8,
     arm: str = "panda",
+    free_centre: str = "middle",
 ) -> list[Path]:
     """Simulate the Panda bench and write its files into ``out``.
 
@@ -528,7 +537,9 @@ def write_arm_bench(
     ``arm`` is ``"panda"``, ``"ur5"`` (the URDF is then ``ur5.urdf``) or ``"leg"`` (the
     vertical two-link leg of :mod:`torquemap.sim.leg`, ``leg.urdf``, stepping on a compliant
     ground in ``task.csv``; ``free.csv`` is its motion in the air). ``iterations`` is the
-    exciting trajectory's random search (``torquemap.excite``).
+    exciting trajectory's random search (``torquemap.excite``); ``free_centre`` the pose it
+    swings about: ``"middle"`` of the joints' ranges (the default of ``torquemap excite``) or
+    ``"task"``, the task's start pose (``excite --centre``: excite where the robot works).
 
     Returns
     -------
@@ -540,6 +551,8 @@ def write_arm_bench(
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
     spec = arm_spec(arm)
+    if free_centre not in ("middle", "task"):
+        raise InputError(f"free_centre must be 'middle' or 'task', got {free_centre!r}")
     source = source_text(spec)
     nominal = _stripped(source, spec)
     nominal_text = ET.tostring(nominal, encoding="unicode")
@@ -552,7 +565,14 @@ def write_arm_bench(
         true_text,
         nominal_text,
         truth,
-        free_reference(urdf_copy, free_duration, seed, iterations=iterations, spec=spec),
+        free_reference(
+            urdf_copy,
+            free_duration,
+            seed,
+            iterations=iterations,
+            spec=spec,
+            centre=np.asarray(spec.ready) if free_centre == "task" else None,
+        ),
         surface=None,
         seed=seed,
         spec=spec,
