@@ -174,6 +174,11 @@ def main() -> None:
             cutoff = args.leg_cutoff if arm_name == "leg" else args.cutoff
             for label, model in models:
                 rows.append((key, label, _errors(model, task, truth, cutoff)))
+                errs = rows[-1][2]
+                print(
+                    f"  {label}: " + ", ".join(f"{m} {f:.3g} N" for m, (f, _) in errs.items()),
+                    flush=True,
+                )
     _print(rows, keys)
 
 

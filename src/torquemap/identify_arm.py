@@ -521,7 +521,9 @@ def identify_arm(
     noise = 0.1 * np.std(tau, axis=0) + 1e-9
     excluded = 0
     if exclude_contact:
-        free = contact_free_rows(lambda rows: fit(no_lines, noise, rows)[2], signals, picks)
+        free = contact_free_rows(
+            lambda rows: fit(no_lines, noise, rows)[2], signals, picks, rng=gen
+        )
         excluded = int(np.count_nonzero(~free))
         if np.count_nonzero(free) < 10 * nj:
             raise InputError(
@@ -735,8 +737,10 @@ def _pick_pdtv(
         for i, order in enumerate(orders):
             c, s = coef[i], coef[max_order + i]
             amp = math.hypot(c, s)
-            se = math.sqrt(max(cov[i, i], cov[max_order + i, max_order + i]))
-            if amp > PDTV_SIGNIFICANCE * se:
+            var = max(cov[i, i], cov[max_order + i, max_order + i])
+            if not (math.isfinite(var) and var > 0):
+                continue  # the orders are not separable on these samples
+            if amp > PDTV_SIGNIFICANCE * math.sqrt(var):
                 keep.append(float(order))
         out.append(tuple(keep))
     return out
@@ -917,6 +921,80 @@ def fit_friction_shapes(
     return out
 
 
+CONTACT_SEGMENT = 4.0
+"""With ``exclude_contact``: the trimmed start works on stretches of this many differentiator
+windows ..."""
+CONTACT_STARTS = 6
+"""... from this many random halves of the stretches ..."""
+CONTACT_CSTEPS = 5
+"""... each improved by at most this many concentration steps."""
+
+
+def _trimmed_start(
+    residual_of: Any,
+    signals: Sequence[ArmSignals],
+    picks: Sequence[NDArray[np.intp]],
+    *,
+    rng: np.random.Generator | None = None,
+) -> NDArray[np.bool_]:
+    """Rows of the half of the logs' stretches best fitted: least trimmed squares over time.
+
+    The logs are cut into stretches of :data:`CONTACT_SEGMENT` differentiator windows. From
+    each of :data:`CONTACT_STARTS` random halves of the stretches, concentration steps
+    (Rousseeuw & Van Driessen 2006): fit on the half, score every stretch by the median over
+    its rows of the largest joint residual (in each joint's robust standard deviation of the
+    all-rows fit), keep the best-scored half, until it no longer changes. The half with the
+    smallest total score wins.
+    """
+    gen = rng if rng is not None else np.random.default_rng(0)
+    labels = []
+    offset = 0
+    for sig, idx in zip(signals, picks, strict=True):
+        span = CONTACT_SEGMENT * sig.window
+        seg = np.floor((sig.t[idx] - sig.t[0]) / span).astype(np.intp)
+        _, seg = np.unique(seg, return_inverse=True)
+        labels.append(seg + offset)
+        offset += int(seg.max()) + 1 if seg.size else 0
+    label = np.concatenate(labels)
+    n_seg = offset
+    h = max(1, n_seg // 2)
+    if n_seg < 4:
+        return np.ones(label.size, dtype=bool)
+    counts = np.bincount(label, minlength=n_seg)
+
+    # one scale per joint for every start (the all-rows fit's), so that totals compare
+    r_all = residual_of(np.ones(label.size, dtype=bool))
+    scale = 1.4826 * np.median(np.abs(r_all - np.median(r_all, axis=0)), axis=0) + 1e-300
+
+    def scores(r: NDArray[np.float64], rows: NDArray[np.bool_]) -> NDArray[np.float64]:
+        centre = np.median(r[rows], axis=0)
+        z = np.max(np.abs(r - centre) / scale, axis=1)
+        out = np.full(n_seg, np.inf)
+        order = np.argsort(label, kind="stable")
+        bounds = np.concatenate([[0], np.cumsum(counts)])
+        zs = z[order]
+        for k in range(n_seg):
+            if counts[k]:
+                out[k] = float(np.median(zs[bounds[k] : bounds[k + 1]]))
+        return out
+
+    best_total, best_rows = math.inf, np.ones(label.size, dtype=bool)
+    for _ in range(CONTACT_STARTS):
+        chosen = np.sort(gen.choice(n_seg, size=h, replace=False))
+        for _ in range(CONTACT_CSTEPS):
+            rows = np.isin(label, chosen)
+            sc = scores(residual_of(rows), rows)
+            new = np.sort(np.argsort(sc, kind="stable")[:h])
+            if np.array_equal(new, chosen):
+                break
+            chosen = new
+        rows = np.isin(label, chosen)
+        total = float(np.sum(np.sort(scores(residual_of(rows), rows))[:h]))
+        if total < best_total:
+            best_total, best_rows = total, rows
+    return best_rows
+
+
 def contact_free_rows(
     residual_of: Any,
     signals: Sequence[ArmSignals],
@@ -925,11 +1003,16 @@ def contact_free_rows(
     threshold: float = CONTACT_THRESHOLD,
     margin: float = CONTACT_MARGIN,
     iterations: int = CONTACT_ITERATIONS,
+    rng: np.random.Generator | None = None,
 ) -> NDArray[np.bool_]:
-    """Rows free of contact, by iterated residual-based rejection (a robust fit).
+    """Rows free of contact, by a trimmed fit and iterated residual-based rejection.
 
     ``residual_of(rows)`` fits the model on the rows marked True and returns the residual
-    (m, nj) of every row. Starting from all rows, a row is rejected when any joint's residual
+    (m, nj) of every row. A least-squares fit on all rows would absorb much of a contact that
+    recurs with the same motion (a leg's stance phases, always while the foot moves backwards,
+    look like friction asymmetry and gravity) and hide it; so the start is a least trimmed
+    squares fit over stretches of time (:func:`_trimmed_start`: the half of the log's
+    stretches that the model fits best). From there a row is rejected when any joint's residual
     exceeds ``threshold`` robust standard deviations of the kept rows' residuals (1.4826 times
     their median absolute deviation), and so is every row within ``margin`` differentiator
     windows of a rejected one in time (contact lasts, and its onset is small); refit on the
@@ -941,7 +1024,7 @@ def contact_free_rows(
         Shape (m,), True for the rows to identify from.
     """
     m = sum(p.size for p in picks)
-    keep = np.ones(m, dtype=bool)
+    keep = _trimmed_start(residual_of, signals, picks, rng=rng)
     for _ in range(iterations):
         r = residual_of(keep)
         centre = np.median(r[keep], axis=0)
