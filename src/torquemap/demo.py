@@ -20,6 +20,7 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from math import nan
 from pathlib import Path
 from typing import Any, Literal, TypeVar
 
@@ -243,14 +244,35 @@ def _scara(
 
     ident_rows = []
     for name in names:
-        f, tf = model.joints[name].friction, truth_model.joints[name].friction
+        f = model.joints[name].friction.to_dict()
+        tf = truth_model.joints[name].friction.to_dict()
         i, ti = model.joints[name].inertia, truth_model.joints[name].inertia
         ident_rows += [
-            (name, "Coulomb + [N m]", f.coulomb_positive, tf.coulomb_positive),
-            (name, "Coulomb - [N m]", f.coulomb_negative, tf.coulomb_negative),
-            (name, "viscous [N m s/rad]", f.viscous, tf.viscous),
-            (name, "Stribeck + [N m]", f.stribeck_positive, tf.stribeck_positive),
-            (name, "Stribeck velocity [rad/s]", f.stribeck_velocity, tf.stribeck_velocity),
+            (
+                name,
+                "Coulomb + [N m]",
+                f.get("coulomb_positive", nan),
+                tf.get("coulomb_positive", nan),
+            ),
+            (
+                name,
+                "Coulomb - [N m]",
+                f.get("coulomb_negative", nan),
+                tf.get("coulomb_negative", nan),
+            ),
+            (name, "viscous [N m s/rad]", f.get("viscous", nan), tf.get("viscous", nan)),
+            (
+                name,
+                "Stribeck + [N m]",
+                f.get("stribeck_positive", nan),
+                tf.get("stribeck_positive", nan),
+            ),
+            (
+                name,
+                "Stribeck velocity [rad/s]",
+                f.get("stribeck_velocity", nan),
+                tf.get("stribeck_velocity", nan),
+            ),
             (name, "inertia [kg m^2]", i.constant, ti.constant),
         ]
     sections = [

@@ -41,8 +41,7 @@ from numpy.typing import NDArray
 from torquemap.errors import InputError
 from torquemap.filters import differentiate, lowpass
 from torquemap.io import Log
-from torquemap.kinematics import force_from_joint_torque
-from torquemap.model import Model, friction_torque, inertia_at, pdtv_torque
+from torquemap.model import Model, friction_torque, pdtv_torque
 from torquemap.pdtv import (
     PositionSignal,
     bins_per_revolution,
@@ -119,8 +118,9 @@ class ForceEstimate:
     tau_ext
         External torque exerted by the environment on each joint [N m, joint side], shape (n, nj).
     force
-        Force exerted by the environment on the end effector [N], base frame, shape (n, 2);
-        NaN at singular poses. None unless the robot is planar2r.
+        Wrench exerted by the environment on the end effector [N, N m], base frame, shape
+        (n, len(wrench_axes)); NaN at singular poses. None when the robot's arm has no end
+        effector.
     flag
         Bitwise OR of ``FLAG_*`` per sample, shape (n,); 0 where the estimate is sound.
     passes
@@ -131,11 +131,13 @@ class ForceEstimate:
         The low-pass cut-off [Hz] (NaN for ``raw``).
     warnings
         One line each.
+    wrench_axes
+        Names of the columns of ``force`` (``("fx", "fy")`` for a planar arm).
     tau_ext_sigma
         One standard deviation of ``tau_ext`` [N m, joint side], shape (n, nj) (``model``
         method, from the identification's covariance and residual noise; NaN otherwise).
     force_sigma
-        One standard deviation of each force component [N], shape (n, 2) (planar2r).
+        One standard deviation of each column of ``force`` [N], shape like ``force``.
     window
         The differentiator window used [s].
     """
@@ -155,6 +157,7 @@ class ForceEstimate:
     method: Method
     cutoff: float
     warnings: tuple[str, ...] = ()
+    wrench_axes: tuple[str, ...] = ()
     tau_ext_sigma: NDArray[np.float64] | None = None
     force_sigma: NDArray[np.float64] | None = None
     window: float = 0.05
@@ -206,7 +209,7 @@ def _signal(
     t_est = np.empty((n, nj))
     angle = np.empty((n, nj))
     velocity = np.empty((n, nj))
-    elbow = log.q[:, 1] if robot.kinematics == "planar2r" and nj >= 2 else np.zeros(n)
+    modulation = robot.arm.inertia_modulation(log.q)
     span = float(log.t[-1] - log.t[0])
     if span < window:
         raise InputError(
@@ -220,7 +223,7 @@ def _signal(
         except InputError as exc:
             raise InputError(exc.message, path=log.path) from None
         jm = model.joints[joint.name]
-        inertia = inertia_at(jm, elbow) if k == 0 else inertia_at(jm, np.zeros(n))
+        inertia = jm.inertia.constant + jm.inertia.cos_elbow * modulation[:, k]
         t_est[:, k] = (
             log.motor_torque[:, k]
             - inertia * d.acceleration
@@ -461,7 +464,8 @@ def estimate_forces(
         Shortest monotonic pass the position-domain filter processes [motor revolutions]
         (``paper``).
     min_sin_elbow
-        Singular-pose guard for planar2r (:func:`torquemap.kinematics.force_from_joint_torque`).
+        Singular-pose guard of the arm (:meth:`torquemap.robots.Arm.wrench_from_joint_torque`;
+        for planar2r the smallest ``|sin q2|``).
     bridge_reversals
         Longest stretch [s] of undetermined friction (:func:`reversal_mask`) bridged by a
         straight line in ``T_est`` before filtering; 0 turns bridging off. Bridged samples keep
@@ -567,19 +571,18 @@ def estimate_forces(
     tau_ext = -out["external"] * gear
     tau_sigma = out["sigma"] * gear
     force = force_sigma = None
-    if robot.kinematics == "planar2r":
-        l1, l2 = robot.link_lengths[0], robot.link_lengths[1]
-        q = log.q[:, :2]
-        f = force_from_joint_torque(
-            q, np.nan_to_num(tau_ext[:, :2]), (l1, l2), min_sin_elbow=min_sin_elbow
+    if robot.arm.wrench_axes:
+        finite = np.isfinite(tau_ext).all(axis=1)
+        f = robot.arm.wrench_from_joint_torque(
+            log.q, np.nan_to_num(tau_ext), singular_threshold=min_sin_elbow
         )
-        force = f.force
-        force[np.isnan(tau_ext[:, :2]).any(axis=1)] = np.nan
+        force = np.array(f.wrench, dtype=np.float64)
+        force[~finite] = np.nan
         flag[f.singular] |= FLAG_SINGULAR
-        force_sigma = _force_sigma(q, tau_sigma[:, :2], (l1, l2), f.singular)
+        force_sigma = _force_sigma(robot.arm, log.q, tau_sigma, f.singular)
         if f.singular.any():
             warnings.append(
-                f"{int(f.singular.sum())} samples near a singular pose (|sin q2| < "
+                f"{int(f.singular.sum())} samples near a singular pose (guard "
                 f"{min_sin_elbow:g}): force not estimated there"
             )
     return ForceEstimate(
@@ -598,6 +601,7 @@ def estimate_forces(
         method=method,
         cutoff=float("nan") if method == "raw" else float(cutoff),
         warnings=tuple(warnings),
+        wrench_axes=robot.arm.wrench_axes if force is not None else (),
         tau_ext_sigma=tau_sigma,
         force_sigma=force_sigma,
         window=win,
@@ -605,19 +609,18 @@ def estimate_forces(
 
 
 def _force_sigma(
+    arm: Any,
     q: NDArray[np.float64],
     tau_sigma: NDArray[np.float64],
-    links: tuple[float, float],
     singular: NDArray[np.bool_],
 ) -> NDArray[np.float64]:
-    """One standard deviation of ``F = J^-T tau`` from independent joint-torque sigmas."""
-    from torquemap.kinematics import jacobian
-
-    out = np.full((q.shape[0], 2), np.nan)
-    ok = ~singular & np.isfinite(q).all(axis=1)
+    """One standard deviation of each wrench component ``F = pinv(J^T) tau`` from independent
+    joint-torque sigmas."""
+    out = np.full((q.shape[0], len(arm.wrench_axes)), np.nan)
+    ok = ~singular & np.isfinite(q).all(axis=1) & np.isfinite(tau_sigma).all(axis=1)
     if ok.any():
-        jt = np.swapaxes(jacobian(q[ok], links), -1, -2)
-        m = np.linalg.inv(jt)  # F = m @ tau
+        jt = np.swapaxes(np.asarray(arm.jacobian(q[ok]), dtype=np.float64), -1, -2)
+        m = np.linalg.pinv(jt)  # (n, axes, nj): F = m @ tau
         out[ok] = np.sqrt(np.einsum("nij,nj->ni", m**2, tau_sigma[ok] ** 2))
     return out
 
@@ -686,7 +689,7 @@ def _estimate_piece(
         jm = model.joints[joint.name]
         w0 = max(bands[joint.name], 1e-9)
         rest = np.zeros(n, dtype=bool)
-        if _has_coulomb(jm.friction):
+        if max(jm.friction.static_levels()) > 0:
             rest = reversal_mask(log.t, velocity[:, k], band=w0, window=window)
             if joint.name not in whole:
                 flag[rest] |= FLAG_LOW_SPEED
@@ -765,8 +768,8 @@ def _estimate_piece(
     if method == "model":
         from torquemap.uncertainty import joint_sigma
 
+        modulation = robot.arm.inertia_modulation(log.q)
         for k, joint in enumerate(robot.joints):
-            elbow = log.q[:, 1] if (k == 0 and robot.kinematics == "planar2r" and nj > 1) else None
             sigma[:, k] = joint_sigma(
                 model,
                 joint.name,
@@ -774,9 +777,8 @@ def _estimate_piece(
                 theta=angle[:, k],
                 velocity=velocity[:, k],
                 acceleration=acceleration[:, k],
-                elbow=elbow,
+                modulation=modulation[:, k],
                 cutoff=cutoff,
-                bridged=rests[k] if bridge_reversals > 0 else None,
             )
     for k, joint in enumerate(robot.joints):
         if rests[k].any() and joint.name not in whole:
@@ -799,16 +801,13 @@ def _estimate_piece(
         passes=tuple(all_passes),
         any_pass=any_pass,
         warnings=tuple(warnings),
+        wrench_axes=robot.arm.wrench_axes if force is not None else (),
     )
 
 
 def _law_width(law: Any) -> float:
     """The friction law's transition half width [rad/s] (its ``zero_velocity``, else 0)."""
     return float(getattr(law, "zero_velocity", 0.0))
-
-
-def _has_coulomb(law: Any) -> bool:
-    return bool(getattr(law, "coulomb_positive", 0.0) > 0 or getattr(law, "coulomb_negative", 0.0) > 0)
 
 
 def whole_fit_joints(model: Model) -> set[str]:
@@ -916,13 +915,13 @@ def forces_columns(estimate: ForceEstimate) -> dict[str, NDArray[Any]]:
     for k, name in enumerate(estimate.joint_names):
         cols[f"tau_ext_{name}"] = estimate.tau_ext[:, k]
     if estimate.force is not None:
-        cols["fx"] = estimate.force[:, 0]
-        cols["fy"] = estimate.force[:, 1]
+        for a, axis in enumerate(estimate.wrench_axes):
+            cols[axis] = estimate.force[:, a]
     if estimate.tau_ext_sigma is not None:
         for k, name in enumerate(estimate.joint_names):
             cols[f"tau_ext_{name}_sigma"] = estimate.tau_ext_sigma[:, k]
     if estimate.force is not None and estimate.force_sigma is not None:
-        cols["fx_sigma"] = estimate.force_sigma[:, 0]
-        cols["fy_sigma"] = estimate.force_sigma[:, 1]
+        for a, axis in enumerate(estimate.wrench_axes):
+            cols[f"{axis}_sigma"] = estimate.force_sigma[:, a]
     cols["flag"] = estimate.flag
     return cols

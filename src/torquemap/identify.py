@@ -310,7 +310,7 @@ def _estimate_joint_delay(
     """The torque channel's delay of joint ``k`` [s], or 0 when not identifiable."""
     from torquemap.delay import estimate_delay
 
-    elbow_k = 1 if (rb.kinematics == "planar2r" and k == 0 and len(rb.joints) > 1) else None
+    elbow_k = _elbow_joint(rb, k)
     ts, angles, torques = [], [], []
     for li, log in enumerate(logs):
         d = derivs[li][k]
@@ -402,7 +402,7 @@ def _identify_joint(
     warnings.extend(ff.warnings)
     friction = ff.friction
 
-    elbow_k = 1 if (rb.kinematics == "planar2r" and k == 0 and len(rb.joints) > 1) else None
+    elbow_k = _elbow_joint(rb, k)
 
     rates = [differentiate(log.t, log.motor_torque[:, k], window=window).velocity for log in logs]
 
@@ -481,6 +481,19 @@ def _identify_joint(
         warnings=tuple(warnings),
     )
     return res, jm
+
+
+def _elbow_joint(rb: Robot, k: int) -> int | None:
+    """The joint whose cosine modulates joint ``k``'s inertia (``InertiaModel.cos_elbow``).
+
+    The arm says where the modulation applies (:meth:`torquemap.robots.Arm.inertia_modulation`
+    at the zero pose); the modulating angle is the next joint's (the elbow of a planar arm).
+    """
+    nj = len(rb.joints)
+    if k + 1 >= nj:
+        return None
+    at_zero = rb.arm.inertia_modulation(np.zeros((1, nj)))[0, k]
+    return k + 1 if at_zero != 0 else None
 
 
 def _steady_mean(
@@ -951,11 +964,11 @@ def _identify_whole(
     joint_notes = {k: dict(v) for k, v in notes.get("joints", {}).items()}
     results = dict(base.joints)
     warnings: list[str] = [*cleaning, *base.warnings]
-    planar = rb.kinematics == "planar2r"
+    planar = rb.arm.kind == "planar2r"
     for name, res in base.joints.items():
         k = rb.joint_names.index(name)
         joint = rb.joints[k]
-        elbow_k = 1 if (planar and k == 0 and nj > 1) else None
+        elbow_k = _elbow_joint(rb, k)
         wp: list[iw.Piece] = []
         for log, d, ok in zip(pieces, derivs, sound, strict=True):
             use = _still_mask(d, k, p99) & ok

@@ -212,6 +212,8 @@ def log_from_columns(columns: Columns, robot: Robot, *, path: str | os.PathLike[
             cpr = float(joint.encoder_counts_per_rev or 0)
             counts = np.unwrap(raw_q, period=cpr)
             q[:, k] = counts * (2.0 * np.pi / cpr) / joint.gear_ratio
+        elif joint.position_unit == "turns":
+            q[:, k] = raw_q * (2.0 * np.pi) / joint.gear_ratio
         else:
             q[:, k] = raw_q
         if f"tau_{joint.name}" in columns:

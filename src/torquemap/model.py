@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from torquemap.errors import InputError
+from torquemap.friction_law import FrictionLaw, StribeckFriction, friction_law_from_dict
 from torquemap.robot import Robot, read_toml, robot_from_dict, robot_to_dict
 
 Direction = Literal["both", "positive", "negative"]
@@ -43,39 +44,8 @@ class InertiaModel:
     cos_elbow: float = 0.0
 
 
-@dataclass(frozen=True, slots=True, eq=False)
-class FrictionModel:
-    """Motor-side friction of one joint: Coulomb per direction, viscous, Stribeck.
-
-    For motor velocity ``w`` [rad/s]::
-
-        w > 0:  f(w) = coulomb_positive + stribeck_positive * exp(-(w / stribeck_velocity)**2) + viscous * w
-        w < 0:  f(w) = -coulomb_negative - stribeck_negative * exp(-(w / stribeck_velocity)**2) + viscous * w
-
-    with a linear blend through zero for ``|w| < zero_velocity`` (friction at rest is not
-    determined by the velocity; the blend keeps the model continuous).
-
-    Attributes
-    ----------
-    coulomb_positive, coulomb_negative
-        Coulomb friction magnitudes [N m] for positive and negative motion (both >= 0).
-    viscous
-        Viscous coefficient [N m s / rad].
-    stribeck_positive, stribeck_negative
-        Extra break-away torque at low speed [N m] (0 when the data does not support it).
-    stribeck_velocity
-        Stribeck velocity [rad/s], motor side.
-    zero_velocity
-        Half width of the blend through zero velocity [rad/s], motor side.
-    """
-
-    coulomb_positive: float = 0.0
-    coulomb_negative: float = 0.0
-    viscous: float = 0.0
-    stribeck_positive: float = 0.0
-    stribeck_negative: float = 0.0
-    stribeck_velocity: float = 1.0
-    zero_velocity: float = 1e-3
+FrictionModel = StribeckFriction
+"""Today's friction law under its earlier name (:class:`torquemap.friction_law.StribeckFriction`)."""
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -105,7 +75,7 @@ class JointModel:
     """Everything identified for one joint (motor side)."""
 
     inertia: InertiaModel = field(default_factory=InertiaModel)
-    friction: FrictionModel = field(default_factory=FrictionModel)
+    friction: FrictionLaw = field(default_factory=StribeckFriction)
     pdtv: tuple[PdtvLine, ...] = ()
 
 
@@ -128,8 +98,8 @@ class Model:
     notes: Mapping[str, Any] = field(default_factory=dict)
 
 
-def friction_torque(velocity: ArrayLike, friction: FrictionModel) -> NDArray[np.float64]:
-    """Friction torque [N m] at motor velocity ``velocity`` [rad/s] (see :class:`FrictionModel`).
+def friction_torque(velocity: ArrayLike, friction: FrictionLaw) -> NDArray[np.float64]:
+    """Friction torque [N m] at motor velocity ``velocity`` [rad/s]: ``friction.torque(velocity)``.
 
     Examples
     --------
@@ -137,14 +107,7 @@ def friction_torque(velocity: ArrayLike, friction: FrictionModel) -> NDArray[np.
     >>> friction_torque([2.0, -2.0], f).round(6)
     array([ 0.12, -0.22])
     """
-    w = np.asarray(velocity, dtype=np.float64)
-    s = np.exp(-((w / friction.stribeck_velocity) ** 2))
-    pos = friction.coulomb_positive + friction.stribeck_positive * s
-    neg = -(friction.coulomb_negative + friction.stribeck_negative * s)
-    w0 = friction.zero_velocity
-    blend = np.clip((w + w0) / (2 * w0), 0.0, 1.0)
-    out: NDArray[np.float64] = blend * pos + (1.0 - blend) * neg + friction.viscous * w
-    return out
+    return friction.torque(velocity)
 
 
 def pdtv_torque(
@@ -242,15 +205,9 @@ def model_from_dict(
         inertia = InertiaModel(
             **_floats(spec.get("inertia", {}), InertiaModel, where + ".inertia]", p)
         )
-        friction = FrictionModel(
-            **_floats(spec.get("friction", {}), FrictionModel, where + ".friction]", p)
+        friction = friction_law_from_dict(
+            spec.get("friction", {}), where=where + ".friction]", path=p
         )
-        if friction.coulomb_positive < 0 or friction.coulomb_negative < 0:
-            raise InputError(f"{where}.friction] Coulomb magnitudes must be >= 0", path=p)
-        if friction.stribeck_velocity <= 0 or friction.zero_velocity <= 0:
-            raise InputError(
-                f"{where}.friction] stribeck_velocity and zero_velocity must be > 0", path=p
-            )
         lines = _pdtv_lines(spec.get("pdtv", []), where + ".pdtv]", p)
         joints[str(name)] = JointModel(inertia=inertia, friction=friction, pdtv=lines)
     notes = document.get("identification", {})
@@ -276,8 +233,7 @@ def model_to_dict(model: Model) -> dict[str, Any]:
     for name, jm in model.joints.items():
         spec = doc["joints"][name]
         spec["inertia"] = {"constant": jm.inertia.constant, "cos_elbow": jm.inertia.cos_elbow}
-        f = jm.friction
-        spec["friction"] = {k: float(getattr(f, k)) for k in FrictionModel.__dataclass_fields__}
+        spec["friction"] = jm.friction.to_dict()
         if jm.pdtv:
             spec["pdtv"] = [
                 {

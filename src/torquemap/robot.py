@@ -11,11 +11,17 @@ from pathlib import Path
 from typing import Any, Literal
 
 from torquemap.errors import InputError
+from torquemap.robots import ARM_KINDS, Arm, arm_from_kind, arm_from_table, arm_head_keys
 
-Kinematics = Literal["planar2r", "none"]
-PositionUnit = Literal["rad", "counts"]
+Kinematics = str
+PositionUnit = Literal["rad", "counts", "turns"]
+POSITION_UNITS: tuple[PositionUnit, ...] = ("rad", "counts", "turns")
 
-_ROBOT_KEYS = {"name", "kinematics", "link_lengths"}
+_ROBOT_KEYS = {"name", "kinematics"}
+#: Plausible ranges of a robot file's numbers: outside them a value is a typo, not a robot.
+GEAR_RATIO_RANGE = (1e-3, 1e5)
+TORQUE_CONSTANT_RANGE = (1e-6, 1e3)
+MAX_COUNTS_PER_REV = 2**32
 _JOINT_KEYS = {"gear_ratio", "torque_constant", "encoder_counts_per_rev", "position_unit"}
 
 
@@ -35,7 +41,15 @@ class Joint:
         Encoder counts per motor revolution, or None when unknown.
     position_unit
         ``"rad"`` when the log's ``q_<j>`` holds the joint angle [rad]; ``"counts"`` when it
-        holds raw motor encoder counts that may wrap once per motor revolution.
+        holds raw motor encoder counts that may wrap once per motor revolution; ``"turns"``
+        when it holds motor turns [rev], continuous (ODrive's ``pos_estimate``).
+
+    Raises
+    ------
+    InputError
+        On a gear ratio, torque constant or encoder resolution outside its plausible range
+        (``GEAR_RATIO_RANGE``, ``TORQUE_CONSTANT_RANGE``, ``MAX_COUNTS_PER_REV``), or an unknown
+        position unit.
     """
 
     name: str
@@ -44,27 +58,65 @@ class Joint:
     encoder_counts_per_rev: int | None = None
     position_unit: PositionUnit = "rad"
 
+    def __post_init__(self) -> None:
+        where = f"joint {self.name!r}"
+        _in_range(self.gear_ratio, GEAR_RATIO_RANGE, f"{where} gear_ratio", None)
+        _in_range(self.torque_constant, TORQUE_CONSTANT_RANGE, f"{where} torque_constant", None)
+        cpr = self.encoder_counts_per_rev
+        if cpr is not None and (
+            isinstance(cpr, bool) or not isinstance(cpr, int) or not 0 < cpr <= MAX_COUNTS_PER_REV
+        ):
+            raise InputError(
+                f"{where} encoder_counts_per_rev must be an integer in 1..{MAX_COUNTS_PER_REV}, "
+                f"got {cpr!r}"
+            )
+        if self.position_unit not in POSITION_UNITS:
+            raise InputError(
+                f"{where} position_unit must be one of {', '.join(POSITION_UNITS)}, "
+                f"got {self.position_unit!r}"
+            )
+        if self.position_unit == "counts" and cpr is None:
+            raise InputError(f"{where} position_unit = 'counts' needs encoder_counts_per_rev")
+
 
 @dataclass(frozen=True, slots=True, eq=False)
 class Robot:
-    """A robot: its joints in kinematic order and its kinematics.
+    """A robot: its joints in kinematic order and the model of its arm.
 
     Attributes
     ----------
     name
         Free-form name.
     kinematics
-        ``"planar2r"`` (two revolute joints in a plane, a SCARA's A and B axes) or ``"none"``.
+        The robot file's kind of robot (``"none"``, ``"planar2r"``, ``"urdf"``; see
+        :mod:`torquemap.robots`), for files and messages only: code asks ``arm``.
     link_lengths
         ``(l1, l2)`` [m] for planar2r, empty otherwise.
     joints
         The joints in kinematic order.
+    arm
+        The arm's kinematics and dynamics (:class:`torquemap.robots.Arm`); built from
+        ``kinematics`` and ``link_lengths`` when not given.
     """
 
     name: str
     kinematics: Kinematics
     link_lengths: tuple[float, ...]
     joints: tuple[Joint, ...]
+    arm: Arm = None  # type: ignore[assignment]
+
+    def __post_init__(self) -> None:
+        names = [j.name for j in self.joints]
+        if len(set(names)) != len(names):
+            raise InputError(f"joint names must be unique, got {', '.join(names)}")
+        if self.arm is None:
+            arm = arm_from_kind(self.kinematics, names, link_lengths=self.link_lengths)
+            object.__setattr__(self, "arm", arm)
+        elif tuple(self.arm.joint_names) != tuple(names):
+            raise InputError(
+                f"the arm's joints ({', '.join(self.arm.joint_names)}) are not the robot's "
+                f"({', '.join(names)})"
+            )
 
     @property
     def joint_names(self) -> tuple[str, ...]:
@@ -85,6 +137,15 @@ def _positive(value: Any, what: str, path: str | None) -> float:
     x = float(value)
     if not math.isfinite(x) or x <= 0:
         raise InputError(f"{what} must be positive and finite, got {value!r}", path=path)
+    return x
+
+
+def _in_range(value: Any, bounds: tuple[float, float], what: str, path: str | None) -> float:
+    x = _positive(value, what, path)
+    if not bounds[0] <= x <= bounds[1]:
+        raise InputError(
+            f"{what} must lie in [{bounds[0]:g}, {bounds[1]:g}], got {value!r}", path=path
+        )
     return x
 
 
@@ -142,21 +203,15 @@ def robot_from_dict(
     head = document["robot"]
     if not isinstance(head, Mapping):
         raise InputError("[robot] must be a table", path=p)
-    _check_keys(head, _ROBOT_KEYS, "[robot]", p)
     name = str(head.get("name", ""))
     kinematics = head.get("kinematics", "none")
-    if kinematics not in ("planar2r", "none"):
-        raise InputError(
-            f"[robot] kinematics must be 'planar2r' or 'none', got {kinematics!r}", path=p
-        )
-    link_lengths: tuple[float, ...] = ()
-    if kinematics == "planar2r":
-        raw = head.get("link_lengths")
-        if not isinstance(raw, list) or len(raw) != 2:
-            raise InputError("[robot] link_lengths must be [l1, l2] for planar2r", path=p)
-        link_lengths = tuple(_positive(v, "[robot] link_lengths", p) for v in raw)
-    elif "link_lengths" in head:
-        raise InputError("[robot] link_lengths is only for kinematics = 'planar2r'", path=p)
+    own = _ROBOT_KEYS | arm_head_keys_or_error(kinematics, p)
+    for key in head:
+        owners = [k for k in sorted(ARM_KINDS) if key in ARM_KINDS[k].head_keys]
+        if key not in own and owners:
+            kinds = " or ".join(repr(k) for k in owners)
+            raise InputError(f"[robot] {key} is only for kinematics = {kinds}", path=p)
+    _check_keys(head, own, "[robot]", p)
 
     tables = document.get("joints")
     if not isinstance(tables, Mapping) or not tables:
@@ -173,15 +228,22 @@ def robot_from_dict(
         cpr_raw = spec.get("encoder_counts_per_rev")
         cpr: int | None = None
         if cpr_raw is not None:
-            if isinstance(cpr_raw, bool) or not isinstance(cpr_raw, int) or cpr_raw <= 0:
+            if (
+                isinstance(cpr_raw, bool)
+                or not isinstance(cpr_raw, int)
+                or not 0 <= cpr_raw <= MAX_COUNTS_PER_REV
+            ):
                 raise InputError(
-                    f"{where} encoder_counts_per_rev must be a positive integer", path=p
+                    f"{where} encoder_counts_per_rev must be an integer in "
+                    f"0..{MAX_COUNTS_PER_REV} (0: unknown)",
+                    path=p,
                 )
-            cpr = cpr_raw
+            cpr = cpr_raw or None
         unit = spec.get("position_unit", "rad")
-        if unit not in ("rad", "counts"):
+        if unit not in POSITION_UNITS:
             raise InputError(
-                f"{where} position_unit must be 'rad' or 'counts', got {unit!r}", path=p
+                f"{where} position_unit must be one of {', '.join(POSITION_UNITS)}, got {unit!r}",
+                path=p,
             )
         if unit == "counts" and cpr is None:
             raise InputError(
@@ -190,15 +252,33 @@ def robot_from_dict(
         joints.append(
             Joint(
                 name=str(jname),
-                gear_ratio=_positive(spec["gear_ratio"], f"{where} gear_ratio", p),
-                torque_constant=_positive(spec["torque_constant"], f"{where} torque_constant", p),
+                gear_ratio=_in_range(
+                    spec["gear_ratio"], GEAR_RATIO_RANGE, f"{where} gear_ratio", p
+                ),
+                torque_constant=_in_range(
+                    spec["torque_constant"], TORQUE_CONSTANT_RANGE, f"{where} torque_constant", p
+                ),
                 encoder_counts_per_rev=cpr,
                 position_unit=unit,
             )
         )
-    if kinematics == "planar2r" and len(joints) != 2:
-        raise InputError(f"planar2r needs exactly 2 joints, the file has {len(joints)}", path=p)
-    return Robot(name=name, kinematics=kinematics, link_lengths=link_lengths, joints=tuple(joints))
+    arm = arm_from_table(head, [j.name for j in joints], path=p)
+    link_lengths = tuple(getattr(arm, "link_lengths", ()))
+    return Robot(
+        name=name,
+        kinematics=str(kinematics),
+        link_lengths=link_lengths,
+        joints=tuple(joints),
+        arm=arm,
+    )
+
+
+def arm_head_keys_or_error(kinematics: Any, path: str | None) -> frozenset[str]:
+    """The ``[robot]`` keys of a kind, InputError naming ``path`` on an unknown kind."""
+    try:
+        return arm_head_keys(kinematics)
+    except InputError as exc:
+        raise InputError(exc.message, path=path) from None
 
 
 def read_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
@@ -241,9 +321,7 @@ def load_robot(path: str | os.PathLike[str]) -> Robot:
 
 def robot_to_dict(robot: Robot) -> dict[str, Any]:
     """The TOML document of a robot file, ready for ``tomli_w``; inverse of robot_from_dict."""
-    head: dict[str, Any] = {"name": robot.name, "kinematics": robot.kinematics}
-    if robot.kinematics == "planar2r":
-        head["link_lengths"] = list(robot.link_lengths)
+    head: dict[str, Any] = {"name": robot.name, **robot.arm.to_dict()}
     joints: dict[str, Any] = {}
     for j in robot.joints:
         spec: dict[str, Any] = {"gear_ratio": j.gear_ratio, "torque_constant": j.torque_constant}

@@ -30,20 +30,16 @@ def _model_section(model: Model, path: str) -> Section:
     rows = []
     lines = []
     for name, jm in model.joints.items():
-        f, i = jm.friction, jm.inertia
-        rows.append(
-            (
-                name,
-                f.coulomb_positive,
-                f.coulomb_negative,
-                f.viscous,
-                f.stribeck_positive,
-                f.stribeck_negative,
-                f.stribeck_velocity,
-                i.constant,
-                i.cos_elbow,
-            )
+        f, i = jm.friction.to_dict(), jm.inertia
+        keys = (
+            "coulomb_positive",
+            "coulomb_negative",
+            "viscous",
+            "stribeck_positive",
+            "stribeck_negative",
+            "stribeck_velocity",
         )
+        rows.append((name, *(f.get(k, float("nan")) for k in keys), i.constant, i.cos_elbow))
         for ln in sorted(jm.pdtv, key=lambda x: -x.amplitude):
             lines.append((name, f"{ln.order:g}", ln.direction, ln.amplitude, ln.phase))
     warnings: list[str] = []

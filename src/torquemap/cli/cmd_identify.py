@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from math import nan
 from typing import Any
 
 from torquemap.errors import InputError
@@ -52,13 +53,14 @@ def _identify(args: argparse.Namespace) -> int:
         print(f"torquemap: warning: {w}", file=sys.stderr)
     for name, jr in result.joints.items():
         jm = result.model.joints[name]
-        f = jm.friction
+        f = jm.friction.to_dict()
         top = sorted(jm.pdtv, key=lambda ln: -ln.amplitude)[:3]
         lines = ", ".join(f"{ln.order:g} CPR {ln.amplitude:.3g} N m" for ln in top) or "none"
         print(
             f"{name}: {len(jr.passes)} passes, J={jm.inertia.constant:.4g} kg m^2, "
-            f"coulomb +{f.coulomb_positive:.4g}/-{f.coulomb_negative:.4g} N m, "
-            f"viscous {f.viscous:.4g} N m s/rad, {len(jm.pdtv)} PDTV lines (top: {lines})"
+            f"coulomb +{f.get('coulomb_positive', nan):.4g}/-{f.get('coulomb_negative', nan):.4g}"
+            f" N m, viscous {f.get('viscous', nan):.4g} N m s/rad, {len(jm.pdtv)} PDTV lines "
+            f"(top: {lines})"
         )
     print(f"wrote {args.output}")
     return 0

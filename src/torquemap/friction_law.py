@@ -1,0 +1,296 @@
+"""Friction laws: objects that evaluate themselves, one place for their fields and their file table.
+
+A friction law maps motor velocity [rad/s] to friction torque [N m], motor side. Every law offers
+the same small interface (:class:`FrictionLaw`): its torque, a view that is linear in some of its
+parameters (for least squares and for the uncertainty of the friction torque), and its table in
+a model file (``[joints.<j>.friction]``, whose ``kind`` key names the law). Estimation and
+identification only talk to that interface, so a new law (a dynamic LuGre model, say) is added
+here, registered with :func:`register_friction_law`, and nothing else changes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, ClassVar, Literal, Protocol, Self, TypeVar, runtime_checkable
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from torquemap.errors import InputError
+
+Transition = Literal["linear", "smooth"]
+
+
+@runtime_checkable
+class FrictionLaw(Protocol):
+    """The interface every friction law implements.
+
+    Attributes
+    ----------
+    kind
+        The law's name, the ``kind`` key of ``[joints.<j>.friction]`` in a model file.
+    linear_parameter_names
+        Names of the parameters the law is linear in, in the order of :meth:`basis` columns.
+    """
+
+    kind: ClassVar[str]
+    linear_parameter_names: ClassVar[tuple[str, ...]]
+
+    @property
+    def zero_velocity(self) -> float:
+        """Width of the law's transition through zero velocity [rad/s], > 0."""
+        ...
+
+    def static_levels(self) -> tuple[float, float]:
+        """Friction magnitudes [N m] approached at zero speed from positive and from negative
+        motion (Coulomb plus break-away), both >= 0 for a dissipative law."""
+        ...
+
+    def torque(self, velocity: ArrayLike, *, t: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Friction torque [N m] at motor velocity ``velocity`` [rad/s], shape of ``velocity``.
+
+        ``t`` [s] (same shape) lets a dynamic law integrate its state; static laws ignore it.
+        """
+        ...
+
+    def basis(self, velocity: ArrayLike) -> NDArray[np.float64]:
+        """Columns (n, p) with ``torque(velocity) == basis(velocity) @ linear_parameters()``,
+        the nonlinear parameters held at their values."""
+        ...
+
+    def linear_parameters(self) -> NDArray[np.float64]:
+        """Values (p,) of the parameters named by ``linear_parameter_names``."""
+        ...
+
+    def with_linear_parameters(self, values: ArrayLike) -> Self:
+        """A copy with the linear parameters replaced by ``values`` (p,)."""
+        ...
+
+    def to_dict(self) -> dict[str, Any]:
+        """The law's model-file table, ``kind`` included."""
+        ...
+
+
+FRICTION_LAWS: dict[str, type[FrictionLaw]] = {}
+"""Registered laws by ``kind``."""
+
+
+_L = TypeVar("_L", bound=type)
+
+
+def register_friction_law(cls: _L) -> _L:
+    """Class decorator: make a law readable from model files under its ``kind``."""
+    FRICTION_LAWS[cls.kind] = cls  # type: ignore[attr-defined]
+    return cls
+
+
+def _finite_floats(
+    table: Mapping[str, Any], allowed: set[str], where: str, path: str | None
+) -> dict[str, float]:
+    out: dict[str, float] = {}
+    for key, value in table.items():
+        if key not in allowed:
+            raise InputError(
+                f"unknown key {key!r} in {where} (allowed: {', '.join(sorted(allowed))})", path=path
+            )
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise InputError(f"{where} {key} must be a finite number, got {value!r}", path=path)
+        x = float(value)
+        if not math.isfinite(x):
+            raise InputError(f"{where} {key} must be a finite number, got {value!r}", path=path)
+        out[key] = x
+    return out
+
+
+@register_friction_law
+@dataclass(frozen=True, slots=True, eq=False)
+class StribeckFriction:
+    """Coulomb per direction, viscous and Stribeck friction with a transition through zero.
+
+    For motor velocity ``w`` [rad/s], with ``s(w) = exp(-(|w| / stribeck_velocity) **
+    stribeck_exponent)``::
+
+        positive branch  f+(w) =  coulomb_positive + stribeck_positive * s(w)
+        negative branch  f-(w) = -coulomb_negative - stribeck_negative * s(w)
+        f(w) = b(w) f+(w) + (1 - b(w)) f-(w) + viscous * w
+
+    where the blend ``b`` goes from 0 to 1 across zero velocity: ``transition = "linear"``,
+    ``b = clip((w + w0) / (2 w0), 0, 1)``; ``transition = "smooth"`` (pre-sliding),
+    ``b = (1 + tanh(w / w0)) / 2``, with ``w0 = zero_velocity``.
+
+    Attributes
+    ----------
+    coulomb_positive, coulomb_negative
+        Coulomb friction magnitudes [N m] for positive and negative motion.
+    viscous
+        Viscous coefficient [N m s / rad].
+    stribeck_positive, stribeck_negative
+        Extra break-away torque at low speed [N m].
+    stribeck_velocity
+        Stribeck velocity [rad/s], > 0.
+    zero_velocity
+        Width ``w0`` of the transition through zero velocity [rad/s], > 0.
+    stribeck_exponent
+        Exponent of the Stribeck curve [-], > 0 (2 is the Gaussian form).
+    transition
+        ``"linear"`` or ``"smooth"``.
+
+    Examples
+    --------
+    >>> f = StribeckFriction(coulomb_positive=0.1, coulomb_negative=0.2, viscous=0.01)
+    >>> f.torque([2.0, -2.0]).round(6)
+    array([ 0.12, -0.22])
+    >>> bool(np.allclose(f.basis([2.0, -2.0]) @ f.linear_parameters(), f.torque([2.0, -2.0])))
+    True
+    """
+
+    kind: ClassVar[str] = "stribeck"
+    linear_parameter_names: ClassVar[tuple[str, ...]] = (
+        "coulomb_positive",
+        "coulomb_negative",
+        "viscous",
+        "stribeck_positive",
+        "stribeck_negative",
+    )
+
+    coulomb_positive: float = 0.0
+    coulomb_negative: float = 0.0
+    viscous: float = 0.0
+    stribeck_positive: float = 0.0
+    stribeck_negative: float = 0.0
+    stribeck_velocity: float = 1.0
+    zero_velocity: float = 1e-3
+    stribeck_exponent: float = 2.0
+    transition: Transition = "linear"
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            if f.name == "transition":
+                continue
+            value = getattr(self, f.name)
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise InputError(f"friction {f.name} must be a number, got {value!r}")
+            if not math.isfinite(value):
+                raise InputError(f"friction {f.name} must be finite, got {value!r}")
+        for name in ("stribeck_velocity", "zero_velocity", "stribeck_exponent"):
+            if getattr(self, name) <= 0:
+                raise InputError(f"friction {name} must be > 0, got {getattr(self, name)!r}")
+        if self.transition not in ("linear", "smooth"):
+            raise InputError(
+                f"friction transition must be 'linear' or 'smooth', got {self.transition!r}"
+            )
+
+    def _blend_and_shape(
+        self, velocity: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        w = np.asarray(velocity, dtype=np.float64)
+        s = np.exp(-((np.abs(w) / self.stribeck_velocity) ** self.stribeck_exponent))
+        w0 = self.zero_velocity
+        if self.transition == "linear":
+            b = np.clip((w + w0) / (2.0 * w0), 0.0, 1.0)
+        else:
+            b = 0.5 * (1.0 + np.tanh(w / w0))
+        return w, b, s
+
+    def torque(self, velocity: ArrayLike, *, t: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Friction torque [N m] at motor velocity [rad/s] (static: ``t`` is ignored)."""
+        w, b, s = self._blend_and_shape(velocity)
+        pos = self.coulomb_positive + self.stribeck_positive * s
+        neg = -(self.coulomb_negative + self.stribeck_negative * s)
+        out: NDArray[np.float64] = b * pos + (1.0 - b) * neg + self.viscous * w
+        return out
+
+    def static_levels(self) -> tuple[float, float]:
+        """``(coulomb_positive + stribeck_positive, coulomb_negative + stribeck_negative)``."""
+        return (
+            self.coulomb_positive + self.stribeck_positive,
+            self.coulomb_negative + self.stribeck_negative,
+        )
+
+    def basis(self, velocity: ArrayLike) -> NDArray[np.float64]:
+        """Columns (n, 5) for the linear parameters, in ``linear_parameter_names`` order."""
+        w, b, s = self._blend_and_shape(velocity)
+        w = np.atleast_1d(w)
+        b, s = np.atleast_1d(b), np.atleast_1d(s)
+        return np.stack([b, -(1.0 - b), w, b * s, -(1.0 - b) * s], axis=-1)
+
+    def linear_parameters(self) -> NDArray[np.float64]:
+        """Values of the linear parameters [N m, N m, N m s/rad, N m, N m]."""
+        return np.array([float(getattr(self, k)) for k in self.linear_parameter_names])
+
+    def with_linear_parameters(self, values: ArrayLike) -> Self:
+        """A copy with the linear parameters replaced."""
+        v = np.asarray(values, dtype=np.float64).reshape(-1)
+        if v.size != len(self.linear_parameter_names):
+            raise ValueError(f"expected {len(self.linear_parameter_names)} values, got {v.size}")
+        values_by_name: dict[str, Any] = {
+            k: float(x) for k, x in zip(self.linear_parameter_names, v, strict=True)
+        }
+        return dataclasses.replace(self, **values_by_name)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``[joints.<j>.friction]`` table."""
+        out: dict[str, Any] = {"kind": self.kind}
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            out[f.name] = value if f.name == "transition" else float(value)
+        return out
+
+    @classmethod
+    def from_dict(
+        cls, table: Mapping[str, Any], *, where: str = "friction", path: str | None = None
+    ) -> StribeckFriction:
+        """Read the law from its table (``kind`` already removed); InputError on bad keys."""
+        body = dict(table)
+        transition = body.pop("transition", "linear")
+        if transition not in ("linear", "smooth"):
+            raise InputError(
+                f"{where} transition must be 'linear' or 'smooth', got {transition!r}", path=path
+            )
+        allowed = {f.name for f in dataclasses.fields(cls)} - {"transition"}
+        nums = _finite_floats(body, allowed, where, path)
+        if nums.get("coulomb_positive", 0.0) < 0 or nums.get("coulomb_negative", 0.0) < 0:
+            raise InputError(f"{where} Coulomb magnitudes must be >= 0", path=path)
+        for name in ("stribeck_velocity", "zero_velocity", "stribeck_exponent"):
+            if name in nums and nums[name] <= 0:
+                raise InputError(f"{where} {name} must be > 0", path=path)
+        try:
+            return cls(transition=transition, **nums)
+        except InputError as exc:
+            raise InputError(f"{where} {exc.message}", path=path) from None
+
+
+def friction_law_from_dict(
+    table: Mapping[str, Any], *, where: str = "friction", path: str | os.PathLike[str] | None = None
+) -> FrictionLaw:
+    """Read a friction law from its model-file table; ``kind`` defaults to ``"stribeck"``.
+
+    Raises
+    ------
+    InputError
+        On an unknown kind, an unknown key or a bad value, naming ``where`` and ``path``.
+
+    Examples
+    --------
+    >>> friction_law_from_dict({"coulomb_positive": 0.1}).kind
+    'stribeck'
+    """
+    p = None if path is None else os.fspath(path)
+    if not isinstance(table, Mapping):
+        raise InputError(f"{where} must be a table", path=p)
+    body = dict(table)
+    kind = body.pop("kind", "stribeck")
+    cls = FRICTION_LAWS.get(kind) if isinstance(kind, str) else None
+    if cls is None:
+        raise InputError(
+            f"{where} kind must be one of {', '.join(sorted(FRICTION_LAWS))}, got {kind!r}", path=p
+        )
+    reader = getattr(cls, "from_dict", None)
+    if reader is None:  # pragma: no cover - every registered law has one
+        raise InputError(f"{where}: law {kind!r} cannot be read from a file", path=p)
+    law: FrictionLaw = reader(body, where=where, path=p)
+    return law
