@@ -476,7 +476,8 @@ def estimate_forces(
     reversal_band
         Motor speed [rad/s] (one for all joints, or per joint name) below which a joint's
         friction counts as undetermined. Default per joint: for a model identified from whole
-        logs (friction through zero), its transition width; otherwise the larger of the
+        logs (friction through zero), 4 times its transition width (where the transition is
+        complete); otherwise the larger of the
         friction model's ``zero_velocity`` and the slowest steady speed identification measured
         friction at. Such samples are flagged ``FLAG_LOW_SPEED`` only for models without a
         friction law through zero (pass method, hand-written): where the model knows friction
@@ -669,7 +670,7 @@ def _estimate_piece(
         slowest = identified_slowest_speeds(model)
         bands = {
             j.name: (
-                _law_width(model.joints[j.name].friction)
+                TRANSITION_SPAN * _law_width(model.joints[j.name].friction)
                 if j.name in whole
                 else max(_law_width(model.joints[j.name].friction), slowest.get(j.name, 0.0))
             )
@@ -716,8 +717,15 @@ def _estimate_piece(
                 # Stretches too long to bridge (a hold, the log's ends) keep the model's value;
                 # they must not leak into the samples around them through the filter, which
                 # therefore sees them filled from their neighbours.
+                # Where the model knows friction through zero (whole-log identification) the
+                # answer there is the estimate carried over from the neighbours (its sigma
+                # covers the friction band): the external load is continuous, the friction at
+                # rest is not known.
                 filled = bridge_gaps(log.t, x, gaps, longest=math.inf, support=window, ends=True)
-                y = np.where(held, y, lowpass(log.t, filled, cutoff=cutoff))
+                smooth_filled = lowpass(log.t, filled, cutoff=cutoff)
+                if robot.joints[k].name in whole:
+                    return smooth_filled
+                y = np.where(held, y, smooth_filled)
             return y
         except InputError as exc:
             raise InputError(exc.message, path=log.path) from None
@@ -801,8 +809,13 @@ def _estimate_piece(
         passes=tuple(all_passes),
         any_pass=any_pass,
         warnings=tuple(warnings),
-        wrench_axes=robot.arm.wrench_axes if force is not None else (),
     )
+
+
+#: Where a law's smooth transition through zero still blends the two branches, in units of its
+#: width: ``tanh(4) = 0.9993``. Below it the sign of friction follows the measured velocity only
+#: loosely (stick-slip at a reversal, creep), so ``T_est`` is bridged there.
+TRANSITION_SPAN = 4.0
 
 
 def _law_width(law: Any) -> float:

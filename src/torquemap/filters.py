@@ -244,8 +244,37 @@ def smooth_as_acceleration(t: ArrayLike, x: ArrayLike, *, window: float) -> NDAr
     mean = np.mean(xx, axis=0)  # a constant passes a unit-sum kernel unchanged
     first = integrate.cumulative_trapezoid(xx - mean, tt, initial=0.0, axis=0)
     second = integrate.cumulative_trapezoid(first, tt, initial=0.0, axis=0)
+    fast = _second_derivative_uniform(tt, second, window)
+    if fast is not None:
+        return fast + mean
     out: NDArray[np.float64] = differentiate(tt, second, window=window).acceleration + mean
     return out
+
+
+def _second_derivative_uniform(
+    t: NDArray[np.float64], x: NDArray[np.float64], window: float
+) -> NDArray[np.float64] | None:
+    """:func:`differentiate`'s acceleration on a uniform grid by overlap-add convolution
+    (the Savitzky-Golay filter, ``mode="interp"`` at the ends); None when ``t`` is not uniform."""
+    from scipy import signal
+
+    n = t.size
+    h = uniform_step(t)
+    half = math.floor(float(window) / (2 * h) + 1e-9)
+    length = 2 * half + 1
+    if not (half >= 2 and length <= n and np.allclose(np.diff(t), h, rtol=1e-9, atol=0.0)):
+        return None
+    x2 = x if x.ndim == 2 else x[:, None]
+    coeffs = signal.savgol_coeffs(length, 2, deriv=2, delta=h, use="conv")
+    out = np.empty_like(x2)
+    out[half : n - half] = signal.oaconvolve(x2, coeffs[:, None], mode="valid", axes=0)
+    out[:half] = signal.savgol_filter(
+        x2[:length], length, 2, deriv=2, delta=h, mode="interp", axis=0
+    )[:half]
+    out[n - half :] = signal.savgol_filter(
+        x2[n - length :], length, 2, deriv=2, delta=h, mode="interp", axis=0
+    )[length - half :]
+    return out if x.ndim == 2 else out[:, 0]
 
 
 def uniform_step(t: NDArray[np.float64]) -> float:
@@ -330,59 +359,3 @@ def _interp_rows(
     if fp.ndim == 1:
         return np.asarray(np.interp(x, xp, fp), dtype=np.float64)
     return np.stack([np.interp(x, xp, fp[:, k]) for k in range(fp.shape[1])], axis=1)
-
-
-def smooth_as_acceleration_at(
-    t: ArrayLike, x: ArrayLike, *, window: float, rows: ArrayLike
-) -> NDArray[np.float64]:
-    """:func:`smooth_as_acceleration` evaluated only at ``rows`` (the same values).
-
-    On a uniform grid the kernel is applied at the requested rows only (cost proportional to
-    the rows asked for, not to the log), which is what a search over nonlinear parameters that
-    re-smooths its columns at every trial needs; on irregular time the whole signal is smoothed.
-
-    Examples
-    --------
-    >>> t = np.arange(2001) * 1e-3
-    >>> x = np.sin(5.0 * t)
-    >>> rows = np.array([0, 7, 1000, 2000])
-    >>> full = smooth_as_acceleration(t, x, window=0.2)[rows]
-    >>> bool(np.allclose(smooth_as_acceleration_at(t, x, window=0.2, rows=rows), full))
-    True
-    """
-    from scipy import integrate, signal
-
-    tt, xx = _time_and_values(t, x)
-    r = np.asarray(rows, dtype=np.intp)
-    n = tt.size
-    h = uniform_step(tt)
-    half = math.floor(float(window) / (2 * h) + 1e-9)
-    length = 2 * half + 1
-    uniform = (
-        half >= 2 and length <= n and bool(np.allclose(np.diff(tt), h, rtol=1e-9, atol=0.0))
-    )
-    if not uniform:
-        return smooth_as_acceleration(tt, xx, window=window)[r]
-    x2 = xx if xx.ndim == 2 else xx[:, None]
-    mean = np.mean(x2, axis=0)
-    first = integrate.cumulative_trapezoid(x2 - mean, tt, initial=0.0, axis=0)
-    second = integrate.cumulative_trapezoid(first, tt, initial=0.0, axis=0)
-    coeffs = signal.savgol_coeffs(length, 2, deriv=2, delta=h, use="dot")
-    out = np.empty((r.size, x2.shape[1]))
-    inner = (r >= half) & (r < n - half)
-    if inner.any():
-        ri = r[inner]
-        idx = ri[:, None] + np.arange(-half, half + 1)[None, :]
-        out[inner] = np.einsum("j,rjc->rc", coeffs, second[idx])
-    if (~inner).any():
-        head = signal.savgol_filter(
-            second[:length], length, 2, deriv=2, delta=h, mode="interp", axis=0
-        )
-        tail = signal.savgol_filter(
-            second[n - length :], length, 2, deriv=2, delta=h, mode="interp", axis=0
-        )
-        for i in np.flatnonzero(~inner):
-            row = r[i]
-            out[i] = head[row] if row < half else tail[row - (n - length)]
-    out += mean
-    return out if xx.ndim == 2 else out[:, 0]

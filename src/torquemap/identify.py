@@ -991,6 +991,10 @@ def _identify_whole(
         jm = base.model.joints[name]
         orders = sorted({ln.order for ln in jm.pdtv})
         resolution = _velocity_resolution(pieces, joint.gear_ratio, k, window)
+        # at rest friction is anything within its band (static friction): such samples say
+        # nothing about the law and would pull the Coulomb levels towards the holding torque
+        for p in wp:
+            p.use[np.abs(p.velocity) < 3.0 * resolution] = False
         elbow_term = False
         if elbow_k is not None:
             c = np.concatenate([np.cos(p.elbow[p.use]) for p in wp])

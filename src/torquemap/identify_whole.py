@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import optimize, stats
 
-from torquemap.filters import lowpass, smooth_as_acceleration, smooth_as_acceleration_at
+from torquemap.filters import lowpass, smooth_as_acceleration
 from torquemap.robust import (
     cluster_covariance,
     huber_weights,
@@ -296,10 +296,7 @@ def _friction_columns(
             zero_velocity=w0,
             stribeck=stribeck,
         )
-        if search:
-            out.append(smooth_as_acceleration_at(t, basis, window=prep.window, rows=rs))
-        else:
-            out.append(smooth_as_acceleration(t, basis, window=prep.window)[r])
+        out.append(smooth_as_acceleration(t, basis, window=prep.window)[rs if search else r])
     return np.vstack(out)
 
 
@@ -426,7 +423,7 @@ def fit_joint_whole(
                 lambda x: fun(math.exp(x)),  # type: ignore[operator]
                 bounds=(math.log(a_), math.log(b_)),
                 method="bounded",
-                options={"xatol": 0.05},
+                options={"xatol": 0.1},
             )
             if float(res.fun) <= vals[i]:
                 return math.exp(float(res.x))
@@ -439,12 +436,12 @@ def fit_joint_whole(
         if use_st:
             best = (math.inf, vs, ex)
             for e in EXPONENTS if rnd == 0 else (ex,):
-                v_best = scan_log(lambda x, e=e: cost(x, e, w0, True, d), vs_lo, vs_hi, 10)
+                v_best = scan_log(lambda x, e=e: cost(x, e, w0, True, d), vs_lo, vs_hi, 8)
                 c = cost(v_best, e, w0, True, d)
                 if c < best[0]:
                     best = (c, v_best, e)
             _, vs, ex = best
-        w0 = scan_log(lambda x: cost(vs, ex, x, use_st, d), w0_lo / 4.0, max(vs_hi, w0_lo), 10)
+        w0 = scan_log(lambda x: cost(vs, ex, x, use_st, d), w0_lo / 4.0, max(vs_hi, w0_lo), 8)
         if delay != "auto":
             break
         d_new = _scan_delay(lambda x: cost(vs, ex, w0, use_st, x), max_delay)
@@ -551,7 +548,7 @@ def _irls(
 
 def _scan_delay(cost: object, max_delay: float) -> float:
     fun = cost
-    grid = np.linspace(-max_delay, max_delay, 41)
+    grid = np.linspace(-max_delay, max_delay, 25)
     vals = np.array([fun(float(x)) for x in grid])  # type: ignore[operator]
     k = int(np.argmin(vals))
     if 0 < k < grid.size - 1:
