@@ -19,3 +19,15 @@ def scara_bench(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("scara_bench")
     write_scara_bench(out, seed=0)
     return out
+
+
+@pytest.fixture(scope="session")
+def scara_model(scara_bench: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The model ``torquemap identify`` (defaults: whole-log friction) writes from the bench's
+    sweeps; returns the model file's path. Shared: identification is the expensive step."""
+    from torquemap.cli.main import main
+
+    out = tmp_path_factory.mktemp("scara_model") / "model.toml"
+    argv = ["identify", str(scara_bench / "robot.toml"), str(scara_bench / "sweep.csv")]
+    assert main([*argv, "-o", str(out)]) == 0
+    return out

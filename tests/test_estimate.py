@@ -218,7 +218,18 @@ def test_standstill_is_flagged_and_model_method_still_works(model: Model) -> Non
 def test_columns_follow_the_format(model: Model) -> None:
     log, _, _ = synthetic_log(model, seconds=3.0)
     cols = forces_columns(estimate_forces(model, log))
-    assert list(cols) == ["t", "tau_ext_a", "tau_ext_b", "fx", "fy", "flag"]
+    assert list(cols) == [
+        "t",
+        "tau_ext_a",
+        "tau_ext_b",
+        "fx",
+        "fy",
+        "tau_ext_a_sigma",
+        "tau_ext_b_sigma",
+        "fx_sigma",
+        "fy_sigma",
+        "flag",
+    ]
     assert cols["flag"].dtype.kind == "i"
 
 

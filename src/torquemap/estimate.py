@@ -198,9 +198,7 @@ def estimation_signal(
 
 def _signal(
     model: Model, log: Log, *, window: float
-) -> tuple[
-    NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]
-]:
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """:func:`estimation_signal` plus the motor acceleration [rad/s^2]."""
     robot = model.robot
     n = log.t.size
@@ -516,12 +514,11 @@ def estimate_forces(
             "record at least a second of motion",
             path=log.path,
         )
-    clean = sanitize_log(log, window=win, min_piece=max(win, 3.0 / cutoff))
+    clean = sanitize_log(log, window=win)
     if not clean.pieces:
         raise InputError(
-            f"no stretch of the log between gaps in time lasts {max(win, 3.0 / cutoff):.3g} s "
-            "(what the filters need); record without gaps longer than "
-            f"{2.5 * win:.3g} s",
+            f"no stretch of the log between gaps in time lasts the {win:.3g} s differentiator "
+            f"window; record without gaps longer than {2.5 * win:.3g} s",
             path=log.path,
         )
     nan2 = np.full((n, nj), np.nan)

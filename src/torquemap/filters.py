@@ -37,9 +37,7 @@ def _time_and_values(t: ArrayLike, x: ArrayLike) -> tuple[NDArray[np.float64], N
     tt = np.asarray(t, dtype=np.float64)
     xx = np.asarray(x, dtype=np.float64)
     if tt.ndim != 1 or xx.ndim not in (1, 2) or xx.shape[0] != tt.size:
-        raise InputError(
-            f"time and values must be of equal length, got {tt.shape} and {xx.shape}"
-        )
+        raise InputError(f"time and values must be of equal length, got {tt.shape} and {xx.shape}")
     if tt.size < 3:
         raise InputError(f"need at least 3 samples to filter, got {tt.size}")
     if not (np.all(np.isfinite(tt)) and np.all(np.isfinite(xx))):
@@ -117,11 +115,7 @@ def differentiate(t: ArrayLike, x: ArrayLike, *, window: float) -> Derivatives:
         )
     h = uniform_step(tt)
     half = math.floor(w / (2 * h) + 1e-9)
-    if (
-        half >= 2
-        and 2 * half + 1 <= n
-        and np.allclose(np.diff(tt), h, rtol=1e-9, atol=0.0)
-    ):
+    if half >= 2 and 2 * half + 1 <= n and np.allclose(np.diff(tt), h, rtol=1e-9, atol=0.0):
         return _differentiate_uniform(xx, h, 2 * half + 1)
     lo, hi = _windows(tt, w)
     two_d = xx.ndim == 2
@@ -246,7 +240,8 @@ def smooth_as_acceleration(t: ArrayLike, x: ArrayLike, *, window: float) -> NDAr
     second = integrate.cumulative_trapezoid(first, tt, initial=0.0, axis=0)
     fast = _second_derivative_uniform(tt, second, window)
     if fast is not None:
-        return fast + mean
+        smoothed: NDArray[np.float64] = fast + mean
+        return smoothed
     out: NDArray[np.float64] = differentiate(tt, second, window=window).acceleration + mean
     return out
 

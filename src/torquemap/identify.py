@@ -1015,7 +1015,8 @@ def _identify_whole(
         )
         warnings.extend(fit.warnings)
         coulomb = 0.5 * (
-            abs(fit.value("friction.coulomb_positive")) + abs(fit.value("friction.coulomb_negative"))
+            abs(fit.value("friction.coulomb_positive"))
+            + abs(fit.value("friction.coulomb_negative"))
         )
         if fit.gravity_significant and fit.gravity_torque > 0.1 * max(coulomb, 1e-300):
             msg = (
@@ -1028,7 +1029,7 @@ def _identify_whole(
             if vertical == "refuse" and fit.gravity_torque > 0.5 * coulomb:
                 raise InputError(msg, path=logs[0].path if len(logs) == 1 else None)
             warnings.append(msg)
-        new_joints[name] = _whole_joint_model(fit, jm)
+        new_joints[name] = _whole_joint_model(fit, jm, _directions_seen(wp, resolution))
         entry = joint_notes.get(name, {})
         entry.update(_whole_notes(fit, resolution))
         joint_notes[name] = entry
@@ -1041,8 +1042,16 @@ def _identify_whole(
     return Identification(model=model, joints=results, warnings=tuple(warnings))
 
 
-def _whole_joint_model(fit: Any, jm: JointModel) -> JointModel:
-    """The joint model of a whole-log fit (:class:`torquemap.identify_whole.WholeFit`)."""
+def _directions_seen(pieces: Sequence[Any], resolution: float) -> tuple[bool, bool]:
+    """Whether the fitted samples move in the positive and in the negative direction."""
+    v = np.concatenate([p.velocity[p.use] for p in pieces])
+    return bool(np.sum(v > 3 * resolution) >= 20), bool(np.sum(v < -3 * resolution) >= 20)
+
+
+def _whole_joint_model(fit: Any, jm: JointModel, seen: tuple[bool, bool]) -> JointModel:
+    """The joint model of a whole-log fit (:class:`torquemap.identify_whole.WholeFit`); a
+    direction never moved in takes the other's Coulomb and Stribeck levels (the pass method's
+    warning says so)."""
     from torquemap.friction_law import StribeckFriction
 
     inertia = InertiaModel(
@@ -1059,6 +1068,15 @@ def _whole_joint_model(fit: Any, jm: JointModel) -> JointModel:
         stribeck_exponent=fit.stribeck_exponent if fit.stribeck else 2.0,
         transition="smooth",
     )
+    if seen[0] != seen[1]:
+        side = "positive" if seen[0] else "negative"
+        law = dataclasses.replace(
+            law,
+            coulomb_positive=getattr(law, f"coulomb_{side}"),
+            coulomb_negative=getattr(law, f"coulomb_{side}"),
+            stribeck_positive=getattr(law, f"stribeck_{side}"),
+            stribeck_negative=getattr(law, f"stribeck_{side}"),
+        )
     lines: list[PdtvLine] = []
     for order, directional in fit.orders:
         for direction in ("positive", "negative") if directional else ("both",):
@@ -1069,7 +1087,7 @@ def _whole_joint_model(fit: Any, jm: JointModel) -> JointModel:
                     order=float(order),
                     amplitude=float(math.hypot(a, b)),
                     phase=float(math.atan2(-b, a)),
-                    direction=direction,  # type: ignore[arg-type]
+                    direction=direction,
                 )
             )
     return JointModel(inertia=inertia, friction=law, pdtv=tuple(lines))

@@ -30,6 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import optimize, stats
 
+from torquemap.errors import InputError
 from torquemap.filters import lowpass, smooth_as_acceleration
 from torquemap.robust import (
     cluster_covariance,
@@ -406,14 +407,16 @@ def fit_joint_whole(
     # starting point: no Stribeck, transition at twice the resolution, no delay; Huber weights
     # from it, held fixed through the search
     w0 = 2.0 * w0_lo
-    first = _solve(design_sub(1.0, 2.0, w0, False), _torque(prep, 0.0, search=True), np.ones(sub.size))
+    first = _solve(
+        design_sub(1.0, 2.0, w0, False), _torque(prep, 0.0, search=True), np.ones(sub.size)
+    )
     ws = huber_weights(first.residual, robust_scale(first.residual))
 
     def cost(vs: float, ex: float, w0: float, st: bool, d: float) -> float:
         return _solve(design_sub(vs, ex, w0, st), _torque(prep, d, search=True), ws).wrss
 
     def scan_log(f: object, lo: float, hi: float, count: int) -> float:
-        fun = f  # type: ignore[assignment]
+        fun = f
         grid = np.geomspace(lo, hi, count)
         vals = [fun(float(x)) for x in grid]  # type: ignore[operator]
         i = int(np.argmin(vals))
@@ -436,15 +439,22 @@ def fit_joint_whole(
         if use_st:
             best = (math.inf, vs, ex)
             for e in EXPONENTS if rnd == 0 else (ex,):
-                v_best = scan_log(lambda x, e=e: cost(x, e, w0, True, d), vs_lo, vs_hi, 8)
+                v_best = scan_log(
+                    lambda x, e=e, w0=w0, d=d: cost(x, e, w0, True, d), vs_lo, vs_hi, 8
+                )
                 c = cost(v_best, e, w0, True, d)
                 if c < best[0]:
                     best = (c, v_best, e)
             _, vs, ex = best
-        w0 = scan_log(lambda x: cost(vs, ex, x, use_st, d), w0_lo / 4.0, max(vs_hi, w0_lo), 8)
+        w0 = scan_log(
+            lambda x, vs=vs, ex=ex, d=d: cost(vs, ex, x, use_st, d),
+            w0_lo / 4.0,
+            max(vs_hi, w0_lo),
+            8,
+        )
         if delay != "auto":
             break
-        d_new = _scan_delay(lambda x: cost(vs, ex, w0, use_st, x), max_delay)
+        d_new = _scan_delay(lambda x, vs=vs, ex=ex, w0=w0: cost(vs, ex, w0, use_st, x), max_delay)
         moved = abs(d_new - d)
         d = d_new
         if moved < 0.1 * window:
@@ -576,7 +586,7 @@ def _residual_psd(prep: _Prepared, residual: NDArray[np.float64], scale: float) 
         keep = np.concatenate(([True], np.diff(tt) > 0))
         try:
             values.append(lowpass(tt[keep], res[keep], cutoff=REFERENCE_CUTOFF))
-        except Exception:  # noqa: BLE001 - a piece too short for the filter adds nothing
+        except InputError:  # a piece too short for the filter adds nothing
             continue
     if not values:
         return scale**2 / 50.0

@@ -18,6 +18,7 @@ The result keeps the original rows (for the output) and the pieces (for the filt
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -148,9 +149,7 @@ def sanitize_log(log: Log, *, window: float, min_piece: float | None = None) -> 
     if n > 1:
         repeated[1:] = np.diff(t) <= 0
     if repeated.any():
-        warnings.append(
-            f"{int(repeated.sum())} samples repeat the previous time stamp: dropped"
-        )
+        warnings.append(f"{int(repeated.sum())} samples repeat the previous time stamp: dropped")
     keep = np.flatnonzero(~repeated)
     tk = t[keep]
     q = log.q[keep].copy()
@@ -182,7 +181,7 @@ def sanitize_log(log: Log, *, window: float, min_piece: float | None = None) -> 
     shortest = float(window) if min_piece is None else float(min_piece)
     pieces: list[Piece] = []
     unprocessed = repeated.copy()
-    for a, b in zip(edges[:-1], edges[1:], strict=True):
+    for a, b in itertools.pairwise(edges):
         rows = keep[a:b]
         if b - a < 5 or tk[b - 1] - tk[a] < shortest:
             unprocessed[rows] = True
