@@ -64,8 +64,9 @@ FLAG_NO_PASS = 4
 """``paper`` method only: the sample lies outside every monotonic pass long enough for the
 position-domain filter, so it holds the low-pass value with its PDTV."""
 FLAG_GAP = 8
-"""The sample lies in a stretch between gaps in time too short to estimate (or repeats the
-previous time stamp): no answer (NaN)."""
+"""A gap in time: the sample lies in a stretch between gaps too short to estimate, or repeats
+the previous time stamp (no answer, NaN), or lies within the filters' support (the low-pass's
+``1 / cutoff``) of a gap, where they see data on one side only (answered, not sound)."""
 FLAG_IMPLAUSIBLE = 16
 """The sample holds an implausible value (a wild current, an encoder glitch): it was kept out of
 every filter and its answer is bridged from its neighbours."""
@@ -529,6 +530,13 @@ def estimate_forces(
     flag = np.zeros(n, dtype=np.int64)
     flag[clean.unprocessed] |= FLAG_GAP
     flag[clean.implausible] |= FLAG_IMPLAUSIBLE
+    # the filters' support next to a gap holds data on one side only: flagged (a gap)
+    support = win if method == "raw" else max(win, 1.0 / cutoff)
+    for before, after in clean.gaps:
+        near = ((log.t >= before - support) & (log.t <= before)) | (
+            (log.t >= after) & (log.t <= after + support)
+        )
+        flag[near] |= FLAG_GAP
     warnings: list[str] = list(clean.warnings)
     passes: list[list[Pass]] = [[] for _ in range(nj)]
     any_pass = False

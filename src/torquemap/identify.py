@@ -909,8 +909,13 @@ def identify_model(
         stribeck=stribeck,
         direction_significance=direction_significance,
         torque_lag=torque_lag,
-        channel_delay=channel_delay if friction == "passes" or channel_delay != "auto" else 0.0,
+        channel_delay=channel_delay,
     )
+    quanta = {j.name: _motor_quantum(pieces, j.gear_ratio, k) for k, j in enumerate(rb.joints)}
+    joint_notes = base.model.notes.get("joints", {})
+    for name, entry in joint_notes.items():
+        if isinstance(entry, dict) and quanta.get(name):
+            entry["motor_angle_quantum"] = quanta[name]
     if friction == "passes":
         warnings = (*cleaning, *base.warnings)
         notes = dict(base.model.notes)
@@ -999,6 +1004,9 @@ def _identify_whole(
         if elbow_k is not None:
             c = np.concatenate([np.cos(p.elbow[p.use]) for p in wp])
             elbow_term = bool(c.size and float(c.max() - c.min()) >= 0.2)
+        both_ways = any(p.direction == "positive" for _, p in res.passes) and any(
+            p.direction == "negative" for _, p in res.passes
+        )
         fit = iw.fit_joint_whole(
             wp,
             orders,
@@ -1010,6 +1018,9 @@ def _identify_whole(
             delay=channel_delay,
             joint=name,
             gravity_check=k if joint.gear_ratio > 1.0 else None,
+            inertia=res.inertia is not None and res.inertia.samples >= 3,
+            directional=both_ways,
+            max_order=float(res.max_order),
             planar=planar,
             direction_significance=direction_significance,
         )
@@ -1029,7 +1040,11 @@ def _identify_whole(
             if vertical == "refuse" and fit.gravity_torque > 0.5 * coulomb:
                 raise InputError(msg, path=logs[0].path if len(logs) == 1 else None)
             warnings.append(msg)
-        new_joints[name] = _whole_joint_model(fit, jm, _directions_seen(wp, resolution))
+        seen = (
+            any(p.direction == "positive" for _, p in res.passes),
+            any(p.direction == "negative" for _, p in res.passes),
+        )
+        new_joints[name] = _whole_joint_model(fit, jm, seen)
         entry = joint_notes.get(name, {})
         entry.update(_whole_notes(fit, resolution))
         joint_notes[name] = entry
@@ -1040,12 +1055,6 @@ def _identify_whole(
     notes["friction_fit"] = "whole"
     model = Model(robot=rb, joints=new_joints, notes=notes)
     return Identification(model=model, joints=results, warnings=tuple(warnings))
-
-
-def _directions_seen(pieces: Sequence[Any], resolution: float) -> tuple[bool, bool]:
-    """Whether the fitted samples move in the positive and in the negative direction."""
-    v = np.concatenate([p.velocity[p.use] for p in pieces])
-    return bool(np.sum(v > 3 * resolution) >= 20), bool(np.sum(v < -3 * resolution) >= 20)
 
 
 def _whole_joint_model(fit: Any, jm: JointModel, seen: tuple[bool, bool]) -> JointModel:
@@ -1109,3 +1118,16 @@ def _whole_notes(fit: Any, resolution: float) -> dict[str, Any]:
             "residual_psd": float(fit.residual_psd),
         },
     }
+
+
+def _motor_quantum(logs: Sequence[Log], gear_ratio: float, k: int) -> float:
+    """One encoder count at the motor [rad] when the logs move by whole counts, else 0."""
+    steps = [np.abs(np.diff(gear_ratio * log.q[:, k])) for log in logs]
+    step = np.concatenate(steps) if steps else np.zeros(0)
+    step = step[step > 1e-12]
+    if step.size < 20:
+        return 0.0
+    quantum = float(np.min(step))
+    ratio = step / quantum
+    whole = np.abs(ratio - np.round(ratio)) < 0.02 * np.maximum(1.0, ratio)
+    return quantum if float(np.mean(whole)) > 0.95 else 0.0

@@ -238,22 +238,23 @@ def _prepare(
     window: float,
     elbow_term: bool,
     block: float,
+    inertia: bool = True,
 ) -> _Prepared:
     fixed, vel, ts, tq, rows, clusters, search, pos = [], [], [], [], [], [], [], []
     names: list[str] = []
     offset = 0
     stacked = 0
     for piece in pieces:
-        cols = [piece.acceleration[:, None]]
-        names = ["inertia.constant"]
-        if elbow_term:
+        cols = [piece.acceleration[:, None]] if inertia else []
+        names = ["inertia.constant"] if inertia else []
+        if elbow_term and inertia:
             cols.append((piece.acceleration * np.cos(piece.elbow))[:, None])
             names.append("inertia.cos_elbow")
         pd, pd_names = pdtv_basis(piece.theta, piece.velocity, orders)
         if pd.shape[1]:
             cols.append(smooth_as_acceleration(piece.t, pd, window=window))
         names += pd_names
-        full = np.hstack(cols)
+        full = np.hstack(cols) if cols else np.zeros((piece.t.size, 0))
         r = np.flatnonzero(piece.use)
         fixed.append(full[r])
         vel.append(piece.velocity)
@@ -339,6 +340,9 @@ def fit_joint_whole(
     planar: bool = False,
     direction_significance: float = 0.001,
     significance: float = 0.001,
+    inertia: bool = True,
+    directional: bool = True,
+    max_order: float = 0.0,
 ) -> WholeFit:
     """Fit one joint's friction, inertia, PDTV and torque delay to whole logs.
 
@@ -374,6 +378,16 @@ def fit_joint_whole(
         Level of the test that a PDTV line differs between directions (Bonferroni over lines).
     significance
         Level of the Stribeck and delay tests.
+    directional
+        Test PDTV lines for a difference between directions (only sensible when both
+        directions were swept).
+    max_order
+        Highest PDTV order [CPR] to search in the residual for lines the given ``orders``
+        miss (0: no search).
+    inertia
+        Fit the inertia; False holds it at 0 (no ramp stands out of the speed ripple, so the
+        acceleration is ripple correlated with the PDTV and would bias it). A fitted inertia
+        that comes out non-positive is dropped the same way, with a warning.
 
     Returns
     -------
@@ -383,7 +397,9 @@ def fit_joint_whole(
     warnings: list[str] = []
     block = max(1.0, 20.0 * window)
     both = [(float(o), False) for o in orders]
-    prep = _prepare(pieces, both, window=window, elbow_term=elbow_term, block=block)
+    prep = _prepare(
+        pieces, both, window=window, elbow_term=elbow_term, block=block, inertia=inertia
+    )
     n = prep.fixed.shape[0]
     sub = prep.search_pos
     fixed_sub = prep.fixed[sub]
@@ -482,11 +498,25 @@ def fit_joint_whole(
     y = _torque(prep, d)
     first_full = _solve(design(vs, ex, w0, st_used), y, np.ones(n))
     weights = huber_weights(first_full.residual, robust_scale(first_full.residual))
+    # lines the pass method missed: the spectrum of the whole fit's residual over the motor
+    # angle (every sample, not only the passes)
+    if max_order >= 1:
+        theta = np.concatenate([p.theta[r] for p, r in zip(pieces, prep.rows, strict=True)])
+        missed = _missed_orders(theta, first_full.residual, [o for o, _ in both], max_order)
+        if missed:
+            both = sorted([*both, *((o, False) for o in missed)])
+            prep = _prepare(
+                pieces, both, window=window, elbow_term=elbow_term, block=block, inertia=inertia
+            )
+            first_full = _solve(design(vs, ex, w0, st_used), y, np.ones(n))
+            weights = huber_weights(first_full.residual, robust_scale(first_full.residual))
     # directional PDTV lines: fit both directions separately and test their difference
     final_orders = both
-    if both:
+    if both and directional:
         directional = [(o, True) for o, _ in both]
-        prep_d = _prepare(pieces, directional, window=window, elbow_term=elbow_term, block=block)
+        prep_d = _prepare(
+            pieces, directional, window=window, elbow_term=elbow_term, block=block, inertia=inertia
+        )
         a_d = np.hstack((prep_d.fixed, _friction_columns(prep_d, vs, ex, w0, st_used)))
         fit_d = _irls(a_d, y, weights)
         cov_d = cluster_covariance(a_d, fit_d.residual, weights, fit_d.bread, prep_d.clusters)
@@ -505,9 +535,21 @@ def fit_joint_whole(
             chosen.append((o, bool(excited and chi > crit and np.hypot(*diff) > 0.1 * amp)))
         final_orders = chosen
         if any(dd for _, dd in chosen):
-            prep = _prepare(pieces, chosen, window=window, elbow_term=elbow_term, block=block)
+            prep = _prepare(
+                pieces, chosen, window=window, elbow_term=elbow_term, block=block, inertia=inertia
+            )
     a = np.hstack((prep.fixed, _friction_columns(prep, vs, ex, w0, st_used)))
     fit = _irls(a, y, weights)
+    if inertia and fit.coef[0] <= 0:
+        warnings.append(
+            f"the fitted inertia is not positive ({fit.coef[0]:.3g} kg m^2): no ramp stands "
+            "out of the speed ripple; inertia set to 0 (record sweeps with clear accelerations)"
+        )
+        prep = _prepare(
+            pieces, final_orders, window=window, elbow_term=False, block=block, inertia=False
+        )
+        a = np.hstack((prep.fixed, _friction_columns(prep, vs, ex, w0, st_used)))
+        fit = _irls(a, y, weights)
     cov = cluster_covariance(a, fit.residual, fit.weights, fit.bread, prep.clusters)
     names = [*prep.fixed_names, *FRICTION_NAMES[: 5 if st_used else 3]]
     scale = robust_scale(fit.residual)
@@ -620,3 +662,22 @@ def _gravity_test(
     torque = g @ c
     ptp = float(np.percentile(torque, 99.5) - np.percentile(torque, 0.5))
     return ptp, bool(chi > stats.chi2.ppf(1.0 - 1e-6, m))
+
+
+def _missed_orders(
+    theta: NDArray[np.float64],
+    residual: NDArray[np.float64],
+    known: Sequence[float],
+    max_order: float,
+    false_alarm: float = 0.01,
+) -> list[float]:
+    """Orders [CPR] whose line stands out of the residual's position spectrum, not in ``known``."""
+    from torquemap.pdtv import discrete_position_signal, pick_lines, position_spectrum
+
+    nb = int(2 ** math.ceil(math.log2(2 * (math.floor(max_order) + 1))))
+    signal = discrete_position_signal(theta, residual, bin_width=2 * math.pi / nb)
+    if signal.value.size / nb < 0.5:
+        return []
+    picks = pick_lines(position_spectrum(signal, max_order=max_order), false_alarm=false_alarm)
+    have = {round(float(o), 6) for o in known}
+    return sorted({float(o) for o in picks.order if round(float(o), 6) not in have and o > 0})
