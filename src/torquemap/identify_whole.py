@@ -513,9 +513,9 @@ def fit_joint_whole(
     # directional PDTV lines: fit both directions separately and test their difference
     final_orders = both
     if both and directional:
-        directional = [(o, True) for o, _ in both]
+        split = [(o, True) for o, _ in both]
         prep_d = _prepare(
-            pieces, directional, window=window, elbow_term=elbow_term, block=block, inertia=inertia
+            pieces, split, window=window, elbow_term=elbow_term, block=block, inertia=inertia
         )
         a_d = np.hstack((prep_d.fixed, _friction_columns(prep_d, vs, ex, w0, st_used)))
         fit_d = _irls(a_d, y, weights)
