@@ -115,7 +115,7 @@ def thin_data_warnings(model: Model, log: Log, joints: dict[str, JointIdentifica
     return out
 
 
-def _log_section(model: Model, path: str) -> Section:
+def _log_section(model: Model, path: str, window: float | None = None) -> Section:
     from torquemap.plots.force import estimate_figure
     from torquemap.plots.pdtv import spectrum_figure
 
@@ -127,7 +127,10 @@ def _log_section(model: Model, path: str) -> Section:
         f"(median step {1e3 * float(np.median(np.diff(log.t))):.3g} ms)."
     ]
     try:
-        ident = identify_model(model, [log])
+        from torquemap.estimate import model_window
+
+        win = model_window(model) if window is None else window
+        ident = identify_model(model, [log], window=win, friction="passes")
     except InputError as exc:
         paragraphs.append(f"No PDTV spectrum: {exc.message}.")
         ident = None
@@ -157,7 +160,7 @@ def _log_section(model: Model, path: str) -> Section:
             )
     tables = []
     try:
-        est = estimate_forces(model, log, method="model")
+        est = estimate_forces(model, log, method="model", window=window)
     except InputError as exc:
         warnings.append(f"no force estimate: {exc.message}")
     else:
@@ -200,8 +203,12 @@ def write_user_report(
     model_path: str | os.PathLike[str],
     log_paths: Sequence[str | os.PathLike[str]],
     out: str | os.PathLike[str],
+    *,
+    window: float | None = None,
 ) -> Report:
     """Build and write the report of a model and logs; returns it.
+
+    ``window`` is the differentiator window [s] (default: the model's).
 
     Raises
     ------
@@ -211,7 +218,7 @@ def write_user_report(
     model = load_model(model_path)
     sections = [_model_section(model, os.fspath(model_path))]
     for path in log_paths:
-        sections.append(_log_section(model, os.fspath(path)))
+        sections.append(_log_section(model, os.fspath(path), window))
     report = Report(
         title=f"torquemap report: {model.robot.name}",
         subtitle=f"model {os.fspath(model_path)}; {len(log_paths)} log(s)",

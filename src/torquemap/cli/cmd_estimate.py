@@ -34,9 +34,10 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     p.add_argument(
         "--window",
         type=float,
-        default=0.05,
+        default=None,
         metavar="S",
-        help="differentiator window [s] for velocity and acceleration (default 0.05)",
+        help="differentiator window [s] for velocity and acceleration (default: the window "
+        "the model was identified with, else 0.05)",
     )
     p.add_argument(
         "--notch-width",

@@ -20,6 +20,20 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("-o", "--output", metavar="MODEL.toml", required=True)
     p.add_argument("--max-order", type=float, default=None, help="highest PDTV order [CPR]")
     p.add_argument("--joint", action="append", default=None, help="joint to identify (repeat)")
+    p.add_argument(
+        "--friction",
+        choices=("whole", "passes"),
+        default="whole",
+        help="whole (default): friction through zero, inertia, PDTV and delay fitted to every "
+        "sample; passes: the paper's constant-speed pass means (Eq 5)",
+    )
+    p.add_argument(
+        "--window",
+        type=float,
+        default=0.05,
+        metavar="S",
+        help="differentiator window [s] (default 0.05; stored in the model for later commands)",
+    )
     p.set_defaults(handler=_identify)
 
     s = subparsers.add_parser("spectrum", help="PDTV spectrum in CPR with the model's lines")
@@ -28,6 +42,13 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     s.add_argument("--joint", required=True)
     s.add_argument("-o", "--output", metavar="FIG.png", default=None)
     s.add_argument("--top", type=int, default=10, help="lines printed without -o")
+    s.add_argument(
+        "--window",
+        type=float,
+        default=None,
+        metavar="S",
+        help="differentiator window [s]; default the model's",
+    )
     s.set_defaults(handler=_spectrum)
 
     m = subparsers.add_parser("pdtv-map", help="PDTV table over one motor revolution")
@@ -47,7 +68,14 @@ def _identify(args: argparse.Namespace) -> int:
 
     model = load_model(args.robot)
     logs = [read_log(path, model.robot) for path in args.logs]
-    result = identify_model(model, logs, joints=args.joint, max_order=args.max_order)
+    result = identify_model(
+        model,
+        logs,
+        joints=args.joint,
+        max_order=args.max_order,
+        window=args.window,
+        friction=args.friction,
+    )
     write_toml(args.output, model_to_dict(result.model))
     for w in result.warnings:
         print(f"torquemap: warning: {w}", file=sys.stderr)
@@ -74,7 +102,10 @@ def _spectrum(args: argparse.Namespace) -> int:
     model = load_model(args.model)
     log = read_log(args.log, model.robot)
     model.robot.joint(args.joint)
-    result = identify_model(model, [log], joints=[args.joint])
+    from torquemap.estimate import model_window
+
+    window = model_window(model) if args.window is None else args.window
+    result = identify_model(model, [log], joints=[args.joint], window=window, friction="passes")
     jr = result.joints[args.joint]
     if jr.spectrum is None:
         raise InputError(

@@ -19,13 +19,20 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("model", metavar="MODEL.toml")
     p.add_argument("logs", metavar="LOG", nargs="+")
     p.add_argument("-o", "--output", metavar="REPORT.html", required=True)
+    p.add_argument(
+        "--window",
+        type=float,
+        default=None,
+        metavar="S",
+        help="differentiator window [s]; default the model's",
+    )
     p.set_defaults(handler=_report)
 
 
 def _report(args: argparse.Namespace) -> int:
     from torquemap.user_report import write_user_report
 
-    report = write_user_report(args.model, args.logs, args.output)
+    report = write_user_report(args.model, args.logs, args.output, window=args.window)
     warnings = sum(len(s.warnings) for s in report.sections)
     figures = sum(len(s.figures) for s in report.sections)
     print(
