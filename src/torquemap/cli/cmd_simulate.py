@@ -26,7 +26,20 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         "sweep.csv, circle.csv, truth.csv and truth.toml into DIR (docs/formats.md).",
     )
     scara.add_argument("--out", metavar="DIR", required=True, help="output folder (created)")
-    scara.add_argument("--seed", type=int, default=0, help="noise seed, >= 0 (default 0)")
+    scara.add_argument(
+        "--seed",
+        type=int,
+        default=None,
+        help="noise seed, >= 0 (default 0, or SEED with --random)",
+    )
+    scara.add_argument(
+        "--random",
+        type=int,
+        default=None,
+        metavar="SEED",
+        help="draw the robot, its friction laws, PDTV, logger and scenarios at random "
+        "(torquemap.sim.family) instead of the paper's bench; truth.toml says what was drawn",
+    )
     scara.set_defaults(handler=_scara)
     figures = benches.add_parser(
         "figures",
@@ -45,8 +58,11 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
 
 def _scara(args: argparse.Namespace) -> int:
     from torquemap.sim.bench import write_scara_bench
+    from torquemap.sim.family import random_bench_or_error
 
-    write_scara_bench(args.out, seed=args.seed)
+    bench = None if args.random is None else random_bench_or_error(args.random)
+    seed = args.seed if args.seed is not None else (args.random or 0)
+    write_scara_bench(args.out, seed=seed, bench=bench)
     print(f"wrote {', '.join(_FILES)} to {args.out}")
     return 0
 

@@ -7,6 +7,7 @@ robot.toml, sweep.csv, circle.csv, truth.csv and truth.toml.
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,6 +18,7 @@ from numpy.typing import NDArray
 
 from torquemap.errors import InputError
 from torquemap.sim.engine import EngineOutput, run_engine
+from torquemap.sim.logger import delayed_ticks, logged_ticks
 from torquemap.sim.scara import (
     ScaraBench,
     default_bench,
@@ -30,10 +32,13 @@ from torquemap.sim.trajectory import Reference, circle_reference, sweep_referenc
 class SimRun:
     """One simulated run: what the log holds, and the hidden truth (for tests only).
 
+    Every array holds the logged samples (every servo tick for the paper's bench; a jittered,
+    gapped subset for a bench whose :class:`~torquemap.sim.scara.Logging` says so).
+
     Attributes
     ----------
     t
-        Time [s], ``k / servo_rate``, shape (n,).
+        Time [s], ``tick / servo_rate``, shape (n,).
     q
         Measured joint angles [rad]: quantised motor angle / gear ratio, shape (n, 2).
     current
@@ -41,10 +46,15 @@ class SimRun:
     q_true, velocity
         True joint angle [rad] and velocity [rad/s], shape (n, 2).
     reference
-        The reference the controller tracked.
+        The reference the controller tracked, at every servo tick.
+    tick
+        Servo tick of each sample, shape (n,).
+    current_tick
+        Servo tick whose current each sample holds (``tick`` less the current delay).
     motor_torque
-        True motor torque applied from sample k to k+1, ``torque_constant * current`` without
-        sensor noise (ripple included: it is a real current) [N m], motor side, shape (n, 2).
+        True motor torque applied from the sample's tick to the next, ``torque_constant *
+        current`` without sensor noise (ripple included: it is a real current) [N m], motor
+        side, shape (n, 2). Not delayed: ``current`` holds it ``current_delay`` late.
     friction, pdtv
         True motor-side friction and PDTV torques at each sample [N m], shape (n, 2).
     force
@@ -62,6 +72,8 @@ class SimRun:
     q_true: NDArray[np.float64]
     velocity: NDArray[np.float64]
     reference: Reference
+    tick: NDArray[np.int64]
+    current_tick: NDArray[np.int64]
     motor_torque: NDArray[np.float64]
     friction: NDArray[np.float64]
     pdtv: NDArray[np.float64]
@@ -73,21 +85,27 @@ class SimRun:
 def _run(
     bench: ScaraBench, reference: Reference, *, spring: bool, rng: np.random.Generator | int | None
 ) -> SimRun:
-    out: EngineOutput = run_engine(bench, reference, spring=spring, rng=np.random.default_rng(rng))
+    gen = np.random.default_rng(rng)
+    out: EngineOutput = run_engine(bench, reference, spring=spring, rng=gen)
+    rate = bench.controller.servo_rate
+    k = logged_ticks(reference.t.size, rate, bench.logging, gen)
+    kc = delayed_ticks(k, rate, bench.logging.current_delay)
     kt = np.array([ax.torque_constant for ax in bench.axes])
     return SimRun(
-        t=reference.t,
-        q=out.q_measured,
-        current=out.current_measured,
-        q_true=out.q,
-        velocity=out.qd,
+        t=reference.t[k],
+        q=out.q_measured[k],
+        current=out.current_measured[kc],
+        q_true=out.q[k],
+        velocity=out.qd[k],
         reference=reference,
-        motor_torque=out.current * kt,
-        friction=out.friction,
-        pdtv=out.pdtv,
-        force=out.force,
-        tau_ext=joint_torque_from_force(bench, out.q, out.force),
-        friction_work=out.friction_work,
+        tick=k,
+        current_tick=kc,
+        motor_torque=out.current[k] * kt,
+        friction=out.friction[k],
+        pdtv=out.pdtv[k],
+        force=out.force[k],
+        tau_ext=joint_torque_from_force(bench, out.q[k], out.force[k]),
+        friction_work=out.friction_work[k],
     )
 
 
@@ -152,6 +170,13 @@ def truth_document(bench: ScaraBench, *, seed: int) -> dict[str, Any]:
     Per joint ``[joints.<j>.inertia]`` (the diagonal motor-side inertia
     ``constant + cos_elbow * cos(q_b)`` the dynamics imply), ``[joints.<j>.friction]`` and
     ``[[joints.<j>.pdtv]]``; everything else under ``[identification.bench]``.
+
+    A friction law the model file cannot hold (a LuGre law, per-direction viscous friction or
+    Stribeck velocity) is written as its closest static law in the model's form (its steady
+    state, with the two directions' viscous coefficients and Stribeck velocities averaged) and in full under
+    ``[identification.bench.friction.<j>]``; a delayed current channel as
+    ``[identification.joints.<j>] channel_delay`` (what identification records), so that the
+    file used as a model undoes it.
     """
     doc = robot_document(bench)
     dc = dynamics_constants(bench)
@@ -167,17 +192,22 @@ def truth_document(bench: ScaraBench, *, seed: int) -> dict[str, Any]:
         f = ax.friction
         spec = doc["joints"][ax.name]
         spec["inertia"] = inertia[ax.name]
+        _, _, vs_neg, visc_neg = f.direction_parameters(-1)
         spec["friction"] = {
             "coulomb_positive": f.coulomb_positive,
             "coulomb_negative": f.coulomb_negative,
-            "viscous": f.viscous,
+            "viscous": f.viscous if f.viscous_negative is None else 0.5 * (f.viscous + visc_neg),
             "stribeck_positive": f.stribeck_positive,
             "stribeck_negative": f.stribeck_negative,
-            "stribeck_velocity": f.stribeck_velocity,
+            "stribeck_velocity": f.stribeck_velocity
+            if f.stribeck_velocity_negative is None
+            else math.sqrt(f.stribeck_velocity * vs_neg),
             "zero_velocity": f.zero_velocity,
         }
+        if f.stribeck_exponent != 2.0:
+            spec["friction"]["stribeck_exponent"] = f.stribeck_exponent
         spec["pdtv"] = [
-            {"order": h.order, "amplitude": h.amplitude, "phase": h.phase, "direction": "both"}
+            {"order": h.order, "amplitude": h.amplitude, "phase": h.phase, "direction": h.direction}
             for h in ax.pdtv
         ]
     lk, ctl, c = bench.links, bench.controller, bench.circle
@@ -207,7 +237,56 @@ def truth_document(bench: ScaraBench, *, seed: int) -> dict[str, Any]:
             "spring_force": c.spring_force,
         },
     }
+    doc["identification"]["bench"].update(_family_notes(bench))
+    delay = round(bench.logging.current_delay * ctl.servo_rate) / ctl.servo_rate
+    if delay:
+        doc["identification"]["joints"] = {ax.name: {"channel_delay": delay} for ax in bench.axes}
     return doc
+
+
+def _family_notes(bench: ScaraBench) -> dict[str, Any]:
+    """Truth notes of what departs from the paper's bench (nothing for the paper's bench)."""
+    out: dict[str, Any] = {}
+    if bench.random_seed is not None:
+        out["random_seed"] = bench.random_seed
+        out["gear_ratios"] = [ax.gear_ratio for ax in bench.axes]
+        out["encoder_counts_per_rev"] = [ax.encoder_counts_per_rev for ax in bench.axes]
+        out["controller_friction_feedforward"] = bench.controller.friction_feedforward
+        out["sweep_revolutions"] = bench.sweep.revolutions
+        out["sweep_acceleration"] = bench.sweep.acceleration
+    lg = bench.logging
+    if lg.rate is not None or lg.gaps or lg.current_delay:
+        out["log_rate"] = lg.rate if lg.rate is not None else bench.controller.servo_rate
+        out["log_jitter"] = lg.jitter
+        out["log_gaps"] = lg.gaps
+        out["log_gap_durations"] = list(lg.gap_durations)
+        out["current_delay"] = lg.current_delay
+    laws: dict[str, Any] = {}
+    for ax in bench.axes:
+        f = ax.friction
+        if f.is_paper_law:
+            continue
+        entry: dict[str, Any] = {
+            "law": "lugre" if f.lugre is not None else "static",
+            "coulomb_positive": f.coulomb_positive,
+            "coulomb_negative": f.coulomb_negative,
+            "stribeck_positive": f.stribeck_positive,
+            "stribeck_negative": f.stribeck_negative,
+            "stribeck_exponent": f.stribeck_exponent,
+        }
+        for sign, tag in ((1, "positive"), (-1, "negative")):
+            _, _, vs, visc = f.direction_parameters(sign)
+            entry[f"stribeck_velocity_{tag}"] = vs
+            entry[f"viscous_{tag}"] = visc
+        entry["zero_velocity"] = f.zero_velocity
+        if f.lugre is not None:
+            entry["bristle_stiffness"] = f.lugre.bristle_stiffness
+            entry["bristle_damping"] = f.lugre.bristle_damping
+            entry["damping_velocity"] = f.lugre.damping_velocity
+        laws[ax.name] = entry
+    if laws:
+        out["friction"] = laws
+    return out
 
 
 def _log_columns(run: SimRun, bench: ScaraBench) -> dict[str, NDArray[np.float64]]:
@@ -219,6 +298,70 @@ def _log_columns(run: SimRun, bench: ScaraBench) -> dict[str, NDArray[np.float64
     return cols
 
 
+@dataclass(frozen=True, slots=True, eq=False)
+class BenchFiles:
+    """The content of a bench folder, before it is written (docs/formats.md).
+
+    Attributes
+    ----------
+    robot
+        robot.toml, as a TOML-ready dict.
+    truth
+        truth.toml (:func:`truth_document`).
+    sweep, circle
+        The logs' columns (``t``, ``q_<j>``, ``i_<j>``).
+    truth_columns
+        truth.csv's columns (``t``, ``fx``, ``fy``, ``tau_ext_<j>``) at every circle sample.
+    """
+
+    robot: dict[str, Any]
+    truth: dict[str, Any]
+    sweep: dict[str, NDArray[np.float64]]
+    circle: dict[str, NDArray[np.float64]]
+    truth_columns: dict[str, NDArray[np.float64]]
+
+
+def simulate_bench(bench: ScaraBench | None = None, *, seed: int = 0) -> BenchFiles:
+    """Simulate both scenarios of ``bench`` with noise seed ``seed``; nothing is written.
+
+    Parameters
+    ----------
+    bench
+        Parameters; default :func:`~torquemap.sim.scara.default_bench`.
+    seed
+        Seed of the noise (the sweep and the circle use independent streams), >= 0.
+
+    Returns
+    -------
+    BenchFiles
+
+    Raises
+    ------
+    InputError
+        On a negative seed.
+    """
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise InputError(f"seed must be a non-negative integer, got {seed!r}")
+    bench = default_bench() if bench is None else bench
+    sweep_rng, circle_rng = np.random.default_rng(seed).spawn(2)
+    sweep = simulate_sweep(bench, rng=sweep_rng)
+    circle = simulate_circle(bench, rng=circle_rng)
+    names = [ax.name for ax in bench.axes]
+    return BenchFiles(
+        robot=robot_document(bench),
+        truth=truth_document(bench, seed=seed),
+        sweep=_log_columns(sweep, bench),
+        circle=_log_columns(circle, bench),
+        truth_columns={
+            "t": circle.t,
+            "fx": circle.force[:, 0],
+            "fy": circle.force[:, 1],
+            f"tau_ext_{names[0]}": circle.tau_ext[:, 0],
+            f"tau_ext_{names[1]}": circle.tau_ext[:, 1],
+        },
+    )
+
+
 def write_scara_bench(
     out_dir: str | os.PathLike[str], *, seed: int = 0, bench: ScaraBench | None = None
 ) -> None:
@@ -227,7 +370,7 @@ def write_scara_bench(
     Files: robot.toml (robot file), sweep.csv and circle.csv (logs: ``t``, ``q_a``, ``q_b``,
     ``i_a``, ``i_b``), truth.csv (``t``, ``fx``, ``fy``, ``tau_ext_a``, ``tau_ext_b`` for every
     sample of circle.csv) and truth.toml (a model file with the true parameters). Each file is
-    written atomically; the output is a function of ``seed`` alone.
+    written atomically; the output is a function of ``bench`` and ``seed`` alone.
 
     Parameters
     ----------
@@ -236,7 +379,8 @@ def write_scara_bench(
     seed
         Seed of the noise (the sweep and the circle use independent streams).
     bench
-        Parameters; default :func:`~torquemap.sim.scara.default_bench`.
+        Parameters; default :func:`~torquemap.sim.scara.default_bench` (the paper's);
+        :func:`torquemap.sim.family.random_bench` draws others.
 
     Raises
     ------
@@ -248,7 +392,6 @@ def write_scara_bench(
 
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise InputError(f"seed must be a non-negative integer, got {seed!r}")
-    bench = default_bench() if bench is None else bench
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise InputError("output path exists and is not a folder", path=out)
@@ -256,21 +399,9 @@ def write_scara_bench(
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise InputError(f"cannot create output folder ({exc.strerror})", path=out) from None
-    sweep_rng, circle_rng = np.random.default_rng(seed).spawn(2)
-    sweep = simulate_sweep(bench, rng=sweep_rng)
-    circle = simulate_circle(bench, rng=circle_rng)
-    names = [ax.name for ax in bench.axes]
-    write_toml(out / "robot.toml", robot_document(bench))
-    write_table(out / "sweep.csv", _log_columns(sweep, bench))
-    write_table(out / "circle.csv", _log_columns(circle, bench))
-    write_table(
-        out / "truth.csv",
-        {
-            "t": circle.t,
-            "fx": circle.force[:, 0],
-            "fy": circle.force[:, 1],
-            f"tau_ext_{names[0]}": circle.tau_ext[:, 0],
-            f"tau_ext_{names[1]}": circle.tau_ext[:, 1],
-        },
-    )
-    write_toml(out / "truth.toml", truth_document(bench, seed=seed))
+    files = simulate_bench(bench, seed=seed)
+    write_toml(out / "robot.toml", files.robot)
+    write_table(out / "sweep.csv", files.sweep)
+    write_table(out / "circle.csv", files.circle)
+    write_table(out / "truth.csv", files.truth_columns)
+    write_toml(out / "truth.toml", files.truth)

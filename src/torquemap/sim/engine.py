@@ -9,16 +9,23 @@ velocity is stable), position by the trapezoidal rule. The loop is scalar ``math
 
 Per tick it records the true state at the tick and the torques acting over it, plus an energy
 ledger (friction dissipation) for the energy-balance test.
+
+A LuGre axis (:mod:`torquemap.sim.lugre`) takes its bristle step inside the same implicit
+velocity step (backward Euler); Newton then iterates to convergence rather than to a fixed
+piece of the law. Directional PDTV lines act with the weight of
+:func:`torquemap.sim.scara.direction_gate` at the velocity at the start of each substep.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
+from torquemap.sim.lugre import lugre_constants, lugre_update
 from torquemap.sim.scara import Friction, ScaraBench, dynamics_constants, motor_inertia
 from torquemap.sim.trajectory import Reference
 
@@ -42,7 +49,8 @@ class EngineOutput:
     force
         External force on the end effector at the tick [N], base frame, shape (n, 2).
     friction_work
-        Energy dissipated by friction from the start to the tick [J], shape (n,).
+        Work done against friction from the start to the tick [J], shape (n,): the energy
+        dissipated, plus, for a LuGre axis, the energy its bristles hold.
     """
 
     q: NDArray[np.float64]
@@ -56,8 +64,50 @@ class EngineOutput:
     friction_work: NDArray[np.float64]
 
 
+def _stribeck(w: float, vs: float, exponent: float) -> tuple[float, float]:
+    """``exp(-|w / vs|**exponent)`` and its derivative in ``w``."""
+    x = abs(w / vs)
+    if x == 0.0:
+        return 1.0, 0.0
+    s = math.exp(-(x**exponent))
+    return s, -exponent * x ** (exponent - 1.0) / vs * s * (1.0 if w > 0 else -1.0)
+
+
+StaticConstants = tuple[float, float, float, float, float, float, float, float, float, float]
+
+
+def _static_constants(f: Friction) -> StaticConstants:
+    return (
+        *f.direction_parameters(1),
+        *f.direction_parameters(-1),
+        f.zero_velocity,
+        f.stribeck_exponent,
+    )
+
+
+def _friction_general(w: float, c: StaticConstants) -> tuple[float, float, int]:
+    """:func:`_friction` for a static law of another form (exponent, per-direction terms)."""
+    cp, sp, vsp, vp, cn, sn, vsn, vn, w0, p = c
+    if w > w0:
+        s, ds = _stribeck(w, vsp, p)
+        return cp + sp * s + vp * w, sp * ds + vp, 1
+    if w < -w0:
+        s, ds = _stribeck(w, vsn, p)
+        return -cn - sn * s + vn * w, -sn * ds + vn, -1
+    s_p, ds_p = _stribeck(w, vsp, p)
+    s_n, ds_n = _stribeck(w, vsn, p)
+    pos = cp + sp * s_p + vp * w
+    neg = -cn - sn * s_n + vn * w
+    blend = (w + w0) / (2.0 * w0)
+    value = blend * pos + (1.0 - blend) * neg
+    slope = (pos - neg) / (2.0 * w0) + blend * (sp * ds_p + vp) + (1.0 - blend) * (-sn * ds_n + vn)
+    return value, slope, 0
+
+
 def _friction(w: float, f: Friction) -> tuple[float, float, int]:
-    """Friction torque, its slope d/dw, and the piece (-1, 0, +1) of the law at ``w``."""
+    """Friction torque, its slope d/dw, and the piece (-1, 0, +1) of the static law at ``w``."""
+    if not f.is_paper_law:
+        return _friction_general(w, _static_constants(f))
     x = w / f.stribeck_velocity
     s = math.exp(-x * x)
     ds = -2.0 * x / f.stribeck_velocity * s
@@ -121,8 +171,24 @@ def run_engine(
     na, nb = ax_a.gear_ratio, ax_b.gear_ratio
     kta, ktb = ax_a.torque_constant, ax_b.torque_constant
     fa, fb = ax_a.friction, ax_b.friction
-    ha = [(h.order, h.amplitude, h.phase) for h in ax_a.pdtv]
-    hb = [(h.order, h.amplitude, h.phase) for h in ax_b.pdtv]
+    ha = [(h.order, h.amplitude, h.phase) for h in ax_a.pdtv if h.direction == "both"]
+    hb = [(h.order, h.amplitude, h.phase) for h in ax_b.pdtv if h.direction == "both"]
+    # directional lines: (order, amplitude, phase, sign of the direction)
+    hda = [
+        (h.order, h.amplitude, h.phase, 1.0 if h.direction == "positive" else -1.0)
+        for h in ax_a.pdtv
+        if h.direction != "both"
+    ]
+    hdb = [
+        (h.order, h.amplitude, h.phase, 1.0 if h.direction == "positive" else -1.0)
+        for h in ax_b.pdtv
+        if h.direction != "both"
+    ]
+    gate_a, gate_b = fa.zero_velocity, fb.zero_velocity
+    lugre_a, lugre_b = fa.lugre is not None, fb.lugre is not None
+    dynamic = lugre_a or lugre_b
+    za = zb = 0.0  # bristle deflections [rad, motor side]
+    last_fa = last_fb = 0.0  # LuGre torque over the last substep
     step_a = 2.0 * math.pi / ax_a.encoder_counts_per_rev
     step_b = 2.0 * math.pi / ax_b.encoder_counts_per_rev
     imax_a, imax_b = ax_a.max_current, ax_b.max_current
@@ -179,6 +245,39 @@ def run_engine(
         for order, amp, ph in lines:
             total += amp * math.cos(order * theta + ph)
         return total
+
+    def pdtv_dir(
+        theta: float, w: float, lines: list[tuple[float, float, float, float]], width: float
+    ) -> float:
+        total = 0.0
+        for order, amp, ph, sign in lines:
+            gate = min(max(sign * w / width, 0.0), 1.0)
+            if gate > 0.0:
+                total += gate * amp * math.cos(order * theta + ph)
+        return total
+
+    def static(f: Friction) -> Callable[[float], tuple[float, float, int]]:
+        """``w -> (torque, slope, piece)`` of a static law."""
+        if f.is_paper_law:
+            return lambda w: _friction(w, f)
+        cs = _static_constants(f)
+        return lambda w: _friction_general(w, cs)
+
+    def law(f: Friction) -> Callable[[float, float], tuple[float, float, float]]:
+        """``(w, z) -> (torque, slope, new deflection)`` of one axis over a substep."""
+        if f.lugre is not None:
+            c = lugre_constants(f)
+            return lambda w, z: lugre_update(z, w, dt, c)
+        st = static(f)
+
+        def out(w: float, z: float) -> tuple[float, float, float]:
+            value, slope, _ = st(w)
+            return value, slope, z
+
+        return out
+
+    static_a, static_b = static(fa), static(fb)
+    fric_a, fric_b = law(fa), law(fb)
 
     def external(q1: float, q2: float) -> tuple[float, float, float, float]:
         """Spring force (fx, fy) and its joint torques J^T F at (q1, q2)."""
@@ -246,10 +345,14 @@ def run_engine(
         rec_qm[k, 1] = meas_b / nb
         rec_i[k, 0] = cur_a
         rec_i[k, 1] = cur_b
-        rec_f[k, 0] = _friction(na * v1, fa)[0]
-        rec_f[k, 1] = _friction(nb * v2, fb)[0]
+        rec_f[k, 0] = last_fa if lugre_a else static_a(na * v1)[0]
+        rec_f[k, 1] = last_fb if lugre_b else static_b(nb * v2)[0]
         rec_p[k, 0] = pdtv(theta_a, ha)
         rec_p[k, 1] = pdtv(theta_b, hb)
+        if hda:
+            rec_p[k, 0] += pdtv_dir(theta_a, na * v1, hda, gate_a)
+        if hdb:
+            rec_p[k, 1] += pdtv_dir(theta_b, nb * v2, hdb, gate_b)
         rec_force[k, 0] = fx
         rec_force[k, 1] = fy
         rec_work[k] = work
@@ -262,14 +365,47 @@ def run_engine(
             m22 = delta_b
             h = beta * math.sin(q2)
             _, _, te1, te2 = external(q1, q2)
-            g1 = na * (tm_a - pdtv(na * q1, ha)) + te1 + h * (2.0 * v1 * v2 + v2 * v2)
-            g2 = nb * (tm_b - pdtv(nb * q2, hb)) + te2 - h * v1 * v1
+            pa = pdtv(na * q1, ha)
+            pb = pdtv(nb * q2, hb)
+            if hda:
+                pa += pdtv_dir(na * q1, na * v1, hda, gate_a)
+            if hdb:
+                pb += pdtv_dir(nb * q2, nb * v2, hdb, gate_b)
+            g1 = na * (tm_a - pa) + te1 + h * (2.0 * v1 * v2 + v2 * v2)
+            g2 = nb * (tm_b - pb) + te2 - h * v1 * v1
             # Newton on M x = dt (g - n f(n (v + x))), x the velocity change.
             x1 = x2 = 0.0
+            if dynamic:
+                # A LuGre axis: iterate to convergence, then apply the law at the final speed.
+                for _it in range(12):
+                    f1, s1, _ = fric_a(na * (v1 + x1), za)
+                    f2, s2, _ = fric_b(nb * (v2 + x2), zb)
+                    r1 = m11 * x1 + m12 * x2 - dt * (g1 - na * f1)
+                    r2 = m12 * x1 + m22 * x2 - dt * (g2 - nb * f2)
+                    a11 = m11 + dt * na * na * s1
+                    a22 = m22 + dt * nb * nb * s2
+                    det = a11 * a22 - m12 * m12
+                    d1 = (a22 * r1 - m12 * r2) / det
+                    d2 = (a11 * r2 - m12 * r1) / det
+                    x1 -= d1
+                    x2 -= d2
+                    if abs(d1) + abs(d2) <= 1e-12 * (1.0 + abs(v1 + x1) + abs(v2 + x2)):
+                        break
+                nv1, nv2 = v1 + x1, v2 + x2
+                fe1, _, za = fric_a(na * nv1, za)
+                fe2, _, zb = fric_b(nb * nv2, zb)
+                last_fa, last_fb = fe1, fe2
+                dq1 = 0.5 * dt * (v1 + nv1)
+                dq2 = 0.5 * dt * (v2 + nv2)
+                work += na * fe1 * dq1 + nb * fe2 * dq2
+                q1 += dq1
+                q2 += dq2
+                v1, v2 = nv1, nv2
+                continue
             pieces = None
             for _it in range(3):
-                f1, s1, p1 = _friction(na * (v1 + x1), fa)
-                f2, s2, p2 = _friction(nb * (v2 + x2), fb)
+                f1, s1, p1 = static_a(na * (v1 + x1))
+                f2, s2, p2 = static_b(nb * (v2 + x2))
                 if pieces == (p1, p2):
                     break
                 pieces = (p1, p2)

@@ -9,6 +9,12 @@ import :mod:`torquemap.model` (the friction law is written out again on purpose)
 Joint side: the rigid planar 2R arm (mass matrix, Coriolis). Motor side: rotor inertia, friction
 (Coulomb per direction, viscous, Stribeck, a linear blend through zero velocity) and PDTV
 (harmonics of the motor angle). The gears are rigid: motor angle = gear_ratio * joint angle.
+
+Beyond the paper's bench (the defaults), the parameters also describe the random family of
+:mod:`torquemap.sim.family`: friction laws of other forms than the one identification fits (a
+Stribeck exponent other than 2, viscous friction and Stribeck velocity per direction, a LuGre
+bristle model, :mod:`torquemap.sim.lugre`), directional PDTV lines, and logs written at another
+rate than the servo's, with jitter, gaps and a delayed current channel (:class:`Logging`).
 """
 
 from __future__ import annotations
@@ -48,16 +54,50 @@ class Links:
 
 
 @dataclass(frozen=True, slots=True, eq=False)
-class Friction:
-    """Motor-side friction of one axis, the law of ``torquemap.model.friction_torque``.
+class Lugre:
+    """The bristle (LuGre) dynamics of a friction law (Canudas de Wit et al., 1995).
 
-    For motor velocity ``w`` [rad/s], with ``s = exp(-(w / stribeck_velocity)**2)``::
+    With ``z`` the mean bristle deflection [rad, motor side] and ``g(w) > 0`` the steady-state
+    Coulomb-plus-Stribeck level of :class:`Friction` in the direction of ``w``::
+
+        dz/dt = w - bristle_stiffness * |w| * z / g(w)
+        f = bristle_stiffness * z + sigma_1(w) * dz/dt + viscous(w) * w
+        sigma_1(w) = bristle_damping * exp(-(w / damping_velocity)**2)
+
+    At a constant speed ``z`` settles to ``sign(w) g(w) / bristle_stiffness`` and ``f`` to the
+    static law of :class:`Friction`; at rest and through reversals the bristles act as a
+    spring (pre-sliding, hysteresis, frictional lag). The velocity-dependent damping keeps the
+    law dissipative when ``bristle_damping * damping_velocity < 4 sqrt(2 e) min(g)`` (Olsson et
+    al., 1998); :func:`torquemap.sim.family.random_bench` draws within that bound.
+
+    Attributes
+    ----------
+    bristle_stiffness
+        ``sigma_0`` [N m / rad], motor side.
+    bristle_damping
+        ``sigma_1`` at rest [N m s / rad].
+    damping_velocity
+        [rad/s], motor side.
+    """
+
+    bristle_stiffness: float
+    bristle_damping: float
+    damping_velocity: float
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Friction:
+    """Motor-side friction of one axis; the defaults are the law of ``torquemap.model``.
+
+    For motor velocity ``w`` [rad/s], with ``s = exp(-|w / stribeck_velocity|**stribeck_exponent)``::
 
         w >  zero_velocity:  f = coulomb_positive + stribeck_positive * s + viscous * w
-        w < -zero_velocity:  f = -coulomb_negative - stribeck_negative * s + viscous * w
+        w < -zero_velocity:  f = -coulomb_negative - stribeck_negative * s + viscous_negative * w
 
     and a linear blend of the two branches for ``|w| < zero_velocity``, which the simulator
-    uses as its stiction regularisation (a steep damper that all but holds the rotor).
+    uses as its stiction regularisation (a steep damper that all but holds the rotor). With
+    ``lugre`` set, that static law is the steady state of the bristle model and the blend is
+    not used.
 
     Attributes
     ----------
@@ -71,6 +111,14 @@ class Friction:
         [rad/s], motor side.
     zero_velocity
         [rad/s], motor side, half width of the blend through zero.
+    stribeck_exponent
+        [-]; 2 is the Gaussian Stribeck curve identification fits.
+    viscous_negative
+        [N m s / rad] for negative motion; None: ``viscous`` in both directions.
+    stribeck_velocity_negative
+        [rad/s] for negative motion; None: ``stribeck_velocity`` in both directions.
+    lugre
+        Bristle dynamics; None: the static law.
     """
 
     coulomb_positive: float
@@ -80,11 +128,47 @@ class Friction:
     stribeck_negative: float
     stribeck_velocity: float = 1.5
     zero_velocity: float = 0.05
+    stribeck_exponent: float = 2.0
+    viscous_negative: float | None = None
+    stribeck_velocity_negative: float | None = None
+    lugre: Lugre | None = None
+
+    @property
+    def is_paper_law(self) -> bool:
+        """Whether this is the law identification fits (Gaussian Stribeck, symmetric, static)."""
+        return (
+            self.stribeck_exponent == 2.0
+            and self.viscous_negative is None
+            and self.stribeck_velocity_negative is None
+            and self.lugre is None
+        )
+
+    def direction_parameters(self, sign: int) -> tuple[float, float, float, float]:
+        """``(coulomb, stribeck, stribeck_velocity, viscous)`` of one direction (+1 or -1)."""
+        if sign > 0:
+            return (
+                self.coulomb_positive,
+                self.stribeck_positive,
+                self.stribeck_velocity,
+                self.viscous,
+            )
+        return (
+            self.coulomb_negative,
+            self.stribeck_negative,
+            self.stribeck_velocity
+            if self.stribeck_velocity_negative is None
+            else self.stribeck_velocity_negative,
+            self.viscous if self.viscous_negative is None else self.viscous_negative,
+        )
 
 
 @dataclass(frozen=True, slots=True, eq=False)
 class Harmonic:
     """One PDTV line: motor-side torque ``amplitude * cos(order * motor_angle + phase)``.
+
+    A directional line (``direction`` ``"positive"`` or ``"negative"``) acts only while the
+    motor turns that way, faded in linearly over the friction's ``zero_velocity``: a
+    position-dependent friction (a tight tooth, a preload that varies along a screw).
 
     Attributes
     ----------
@@ -94,11 +178,14 @@ class Harmonic:
         [N m], motor side.
     phase
         [rad]; motor angle 0 is the encoder zero, at joint angle 0.
+    direction
+        ``"both"`` (a torque of position alone), ``"positive"`` or ``"negative"``.
     """
 
     order: float
     amplitude: float
     phase: float
+    direction: str = "both"
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -318,6 +405,39 @@ class Circle:
 
 
 @dataclass(frozen=True, slots=True, eq=False)
+class Logging:
+    """How the logs are written: which servo ticks they keep, and the current channel's delay.
+
+    The default writes every servo tick with no delay (the paper's DSP). Otherwise the logger
+    polls at ``rate`` with a uniform jitter of ``+- jitter / rate``, keeps the servo tick
+    nearest each poll (time stamp = that tick's time; a tick is kept once), and drops every
+    sample in ``gaps`` random stretches per log whose lengths are drawn from
+    ``gap_durations``. The current it stores is the one the drive reported
+    ``current_delay`` earlier (current-loop latency plus report delay), rounded to whole
+    servo ticks.
+
+    Attributes
+    ----------
+    rate
+        Nominal log rate [Hz]; None: every servo tick.
+    jitter
+        Poll jitter, fraction of the log period [-], ``< 0.5``.
+    gaps
+        Number of gaps per log.
+    gap_durations
+        ``(shortest, longest)`` gap [s].
+    current_delay
+        Delay of the current channel behind the position channel [s].
+    """
+
+    rate: float | None = None
+    jitter: float = 0.0
+    gaps: int = 0
+    gap_durations: tuple[float, float] = (0.02, 0.1)
+    current_delay: float = 0.0
+
+
+@dataclass(frozen=True, slots=True, eq=False)
 class ScaraBench:
     """All physical parameters of the simulated SCARA bench, with documented defaults.
 
@@ -335,6 +455,11 @@ class ScaraBench:
         Scenario (b).
     name
         Robot name written to robot.toml.
+    logging
+        How the logs are written (default: every servo tick).
+    random_seed
+        The seed :func:`torquemap.sim.family.random_bench` drew this bench from; None for a
+        bench built by hand (the paper's).
     """
 
     links: Links = field(default_factory=Links)
@@ -343,6 +468,8 @@ class ScaraBench:
     sweep: Sweep = field(default_factory=Sweep)
     circle: Circle = field(default_factory=Circle)
     name: str = "simulated SCARA after the Hirata ARI350 (Simpson, Cook & Li)"
+    logging: Logging = field(default_factory=Logging)
+    random_seed: int | None = None
 
 
 def default_bench() -> ScaraBench:
@@ -463,8 +590,25 @@ def motor_inertia(bench: ScaraBench, elbow_angle: ArrayLike) -> NDArray[np.float
     return np.stack([ja, jb], axis=-1)
 
 
+def stribeck_level(velocity: ArrayLike, friction: Friction, sign: int) -> NDArray[np.float64]:
+    """``coulomb + stribeck * exp(-|w / stribeck_velocity|**exponent)`` of one direction [N m].
+
+    The magnitude ``g(w)`` of the dry friction in direction ``sign`` (+1 or -1) at motor
+    velocity ``velocity`` [rad/s]; the LuGre model's steady-state level.
+    """
+    w = np.asarray(velocity, dtype=np.float64)
+    coulomb, stribeck, vs, _ = friction.direction_parameters(sign)
+    out: NDArray[np.float64] = coulomb + stribeck * np.exp(
+        -(np.abs(w / vs) ** friction.stribeck_exponent)
+    )
+    return out
+
+
 def friction_torque(velocity: ArrayLike, friction: Friction) -> NDArray[np.float64]:
-    """Motor-side friction [N m] at motor velocity ``velocity`` [rad/s] (:class:`Friction`).
+    """Motor-side static friction [N m] at motor velocity ``velocity`` [rad/s] (:class:`Friction`).
+
+    For a LuGre law this is its steady state at constant speed (outside the blend through
+    zero); the dynamic law itself is :func:`torquemap.sim.lugre.lugre_response`.
 
     Examples
     --------
@@ -473,17 +617,46 @@ def friction_torque(velocity: ArrayLike, friction: Friction) -> NDArray[np.float
     array([ 0.12, -0.22, -0.05])
     """
     w = np.asarray(velocity, dtype=np.float64)
-    s = np.exp(-((w / friction.stribeck_velocity) ** 2))
-    pos = friction.coulomb_positive + friction.stribeck_positive * s
-    neg = -(friction.coulomb_negative + friction.stribeck_negative * s)
     w0 = friction.zero_velocity
     blend = np.clip((w + w0) / (2 * w0), 0.0, 1.0)
-    out: NDArray[np.float64] = blend * pos + (1.0 - blend) * neg + friction.viscous * w
+    if friction.is_paper_law:
+        s = np.exp(-((w / friction.stribeck_velocity) ** 2))
+        pos = friction.coulomb_positive + friction.stribeck_positive * s
+        neg = -(friction.coulomb_negative + friction.stribeck_negative * s)
+        out: NDArray[np.float64] = blend * pos + (1.0 - blend) * neg + friction.viscous * w
+        return out
+    viscous_neg = friction.direction_parameters(-1)[3]
+    pos = stribeck_level(w, friction, 1) + friction.viscous * w
+    neg = -stribeck_level(w, friction, -1) + viscous_neg * w
+    out = blend * pos + (1.0 - blend) * neg
     return out
 
 
-def pdtv_torque(motor_angle: ArrayLike, lines: tuple[Harmonic, ...]) -> NDArray[np.float64]:
+def direction_gate(velocity: ArrayLike, direction: str, width: float) -> NDArray[np.float64]:
+    """Weight [0, 1] of a directional PDTV line at motor velocity ``velocity`` [rad/s].
+
+    1 for ``"both"``; for ``"positive"`` ``clip(w / width, 0, 1)``, for ``"negative"``
+    ``clip(-w / width, 0, 1)``, with ``width`` [rad/s] the friction's ``zero_velocity``.
+    """
+    w = np.asarray(velocity, dtype=np.float64)
+    if direction == "both":
+        return np.ones_like(w)
+    sign = 1.0 if direction == "positive" else -1.0
+    out: NDArray[np.float64] = np.clip(sign * w / width, 0.0, 1.0)
+    return out
+
+
+def pdtv_torque(
+    motor_angle: ArrayLike,
+    lines: tuple[Harmonic, ...],
+    *,
+    velocity: ArrayLike | None = None,
+    width: float = 0.05,
+) -> NDArray[np.float64]:
     """Motor-side PDTV torque [N m] at motor angle ``motor_angle`` [rad].
+
+    Directional lines are weighted by :func:`direction_gate` of ``velocity`` [rad/s] (fade
+    width ``width`` [rad/s]) and skipped when ``velocity`` is None.
 
     Examples
     --------
@@ -493,16 +666,24 @@ def pdtv_torque(motor_angle: ArrayLike, lines: tuple[Harmonic, ...]) -> NDArray[
     theta = np.asarray(motor_angle, dtype=np.float64)
     out = np.zeros_like(theta)
     for h in lines:
-        out += h.amplitude * np.cos(h.order * theta + h.phase)
+        if h.direction == "both":
+            out += h.amplitude * np.cos(h.order * theta + h.phase)
+        elif velocity is not None:
+            gate = direction_gate(velocity, h.direction, width)
+            out += gate * h.amplitude * np.cos(h.order * theta + h.phase)
     return out
 
 
 def pdtv_energy(motor_angle: ArrayLike, lines: tuple[Harmonic, ...]) -> NDArray[np.float64]:
-    """Potential of the PDTV, ``U(theta)`` with ``dU/dtheta = pdtv_torque`` [J]."""
+    """Potential of the PDTV, ``U(theta)`` with ``dU/dtheta = pdtv_torque`` [J].
+
+    Directional lines are not conservative (a position-dependent friction) and are left out.
+    """
     theta = np.asarray(motor_angle, dtype=np.float64)
     out = np.zeros_like(theta)
     for h in lines:
-        out += h.amplitude / h.order * np.sin(h.order * theta + h.phase)
+        if h.direction == "both":
+            out += h.amplitude / h.order * np.sin(h.order * theta + h.phase)
     return out
 
 
