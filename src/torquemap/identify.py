@@ -256,7 +256,8 @@ def _identify_passes(
     if not any(r.passes for r in results.values()):
         raise InputError(
             "no joint moves at a steady speed in the logs; identification needs "
-            "constant-speed sweeps",
+            "constant-speed sweeps: record each joint alone at several steady speeds, both "
+            "directions, at least a quarter motor revolution per pass",
             path=logs[0].path if len(logs) == 1 else None,
         )
     if channel_delay == "auto" or channel_delay != 0:
