@@ -1041,6 +1041,19 @@ def _identify_whole(
             if vertical == "refuse" and fit.gravity_torque > 0.5 * coulomb:
                 raise InputError(msg, path=logs[0].path if len(logs) == 1 else None)
             warnings.append(msg)
+        if (
+            fit.value("friction.viscous") < 0
+            or fit.value("friction.coulomb_positive") < 0
+            or fit.value("friction.coulomb_negative") < 0
+        ):
+            warnings.append(
+                f"joint {name}: the whole-log fit gave a friction law that is not dissipative "
+                f"(viscous {fit.value('friction.viscous'):.3g} N m s/rad, Coulomb "
+                f"{fit.value('friction.coulomb_positive'):.3g} / "
+                f"{fit.value('friction.coulomb_negative'):.3g} N m): the pass method's model "
+                "is kept for this joint"
+            )
+            continue
         seen = (
             any(p.direction == "positive" for _, p in res.passes),
             any(p.direction == "negative" for _, p in res.passes),
