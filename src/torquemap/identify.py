@@ -1041,10 +1041,14 @@ def _identify_whole(
             if vertical == "refuse" and fit.gravity_torque > 0.5 * coulomb:
                 raise InputError(msg, path=logs[0].path if len(logs) == 1 else None)
             warnings.append(msg)
+        seen = (
+            any(p.direction == "positive" for _, p in res.passes),
+            any(p.direction == "negative" for _, p in res.passes),
+        )
         if (
             fit.value("friction.viscous") < 0
-            or fit.value("friction.coulomb_positive") < 0
-            or fit.value("friction.coulomb_negative") < 0
+            or (seen[0] and fit.value("friction.coulomb_positive") < 0)
+            or (seen[1] and fit.value("friction.coulomb_negative") < 0)
         ):
             warnings.append(
                 f"joint {name}: the whole-log fit gave a friction law that is not dissipative "
@@ -1054,10 +1058,6 @@ def _identify_whole(
                 "is kept for this joint"
             )
             continue
-        seen = (
-            any(p.direction == "positive" for _, p in res.passes),
-            any(p.direction == "negative" for _, p in res.passes),
-        )
         new_joints[name] = _whole_joint_model(fit, jm, seen)
         entry = joint_notes.get(name, {})
         entry.update(_whole_notes(fit, resolution))
