@@ -120,6 +120,20 @@ def scara_identified(scara_bench: Path, tmp_path_factory: pytest.TempPathFactory
 
 
 @pytest.fixture(scope="session")
+def scara_model(scara_bench: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The model ``torquemap identify --friction whole`` writes from the bench's sweeps.
+
+    Returns the model file's path. Shared: identification is the expensive step.
+    """
+    from torquemap.cli.main import main
+
+    out = tmp_path_factory.mktemp("scara_model") / "model.toml"
+    argv = ["identify", str(scara_bench / "robot.toml"), str(scara_bench / "sweep.csv")]
+    assert main([*argv, "-o", str(out), "--friction", "whole"]) == 0
+    return out
+
+
+@pytest.fixture(scope="session")
 def vr_rig(tmp_path_factory: pytest.TempPathFactory) -> Ran:
     """The tutorial's ``simulate rig --motor vr`` run once: folder/rig/motor.toml and data.csv."""
     return _run_in(tmp_path_factory.mktemp("vr_rig"), [RIG_VR])

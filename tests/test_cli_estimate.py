@@ -58,7 +58,18 @@ def test_methods_rank_as_the_paper_says(
 def test_output_columns_and_figure(scara_bench: Path, identified: Path, tmp_path: Path) -> None:
     fig = tmp_path / "forces.png"
     out = _run(identified, scara_bench / "circle.csv", tmp_path / "f.parquet", "--figure", str(fig))
-    assert list(out) == ["t", "tau_ext_a", "tau_ext_b", "fx", "fy", "flag"]
+    assert list(out) == [
+        "t",
+        "tau_ext_a",
+        "tau_ext_b",
+        "fx",
+        "fy",
+        "tau_ext_a_sigma",
+        "tau_ext_b_sigma",
+        "fx_sigma",
+        "fy_sigma",
+        "flag",
+    ]
     assert fig.stat().st_size > 10_000
     circle = read_table(scara_bench / "circle.csv")
     np.testing.assert_array_equal(out["t"], circle["t"])
@@ -140,15 +151,26 @@ def test_unknown_method_is_refused(identified: Path, capsys: pytest.CaptureFixtu
 
 
 def test_reversal_band_option(
-    scara_bench: Path, identified: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    scara_bench: Path,
+    identified: Path,
+    scara_model: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     circle = scara_bench / "circle.csv"
     default = _run(identified, circle, tmp_path / "d.csv")
     wide = _run(identified, circle, tmp_path / "w.csv", "--reversal-band", "5")
     low = lambda o: (o["flag"].astype(np.int64) & 2) > 0  # noqa: E731
-    # a wider band only adds undetermined samples (identify's slowest pass here is 0.5 rad/s)
+    # pass identification: a wider band only adds undetermined samples (the slowest pass
+    # here is 0.5 rad/s)
     assert low(default).mean() < low(wide).mean()
     assert not (low(default) & ~low(wide)).any()
+    # a model identified from whole logs knows friction through zero: slow samples keep an
+    # answer (never flagged), but a wider band bridges more of them
+    whole = _run(scara_model, circle, tmp_path / "wd.csv")
+    whole_wide = _run(scara_model, circle, tmp_path / "ww.csv", "--reversal-band", "5")
+    assert not low(whole).any() and not low(whole_wide).any()
+    assert np.max(np.abs(whole["fx"] - whole_wide["fx"])) > 1e-3
     out = tmp_path / "bad.csv"
     capsys.readouterr()
     err = _bad(
@@ -156,3 +178,21 @@ def test_reversal_band_option(
     )
     assert "reversal band" in err
     assert not out.exists()
+
+
+def test_every_sample_answered_with_honest_sigmas(
+    scara_bench: Path, scara_model: Path, tmp_path: Path
+) -> None:
+    # issue 12: forces wherever the robot moves or rests, flag only what cannot be answered,
+    # and one standard deviation per sample: the true error within 2 sigma on 90 to 99 %
+    truth = read_table(scara_bench / "truth.csv")
+    out = _run(scara_model, scara_bench / "circle.csv", tmp_path / "s.csv")  # whole-log model
+    assert {"tau_ext_a_sigma", "tau_ext_b_sigma", "fx_sigma", "fy_sigma"} <= set(out)
+    sound = out["flag"] == 0
+    assert sound.mean() > 0.95
+    err = np.abs(np.c_[out["fx"] - truth["fx"], out["fy"] - truth["fy"]])[sound]
+    sigma = np.c_[out["fx_sigma"], out["fy_sigma"]][sound]
+    share = float(np.mean(err <= 2 * sigma))
+    assert 0.90 <= share <= 0.99
+    # every sample scored, standstill at both ends included: under 3 % of the 3.5 N spring
+    assert force_error(np.c_[out["fx"], out["fy"]], np.c_[truth["fx"], truth["fy"]]).rms < 0.105

@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 
 from torquemap.errors import InputError
 from torquemap.estimate import (
+    FLAG_IMPLAUSIBLE,
     FLAG_LOW_SPEED,
     FLAG_SINGULAR,
     estimate_forces,
@@ -218,7 +219,18 @@ def test_standstill_is_flagged_and_model_method_still_works(model: Model) -> Non
 def test_columns_follow_the_format(model: Model) -> None:
     log, _, _ = synthetic_log(model, seconds=3.0)
     cols = forces_columns(estimate_forces(model, log))
-    assert list(cols) == ["t", "tau_ext_a", "tau_ext_b", "fx", "fy", "flag"]
+    assert list(cols) == [
+        "t",
+        "tau_ext_a",
+        "tau_ext_b",
+        "fx",
+        "fy",
+        "tau_ext_a_sigma",
+        "tau_ext_b_sigma",
+        "fx_sigma",
+        "fy_sigma",
+        "flag",
+    ]
     assert cols["flag"].dtype.kind == "i"
 
 
@@ -284,3 +296,38 @@ def test_reversal_band_defaults_to_the_slowest_identified_speed(model: Model) ->
     assert np.array_equal(explicit.flag, plain.flag)
     with pytest.raises(InputError, match="reversal band"):
         estimate_forces(model, log, reversal_band=-1.0)
+
+
+def _noisy(model: Model, seed: int) -> Log:
+    log, _, _ = synthetic_log(model, seconds=12.0)
+    rng = np.random.default_rng(seed)
+    tau = log.motor_torque + rng.normal(0.0, 2e-3, log.motor_torque.shape)
+    return dataclasses.replace(log, motor_torque=tau)
+
+
+@pytest.mark.parametrize("kind", ["1e300 A", "1e6 A", "1000 s gap"])
+def test_one_corrupted_sample_spoils_nothing_sound(model: Model, kind: str) -> None:
+    # issue 15: no sample flagged sound moves by more than the noise when one sample is
+    # corrupted. The noise: what two logs differing only in their current noise give.
+    clean = _noisy(model, 1)
+    other = estimate_forces(model, _noisy(model, 2))
+    base = estimate_forces(model, clean)
+    both = (base.flag == 0) & (other.flag == 0)
+    noise = float(np.std(base.tau_ext[both] - other.tau_ext[both], axis=0).max()) / math.sqrt(2)
+    k = clean.t.size // 2
+    if kind == "1000 s gap":
+        t = clean.t.copy()
+        t[k:] += 1000.0
+        bad = dataclasses.replace(clean, t=t)
+    else:
+        tau = clean.motor_torque.copy()
+        tau[k, 0] = float(kind.split()[0]) * 0.1  # current times the torque constant
+        bad = dataclasses.replace(clean, motor_torque=tau)
+    est = estimate_forces(model, bad)
+    sound = (est.flag == 0) & (base.flag == 0)
+    assert sound.mean() > 0.7
+    assert np.all(np.isfinite(est.tau_ext[sound]))
+    moved = np.abs(est.tau_ext[sound] - base.tau_ext[sound])
+    assert float(moved.max()) <= noise, f"moved {moved.max():.3g} against noise {noise:.3g}"
+    if kind != "1000 s gap":
+        assert est.flag[k] & FLAG_IMPLAUSIBLE

@@ -328,11 +328,6 @@ def test_row_order_does_not_change_the_tables(clean: Clean, seed: int) -> None:
                 np.testing.assert_array_equal(got[key], want[key])
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="issue 15 item 3 (robust estimation, another branch): a corrupt current spreads "
-    "over about 1 s of samples still flagged sound; remove this mark when item 3 lands",
-)
 @settings(max_examples=5, deadline=None, derandomize=True, phases=[Phase.generate])
 @given(
     row=st.integers(300, 1200),

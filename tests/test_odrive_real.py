@@ -93,3 +93,29 @@ def test_one_direction_warning_recorded(odrive: dict[str, object]) -> None:
     assert any("never moves in the negative direction" in w for w in warnings)
     f = model.joints["m"].friction
     assert f.coulomb_negative == f.coulomb_positive
+
+
+def test_thinned_polled_sweep_still_gives_the_map(tmp_path: Path) -> None:
+    # issue 12: the same sweep as a USB-polled log: ~300 Hz with jitter, random gaps of 20 to
+    # 100 ms and repeated time stamps; identify adapts its differentiation to the local spacing
+    rng = np.random.default_rng(12)
+    sweep = np.load(DATA / "sweep_0p03revs_nocomp.npy")
+    t, counts, current = sweep[0], np.mod(sweep[1], 8192.0), sweep[2]
+    keep = rng.random(t.size) < 320.0 / 440.0
+    for start in rng.uniform(t[0], t[-1], 40):
+        keep &= ~((t > start) & (t < start + rng.uniform(0.02, 0.1)))
+    idx = np.flatnonzero(keep)
+    rows = [f"{t[i]:.17g},{counts[i]:.17g},{current[i]:.17g}" for i in idx]
+    rows[100:100] = [rows[100]]  # one repeated stamp (dropped with a warning)
+    (tmp_path / "robot.toml").write_text(ROBOT)
+    (tmp_path / "polled.csv").write_text("t,q_m,i_m\n" + "\n".join(rows) + "\n")
+    gaps = np.diff(t[idx])
+    assert 270 < idx.size / (t[-1] - t[0]) < 330 and gaps.max() > 0.08
+    model_path = tmp_path / "model.toml"
+    argv = ["identify", str(tmp_path / "robot.toml"), str(tmp_path / "polled.csv")]
+    assert main([*argv, "-o", str(model_path), "--friction", "whole"]) == 0
+    model = load_model(model_path)
+    angles = np.arange(0, 8192, 16) * (2 * np.pi / 8192)
+    table = pdtv_map(model, "m", motor_angle=angles)
+    ref = np.load(DATA / "quasistatic_map_every16.npy")[::16]
+    assert float(np.corrcoef(table.current, ref)[0, 1]) >= 0.95

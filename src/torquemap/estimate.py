@@ -64,6 +64,13 @@ determined by the velocity, so the estimate there carries up to the Coulomb fric
 FLAG_NO_PASS = 4
 """``paper`` method only: the sample lies outside every monotonic pass long enough for the
 position-domain filter, so it holds the low-pass value with its PDTV."""
+FLAG_GAP = 8
+"""A gap in time: the sample lies in a stretch between gaps too short to estimate, or repeats
+the previous time stamp (no answer, NaN), or lies within the filters' support (the low-pass's
+``1 / cutoff``) of a gap, where they see data on one side only (answered, not sound)."""
+FLAG_IMPLAUSIBLE = 16
+"""The sample holds an implausible value (a wild current, an encoder glitch): it was kept out of
+every filter and its answer is bridged from its neighbours."""
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -128,6 +135,13 @@ class ForceEstimate:
         One line each.
     wrench_axes
         Names of the columns of ``force`` (``("fx", "fy")`` for a planar arm).
+    tau_ext_sigma
+        One standard deviation of ``tau_ext`` [N m, joint side], shape (n, nj) (``model``
+        method, from the identification's covariance and residual noise; NaN otherwise).
+    force_sigma
+        One standard deviation of each column of ``force`` [N], shape like ``force``.
+    window
+        The differentiator window used [s].
     """
 
     t: NDArray[np.float64]
@@ -146,6 +160,9 @@ class ForceEstimate:
     cutoff: float
     warnings: tuple[str, ...] = ()
     wrench_axes: tuple[str, ...] = ()
+    tau_ext_sigma: NDArray[np.float64] | None = None
+    force_sigma: NDArray[np.float64] | None = None
+    window: float = 0.05
 
 
 def estimation_signal(
@@ -177,9 +194,18 @@ def estimation_signal(
     InputError
         When the log is shorter than the differentiator's window.
     """
+    t_est, angle, velocity, _ = _signal(model, log, window=window)
+    return t_est, angle, velocity
+
+
+def _signal(
+    model: Model, log: Log, *, window: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`estimation_signal` plus the motor acceleration [rad/s^2]."""
     robot = model.robot
     n = log.t.size
     nj = len(robot.joints)
+    acceleration = np.empty((n, nj))
     t_est = np.empty((n, nj))
     angle = np.empty((n, nj))
     velocity = np.empty((n, nj))
@@ -205,7 +231,8 @@ def estimation_signal(
         )
         angle[:, k] = theta
         velocity[:, k] = d.velocity
-    return t_est, angle, velocity
+        acceleration[:, k] = d.acceleration
+    return t_est, angle, velocity, acceleration
 
 
 def monotonic_passes(
@@ -401,15 +428,22 @@ def estimate_forces(
     *,
     method: Method = "model",
     cutoff: float = 2.0,
-    window: float = 0.05,
+    window: float | None = None,
     notch_width: float = 0.5,
     min_revolutions: float = 1.0,
     min_sin_elbow: float = 0.05,
     bridge_reversals: float = 0.5,
     channel_delay: Mapping[str, float] | None = None,
     reversal_band: float | Mapping[str, float] | None = None,
+    check_robot: bool = True,
 ) -> ForceEstimate:
     """Estimate the external joint torques and end-effector force from a log.
+
+    The log is first sanitised (:func:`torquemap.sanitize.sanitize_log`): repeated time stamps
+    dropped, implausible samples (a wild current, an encoder glitch) bridged from their
+    neighbours and flagged ``FLAG_IMPLAUSIBLE`` so that they spoil no filter, and the log cut at
+    gaps longer than the filters bridge; each piece is estimated on its own, and samples in
+    pieces too short to estimate are flagged ``FLAG_GAP`` (NaN).
 
     Parameters
     ----------
@@ -421,37 +455,35 @@ def estimate_forces(
         ``"model"`` (default), ``"paper"``, ``"lowpass"`` or ``"raw"`` (module docstring).
     cutoff
         Time-domain low-pass cut-off [Hz]: the bandwidth of the external force that is kept.
-        Encoder quantisation, made worse by the double differentiation, and current noise lie
-        above it.
     window
-        Differentiator window [s] for velocity and acceleration.
+        Differentiator window [s] for velocity and acceleration; default the window the model
+        was identified with (``[identification] differentiation_window``), else 0.05 s.
     notch_width
         -3 dB width of each position-domain notch [CPR] (``paper``).
     min_revolutions
         Shortest monotonic pass the position-domain filter processes [motor revolutions]
-        (``paper``); a notch of width ``w`` needs a few ``1 / w`` revolutions to settle.
+        (``paper``).
     min_sin_elbow
         Singular-pose guard of the arm (:meth:`torquemap.robots.Arm.wrench_from_joint_torque`;
         for planar2r the smallest ``|sin q2|``).
     bridge_reversals
-        Longest stretch [s] of undetermined friction (:func:`reversal_mask`: a joint slower
-        than its friction model's ``zero_velocity``, widened by half the differentiator window)
-        that is bridged by a straight line in ``T_est`` before any filtering; 0 turns bridging
-        off. Friction at a reversal lies anywhere between the two Coulomb levels, so the model
-        cannot say what the motor torque there was spent on; the external force varies
-        smoothly across the short gap. Bridged samples are flagged ``FLAG_LOW_SPEED``.
+        Longest stretch [s] of undetermined friction (:func:`reversal_mask`) bridged by a
+        straight line in ``T_est`` before filtering; 0 turns bridging off. Bridged samples keep
+        an answer, with a sigma that covers the friction band.
     channel_delay
-        Delay [s] of each joint's torque channel behind its position, undone before anything
-        else; default: the delays identification found (``[identification.joints.<j>]
-        channel_delay`` of the model file), as the same logging set-up delays every log alike.
+        Delay [s] of each joint's torque channel behind its position, undone first; default:
+        the delays identification found.
     reversal_band
         Motor speed [rad/s] (one for all joints, or per joint name) below which a joint's
-        friction counts as undetermined (:func:`reversal_mask`). Default, per joint: the larger
-        of the friction model's ``zero_velocity`` and the slowest steady speed identification
-        measured friction at (:func:`identified_slowest_speeds`): below it the friction law is
-        an extrapolation, and how it blends through zero (stiction, creep) is not observable
-        in constant-speed passes. Too wide costs a few flagged samples; too narrow lets a
-        wrong friction value into the estimate.
+        friction counts as undetermined. Default per joint: for a model identified from whole
+        logs (friction through zero), 4 times its transition width (where the transition is
+        complete); otherwise the larger of the
+        friction model's ``zero_velocity`` and the slowest steady speed identification measured
+        friction at. Such samples are flagged ``FLAG_LOW_SPEED`` only for models without a
+        friction law through zero (pass method, hand-written): where the model knows friction
+        through zero they keep their answer with a wider sigma.
+    check_robot
+        Refuse a log whose encoder steps do not match the model's (another robot).
 
     Returns
     -------
@@ -460,13 +492,169 @@ def estimate_forces(
     Raises
     ------
     InputError
-        On an unknown method, a log shorter than the filters, or, for ``paper``, a log in
-        which no joint with PDTV lines ever makes a monotonic pass of ``min_revolutions``.
+        On an unknown method, a log shorter than the filters, a log from another robot, or,
+        for ``paper``, a log in which no joint with PDTV lines ever makes a monotonic pass of
+        ``min_revolutions``.
     """
+    from torquemap.sanitize import sanitize_log
+
     if method not in METHODS:
         raise InputError(f"unknown method {method!r} (choose from {', '.join(METHODS)})")
     if not (math.isfinite(cutoff) and cutoff > 0):
         raise InputError(f"cut-off must be a positive frequency, got {cutoff!r} Hz")
+    win = model_window(model) if window is None else float(window)
+    if not (math.isfinite(win) and win > 0):
+        raise InputError(f"differentiation window must be positive, got {window!r} s")
+    robot = model.robot
+    if check_robot:
+        check_log_matches_model(model, log)
+    n, nj = log.t.size, len(robot.joints)
+    span = float(log.t[-1] - log.t[0]) if n else 0.0
+    if span < win:
+        raise InputError(
+            f"log lasts {span:.3g} s, shorter than the {win:.3g} s differentiator window; "
+            "record at least a second of motion",
+            path=log.path,
+        )
+    clean = sanitize_log(log, window=win)
+    if not clean.pieces:
+        raise InputError(
+            f"no stretch of the log between gaps in time lasts the {win:.3g} s differentiator "
+            f"window; record without gaps longer than {2.5 * win:.3g} s",
+            path=log.path,
+        )
+    nan2 = np.full((n, nj), np.nan)
+    out = {
+        name: nan2.copy()
+        for name in ("angle", "velocity", "t_est", "filtered", "external", "sigma")
+    }
+    flag = np.zeros(n, dtype=np.int64)
+    flag[clean.unprocessed] |= FLAG_GAP
+    flag[clean.implausible] |= FLAG_IMPLAUSIBLE
+    # the filters' support next to a gap holds data on one side only: flagged (a gap)
+    support = win if method == "raw" else max(win, 1.0 / cutoff)
+    for before, after in clean.gaps:
+        near = ((log.t >= before - support) & (log.t <= before)) | (
+            (log.t >= after) & (log.t <= after + support)
+        )
+        flag[near] |= FLAG_GAP
+    warnings: list[str] = list(clean.warnings)
+    passes: list[list[Pass]] = [[] for _ in range(nj)]
+    any_pass = False
+    for piece in clean.pieces:
+        part = _estimate_piece(
+            model,
+            piece.log,
+            method=method,
+            cutoff=cutoff,
+            window=win,
+            notch_width=notch_width,
+            min_revolutions=min_revolutions,
+            bridge_reversals=bridge_reversals,
+            channel_delay=channel_delay,
+            reversal_band=reversal_band,
+        )
+        rows = piece.rows
+        for key in out:
+            out[key][rows] = part.arrays[key]
+        flag[rows] |= part.flag
+        any_pass |= part.any_pass
+        for k in range(nj):
+            passes[k].extend(
+                dataclasses.replace(p, start=int(rows[p.start]), stop=int(rows[p.stop - 1]) + 1)
+                for p in part.passes[k]
+            )
+        for w in part.warnings:
+            if w not in warnings:
+                warnings.append(w)
+    if method == "paper" and not any_pass:
+        raise InputError(
+            "no joint with PDTV lines makes a monotonic pass of at least "
+            f"{min_revolutions:g} motor revolutions: the paper method needs motion "
+            "(use --method model)",
+            path=log.path,
+        )
+    gear = np.array([j.gear_ratio for j in robot.joints])
+    tau_ext = -out["external"] * gear
+    tau_sigma = out["sigma"] * gear
+    force = force_sigma = None
+    if robot.arm.wrench_axes:
+        finite = np.isfinite(tau_ext).all(axis=1)
+        f = robot.arm.wrench_from_joint_torque(
+            log.q, np.nan_to_num(tau_ext), singular_threshold=min_sin_elbow
+        )
+        force = np.array(f.wrench, dtype=np.float64)
+        force[~finite] = np.nan
+        flag[f.singular] |= FLAG_SINGULAR
+        force_sigma = _force_sigma(robot.arm, log.q, tau_sigma, f.singular)
+        if f.singular.any():
+            warnings.append(
+                f"{int(f.singular.sum())} samples near a singular pose (guard "
+                f"{min_sin_elbow:g}): force not estimated there"
+            )
+    return ForceEstimate(
+        t=log.t,
+        joint_names=robot.joint_names,
+        q=log.q,
+        motor_angle=out["angle"],
+        velocity=out["velocity"],
+        t_est=out["t_est"],
+        filtered=out["filtered"],
+        motor_external=out["external"],
+        tau_ext=tau_ext,
+        force=force,
+        flag=flag,
+        passes=tuple(tuple(p) for p in passes),
+        method=method,
+        cutoff=float("nan") if method == "raw" else float(cutoff),
+        warnings=tuple(warnings),
+        wrench_axes=robot.arm.wrench_axes if force is not None else (),
+        tau_ext_sigma=tau_sigma,
+        force_sigma=force_sigma,
+        window=win,
+    )
+
+
+def _force_sigma(
+    arm: Any,
+    q: NDArray[np.float64],
+    tau_sigma: NDArray[np.float64],
+    singular: NDArray[np.bool_],
+) -> NDArray[np.float64]:
+    """One standard deviation of each wrench component ``F = pinv(J^T) tau`` from independent
+    joint-torque sigmas."""
+    out = np.full((q.shape[0], len(arm.wrench_axes)), np.nan)
+    ok = ~singular & np.isfinite(q).all(axis=1) & np.isfinite(tau_sigma).all(axis=1)
+    if ok.any():
+        jt = np.swapaxes(np.asarray(arm.jacobian(q[ok]), dtype=np.float64), -1, -2)
+        m = np.linalg.pinv(jt)  # (n, axes, nj): F = m @ tau
+        out[ok] = np.sqrt(np.einsum("nij,nj->ni", m**2, tau_sigma[ok] ** 2))
+    return out
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class _PieceEstimate:
+    arrays: dict[str, NDArray[np.float64]]
+    flag: NDArray[np.int64]
+    passes: tuple[tuple[Pass, ...], ...]
+    any_pass: bool
+    warnings: tuple[str, ...]
+
+
+def _estimate_piece(
+    model: Model,
+    log: Log,
+    *,
+    method: Method,
+    cutoff: float,
+    window: float,
+    notch_width: float,
+    min_revolutions: float,
+    bridge_reversals: float,
+    channel_delay: Mapping[str, float] | None,
+    reversal_band: float | Mapping[str, float] | None,
+) -> _PieceEstimate:
+    """:func:`estimate_forces` on one piece of a log (no gap, sound samples)."""
     robot = model.robot
     delays = identified_delays(model) if channel_delay is None else dict(channel_delay)
     if any(delays.values()):
@@ -477,21 +665,26 @@ def estimate_forces(
             if delays.get(name, 0.0):
                 tau[:, k] = shift_channel(log.t, tau[:, k], delays[name])
         log = dataclasses.replace(log, motor_torque=tau)
-    t_est, angle, velocity = estimation_signal(model, log, window=window)
+    t_est, angle, velocity, acceleration = _signal(model, log, window=window)
     n, nj = t_est.shape
     warnings: list[str] = []
     flag = np.zeros(n, dtype=np.int64)
     all_passes: list[tuple[Pass, ...]] = []
     rests: list[NDArray[np.bool_]] = []
+    whole = whole_fit_joints(model)
     if reversal_band is None:
         slowest = identified_slowest_speeds(model)
         bands = {
-            j.name: max(model.joints[j.name].friction.zero_velocity, slowest.get(j.name, 0.0))
+            j.name: (
+                TRANSITION_SPAN * _law_width(model.joints[j.name].friction)
+                if j.name in whole
+                else max(_law_width(model.joints[j.name].friction), slowest.get(j.name, 0.0))
+            )
             for j in robot.joints
         }
     elif isinstance(reversal_band, Mapping):
         bands = {
-            j.name: float(reversal_band.get(j.name, model.joints[j.name].friction.zero_velocity))
+            j.name: float(reversal_band.get(j.name, _law_width(model.joints[j.name].friction)))
             for j in robot.joints
         }
     else:
@@ -505,7 +698,8 @@ def estimate_forces(
         rest = np.zeros(n, dtype=bool)
         if max(jm.friction.static_levels()) > 0:
             rest = reversal_mask(log.t, velocity[:, k], band=w0, window=window)
-            flag[rest] |= FLAG_LOW_SPEED
+            if joint.name not in whole:
+                flag[rest] |= FLAG_LOW_SPEED
         rests.append(rest)
         all_passes.append(
             monotonic_passes(
@@ -526,11 +720,18 @@ def estimate_forces(
             y = lowpass(log.t, bridged, cutoff=cutoff)
             held = gaps & ~bridged_runs(log.t, gaps, longest=bridge_reversals)
             if held.any():
-                # Stretches too long to bridge (a hold, the log's ends) keep the model's value,
-                # flagged; they must not leak into sound samples through the filter, which
-                # therefore sees them filled from their sound neighbours.
+                # Stretches too long to bridge (a hold, the log's ends) keep the model's value;
+                # they must not leak into the samples around them through the filter, which
+                # therefore sees them filled from their neighbours.
+                # Where the model knows friction through zero (whole-log identification) the
+                # answer there is the estimate carried over from the neighbours (its sigma
+                # covers the friction band): the external load is continuous, the friction at
+                # rest is not known.
                 filled = bridge_gaps(log.t, x, gaps, longest=math.inf, support=window, ends=True)
-                y = np.where(held, y, lowpass(log.t, filled, cutoff=cutoff))
+                smooth_filled = lowpass(log.t, filled, cutoff=cutoff)
+                if robot.joints[k].name in whole:
+                    return smooth_filled
+                y = np.where(held, y, smooth_filled)
             return y
         except InputError as exc:
             raise InputError(exc.message, path=log.path) from None
@@ -540,6 +741,7 @@ def estimate_forces(
     if method != "raw":
         for k in range(nj):
             filtered[:, k] = smooth(t_est[:, k], k)
+    any_pass = False
     if method == "lowpass":
         external = filtered.copy()
     elif method == "model":
@@ -549,7 +751,6 @@ def estimate_forces(
             external[:, k] = smooth(residual, k) if lines else filtered[:, k]
     elif method == "paper":
         external = filtered.copy()
-        any_pass = False
         for k, joint in enumerate(robot.joints):
             orders = sorted({line.order for line in model.joints[joint.name].pdtv})
             if not orders:
@@ -577,50 +778,111 @@ def estimate_forces(
                     f"joint {joint.name}: {np.mean(~covered):.1%} of samples lie outside monotonic "
                     f"passes of {min_revolutions:g} motor revolutions and keep their PDTV"
                 )
-        if not any_pass:
-            raise InputError(
-                "no joint with PDTV lines makes a monotonic pass of at least "
-                f"{min_revolutions:g} motor revolutions: the paper method needs motion "
-                "(use --method model)",
-                path=log.path,
-            )
-    gear = np.array([j.gear_ratio for j in robot.joints])
-    tau_ext = -external * gear
-    force = None
-    if robot.arm.wrench_axes:
-        f = robot.arm.wrench_from_joint_torque(log.q, tau_ext, singular_threshold=min_sin_elbow)
-        force = f.wrench
-        flag[f.singular] |= FLAG_SINGULAR
-        if f.singular.any():
-            warnings.append(
-                f"{int(f.singular.sum())} samples near a singular pose (guard "
-                f"{min_sin_elbow:g}): force not estimated there"
+    sigma = np.full((n, nj), np.nan)
+    if method == "model":
+        from torquemap.uncertainty import joint_sigma
+
+        modulation = robot.arm.inertia_modulation(log.q)
+        for k, joint in enumerate(robot.joints):
+            sigma[:, k] = joint_sigma(
+                model,
+                joint.name,
+                t=log.t,
+                theta=angle[:, k],
+                velocity=velocity[:, k],
+                acceleration=acceleration[:, k],
+                modulation=modulation[:, k],
+                cutoff=cutoff,
             )
     for k, joint in enumerate(robot.joints):
-        if rests[k].any():
+        if rests[k].any() and joint.name not in whole:
             warnings.append(
                 f"joint {joint.name}: {np.mean(rests[k]):.1%} of samples at or near zero "
                 f"velocity (motor slower than {bands[joint.name]:.3g} rad/s, the reversal band), "
                 "where friction is undetermined (flagged)"
             )
-    return ForceEstimate(
-        t=log.t,
-        joint_names=robot.joint_names,
-        q=log.q,
-        motor_angle=angle,
-        velocity=velocity,
-        t_est=t_est,
-        filtered=filtered,
-        motor_external=external,
-        tau_ext=tau_ext,
-        force=force,
+    arrays = {
+        "angle": angle,
+        "velocity": velocity,
+        "t_est": t_est,
+        "filtered": filtered,
+        "external": external,
+        "sigma": sigma,
+    }
+    return _PieceEstimate(
+        arrays=arrays,
         flag=flag,
         passes=tuple(all_passes),
-        method=method,
-        cutoff=float("nan") if method == "raw" else float(cutoff),
+        any_pass=any_pass,
         warnings=tuple(warnings),
-        wrench_axes=robot.arm.wrench_axes if force is not None else (),
     )
+
+
+#: Where a law's smooth transition through zero still blends the two branches, in units of its
+#: width: ``tanh(4) = 0.9993``. Below it the sign of friction follows the measured velocity only
+#: loosely (stick-slip at a reversal, creep), so ``T_est`` is bridged there.
+TRANSITION_SPAN = 4.0
+
+
+def _law_width(law: Any) -> float:
+    """The friction law's transition half width [rad/s] (its ``zero_velocity``, else 0)."""
+    return float(getattr(law, "zero_velocity", 0.0))
+
+
+def whole_fit_joints(model: Model) -> set[str]:
+    """Joints whose friction was identified through zero speed from whole logs (their notes say
+    ``friction_fit = "whole"``)."""
+    out: set[str] = set()
+    joints = model.notes.get("joints", {})
+    if isinstance(joints, Mapping):
+        for name, entry in joints.items():
+            if isinstance(entry, Mapping) and entry.get("friction_fit") == "whole":
+                out.add(str(name))
+    return out
+
+
+def model_window(model: Model) -> float:
+    """The differentiator window [s] the model was identified with, else 0.05 s."""
+    value = model.notes.get("differentiation_window")
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        if math.isfinite(value) and value > 0:
+            return float(value)
+    return 0.05
+
+
+def check_log_matches_model(model: Model, log: Log) -> None:
+    """Refuse a log whose motor-angle steps are not whole encoder counts of the model's robot.
+
+    Identification records each joint's motor-angle quantum (``[identification.joints.<j>]
+    motor_angle_quantum``, one encoder count at the motor). A log of the same robot moves by
+    whole counts; one from another robot (another encoder, another gear ratio) does not. Only
+    quantised logs are checked, and only where the log moves.
+    """
+    joints = model.notes.get("joints", {})
+    if not isinstance(joints, Mapping):
+        return
+    for k, joint in enumerate(model.robot.joints):
+        entry = joints.get(joint.name)
+        if not isinstance(entry, Mapping):
+            continue
+        quantum = entry.get("motor_angle_quantum")
+        if not isinstance(quantum, int | float) or not (quantum > 0 and math.isfinite(quantum)):
+            continue
+        step = np.abs(np.diff(joint.gear_ratio * log.q[:, k]))
+        step = step[step > 1e-12]
+        if step.size < 20:
+            continue
+        ratio = step / quantum
+        whole = np.abs(ratio - np.round(ratio)) < 0.02 * np.maximum(1.0, ratio)
+        if float(np.mean(whole & (np.round(ratio) >= 1))) < 0.9:
+            seen = float(np.min(step))
+            raise InputError(
+                f"joint {joint.name}: the log's motor angle moves in steps of {seen:.4g} rad, "
+                f"not whole encoder counts of the model's robot ({quantum:.4g} rad = 2 pi / "
+                f"{2 * math.pi / quantum:.0f} at the motor): a log from another robot (encoder "
+                "or gear ratio differ)? Identify a model from this robot's own no-load logs",
+                path=log.path,
+            )
 
 
 def identified_slowest_speeds(model: Model) -> dict[str, float]:
@@ -665,7 +927,8 @@ def forces_columns(estimate: ForceEstimate) -> dict[str, NDArray[Any]]:
     """Output columns of ``torquemap estimate`` (docs/formats.md).
 
     ``t``, ``tau_ext_<j>`` per joint [N m, joint side, exerted by the environment], ``fx``, ``fy``
-    [N, base frame] for planar2r, and ``flag`` (bits ``FLAG_*``; 0 = sound).
+    [N, base frame] for planar2r, ``tau_ext_<j>_sigma`` and ``fx_sigma``, ``fy_sigma`` (one
+    standard deviation; NaN where not estimated), and ``flag`` (bits ``FLAG_*``; 0 = sound).
     """
     cols: dict[str, NDArray[Any]] = {"t": estimate.t}
     for k, name in enumerate(estimate.joint_names):
@@ -673,6 +936,12 @@ def forces_columns(estimate: ForceEstimate) -> dict[str, NDArray[Any]]:
     if estimate.force is not None:
         for a, axis in enumerate(estimate.wrench_axes):
             cols[axis] = estimate.force[:, a]
+    if estimate.tau_ext_sigma is not None:
+        for k, name in enumerate(estimate.joint_names):
+            cols[f"tau_ext_{name}_sigma"] = estimate.tau_ext_sigma[:, k]
+    if estimate.force is not None and estimate.force_sigma is not None:
+        for a, axis in enumerate(estimate.wrench_axes):
+            cols[f"{axis}_sigma"] = estimate.force_sigma[:, a]
     cols["flag"] = estimate.flag
     return cols
 

@@ -36,10 +36,8 @@ class Derivatives:
 def _time_and_values(t: ArrayLike, x: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     tt = np.asarray(t, dtype=np.float64)
     xx = np.asarray(x, dtype=np.float64)
-    if tt.ndim != 1 or xx.shape != tt.shape:
-        raise InputError(
-            f"time and values must be 1-D of equal length, got {tt.shape} and {xx.shape}"
-        )
+    if tt.ndim != 1 or xx.ndim not in (1, 2) or xx.shape[0] != tt.size:
+        raise InputError(f"time and values must be of equal length, got {tt.shape} and {xx.shape}")
     if tt.size < 3:
         raise InputError(f"need at least 3 samples to filter, got {tt.size}")
     if not (np.all(np.isfinite(tt)) and np.all(np.isfinite(xx))):
@@ -49,6 +47,11 @@ def _time_and_values(t: ArrayLike, x: ArrayLike) -> tuple[NDArray[np.float64], N
     return tt, xx
 
 
+#: Fewest samples a differentiator window holds: where the sampling is sparser (a gap, a slow
+#: host poll) the window of that sample widens to hold this many (local adaptation).
+MIN_WINDOW_SAMPLES = 5
+
+
 def differentiate(t: ArrayLike, x: ArrayLike, *, window: float) -> Derivatives:
     """Smooth a signal and its first two derivatives by local quadratic least squares.
 
@@ -56,13 +59,16 @@ def differentiate(t: ArrayLike, x: ArrayLike, *, window: float) -> Derivatives:
     ``window`` seconds; its value, slope and curvature at the sample are the smoothed signal,
     velocity and acceleration. This is the Savitzky-Golay filter generalised to irregular
     time. Near the ends the window keeps its length and is shifted to stay inside the log.
+    Where the sampling is too sparse for the window to hold ``MIN_WINDOW_SAMPLES`` samples
+    (a gap, jitter, a slow poll) that sample's window widens, by samples, until it does: the
+    differentiation adapts to the local sample spacing.
 
     Parameters
     ----------
     t
         Time [s], strictly increasing, shape (n,).
     x
-        Signal [unit], shape (n,).
+        Signal [unit], shape (n,), or several signals sharing ``t``, shape (n, m).
     window
         Window length [s]. Longer windows reduce noise but attenuate fast motion: a sine of
         period P loses less than 1 % of its velocity when ``window < P / 5``.
@@ -70,13 +76,14 @@ def differentiate(t: ArrayLike, x: ArrayLike, *, window: float) -> Derivatives:
     Returns
     -------
     Derivatives
-        Smoothed position [unit], velocity [unit/s] and acceleration [unit/s^2], each (n,).
+        Smoothed position [unit], velocity [unit/s] and acceleration [unit/s^2], each shaped
+        like ``x``.
 
     Raises
     ------
     InputError
-        If the log is shorter than the window, a window holds fewer than 3 samples, or the
-        time is not strictly increasing.
+        If the log is shorter than the window or holds fewer than ``MIN_WINDOW_SAMPLES``
+        samples, or the time is not strictly increasing.
 
     Notes
     -----
@@ -89,7 +96,7 @@ def differentiate(t: ArrayLike, x: ArrayLike, *, window: float) -> Derivatives:
     --------
     >>> t = np.linspace(0.0, 1.0, 101)
     >>> d = differentiate(t, 3.0 * t**2, window=0.1)
-    >>> float(d.velocity[50]), float(d.acceleration[0])
+    >>> round(float(d.velocity[50]), 9), round(float(d.acceleration[0]), 9)
     (3.0, 6.0)
     """
     tt, xx = _time_and_values(t, x)
@@ -102,35 +109,33 @@ def differentiate(t: ArrayLike, x: ArrayLike, *, window: float) -> Derivatives:
             f"log lasts {span:.6g} s, shorter than the differentiation window {w:.6g} s"
         )
     n = tt.size
+    if n < MIN_WINDOW_SAMPLES:
+        raise InputError(
+            f"{n} samples: differentiation needs at least {MIN_WINDOW_SAMPLES} samples"
+        )
     h = uniform_step(tt)
     half = math.floor(w / (2 * h) + 1e-9)
-    if half >= 1 and 2 * half + 1 <= n and np.allclose(np.diff(tt), h, rtol=1e-9, atol=0.0):
+    if half >= 2 and 2 * half + 1 <= n and np.allclose(np.diff(tt), h, rtol=1e-9, atol=0.0):
         return _differentiate_uniform(xx, h, 2 * half + 1)
-    start = np.clip(tt - w / 2, tt[0], tt[-1] - w)
-    lo = np.searchsorted(tt, start, side="left")
-    hi = np.searchsorted(tt, start + w * (1 + 1e-12), side="right")
+    lo, hi = _windows(tt, w)
+    two_d = xx.ndim == 2
+    x2 = xx if two_d else xx[:, None]
     idx = np.arange(n)
-    count = hi - lo
-    if count.min() < 3:
-        raise InputError(
-            f"differentiation window {w:.6g} s holds fewer than 3 samples somewhere "
-            "(samples too sparse for this window)"
-        )
-    scale = w / 2
+    scale = np.maximum(0.5 * (tt[hi - 1] - tt[lo]), 1e-300)
     s_sum = np.zeros((5, n))
-    sx_sum = np.zeros((3, n))
+    sx_sum = np.zeros((3, n, x2.shape[1]))
     for k in range(int((lo - idx).min()), int((hi - 1 - idx).max()) + 1):
         j = idx + k
         inside = (j >= lo) & (j < hi)
         jj = np.clip(j, 0, n - 1)
         s = np.where(inside, (tt[jj] - tt) / scale, 0.0)
         m = inside.astype(np.float64)
-        xs = np.where(inside, xx[jj] - xx, 0.0)
+        xs = np.where(inside[:, None], x2[jj] - x2, 0.0)
         p = m.copy()
         for power in range(5):
             s_sum[power] += p
             if power < 3:
-                sx_sum[power] += p * xs
+                sx_sum[power] += p[:, None] * xs
             p = p * s
     # Normal equations (3x3 per sample), solved in scaled time for conditioning.
     a = np.stack(
@@ -141,11 +146,30 @@ def differentiate(t: ArrayLike, x: ArrayLike, *, window: float) -> Derivatives:
         ],
         axis=-2,
     )
-    coef = np.linalg.solve(a, sx_sum.T[..., None])[..., 0]
-    position = xx + coef[:, 0]
-    velocity = coef[:, 1] / scale
-    acceleration = 2.0 * coef[:, 2] / scale**2
+    coef = np.linalg.solve(a, np.moveaxis(sx_sum, 0, 1))  # (n, 3, m)
+    position = x2 + coef[:, 0]
+    velocity = coef[:, 1] / scale[:, None]
+    acceleration = 2.0 * coef[:, 2] / (scale**2)[:, None]
+    if not two_d:
+        position, velocity, acceleration = position[:, 0], velocity[:, 0], acceleration[:, 0]
     return Derivatives(position=position, velocity=velocity, acceleration=acceleration)
+
+
+def _windows(tt: NDArray[np.float64], w: float) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """Per sample, the slice ``lo:hi`` of its differentiator window (widened where sparse)."""
+    n = tt.size
+    start = np.clip(tt - w / 2, tt[0], tt[-1] - w)
+    lo = np.searchsorted(tt, start, side="left")
+    hi = np.searchsorted(tt, start + w * (1 + 1e-12), side="right")
+    need = MIN_WINDOW_SAMPLES
+    short = (hi - lo) < need
+    if short.any():
+        # widen by samples, keeping the sample as central as the log's ends allow
+        i = np.flatnonzero(short)
+        left = np.clip(i - need // 2, 0, n - need)
+        lo[i] = np.minimum(lo[i], left)
+        hi[i] = np.maximum(hi[i], left + need)
+    return lo, hi
 
 
 def _differentiate_uniform(x: NDArray[np.float64], h: float, length: int) -> Derivatives:
@@ -158,9 +182,9 @@ def _differentiate_uniform(x: NDArray[np.float64], h: float, length: int) -> Der
 
     offset = x[0]
     y = x - offset
-    position = signal.savgol_filter(y, length, 2, deriv=0, mode="interp") + offset
-    velocity = signal.savgol_filter(y, length, 2, deriv=1, delta=h, mode="interp")
-    acceleration = signal.savgol_filter(y, length, 2, deriv=2, delta=h, mode="interp")
+    position = signal.savgol_filter(y, length, 2, deriv=0, mode="interp", axis=0) + offset
+    velocity = signal.savgol_filter(y, length, 2, deriv=1, delta=h, mode="interp", axis=0)
+    acceleration = signal.savgol_filter(y, length, 2, deriv=2, delta=h, mode="interp", axis=0)
     return Derivatives(
         position=np.asarray(position, dtype=np.float64),
         velocity=np.asarray(velocity, dtype=np.float64),
@@ -186,7 +210,7 @@ def smooth_as_acceleration(t: ArrayLike, x: ArrayLike, *, window: float) -> NDAr
     t
         Time [s], strictly increasing, shape (n,).
     x
-        Signal [unit], shape (n,).
+        Signal [unit], shape (n,), or several, shape (n, m).
     window
         The differentiator's window [s] (:func:`differentiate`).
 
@@ -198,7 +222,7 @@ def smooth_as_acceleration(t: ArrayLike, x: ArrayLike, *, window: float) -> NDAr
     Raises
     ------
     InputError
-        As :func:`differentiate`: a window with fewer than 3 samples or longer than the log.
+        As :func:`differentiate`: a log shorter than the window or with too few samples.
 
     Examples
     --------
@@ -211,9 +235,9 @@ def smooth_as_acceleration(t: ArrayLike, x: ArrayLike, *, window: float) -> NDAr
     from scipy import integrate
 
     tt, xx = _time_and_values(t, x)
-    mean = float(np.mean(xx))  # a constant passes a unit-sum kernel unchanged
-    first = integrate.cumulative_trapezoid(xx - mean, tt, initial=0.0)
-    second = integrate.cumulative_trapezoid(first, tt, initial=0.0)
+    mean = np.mean(xx, axis=0)  # a constant passes a unit-sum kernel unchanged
+    first = integrate.cumulative_trapezoid(xx - mean, tt, initial=0.0, axis=0)
+    second = integrate.cumulative_trapezoid(first, tt, initial=0.0, axis=0)
     out: NDArray[np.float64] = differentiate(tt, second, window=window).acceleration + mean
     return out
 
@@ -236,7 +260,7 @@ def lowpass(t: ArrayLike, x: ArrayLike, *, cutoff: float, order: int = 2) -> NDA
     t
         Time [s], strictly increasing, shape (n,).
     x
-        Signal, shape (n,).
+        Signal, shape (n,), or several, shape (n, m) (filtered along time).
     cutoff
         Cut-off frequency [Hz] of the single-pass Butterworth (-3 dB; -6 dB after the
         forward-backward pass). Must be below the Nyquist frequency of the median step.
@@ -279,7 +303,7 @@ def lowpass(t: ArrayLike, x: ArrayLike, *, cutoff: float, order: int = 2) -> NDA
         m = round((tt[-1] - tt[0]) / h) + 1
         grid = tt[0] + h * np.arange(m)
         grid[-1] = min(grid[-1], tt[-1])
-        values = np.interp(grid, tt, xx)
+        values = _interp_rows(grid, tt, xx)
     sos = signal.butter(order, cutoff, btype="low", fs=1.0 / h, output="sos")
     padlen = 3 * (2 * len(sos) + 1 - min(int((sos[:, 2] == 0).sum()), int((sos[:, 5] == 0).sum())))
     if grid.size <= padlen:
@@ -287,7 +311,16 @@ def lowpass(t: ArrayLike, x: ArrayLike, *, cutoff: float, order: int = 2) -> NDA
             f"log of {grid.size} samples is shorter than the low-pass filter's padding "
             f"({padlen + 1} samples needed)"
         )
-    y = signal.sosfiltfilt(sos, values)
+    y = signal.sosfiltfilt(sos, values, axis=0)
     if regular:
         return np.asarray(y, dtype=np.float64)
-    return np.asarray(np.interp(tt, grid, y), dtype=np.float64)
+    return _interp_rows(tt, grid, np.asarray(y, dtype=np.float64))
+
+
+def _interp_rows(
+    x: NDArray[np.float64], xp: NDArray[np.float64], fp: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """``np.interp`` of a signal (n,) or of each column of (n, m)."""
+    if fp.ndim == 1:
+        return np.asarray(np.interp(x, xp, fp), dtype=np.float64)
+    return np.stack([np.interp(x, xp, fp[:, k]) for k in range(fp.shape[1])], axis=1)

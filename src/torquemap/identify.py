@@ -162,7 +162,7 @@ def _still_mask(deriv: Sequence[Derivatives], k: int, p99: Sequence[float]) -> N
     return ok
 
 
-def identify_model(
+def _identify_passes(
     robot: Robot | Model,
     logs: Sequence[Log],
     *,
@@ -257,7 +257,8 @@ def identify_model(
     if not any(r.passes for r in results.values()):
         raise InputError(
             "no joint moves at a steady speed in the logs; identification needs "
-            "constant-speed sweeps",
+            "constant-speed sweeps: record each joint alone at several steady speeds, both "
+            "directions, at least a quarter motor revolution per pass",
             path=logs[0].path if len(logs) == 1 else None,
         )
     if channel_delay == "auto" or channel_delay != 0:
@@ -271,7 +272,7 @@ def identify_model(
                 delays[name] = _estimate_joint_delay(rb, k, logs, derivs, res, jm, window)
         if any(d != 0 for d in delays.values()):
             shifted = [_shift_log(log, rb, delays) for log in logs]
-            again = identify_model(
+            again = _identify_passes(
                 model_in if model_in is not None else rb,
                 shifted,
                 joints=joints,
@@ -791,6 +792,360 @@ def _notes(
         "warnings": list(warnings),
         "joints": joints,
     }
+
+
+FrictionMethod = Literal["whole", "passes"]
+FRICTION_METHODS: tuple[FrictionMethod, ...] = ("whole", "passes")
+
+
+def identify_model(
+    robot: Robot | Model,
+    logs: Sequence[Log],
+    *,
+    joints: Sequence[str] | None = None,
+    max_order: float | None = None,
+    window: float = 0.05,
+    false_alarm: float = 0.01,
+    stribeck: Literal["auto", "never", "always"] = "auto",
+    direction_significance: float = 0.001,
+    torque_lag: float | Literal["auto"] = 0.0,
+    channel_delay: float | Literal["auto"] = "auto",
+    friction: FrictionMethod = "passes",
+    vertical: Literal["refuse", "warn"] = "refuse",
+) -> Identification:
+    """Identify inertia, friction and PDTV of a robot's joints from no-load logs.
+
+    Every log is first sanitised (:func:`torquemap.sanitize.sanitize_log`: repeated time
+    stamps dropped, implausible samples bridged and left out, the log cut at gaps the filters
+    cannot bridge). Then the constant-speed passes are found and the PDTV lines picked from
+    their position-domain spectrum (the paper's method, docs/identification.md). With
+    ``friction="whole"`` friction, inertia, the PDTV lines' amplitudes and the torque
+    channel's delay are then fitted to every sample of the logs at once
+    (:func:`torquemap.identify_whole.fit_joint_whole`): friction through zero speed with a
+    smooth transition whose width is identified, a parameter covariance and the residual noise
+    recorded in the model's notes for estimation's sigmas. ``friction="passes"`` (default)
+    keeps the paper's pass method (friction from the pass means, Eq 5).
+
+    Parameters
+    ----------
+    robot
+        The robot, or a model whose non-identified joints are kept.
+    logs
+        No-load logs read with :func:`torquemap.io.read_log` for this robot.
+    joints
+        Joint names to identify; default all.
+    max_order
+        Highest PDTV order [CPR]; default the resolvable limit of the slowest pass.
+    window
+        Differentiation window [s] (:func:`torquemap.filters.differentiate`).
+    false_alarm
+        Probability that noise alone yields a spurious PDTV line, per joint.
+    stribeck
+        Stribeck term: ``"auto"`` (F test), ``"never"`` or ``"always"``.
+    direction_significance
+        Level of the test that a line differs between directions (Bonferroni over lines).
+    torque_lag
+        Pass method only: time constant [s] of a first-order lag of the torque channel
+        (``"auto"`` fits it, experimental).
+    channel_delay
+        Pure time delay [s] of the torque (current) channel behind the position channel;
+        ``"auto"`` (default) estimates it (whole: searched in the whole-log fit, kept when
+        significant; passes: :func:`torquemap.delay.estimate_delay`).
+    friction
+        ``"passes"`` (default) or ``"whole"``.
+    vertical
+        What to do when a joint's no-load torque holds a large component that depends on the
+        joint angles (gravity: a vertical arm, which the model cannot represent): ``"refuse"``
+        (InputError) or ``"warn"``.
+
+    Returns
+    -------
+    Identification
+        The model and per-joint diagnostics.
+
+    Raises
+    ------
+    InputError
+        No log, an unknown joint, a log shorter than the differentiation window, no motion at
+        all, ``max_order`` beyond what the slowest pass resolves, or a vertical arm.
+    """
+    from torquemap.sanitize import sanitize_log
+
+    if friction not in FRICTION_METHODS:
+        raise InputError(f"unknown friction method {friction!r} (choose whole or passes)")
+    if not logs:
+        raise InputError("no log given")
+    if not (math.isfinite(window) and window > 0):
+        raise InputError(f"differentiation window must be positive, got {window!r} s")
+    rb = robot.robot if isinstance(robot, Model) else robot
+    pieces: list[Log] = []
+    sound: list[NDArray[np.bool_]] = []
+    cleaning: list[str] = []
+    for log in logs:
+        span = float(log.t[-1] - log.t[0]) if log.t.size else 0.0
+        if span < window or log.t.size < 5:
+            raise InputError(
+                f"log lasts {span:.3g} s ({log.t.size} samples), shorter than the "
+                f"differentiation window {window:.3g} s; record at least a few seconds of "
+                "motion per joint (sweeps at several steady speeds, both directions)",
+                path=log.path,
+            )
+        clean = sanitize_log(log, window=window)
+        cleaning.extend(f"{log.path}: {w}" for w in clean.warnings)
+        for piece in clean.pieces:
+            pieces.append(piece.log)
+            sound.append(~clean.implausible[piece.rows])
+        if not clean.pieces:
+            raise InputError(
+                "no stretch between gaps in time is long enough to differentiate; record "
+                f"without gaps longer than {2.5 * window:.3g} s",
+                path=log.path,
+            )
+    base = _identify_passes(
+        robot,
+        pieces,
+        joints=joints,
+        max_order=max_order,
+        window=window,
+        false_alarm=false_alarm,
+        stribeck=stribeck,
+        direction_significance=direction_significance,
+        torque_lag=torque_lag,
+        channel_delay=channel_delay,
+    )
+    quanta = {j.name: _motor_quantum(pieces, j.gear_ratio, k) for k, j in enumerate(rb.joints)}
+    joint_notes = base.model.notes.get("joints", {})
+    for name, entry in joint_notes.items():
+        if isinstance(entry, dict) and quanta.get(name):
+            entry["motor_angle_quantum"] = quanta[name]
+    if friction == "passes":
+        warnings = (*cleaning, *base.warnings)
+        notes = dict(base.model.notes)
+        notes["logs"] = [log.path for log in logs]
+        notes["warnings"] = list(warnings)
+        notes["friction_fit"] = "passes"
+        model = Model(robot=rb, joints=base.model.joints, notes=notes)
+        return Identification(model=model, joints=base.joints, warnings=warnings)
+    return _identify_whole(
+        rb,
+        base,
+        pieces,
+        sound,
+        logs,
+        window=window,
+        stribeck=stribeck,
+        direction_significance=direction_significance,
+        channel_delay=channel_delay,
+        cleaning=cleaning,
+        vertical=vertical,
+    )
+
+
+def _identify_whole(
+    rb: Robot,
+    base: Identification,
+    pieces: Sequence[Log],
+    sound: Sequence[NDArray[np.bool_]],
+    logs: Sequence[Log],
+    *,
+    window: float,
+    stribeck: Literal["auto", "never", "always"],
+    direction_significance: float,
+    channel_delay: float | Literal["auto"],
+    cleaning: Sequence[str],
+    vertical: Literal["refuse", "warn"],
+) -> Identification:
+    from torquemap import identify_whole as iw
+
+    derivs = [_derivatives(log, rb, window) for log in pieces]
+    nj = len(rb.joints)
+    p99 = [
+        float(np.percentile(np.concatenate([np.abs(d[k].velocity) for d in derivs]), 99))
+        for k in range(nj)
+    ]
+    top = [
+        float(np.max(np.concatenate([np.abs(d[k].velocity) for d in derivs]))) for k in range(nj)
+    ]
+    new_joints = dict(base.model.joints)
+    notes = dict(base.model.notes)
+    joint_notes = {k: dict(v) for k, v in notes.get("joints", {}).items()}
+    results = dict(base.joints)
+    warnings: list[str] = [*cleaning, *base.warnings]
+    planar = rb.arm.kind == "planar2r"
+    for name, res in base.joints.items():
+        k = rb.joint_names.index(name)
+        joint = rb.joints[k]
+        elbow_k = _elbow_joint(rb, k)
+        wp: list[iw.Piece] = []
+        for log, d, ok in zip(pieces, derivs, sound, strict=True):
+            use = _still_mask(d, k, p99) & ok
+            elbow = log.q[:, elbow_k] if elbow_k is not None else np.zeros(log.t.size)
+            wp.append(
+                iw.Piece(
+                    t=log.t,
+                    theta=joint.gear_ratio * log.q[:, k],
+                    velocity=d[k].velocity,
+                    acceleration=d[k].acceleration,
+                    torque=log.motor_torque[:, k],
+                    elbow=elbow,
+                    use=use,
+                    joint_angles=log.q,
+                )
+            )
+        if sum(int(p.use.sum()) for p in wp) < 50 or top[k] <= 0:
+            warnings.append(f"joint {name}: too few samples where it alone moves: left as it was")
+            continue
+        jm = base.model.joints[name]
+        orders = sorted({ln.order for ln in jm.pdtv})
+        resolution = _velocity_resolution(pieces, joint.gear_ratio, k, window)
+        # at rest friction is anything within its band (static friction): such samples say
+        # nothing about the law and would pull the Coulomb levels towards the holding torque
+        for p in wp:
+            p.use[np.abs(p.velocity) < 3.0 * resolution] = False
+        elbow_term = False
+        if elbow_k is not None:
+            c = np.concatenate([np.cos(p.elbow[p.use]) for p in wp])
+            elbow_term = bool(c.size and float(c.max() - c.min()) >= 0.2)
+        both_ways = any(p.direction == "positive" for _, p in res.passes) and any(
+            p.direction == "negative" for _, p in res.passes
+        )
+        fit = iw.fit_joint_whole(
+            wp,
+            orders,
+            window=window,
+            resolution=resolution,
+            top_speed=top[k],
+            elbow_term=elbow_term,
+            stribeck=stribeck,
+            delay=channel_delay,
+            joint=name,
+            gravity_check=k if joint.gear_ratio > 1.0 else None,
+            inertia=res.inertia is not None and res.inertia.samples >= 3,
+            directional=both_ways,
+            max_order=float(res.max_order),
+            planar=planar,
+            direction_significance=direction_significance,
+        )
+        warnings.extend(fit.warnings)
+        coulomb = 0.5 * (
+            abs(fit.value("friction.coulomb_positive"))
+            + abs(fit.value("friction.coulomb_negative"))
+        )
+        if fit.gravity_significant and fit.gravity_torque > 0.1 * max(coulomb, 1e-300):
+            msg = (
+                f"joint {name}: the no-load torque holds {fit.gravity_torque:.3g} N m (motor "
+                "side, peak to peak) that depends on the joint angles, which PDTV of the motor "
+                "angle cannot explain: a vertical arm (gravity)? The model has no gravity term; "
+                "record the sweeps with the arm horizontal, or use a robot file that models "
+                "gravity"
+            )
+            if vertical == "refuse" and fit.gravity_torque > 0.5 * coulomb:
+                raise InputError(msg, path=logs[0].path if len(logs) == 1 else None)
+            warnings.append(msg)
+        seen = (
+            any(p.direction == "positive" for _, p in res.passes),
+            any(p.direction == "negative" for _, p in res.passes),
+        )
+        if (
+            fit.value("friction.viscous") < 0
+            or (seen[0] and fit.value("friction.coulomb_positive") < 0)
+            or (seen[1] and fit.value("friction.coulomb_negative") < 0)
+        ):
+            warnings.append(
+                f"joint {name}: the whole-log fit gave a friction law that is not dissipative "
+                f"(viscous {fit.value('friction.viscous'):.3g} N m s/rad, Coulomb "
+                f"{fit.value('friction.coulomb_positive'):.3g} / "
+                f"{fit.value('friction.coulomb_negative'):.3g} N m): the pass method's model "
+                "is kept for this joint"
+            )
+            continue
+        new_joints[name] = _whole_joint_model(fit, jm, seen)
+        entry = joint_notes.get(name, {})
+        entry.update(_whole_notes(fit, resolution))
+        joint_notes[name] = entry
+        results[name] = dataclasses.replace(res, channel_delay=fit.delay)
+    notes["joints"] = joint_notes
+    notes["logs"] = [log.path for log in logs]
+    notes["warnings"] = list(warnings)
+    notes["friction_fit"] = "whole"
+    model = Model(robot=rb, joints=new_joints, notes=notes)
+    return Identification(model=model, joints=results, warnings=tuple(warnings))
+
+
+def _whole_joint_model(fit: Any, jm: JointModel, seen: tuple[bool, bool]) -> JointModel:
+    """The joint model of a whole-log fit (:class:`torquemap.identify_whole.WholeFit`); a
+    direction never moved in takes the other's Coulomb and Stribeck levels (the pass method's
+    warning says so)."""
+    from torquemap.friction_law import StribeckFriction
+
+    inertia = InertiaModel(
+        constant=fit.value("inertia.constant"), cos_elbow=fit.value("inertia.cos_elbow")
+    )
+    law = StribeckFriction(
+        coulomb_positive=max(fit.value("friction.coulomb_positive"), 0.0),
+        coulomb_negative=max(fit.value("friction.coulomb_negative"), 0.0),
+        viscous=fit.value("friction.viscous"),
+        stribeck_positive=fit.value("friction.stribeck_positive"),
+        stribeck_negative=fit.value("friction.stribeck_negative"),
+        stribeck_velocity=fit.stribeck_velocity if fit.stribeck else 1.0,
+        zero_velocity=fit.zero_velocity,
+        stribeck_exponent=fit.stribeck_exponent if fit.stribeck else 2.0,
+        transition="smooth",
+    )
+    if seen[0] != seen[1]:
+        side = "positive" if seen[0] else "negative"
+        law = dataclasses.replace(
+            law,
+            coulomb_positive=getattr(law, f"coulomb_{side}"),
+            coulomb_negative=getattr(law, f"coulomb_{side}"),
+            stribeck_positive=getattr(law, f"stribeck_{side}"),
+            stribeck_negative=getattr(law, f"stribeck_{side}"),
+        )
+    lines: list[PdtvLine] = []
+    for order, directional in fit.orders:
+        for direction in ("positive", "negative") if directional else ("both",):
+            a = fit.value(f"pdtv.{order:g}.{direction}.a")
+            b = fit.value(f"pdtv.{order:g}.{direction}.b")
+            lines.append(
+                PdtvLine(
+                    order=float(order),
+                    amplitude=float(math.hypot(a, b)),
+                    phase=float(math.atan2(-b, a)),
+                    direction=direction,
+                )
+            )
+    return JointModel(inertia=inertia, friction=law, pdtv=tuple(lines))
+
+
+def _whole_notes(fit: Any, resolution: float) -> dict[str, Any]:
+    """``[identification.joints.<j>]`` entries of a whole-log fit (docs/formats.md)."""
+    return {
+        "friction_fit": "whole",
+        "channel_delay": float(fit.delay),
+        "stribeck": bool(fit.stribeck),
+        "whole_samples": int(fit.samples),
+        "velocity_resolution": float(resolution),
+        "gravity_torque": float(fit.gravity_torque),
+        "uncertainty": {
+            "parameters": list(fit.names),
+            "covariance": [[float(x) for x in row] for row in fit.covariance],
+            "residual_scale": float(fit.residual_scale),
+            "residual_psd": float(fit.residual_psd),
+        },
+    }
+
+
+def _motor_quantum(logs: Sequence[Log], gear_ratio: float, k: int) -> float:
+    """One encoder count at the motor [rad] when the logs move by whole counts, else 0."""
+    steps = [np.abs(np.diff(gear_ratio * log.q[:, k])) for log in logs]
+    step = np.concatenate(steps) if steps else np.zeros(0)
+    step = step[step > 1e-12]
+    if step.size < 20:
+        return 0.0
+    quantum = float(np.min(step))
+    ratio = step / quantum
+    whole = np.abs(ratio - np.round(ratio)) < 0.02 * np.maximum(1.0, ratio)
+    return quantum if float(np.mean(whole)) > 0.95 else 0.0
 
 
 # ``torquemap.identify(...)`` calls :func:`torquemap.api.identify` (the module stays a module).

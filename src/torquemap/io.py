@@ -550,13 +550,19 @@ MAX_COUNTS = float(2**53)
 
 
 def check_time(t: NDArray[np.float64], path: str | os.PathLike[str]) -> None:
-    """InputError unless ``t`` has at least two samples and is strictly increasing."""
+    """InputError unless ``t`` has at least two samples and never decreases.
+
+    A repeated time stamp is allowed here (a host that polled twice before the drive updated);
+    the estimators drop such rows with a warning (:func:`torquemap.sanitize.sanitize_log`).
+    """
     if t.size < 2:
         raise InputError("log needs at least two samples", path=path)
     step = np.diff(t)
-    if not np.all(step > 0):
-        row = int(np.argmax(step <= 0)) + 2
-        raise InputError(f"time 't' is not strictly increasing (at data row {row})", path=path)
+    if not np.all(step >= 0):
+        row = int(np.argmax(step < 0)) + 2
+        raise InputError(f"time 't' goes backwards (at data row {row})", path=path)
+    if not np.any(step > 0):
+        raise InputError("time 't' never advances", path=path)
 
 
 def _same_length(

@@ -32,7 +32,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from torquemap.errors import InputError
-from torquemap.estimate import FLAG_LOW_SPEED, FLAG_SINGULAR, estimate_forces, estimation_signal
+from torquemap.estimate import (
+    FLAG_LOW_SPEED,
+    FLAG_SINGULAR,
+    estimate_forces,
+    estimation_signal,
+    model_window,
+)
 from torquemap.identify import resolvable_order
 from torquemap.io import Log, read_log
 from torquemap.model import Model, friction_torque, load_model, pdtv_torque
@@ -286,7 +292,7 @@ def _joint_view(
     )
 
 
-def sweep_views(model: Model, log: Log) -> tuple[JointView, ...]:
+def sweep_views(model: Model, log: Log, window: float | None = None) -> tuple[JointView, ...]:
     """Per joint, what a log's steady passes show against the model (see the module docstring).
 
     Parameters
@@ -295,6 +301,8 @@ def sweep_views(model: Model, log: Log) -> tuple[JointView, ...]:
         The model the report describes.
     log
         A log read for ``model.robot``.
+    window
+        Differentiator window [s]; default the model's (:func:`torquemap.estimate.model_window`).
 
     Returns
     -------
@@ -302,7 +310,8 @@ def sweep_views(model: Model, log: Log) -> tuple[JointView, ...]:
         One per joint, in the robot's order (``passes`` empty where the joint never held a
         steady speed).
     """
-    signal = estimation_signal(model, log)
+    win = model_window(model) if window is None else window
+    signal = estimation_signal(model, log, window=win)
     return tuple(_joint_view(model, log, k, signal) for k in range(len(model.robot.joints)))
 
 
@@ -448,8 +457,10 @@ class _LogResult:
     kind: str = "sweep"
 
 
-def _sweep_section(model: Model, log: Log, path: str) -> _LogResult | None:
-    views = sweep_views(model, log)
+def _sweep_section(
+    model: Model, log: Log, path: str, window: float | None = None
+) -> _LogResult | None:
+    views = sweep_views(model, log, window)
     in_passes = (
         sum(p.stop - p.start for v in views for p in v.passes) / log.t.size if views else 0.0
     )
@@ -510,7 +521,9 @@ def _sweep_section(model: Model, log: Log, path: str) -> _LogResult | None:
     return _LogResult(section=section, views=views, sweep=True, path=path)
 
 
-def _force_section(model: Model, log: Log, path: str, note: str) -> _LogResult:
+def _force_section(
+    model: Model, log: Log, path: str, note: str, window: float | None = None
+) -> _LogResult:
     paragraphs = [
         f"{log.t.size} samples over {log.t[-1] - log.t[0]:.3g} s "
         f"(median step {1e3 * float(np.median(np.diff(log.t))):.3g} ms). {note}"
@@ -519,7 +532,7 @@ def _force_section(model: Model, log: Log, path: str, note: str) -> _LogResult:
     charts: list[Chart] = []
     tables: list[Table] = []
     try:
-        est = estimate_forces(model, log, method="model")
+        est = estimate_forces(model, log, method="model", window=window)
     except InputError as exc:
         warnings.append(f"no force estimate: {exc.message}")
         return _LogResult(
@@ -545,6 +558,8 @@ def _force_section(model: Model, log: Log, path: str, note: str) -> _LogResult:
         names += [("fx", "N", "force on the end effector, x"), ("fy", "N", "force, y")]
     for col, unit, what in names:
         sigma = cols.get(f"{col}_sigma")
+        if sigma is not None and not np.isfinite(np.asarray(sigma, dtype=np.float64)).any():
+            sigma = None  # the estimator has no uncertainty for this model: no band
         charts.append(
             Chart(
                 title=f"{col} [{unit}]",
@@ -660,7 +675,9 @@ def _holds_section(model: Model, log: Log, path: str) -> _LogResult | None:
     return _LogResult(section=section, views=(), sweep=False, path=path, kind="holds")
 
 
-def _arm_force_section(model: Model, log: Log, path: str) -> _LogResult:
+def _arm_force_section(
+    model: Model, log: Log, path: str, window: float | None = None
+) -> _LogResult:
     """An arm with a URDF (docs/arm.md): the wrench the acceleration method estimates."""
     from torquemap.estimate_arm import estimate_arm
     from torquemap.plots.arm import wrench_charts
@@ -672,7 +689,7 @@ def _arm_force_section(model: Model, log: Log, path: str) -> _LogResult:
         "low-pass; `torquemap estimate --method momentum` for the observer)."
     ]
     try:
-        est = estimate_arm(model, log)
+        est = estimate_arm(model, log, **({} if window is None else {"window": window}))
     except InputError as exc:
         return _LogResult(
             Section(
@@ -710,14 +727,14 @@ def _arm_force_section(model: Model, log: Log, path: str) -> _LogResult:
     return _LogResult(section, (), False, path, "forces")
 
 
-def _log_result(model: Model, path: str) -> _LogResult:
+def _log_result(model: Model, path: str, window: float | None = None) -> _LogResult:
     log = read_log(path, model.robot)
     from torquemap.identify_arm import is_rigid_body_arm
 
     if is_rigid_body_arm(model.robot.arm):
-        return _arm_force_section(model, log, path)
+        return _arm_force_section(model, log, path, window)
     try:
-        swept = _sweep_section(model, log, path)
+        swept = _sweep_section(model, log, path, window)
     except InputError:
         swept = None
     if swept is not None:
@@ -731,6 +748,7 @@ def _log_result(model: Model, path: str) -> _LogResult:
         path,
         f"Fewer than {SWEEP_SHARE:.0%} of the samples are constant-speed passes: not treated "
         "as an identification sweep (no spectrum, no thin-data check); forces estimated.",
+        window,
     )
 
 
@@ -871,8 +889,12 @@ def write_user_report(
     model_path: str | os.PathLike[str],
     log_paths: Sequence[str | os.PathLike[str]],
     out: str | os.PathLike[str],
+    *,
+    window: float | None = None,
 ) -> Report:
     """Build and write the report of a model and logs; returns it.
+
+    ``window`` is the differentiator window [s] (default: the model's).
 
     Raises
     ------
@@ -881,7 +903,7 @@ def write_user_report(
     """
     model = load_model(model_path)
     mp = os.fspath(model_path)
-    results = [_log_result(model, os.fspath(path)) for path in log_paths]
+    results = [_log_result(model, os.fspath(path), window) for path in log_paths]
     sections = [_summary(model, mp, results), _model_section(model, mp)]
     sections.extend(r.section for r in results)
     report = Report(

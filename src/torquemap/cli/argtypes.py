@@ -56,3 +56,22 @@ def float_in(
 
     parse.__name__ = "number"
     return parse
+
+
+def add_window_argument(parser: argparse.ArgumentParser, *, default: float | None = None) -> None:
+    """Add ``--window S``, the differentiator window [s], to a command that differentiates.
+
+    ``default=None``: the window the model was identified with (else 0.05 s).
+    """
+    where = (
+        "the window the model was identified with, else 0.05"
+        if default is None
+        else f"{default:g}; stored in the model for later commands"
+    )
+    parser.add_argument(
+        "--window",
+        type=float_in(0.0, 10.0, low_open=True),
+        default=default,
+        metavar="S",
+        help=f"differentiator window [s] for velocity and acceleration (default: {where})",
+    )

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from torquemap.cli.argtypes import float_in
+from torquemap.cli.argtypes import add_window_argument, float_in
 from torquemap.cli.helptext import described
 from torquemap.cli.outputs import (
     FIGURE,
@@ -64,13 +64,7 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         metavar="HZ",
         help="time-domain low-pass cut-off [Hz], the force bandwidth kept (default 2)",
     )
-    p.add_argument(
-        "--window",
-        type=float,
-        default=0.05,
-        metavar="S",
-        help="differentiator window [s] for velocity and acceleration (default 0.05)",
-    )
+    add_window_argument(p)
     p.add_argument(
         "--notch-width",
         type=float_in(0.0, low_open=True),
@@ -117,11 +111,13 @@ def _estimate(args: argparse.Namespace) -> int:
 
     if is_rigid_body_arm(model.robot.arm):  # an arm with a URDF: docs/arm.md
         from torquemap.cli.cmd_excite import estimate_arm_command
+        from torquemap.estimate import model_window
 
         method = "acceleration" if args.method == "model" else args.method
+        window = model_window(model) if args.window is None else args.window
         return estimate_arm_command(
             model, args.log, args.output, method=method, cutoff=args.cutoff,
-            window=args.window, zero_phase=args.zero_phase,
+            window=window, zero_phase=args.zero_phase,
         )  # fmt: skip
     if args.method in ("acceleration", "momentum"):
         from torquemap.errors import InputError

@@ -100,7 +100,12 @@ def _excite(args: argparse.Namespace) -> int:
 
 
 def identify_arm_command(
-    model: Any, log_paths: Sequence[str], output: str, *, exclude_contact: bool = False
+    model: Any,
+    log_paths: Sequence[str],
+    output: str,
+    *,
+    exclude_contact: bool = False,
+    window: float = 0.05,
 ) -> int:
     """``torquemap identify`` for an arm with rigid-body dynamics: identify, write, print."""
     import os
@@ -111,7 +116,7 @@ def identify_arm_command(
     from torquemap.model import model_to_dict
 
     logs = [read_log(path, model.robot) for path in log_paths]
-    result = identify_arm(model, logs, exclude_contact=exclude_contact)
+    result = identify_arm(model, logs, exclude_contact=exclude_contact, window=window)
     doc = model_to_dict(result.model)
     # the URDF is found relative to the model file: rewrite its path for the output's folder
     arm: Any = result.model.robot.arm

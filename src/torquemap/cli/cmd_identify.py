@@ -8,7 +8,7 @@ from math import nan
 from pathlib import Path
 from typing import Any, Literal
 
-from torquemap.cli.argtypes import float_in, int_in
+from torquemap.cli.argtypes import add_window_argument, float_in, int_in
 from torquemap.cli.helptext import described
 from torquemap.cli.outputs import (
     FIGURE,
@@ -23,6 +23,8 @@ MapFormat = Literal["csv", "json", "c-header"]
 
 #: Highest PDTV order --max-order accepts [CPR]: finer than any encoder resolves.
 MAX_ORDER = 1e6
+#: The friction methods of identify --friction (torquemap.identify.FRICTION_METHODS).
+FRICTION_CHOICES = ("passes", "whole")
 #: Most bins pdtv-map writes (torquemap.pdtv_map.MAX_BINS).
 MAX_BINS = 1 << 20
 _MAP_FORMATS: dict[str, MapFormat] = {
@@ -83,6 +85,15 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         help="arms with a URDF: the logs may hold contact (a leg's stance phases); find the "
         "contact samples as residual outliers and identify from the rest (docs/arm.md)",
     )
+    p.add_argument(
+        "--friction",
+        choices=FRICTION_CHOICES,
+        default="passes",
+        help="passes (default): friction from the constant-speed pass means, the paper's Eq 5; "
+        "whole: friction through zero speed, inertia, PDTV and delay fitted to every sample "
+        "(docs/identification.md)",
+    )
+    add_window_argument(p, default=0.05)
     p.set_defaults(handler=_identify)
 
     s = subparsers.add_parser(
@@ -116,6 +127,7 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         metavar="N",
         help="lines printed without -o (default 10)",
     )
+    add_window_argument(s)
     s.set_defaults(handler=_spectrum)
 
     m = subparsers.add_parser(
@@ -180,7 +192,11 @@ def _identify(args: argparse.Namespace) -> int:
         from torquemap.cli.cmd_excite import identify_arm_command
 
         return identify_arm_command(
-            model, args.logs, args.output, exclude_contact=args.exclude_contact
+            model,
+            args.logs,
+            args.output,
+            exclude_contact=args.exclude_contact,
+            window=args.window,
         )
     progress = args.progress
     logs = progress.run(
@@ -193,7 +209,14 @@ def _identify(args: argparse.Namespace) -> int:
         return identify_holds(model, logs, args)
     result = progress.run(
         "identify friction, inertia and PDTV",
-        lambda: identify_model(model, logs, joints=args.joint, max_order=args.max_order),
+        lambda: identify_model(
+            model,
+            logs,
+            joints=args.joint,
+            max_order=args.max_order,
+            window=args.window,
+            friction=args.friction,
+        ),
     )
     write_toml(args.output, model_to_dict(result.model))
     for w in result.warnings:
@@ -214,6 +237,7 @@ def _identify(args: argparse.Namespace) -> int:
 
 
 def _spectrum(args: argparse.Namespace) -> int:
+    from torquemap.estimate import model_window
     from torquemap.identify import identify_model
     from torquemap.io import read_log
     from torquemap.model import load_model
@@ -225,7 +249,14 @@ def _spectrum(args: argparse.Namespace) -> int:
     log = args.progress.run("read the log", lambda: read_log(args.log, model.robot))
     model.robot.joint(args.joint)
     result = args.progress.run(
-        f"identify joint {args.joint}", lambda: identify_model(model, [log], joints=[args.joint])
+        f"identify joint {args.joint}",
+        lambda: identify_model(
+            model,
+            [log],
+            joints=[args.joint],
+            window=model_window(model) if args.window is None else args.window,
+            friction="passes",
+        ),
     )
     jr = result.joints[args.joint]
     if jr.spectrum is None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from torquemap.cli.argtypes import add_window_argument
 from torquemap.cli.helptext import described
 from torquemap.cli.outputs import output_suffix
 
@@ -27,6 +28,7 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     p.add_argument(
         "-o", "--output", metavar="REPORT.html", required=True, help="the report to write (.html)"
     )
+    add_window_argument(p)
     p.set_defaults(handler=_report)
 
 
@@ -37,7 +39,8 @@ def _report(args: argparse.Namespace) -> int:
     output_suffix(args.output, (".html", ".htm"), "report")
     check_outputs([(args.output, HTML)], [args.model, *args.logs])
     report = args.progress.run(
-        "write the report", lambda: write_user_report(args.model, args.logs, args.output)
+        "write the report",
+        lambda: write_user_report(args.model, args.logs, args.output, window=args.window),
     )
     warnings = sum(len(s.warnings) for s in report.sections)
     figures = sum(len(s.figures) + len(s.charts) for s in report.sections)

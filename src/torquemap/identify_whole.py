@@ -1,0 +1,683 @@
+"""Whole-log identification of one joint: friction through zero, inertia, PDTV and delay.
+
+Every sample of the no-load logs where the joint may be identified (the other joints still)
+enters one regression, motor side::
+
+    tau(t + d) = J(q) acc + f(v) + sum_n [a_n cos(n theta) + b_n sin(n theta)] + noise
+
+with the friction law (:func:`friction_basis`) linear in Coulomb per direction, Stribeck
+break-away per direction and viscous once its nonlinear parameters are fixed: the Stribeck
+velocity ``vs``, the Stribeck exponent, the half width ``w0`` of the smooth transition through
+zero (``p = (1 + tanh(v / w0)) / 2``) and the torque channel's delay ``d``. Those are searched
+outside the linear fit (variable projection): a scan on a logarithmic grid then a bounded
+refinement, each trial a weighted linear least-squares fit.
+
+Both sides of the regression are seen through the same filter: the differentiated acceleration
+is the true one smoothed by the differentiator's kernel ``K``
+(:func:`torquemap.filters.smooth_as_acceleration`), so the torque and every other column are
+smoothed by ``K`` too. The fit is robust (Huber weights, :mod:`torquemap.robust`) and its
+covariance is clustered over blocks of about a second, so it stays honest although smoothed
+neighbours are correlated. Everything here is linear in the number of samples.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import optimize, stats
+
+from torquemap.errors import InputError
+from torquemap.filters import lowpass, smooth_as_acceleration
+from torquemap.robust import (
+    cluster_covariance,
+    huber_weights,
+    robust_scale,
+    weighted_solve,
+)
+
+#: Equivalent noise bandwidth of the forward-backward 2nd-order Butterworth low-pass, in units of
+#: its cut-off: integral of 1 / (1 + x^4)^2 over x >= 0 = 3 pi / (8 sqrt 2).
+LOWPASS_ENB = 3.0 * math.pi / (8.0 * math.sqrt(2.0))
+REFERENCE_CUTOFF = 2.0  # [Hz] the cut-off at which the residual's low-frequency level is measured
+EXPONENTS = (0.5, 1.0, 2.0)
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Piece:
+    """One contiguous stretch of a log for one joint (all arrays shape (n,)).
+
+    Attributes
+    ----------
+    t
+        Time [s].
+    theta
+        Measured motor angle [rad].
+    velocity, acceleration
+        Differentiated motor velocity [rad/s] and acceleration [rad/s^2].
+    torque
+        Motor torque [N m].
+    elbow
+        Elbow angle [rad] (planar2r first joint), else zeros.
+    use
+        Samples that enter the fit (the other joints still, sound).
+    joint_angles
+        Joint angles [rad] of the whole robot, shape (n, nj) (for the gravity check).
+    """
+
+    t: NDArray[np.float64]
+    theta: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+    acceleration: NDArray[np.float64]
+    torque: NDArray[np.float64]
+    elbow: NDArray[np.float64]
+    use: NDArray[np.bool_]
+    joint_angles: NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class WholeFit:
+    """Result of :func:`fit_joint_whole` (motor side).
+
+    Attributes
+    ----------
+    names
+        Parameter names, in the order of ``coef`` and ``covariance``.
+    coef
+        Linear parameters, shape (p,).
+    covariance
+        Their cluster-robust covariance, shape (p, p).
+    stribeck_velocity, stribeck_exponent, zero_velocity
+        Nonlinear friction parameters [rad/s], [-], [rad/s].
+    stribeck
+        Whether the Stribeck terms are in the model.
+    delay
+        Torque channel delay [s] (0 when not significant).
+    orders
+        PDTV orders [CPR] and whether each is directional: ``(order, directional)``.
+    residual_scale
+        Robust standard deviation of the (smoothed) residual [N m].
+    residual_psd
+        Low-frequency one-sided power spectral density of the residual [N^2 m^2 / Hz]: its
+        variance after a forward-backward 2nd-order low-pass at ``REFERENCE_CUTOFF`` divided by
+        that filter's noise bandwidth.
+    samples
+        Samples used.
+    gravity_torque
+        Peak-to-peak over the visited poses of the torque explained by the joint angles [N m]
+        (a gravity-like term that PDTV of the motor angle cannot explain); 0 when not tested.
+    gravity_significant
+        Whether that term is statistically significant.
+    warnings
+        One line each.
+    """
+
+    names: tuple[str, ...]
+    coef: NDArray[np.float64]
+    covariance: NDArray[np.float64]
+    stribeck_velocity: float
+    stribeck_exponent: float
+    zero_velocity: float
+    stribeck: bool
+    delay: float
+    orders: tuple[tuple[float, bool], ...]
+    residual_scale: float
+    residual_psd: float
+    samples: int
+    gravity_torque: float = 0.0
+    gravity_significant: bool = False
+    warnings: tuple[str, ...] = field(default_factory=tuple)
+
+    def value(self, name: str, default: float = 0.0) -> float:
+        """The parameter called ``name`` (``default`` when not fitted)."""
+        return float(self.coef[self.names.index(name)]) if name in self.names else default
+
+
+def transition(velocity: NDArray[np.float64], zero_velocity: float) -> NDArray[np.float64]:
+    """Share of the positive branch: ``(1 + tanh(v / w0)) / 2``.
+
+    Examples
+    --------
+    >>> transition(np.array([-1.0, 0.0, 1.0]), 1e-3).tolist()
+    [0.0, 0.5, 1.0]
+    """
+    return np.asarray(0.5 * (1.0 + np.tanh(velocity / zero_velocity)), dtype=np.float64)
+
+
+def friction_basis(
+    velocity: NDArray[np.float64],
+    *,
+    stribeck_velocity: float,
+    stribeck_exponent: float,
+    zero_velocity: float,
+    stribeck: bool = True,
+) -> NDArray[np.float64]:
+    """Columns of the friction law, linear parameters in this order: ``coulomb_positive,
+    coulomb_negative, viscous[, stribeck_positive, stribeck_negative]``.
+
+    ``f = p (c+ + s+ e) - (1 - p) (c- + s- e) + b v`` with ``p`` the smooth transition
+    (:func:`transition`) and ``e = exp(-(|v| / vs)^exponent)``.
+    """
+    v = np.asarray(velocity, dtype=np.float64)
+    p = transition(v, zero_velocity)
+    cols = [p, -(1.0 - p), v]
+    if stribeck:
+        e = np.exp(-((np.abs(v) / stribeck_velocity) ** stribeck_exponent))
+        cols += [p * e, -(1.0 - p) * e]
+    return np.column_stack(cols)
+
+
+FRICTION_NAMES = (
+    "friction.coulomb_positive",
+    "friction.coulomb_negative",
+    "friction.viscous",
+    "friction.stribeck_positive",
+    "friction.stribeck_negative",
+)
+
+
+def pdtv_basis(
+    theta: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    orders: Sequence[tuple[float, bool]],
+) -> tuple[NDArray[np.float64], list[str]]:
+    """PDTV columns: ``cos, sin`` of each order, or per direction for directional orders.
+
+    Names are ``pdtv.<order>.<direction>.a`` / ``.b`` for ``a cos(n theta) + b sin(n theta)``.
+    """
+    cols: list[NDArray[np.float64]] = []
+    names: list[str] = []
+    pos, neg = velocity > 0, velocity < 0
+    for order, directional in orders:
+        c, s = np.cos(order * theta), np.sin(order * theta)
+        if directional:
+            for mask, d in ((pos, "positive"), (neg, "negative")):
+                cols += [c * mask, s * mask]
+                names += [f"pdtv.{order:g}.{d}.a", f"pdtv.{order:g}.{d}.b"]
+        else:
+            cols += [c, s]
+            names += [f"pdtv.{order:g}.both.a", f"pdtv.{order:g}.both.b"]
+    if not cols:
+        return np.zeros((theta.size, 0)), names
+    return np.column_stack(cols), names
+
+
+def gravity_basis(q: NDArray[np.float64], k: int, planar: bool) -> NDArray[np.float64]:
+    """Joint-angle columns a gravity torque on joint ``k`` would excite: cos and sin of the
+    absolute link angles from joint ``k`` on (planar chain) or of joint ``k``'s angle."""
+    if planar:
+        absolute = np.cumsum(q, axis=1)[:, k:]
+    else:
+        absolute = q[:, k : k + 1]
+    return np.column_stack([np.cos(absolute), np.sin(absolute)])
+
+
+@dataclass(slots=True)
+class _Prepared:
+    """Smoothed fixed columns and torque of all pieces, rows that enter the fit."""
+
+    fixed: NDArray[np.float64]  # (n, m) smoothed inertia + PDTV columns
+    fixed_names: list[str]
+    velocity: list[NDArray[np.float64]]  # per piece, raw velocity (friction is recomputed)
+    t: list[NDArray[np.float64]]
+    torque_smooth: list[NDArray[np.float64]]  # per piece K * torque
+    rows: list[NDArray[np.intp]]  # per piece, rows used
+    clusters: NDArray[np.int64]
+    window: float
+    search: list[NDArray[np.intp]]  # per piece, rows of the nonlinear search (a subset of rows)
+    search_pos: NDArray[np.intp]  # their positions in the stacked rows
+
+
+def _prepare(
+    pieces: Sequence[Piece],
+    orders: Sequence[tuple[float, bool]],
+    *,
+    window: float,
+    elbow_term: bool,
+    block: float,
+    inertia: bool = True,
+) -> _Prepared:
+    fixed, vel, ts, tq, rows, clusters, search, pos = [], [], [], [], [], [], [], []
+    names: list[str] = []
+    offset = 0
+    stacked = 0
+    for piece in pieces:
+        cols = [piece.acceleration[:, None]] if inertia else []
+        names = ["inertia.constant"] if inertia else []
+        if elbow_term and inertia:
+            cols.append((piece.acceleration * np.cos(piece.elbow))[:, None])
+            names.append("inertia.cos_elbow")
+        pd, pd_names = pdtv_basis(piece.theta, piece.velocity, orders)
+        if pd.shape[1]:
+            cols.append(smooth_as_acceleration(piece.t, pd, window=window))
+        names += pd_names
+        full = np.hstack(cols) if cols else np.zeros((piece.t.size, 0))
+        r = np.flatnonzero(piece.use)
+        fixed.append(full[r])
+        vel.append(piece.velocity)
+        ts.append(piece.t)
+        tq.append(smooth_as_acceleration(piece.t, piece.torque, window=window))
+        rows.append(r)
+        # the smoothed signals change little within a quarter window: one row per quarter
+        # window carries nearly all the information for the nonlinear search
+        h = float(np.median(np.diff(piece.t))) if piece.t.size > 1 else window
+        stride = max(1, int(window / (4.0 * h)))
+        k = np.arange(0, r.size, stride)
+        search.append(r[k])
+        pos.append(k + stacked)
+        stacked += r.size
+        block_id = np.floor((piece.t[r] - piece.t[0]) / block).astype(np.int64)
+        clusters.append(block_id + offset)
+        offset += int(block_id.max()) + 1 if block_id.size else 0
+    return _Prepared(
+        fixed=np.vstack(fixed),
+        fixed_names=names,
+        velocity=vel,
+        t=ts,
+        torque_smooth=tq,
+        rows=rows,
+        clusters=np.concatenate(clusters),
+        window=window,
+        search=search,
+        search_pos=np.concatenate(pos).astype(np.intp),
+    )
+
+
+def _friction_columns(
+    prep: _Prepared, vs: float, exponent: float, w0: float, stribeck: bool, *, search: bool = False
+) -> NDArray[np.float64]:
+    out = []
+    for t, v, r, rs in zip(prep.t, prep.velocity, prep.rows, prep.search, strict=True):
+        basis = friction_basis(
+            v,
+            stribeck_velocity=vs,
+            stribeck_exponent=exponent,
+            zero_velocity=w0,
+            stribeck=stribeck,
+        )
+        out.append(smooth_as_acceleration(t, basis, window=prep.window)[rs if search else r])
+    return np.vstack(out)
+
+
+def _torque(prep: _Prepared, delay: float, *, search: bool = False) -> NDArray[np.float64]:
+    out = []
+    for t, y, r, rs in zip(prep.t, prep.torque_smooth, prep.rows, prep.search, strict=True):
+        rr = rs if search else r
+        out.append(y[rr] if delay == 0 else np.interp(t[rr] + delay, t, y))
+    return np.concatenate(out)
+
+
+@dataclass(slots=True)
+class _Trial:
+    coef: NDArray[np.float64]
+    bread: NDArray[np.float64]
+    residual: NDArray[np.float64]
+    wrss: float
+
+
+def _solve(a: NDArray[np.float64], y: NDArray[np.float64], w: NDArray[np.float64]) -> _Trial:
+    coef, bread = weighted_solve(a, y, w)
+    r = y - a @ coef
+    return _Trial(coef=coef, bread=bread, residual=r, wrss=float(np.sum(w * r * r)))
+
+
+def fit_joint_whole(
+    pieces: Sequence[Piece],
+    orders: Sequence[float],
+    *,
+    window: float,
+    resolution: float,
+    top_speed: float,
+    elbow_term: bool,
+    stribeck: str = "auto",
+    delay: float | str = "auto",
+    max_delay: float = 0.25,
+    joint: str = "",
+    gravity_check: int | None = None,
+    planar: bool = False,
+    direction_significance: float = 0.001,
+    significance: float = 0.001,
+    inertia: bool = True,
+    directional: bool = True,
+    max_order: float = 0.0,
+) -> WholeFit:
+    """Fit one joint's friction, inertia, PDTV and torque delay to whole logs.
+
+    Parameters
+    ----------
+    pieces
+        Contiguous stretches of the logs (:class:`Piece`).
+    orders
+        PDTV orders [CPR] (from the pass method's line picking).
+    window
+        Differentiator window [s] (the smoothing kernel ``K``).
+    resolution
+        Velocity resolution [rad/s] (one encoder count per window): the narrowest transition.
+    top_speed
+        Highest motor speed in the logs [rad/s]: the widest Stribeck velocity searched.
+    elbow_term
+        Fit ``inertia.cos_elbow`` too.
+    stribeck
+        ``"auto"`` (kept when an F test at ``significance`` says so), ``"never"``, ``"always"``.
+    delay
+        ``"auto"``: searched in ``[-max_delay, max_delay]`` and kept when significant; or a
+        fixed delay [s].
+    max_delay
+        Search range of the delay [s].
+    joint
+        Joint name (messages).
+    gravity_check
+        Index of this joint in the robot, to test for a torque that depends on the joint angles
+        (a vertical arm); None skips the test.
+    planar
+        The robot is a planar chain (absolute link angles are sums of joint angles).
+    direction_significance
+        Level of the test that a PDTV line differs between directions (Bonferroni over lines).
+    significance
+        Level of the Stribeck and delay tests.
+    directional
+        Test PDTV lines for a difference between directions (only sensible when both
+        directions were swept).
+    max_order
+        Highest PDTV order [CPR] to search in the residual for lines the given ``orders``
+        miss (0: no search).
+    inertia
+        Fit the inertia; False holds it at 0 (no ramp stands out of the speed ripple, so the
+        acceleration is ripple correlated with the PDTV and would bias it). A fitted inertia
+        that comes out non-positive is dropped the same way, with a warning.
+
+    Returns
+    -------
+    WholeFit
+    """
+    name = f"joint {joint}: " if joint else ""
+    warnings: list[str] = []
+    block = max(1.0, 20.0 * window)
+    both = [(float(o), False) for o in orders]
+    prep = _prepare(
+        pieces, both, window=window, elbow_term=elbow_term, block=block, inertia=inertia
+    )
+    n = prep.fixed.shape[0]
+    sub = prep.search_pos
+    fixed_sub = prep.fixed[sub]
+    w0_lo = max(resolution, 1e-9)
+    vs_lo, vs_hi = 2.0 * w0_lo, max(top_speed, 4.0 * w0_lo)
+    cache: dict[tuple[float, float, float, bool], NDArray[np.float64]] = {}
+
+    def design_sub(vs: float, ex: float, w0: float, st: bool) -> NDArray[np.float64]:
+        key = (vs, ex, w0, st)
+        if key not in cache:
+            if len(cache) > 64:
+                cache.clear()
+            cache[key] = np.hstack(
+                (fixed_sub, _friction_columns(prep, vs, ex, w0, st, search=True))
+            )
+        return cache[key]
+
+    def design(vs: float, ex: float, w0: float, st: bool) -> NDArray[np.float64]:
+        return np.hstack((prep.fixed, _friction_columns(prep, vs, ex, w0, st)))
+
+    # starting point: no Stribeck, transition at twice the resolution, no delay; Huber weights
+    # from it, held fixed through the search
+    w0 = 2.0 * w0_lo
+    first = _solve(
+        design_sub(1.0, 2.0, w0, False), _torque(prep, 0.0, search=True), np.ones(sub.size)
+    )
+    ws = huber_weights(first.residual, robust_scale(first.residual))
+
+    def cost(vs: float, ex: float, w0: float, st: bool, d: float) -> float:
+        return _solve(design_sub(vs, ex, w0, st), _torque(prep, d, search=True), ws).wrss
+
+    def scan_log(f: object, lo: float, hi: float, count: int) -> float:
+        fun = f
+        grid = np.geomspace(lo, hi, count)
+        vals = [fun(float(x)) for x in grid]  # type: ignore[operator]
+        i = int(np.argmin(vals))
+        a_, b_ = grid[max(i - 1, 0)], grid[min(i + 1, count - 1)]
+        if b_ > a_:
+            res = optimize.minimize_scalar(
+                lambda x: fun(math.exp(x)),  # type: ignore[operator]
+                bounds=(math.log(a_), math.log(b_)),
+                method="bounded",
+                options={"xatol": 0.1},
+            )
+            if float(res.fun) <= vals[i]:
+                return math.exp(float(res.x))
+        return float(grid[i])
+
+    d = 0.0 if delay == "auto" else float(delay)
+    use_st = stribeck != "never"
+    vs, ex = math.sqrt(vs_lo * vs_hi), 2.0
+    for rnd in range(2):
+        if use_st:
+            best = (math.inf, vs, ex)
+            for e in EXPONENTS if rnd == 0 else (ex,):
+                v_best = scan_log(
+                    lambda x, e=e, w0=w0, d=d: cost(x, e, w0, True, d), vs_lo, vs_hi, 8
+                )
+                c = cost(v_best, e, w0, True, d)
+                if c < best[0]:
+                    best = (c, v_best, e)
+            _, vs, ex = best
+        w0 = scan_log(
+            lambda x, vs=vs, ex=ex, d=d: cost(vs, ex, x, use_st, d),
+            w0_lo / 4.0,
+            max(vs_hi, w0_lo),
+            8,
+        )
+        if delay != "auto":
+            break
+        d_new = _scan_delay(lambda x, vs=vs, ex=ex, w0=w0: cost(vs, ex, w0, use_st, x), max_delay)
+        moved = abs(d_new - d)
+        d = d_new
+        if moved < 0.1 * window:
+            break
+    # the Stribeck test (nested F test on the search rows, about independent after smoothing)
+    st_used = use_st
+    ysub = _torque(prep, d, search=True)
+    if stribeck == "auto":
+        with_st = _solve(design_sub(vs, ex, w0, True), ysub, ws)
+        without = _solve(design_sub(vs, ex, w0, False), ysub, ws)
+        dof = max(sub.size - with_st.coef.size, 1)
+        f = ((without.wrss - with_st.wrss) / 2.0) / max(with_st.wrss / dof, 1e-300)
+        st_used = bool(
+            f > stats.f.ppf(1.0 - significance, 2, dof)
+            and with_st.coef[-2] > 0
+            and with_st.coef[-1] > 0
+        )
+    if delay == "auto" and d != 0.0:
+        zero = _solve(design_sub(vs, ex, w0, st_used), _torque(prep, 0.0, search=True), ws)
+        best_d = _solve(design_sub(vs, ex, w0, st_used), ysub, ws)
+        dof = max(sub.size - best_d.coef.size - 1, 1)
+        f = (zero.wrss - best_d.wrss) / max(best_d.wrss / dof, 1e-300)
+        if not f > stats.f.ppf(1.0 - 1e-6, 1, dof):
+            d = 0.0
+    y = _torque(prep, d)
+    first_full = _solve(design(vs, ex, w0, st_used), y, np.ones(n))
+    weights = huber_weights(first_full.residual, robust_scale(first_full.residual))
+    # lines the pass method missed: the spectrum of the whole fit's residual over the motor
+    # angle (every sample, not only the passes)
+    if max_order >= 1:
+        theta = np.concatenate([p.theta[r] for p, r in zip(pieces, prep.rows, strict=True)])
+        missed = _missed_orders(theta, first_full.residual, [o for o, _ in both], max_order)
+        if missed:
+            both = sorted([*both, *((o, False) for o in missed)])
+            prep = _prepare(
+                pieces, both, window=window, elbow_term=elbow_term, block=block, inertia=inertia
+            )
+            first_full = _solve(design(vs, ex, w0, st_used), y, np.ones(n))
+            weights = huber_weights(first_full.residual, robust_scale(first_full.residual))
+    # directional PDTV lines: fit both directions separately and test their difference
+    final_orders = both
+    if both and directional:
+        split = [(o, True) for o, _ in both]
+        prep_d = _prepare(
+            pieces, split, window=window, elbow_term=elbow_term, block=block, inertia=inertia
+        )
+        a_d = np.hstack((prep_d.fixed, _friction_columns(prep_d, vs, ex, w0, st_used)))
+        fit_d = _irls(a_d, y, weights)
+        cov_d = cluster_covariance(a_d, fit_d.residual, weights, fit_d.bread, prep_d.clusters)
+        crit = stats.chi2.ppf(1.0 - direction_significance / len(both), 2)
+        chosen = []
+        for o, _ in both:
+            ip = prep_d.fixed_names.index(f"pdtv.{o:g}.positive.a")
+            ineg = prep_d.fixed_names.index(f"pdtv.{o:g}.negative.a")
+            diff = fit_d.coef[ip : ip + 2] - fit_d.coef[ineg : ineg + 2]
+            sel = np.r_[ip, ip + 1, ineg, ineg + 1]
+            c = cov_d[np.ix_(sel, sel)]
+            cdiff = c[:2, :2] + c[2:, 2:] - c[:2, 2:] - c[2:, :2]
+            chi = float(diff @ np.linalg.pinv(cdiff) @ diff)
+            amp = max(np.hypot(*fit_d.coef[ip : ip + 2]), np.hypot(*fit_d.coef[ineg : ineg + 2]))
+            excited = np.all(np.isfinite(cdiff)) and float(np.trace(cdiff)) > 0
+            chosen.append((o, bool(excited and chi > crit and np.hypot(*diff) > 0.1 * amp)))
+        final_orders = chosen
+        if any(dd for _, dd in chosen):
+            prep = _prepare(
+                pieces, chosen, window=window, elbow_term=elbow_term, block=block, inertia=inertia
+            )
+    a = np.hstack((prep.fixed, _friction_columns(prep, vs, ex, w0, st_used)))
+    fit = _irls(a, y, weights)
+    if inertia and fit.coef[0] <= 0:
+        warnings.append(
+            f"the fitted inertia is not positive ({fit.coef[0]:.3g} kg m^2): no ramp stands "
+            "out of the speed ripple; inertia set to 0 (record sweeps with clear accelerations)"
+        )
+        prep = _prepare(
+            pieces, final_orders, window=window, elbow_term=False, block=block, inertia=False
+        )
+        a = np.hstack((prep.fixed, _friction_columns(prep, vs, ex, w0, st_used)))
+        fit = _irls(a, y, weights)
+    cov = cluster_covariance(a, fit.residual, fit.weights, fit.bread, prep.clusters)
+    names = [*prep.fixed_names, *FRICTION_NAMES[: 5 if st_used else 3]]
+    scale = robust_scale(fit.residual)
+    psd = _residual_psd(prep, fit.residual, scale)
+    grav, grav_sig = 0.0, False
+    if gravity_check is not None:
+        grav, grav_sig = _gravity_test(pieces, prep, a, y, fit.weights, gravity_check, planar)
+    return WholeFit(
+        names=tuple(names),
+        coef=fit.coef,
+        covariance=cov,
+        stribeck_velocity=float(vs),
+        stribeck_exponent=float(ex),
+        zero_velocity=float(w0),
+        stribeck=st_used,
+        delay=float(d),
+        orders=tuple(final_orders),
+        residual_scale=scale,
+        residual_psd=psd,
+        samples=n,
+        gravity_torque=grav,
+        gravity_significant=grav_sig,
+        warnings=tuple(name + w for w in warnings),
+    )
+
+
+@dataclass(slots=True)
+class _Irls:
+    coef: NDArray[np.float64]
+    bread: NDArray[np.float64]
+    residual: NDArray[np.float64]
+    weights: NDArray[np.float64]
+
+
+def _irls(
+    a: NDArray[np.float64], y: NDArray[np.float64], w: NDArray[np.float64], iterations: int = 8
+) -> _Irls:
+    trial = _solve(a, y, w)
+    for _ in range(iterations):
+        w_new = huber_weights(trial.residual, robust_scale(trial.residual))
+        new = _solve(a, y, w_new)
+        moved = float(np.max(np.abs(new.residual - trial.residual)))
+        trial, w = new, w_new
+        if moved < 1e-3 * robust_scale(trial.residual):
+            break
+    return _Irls(coef=trial.coef, bread=trial.bread, residual=trial.residual, weights=w)
+
+
+def _scan_delay(cost: object, max_delay: float) -> float:
+    fun = cost
+    grid = np.linspace(-max_delay, max_delay, 25)
+    vals = np.array([fun(float(x)) for x in grid])  # type: ignore[operator]
+    k = int(np.argmin(vals))
+    if 0 < k < grid.size - 1:
+        y0, y1, y2 = vals[k - 1], vals[k], vals[k + 1]
+        den = y0 - 2 * y1 + y2
+        if den > 0:
+            step = float(grid[1] - grid[0])
+            best = float(grid[k] + 0.5 * step * (y0 - y2) / den)
+            if fun(best) <= y1:  # type: ignore[operator]
+                return best
+    return float(grid[k])
+
+
+def _residual_psd(prep: _Prepared, residual: NDArray[np.float64], scale: float) -> float:
+    """Low-frequency PSD of the residual [N^2 m^2/Hz] (see :class:`WholeFit`)."""
+    values = []
+    start = 0
+    for t, r in zip(prep.t, prep.rows, strict=True):
+        m = r.size
+        res = residual[start : start + m]
+        start += m
+        if m < 50:
+            continue
+        tt = t[r]
+        keep = np.concatenate(([True], np.diff(tt) > 0))
+        try:
+            values.append(lowpass(tt[keep], res[keep], cutoff=REFERENCE_CUTOFF))
+        except InputError:  # a piece too short for the filter adds nothing
+            continue
+    if not values:
+        return scale**2 / 50.0
+    low = np.concatenate(values)
+    var = robust_scale(low) ** 2
+    return float(var / (LOWPASS_ENB * REFERENCE_CUTOFF))
+
+
+def _gravity_test(
+    pieces: Sequence[Piece],
+    prep: _Prepared,
+    a: NDArray[np.float64],
+    y: NDArray[np.float64],
+    w: NDArray[np.float64],
+    k: int,
+    planar: bool,
+) -> tuple[float, bool]:
+    """Peak-to-peak torque explained by joint-angle harmonics, and whether it is significant."""
+    cols = []
+    for piece, r in zip(pieces, prep.rows, strict=True):
+        g = gravity_basis(piece.joint_angles, k, planar)
+        cols.append(smooth_as_acceleration(piece.t, g, window=prep.window)[r])
+    g = np.vstack(cols)
+    full = np.hstack((a, g))
+    trial = _solve(full, y, w)
+    cov = cluster_covariance(full, trial.residual, w, trial.bread, prep.clusters)
+    m = g.shape[1]
+    c = trial.coef[-m:]
+    cg = cov[-m:, -m:]
+    chi = float(c @ np.linalg.pinv(cg) @ c)
+    torque = g @ c
+    ptp = float(np.percentile(torque, 99.5) - np.percentile(torque, 0.5))
+    return ptp, bool(chi > stats.chi2.ppf(1.0 - 1e-6, m))
+
+
+def _missed_orders(
+    theta: NDArray[np.float64],
+    residual: NDArray[np.float64],
+    known: Sequence[float],
+    max_order: float,
+    false_alarm: float = 0.01,
+) -> list[float]:
+    """Orders [CPR] whose line stands out of the residual's position spectrum, not in ``known``."""
+    from torquemap.pdtv import discrete_position_signal, pick_lines, position_spectrum
+
+    nb = int(2 ** math.ceil(math.log2(2 * (math.floor(max_order) + 1))))
+    signal = discrete_position_signal(theta, residual, bin_width=2 * math.pi / nb)
+    if signal.value.size / nb < 0.5:
+        return []
+    picks = pick_lines(position_spectrum(signal, max_order=max_order), false_alarm=false_alarm)
+    have = {round(float(o), 6) for o in known}
+    return sorted({float(o) for o in picks.order if round(float(o), 6) not in have and o > 0})

@@ -1,0 +1,190 @@
+"""Robust weighted least squares: iteratively reweighted (Huber) with a clustered covariance.
+
+Identification regresses a torque on many columns over every sample of a log. Two things make
+plain least squares wrong there: a few samples that the model cannot explain (a joint sticking,
+a glitch) pull the fit, and neighbouring samples are not independent (the regression runs on
+smoothed signals), so the textbook covariance ``s^2 (A^T A)^-1`` is far too optimistic.
+:func:`robust_lstsq` answers the first with Huber weights (iteratively reweighted least squares
+on a robust scale), the second with a cluster (sandwich) covariance over blocks of consecutive
+samples: errors may be correlated within a block, and the covariance stays honest as long as
+blocks are longer than the correlation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from torquemap.errors import InputError
+
+#: Huber's tuning constant: 95 % efficiency under Gaussian noise.
+HUBER_K = 1.345
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class RobustFit:
+    """Result of :func:`robust_lstsq`.
+
+    Attributes
+    ----------
+    coef
+        Coefficients, shape (p,).
+    covariance
+        Cluster-robust covariance of ``coef``, shape (p, p).
+    weights
+        Final Huber weights in [0, 1], shape (n,).
+    residual
+        ``y - a @ coef``, shape (n,).
+    scale
+        Robust standard deviation of the residual (1.4826 MAD).
+    wrss
+        Weighted residual sum of squares ``sum w r^2``.
+    """
+
+    coef: NDArray[np.float64]
+    covariance: NDArray[np.float64]
+    weights: NDArray[np.float64]
+    residual: NDArray[np.float64]
+    scale: float
+    wrss: float
+
+
+def robust_scale(residual: ArrayLike) -> float:
+    """1.4826 times the median absolute deviation from the median (sigma for Gaussian noise).
+
+    Examples
+    --------
+    >>> round(robust_scale([-1.0, 0.0, 1.0, 100.0]), 4)
+    1.4826
+    """
+    r = np.asarray(residual, dtype=np.float64)
+    if r.size == 0:
+        return 0.0
+    return float(1.4826 * np.median(np.abs(r - np.median(r))))
+
+
+def huber_weights(residual: NDArray[np.float64], scale: float) -> NDArray[np.float64]:
+    """Huber weights ``min(1, k s / |r|)`` for residuals ``r`` at scale ``s``."""
+    if scale <= 0:
+        return np.ones(residual.size)
+    u = np.abs(residual) / (HUBER_K * scale)
+    return np.asarray(1.0 / np.maximum(u, 1.0), dtype=np.float64)
+
+
+def weighted_solve(
+    a: NDArray[np.float64], y: NDArray[np.float64], w: NDArray[np.float64], *, ridge: float = 1e-12
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Weighted least squares by normal equations in column-scaled form.
+
+    Returns ``(coef, bread)`` with ``bread = (A^T W A)^-1`` (pseudo-inverse, columns scaled to
+    unit norm first for conditioning; a tiny ridge keeps an unexcited column at 0).
+    """
+    aw = a * w[:, None]
+    ata = a.T @ aw
+    d = np.sqrt(np.maximum(np.diag(ata), 0.0))
+    d = np.where(d > 0, d, 1.0)
+    scaled = ata / np.outer(d, d)
+    scaled[np.diag_indices_from(scaled)] += ridge
+    inv = np.linalg.pinv(scaled, rcond=1e-10, hermitian=True) / np.outer(d, d)
+    coef = inv @ (aw.T @ y)
+    return np.asarray(coef, dtype=np.float64), np.asarray(inv, dtype=np.float64)
+
+
+def cluster_covariance(
+    a: NDArray[np.float64],
+    residual: NDArray[np.float64],
+    w: NDArray[np.float64],
+    bread: NDArray[np.float64],
+    clusters: NDArray[np.int64],
+) -> NDArray[np.float64]:
+    """Sandwich covariance ``B (sum_c s_c s_c^T) B`` with ``s_c = A_c^T W_c r_c`` per cluster.
+
+    Scaled by ``G / (G - 1)`` for ``G`` clusters (the usual small-sample correction).
+    """
+    score = a * (w * residual)[:, None]
+    _, g = np.unique(clusters, return_inverse=True)
+    ng = int(g.max()) + 1 if g.size else 1
+    sums = np.zeros((ng, a.shape[1]))
+    np.add.at(sums, g.ravel(), score)
+    meat = sums.T @ sums
+    cov = bread @ meat @ bread * (ng / max(ng - 1, 1))
+    return np.asarray(0.5 * (cov + cov.T), dtype=np.float64)
+
+
+def robust_lstsq(
+    a: ArrayLike,
+    y: ArrayLike,
+    *,
+    clusters: ArrayLike | None = None,
+    iterations: int = 30,
+    weights: ArrayLike | None = None,
+) -> RobustFit:
+    """Huber-weighted least squares ``y ~ a @ coef`` by iterative reweighting.
+
+    Parameters
+    ----------
+    a
+        Design matrix, shape (n, p).
+    y
+        Observations, shape (n,).
+    clusters
+        Integer block label per sample (blocks of consecutive samples longer than the errors'
+        correlation), shape (n,); default every sample its own block (independent errors).
+    iterations
+        Most reweighting passes after the first (unweighted or ``weights``) solve; they stop
+        once the fitted values move by less than 0.001 of the residual scale.
+    weights
+        Starting weights, shape (n,) (default 1).
+
+    Returns
+    -------
+    RobustFit
+
+    Raises
+    ------
+    InputError
+        On fewer samples than columns or non-finite input.
+
+    Examples
+    --------
+    >>> x = np.linspace(0.0, 1.0, 50)
+    >>> y = 2.0 + 3.0 * x
+    >>> y[7] = 1e6  # one wild sample
+    >>> fit = robust_lstsq(np.c_[np.ones(50), x], y)
+    >>> np.round(fit.coef, 6).tolist()
+    [2.0, 3.0]
+    """
+    aa = np.asarray(a, dtype=np.float64)
+    yy = np.asarray(y, dtype=np.float64)
+    if aa.ndim != 2 or aa.shape[0] != yy.size:
+        raise InputError("design matrix and observations disagree in length")
+    n, p = aa.shape
+    if n <= p:
+        raise InputError(f"{n} samples cannot fit {p} unknowns")
+    if not (np.all(np.isfinite(aa)) and np.all(np.isfinite(yy))):
+        raise InputError("regression data hold NaN or inf")
+    w = np.ones(n) if weights is None else np.asarray(weights, dtype=np.float64).copy()
+    coef, bread = weighted_solve(aa, yy, w)
+    r = yy - aa @ coef
+    scale = robust_scale(r)
+    for _ in range(iterations):
+        w = huber_weights(r, scale)
+        new_coef, bread = weighted_solve(aa, yy, w)
+        r = yy - aa @ new_coef
+        step = float(np.max(np.abs((new_coef - coef) @ aa.T[:, :: max(1, n // 2000)])))
+        coef = new_coef
+        scale = robust_scale(r)
+        if step <= 1e-3 * max(scale, 1e-300):
+            break
+    cl = np.arange(n) if clusters is None else np.asarray(clusters, dtype=np.int64)
+    cov = cluster_covariance(aa, r, w, bread, cl)
+    return RobustFit(
+        coef=coef,
+        covariance=cov,
+        weights=w,
+        residual=r,
+        scale=scale,
+        wrss=float(np.sum(w * r * r)),
+    )
