@@ -689,7 +689,7 @@ def _arm_force_section(
         "low-pass; `torquemap estimate --method momentum` for the observer)."
     ]
     try:
-        est = estimate_arm(model, log, **({} if window is None else {"window": window}))
+        est = estimate_arm(model, log, window=0.05 if window is None else window)
     except InputError as exc:
         return _LogResult(
             Section(
