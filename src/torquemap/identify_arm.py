@@ -489,12 +489,14 @@ def identify_arm(
         orders: Sequence[tuple[float, ...]],
         noise: NDArray[np.float64],
         rows: NDArray[np.bool_] | None = None,
+        given: list[NDArray[np.float64]] | None = None,
     ) -> tuple[
         NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], list[NDArray[np.float64]]
     ]:
-        """Fit on ``rows`` (default all); the residual is returned for every row."""
+        """Fit on ``rows`` (default all); the residual is returned for every row. ``given``:
+        the joints' columns, when already computed for these orders and laws."""
         model = current
-        blocks = _joint_blocks(model, signals, picks, orders)
+        blocks = given if given is not None else _joint_blocks(model, signals, picks, orders)
         slices = _slices(P, blocks)
         n_all = P + sum(b.shape[1] for b in blocks)
         mean = np.zeros(n_all)
@@ -521,8 +523,9 @@ def identify_arm(
     noise = 0.1 * np.std(tau, axis=0) + 1e-9
     excluded = 0
     if exclude_contact:
+        columns = _joint_blocks(current, signals, picks, no_lines)
         free = contact_free_rows(
-            lambda rows: fit(no_lines, noise, rows)[2], signals, picks, rng=gen
+            lambda rows: fit(no_lines, noise, rows, columns)[2], signals, picks, rng=gen
         )
         excluded = int(np.count_nonzero(~free))
         if np.count_nonzero(free) < 10 * nj:
