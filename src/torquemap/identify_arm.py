@@ -58,7 +58,7 @@ RESIDUAL_SPAN = 8.0
 """Length [s] of the contiguous stretch of the first log on which that is measured."""
 PDTV_SIGNIFICANCE = 5.0
 """A PDTV line is kept when its amplitude exceeds this many standard errors."""
-CONTACT_THRESHOLD = 3.0
+CONTACT_THRESHOLD = 5.0
 """With ``exclude_contact``: a sample is contact when a joint's residual exceeds this many
 robust standard deviations (1.4826 times the median absolute deviation) ..."""
 CONTACT_MARGIN = 2.0
@@ -524,8 +524,30 @@ def identify_arm(
     excluded = 0
     if exclude_contact:
         columns = _joint_blocks(current, signals, picks, no_lines)
-        free = contact_free_rows(
+        start = _trimmed_start(
             lambda rows: fit(no_lines, noise, rows, columns)[2], signals, picks, rng=gen
+        )
+        if fit_friction_shape:  # the friction's shape from the trimmed rows, before rejecting
+            x0 = fit(no_lines, noise, start, columns)[0]
+            parts0 = np.split(start, np.cumsum([p.size for p in picks])[:-1])
+            others0 = []
+            for k, joint in enumerate(robot.joints):
+                nf = len(current.joints[joint.name].friction.linear_parameter_names)
+                others0.append(np.delete(columns[k], np.s_[1 : 1 + nf], axis=1)[start])
+            current = dataclasses.replace(
+                current,
+                joints=fit_friction_shapes(
+                    current,
+                    signals,
+                    [p[k] for p, k in zip(picks, parts0, strict=True)],
+                    (tau - Y @ x0[:P])[start],
+                    others0,
+                    rng=gen,
+                ),
+            )
+            columns = _joint_blocks(current, signals, picks, no_lines)
+        free = contact_free_rows(
+            lambda rows: fit(no_lines, noise, rows, columns)[2], signals, picks, start=start
         )
         excluded = int(np.count_nonzero(~free))
         if np.count_nonzero(free) < 10 * nj:
@@ -1007,6 +1029,7 @@ def contact_free_rows(
     margin: float = CONTACT_MARGIN,
     iterations: int = CONTACT_ITERATIONS,
     rng: np.random.Generator | None = None,
+    start: NDArray[np.bool_] | None = None,
 ) -> NDArray[np.bool_]:
     """Rows free of contact, by a trimmed fit and iterated residual-based rejection.
 
@@ -1016,10 +1039,14 @@ def contact_free_rows(
     look like friction asymmetry and gravity) and hide it; so the start is a least trimmed
     squares fit over stretches of time (:func:`_trimmed_start`: the half of the log's
     stretches that the model fits best). From there a row is rejected when any joint's residual
-    exceeds ``threshold`` robust standard deviations of the kept rows' residuals (1.4826 times
-    their median absolute deviation), and so is every row within ``margin`` differentiator
-    windows of a rejected one in time (contact lasts, and its onset is small); refit on the
-    rest and repeat until the set no longer changes (at most ``iterations`` fits).
+    exceeds ``threshold`` robust standard deviations of the trimmed fit's residuals (1.4826
+    times their median absolute deviation; held fixed, since refits on fewer rows fit tighter
+    and would reject ever more), and so is every row within ``margin`` differentiator windows
+    of a rejected one in time (contact lasts, and its onset is small); refit on the rest and
+    repeat until the set no longer changes (at most ``iterations`` fits, never below a tenth
+    of the rows).
+
+    ``start`` replaces the trimmed start (rows to fit first).
 
     Returns
     -------
@@ -1027,17 +1054,19 @@ def contact_free_rows(
         Shape (m,), True for the rows to identify from.
     """
     m = sum(p.size for p in picks)
-    keep = _trimmed_start(residual_of, signals, picks, rng=rng)
+    keep = _trimmed_start(residual_of, signals, picks, rng=rng) if start is None else start
+    scale = None
     for _ in range(iterations):
         r = residual_of(keep)
         centre = np.median(r[keep], axis=0)
-        scale = 1.4826 * np.median(np.abs(r[keep] - centre), axis=0) + 1e-300
+        if scale is None:  # the trimmed fit's: held, or refits on ever fewer rows spiral down
+            scale = 1.4826 * np.median(np.abs(r[keep] - centre), axis=0) + 1e-300
         bad = np.any(np.abs(r - centre) > threshold * scale, axis=1)
         new = np.ones(m, dtype=bool)
-        start = 0
+        offset = 0
         for sig, idx in zip(signals, picks, strict=True):
-            rows = slice(start, start + idx.size)
-            start += idx.size
+            rows = slice(offset, offset + idx.size)
+            offset += idx.size
             hit = idx[bad[rows]]
             if hit.size == 0:
                 continue
@@ -1049,7 +1078,7 @@ def contact_free_rows(
             after = np.abs(t_hit[np.clip(pos, 0, hit.size - 1)] - t_idx)
             near = np.minimum(before, after) <= margin * sig.window
             new[rows] = ~near
-        if np.array_equal(new, keep):
+        if np.array_equal(new, keep) or np.count_nonzero(new) < 0.1 * m:
             break
         keep = new
     return keep
