@@ -413,3 +413,10 @@ def test_cli_identify_and_estimate(
         == 2
     )
     assert "an arm takes acceleration or momentum" in capsys.readouterr().err
+    # the report of an arm model: the estimated wrench over time, one chart per axis
+    html = tmp_path / "report.html"
+    assert main(["report", str(model), str(tmp_path / "task.csv"), "-o", str(html)]) == 0
+    text = html.read_text()
+    for axis in ("fx [N]", "fy [N]", "fz [N]"):
+        assert axis in text
+    assert "estimate (sound samples)" in text and "no force estimate" not in text
