@@ -25,16 +25,18 @@ from torquemap.robots.urdf import urdf_arm
 from torquemap.sim import arm as sim
 from torquemap.sim import leg
 
+FREE, TASK = 6.0, 5.0  # [s] of flight and of stepping
+
 
 @pytest.fixture(scope="module")
 def bench(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     folder = tmp_path_factory.mktemp("leg")
-    sim.write_arm_bench(folder, seed=0, arm="leg", free_duration=8.0, task_duration=6.0)
+    sim.write_arm_bench(folder, seed=0, arm="leg", free_duration=FREE, task_duration=TASK)
     model = load_model(folder / "robot.toml")
     free = read_log(folder / "free.csv", model.robot)
     task = read_log(folder / "task.csv", model.robot)
-    flight = identify_arm(model, [free], max_samples=2000)
-    mixed = identify_arm(model, [free, task], max_samples=3000, exclude_contact=True)
+    flight = identify_arm(model, [free], max_samples=1500)
+    mixed = identify_arm(model, [free, task], max_samples=2000, exclude_contact=True)
     true_arm = urdf_arm(folder / "truth.urdf", leg.LEG.joints, end_effector="foot")
     return {
         "folder": folder,
@@ -129,7 +131,7 @@ def test_identified_leg_recovers_mujocos_gravity_and_inertia(
 def test_contact_samples_are_found_and_excluded(bench: dict[str, Any]) -> None:
     result: ArmIdentification = bench["mixed"]
     contact = float(np.mean(np.asarray(bench["truth"]["fz"]) > 0))
-    task_share = 6.0 / 14.0  # task.csv's share of the two logs
+    task_share = TASK / (FREE + TASK)  # task.csv's share of the two logs
     # at least every contact sample of task.csv is excluded (plus margins around them)
     assert result.excluded >= 0.9 * contact * task_share * (result.samples + result.excluded)
     assert result.excluded < 0.35 * (result.samples + result.excluded)
