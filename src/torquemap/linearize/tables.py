@@ -42,6 +42,7 @@ from scipy.optimize import isotonic_regression
 from torquemap.errors import InputError
 from torquemap.io import numeric_column, read_table
 from torquemap.linearize.denoise import denoise_blocks
+from torquemap.linearize.handover import check_handover, fill_handover
 from torquemap.linearize.motor import MotorSpec
 from torquemap.linearize.onset import extend_below, fit_onset
 
@@ -622,8 +623,15 @@ def _forward_model(
     pw: NDArray[np.float64],
     tau: NDArray[np.float64],
     max_gap: int,
+    *,
+    handover: bool = False,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], int, int, NDArray[np.float64]]:
     """Torque on the (position, measured pulse width) grid, monotone in pulse width.
+
+    With ``handover``, the cells between measured positions where one phase's ramp changes
+    are estimated with that phase read at its own actuation
+    (:mod:`torquemap.linearize.handover`), when the measured cells inside the ramps say that
+    predicts better than the linear interpolation.
 
     Returns the grid (P, n_levels), the levels, the cells filled, the cells averaged and the
     cell means before filling (NaN where no rows).
@@ -635,6 +643,12 @@ def _forward_model(
         have = count[p] > 0
         mean[p, have] = isotonic_regression(mean[p, have], weights=count[p, have]).x
     filled = fill_voids(mean, max_position_gap=max_gap, levels=levels)
+    if handover:
+        ramp = np.asarray(spec.ramp, dtype=np.float64)
+        first = _fine(np.fmax.accumulate(filled, axis=1), levels, spec.actuation_max)
+        if check_handover(mean, levels, first, ramp, max_gap=max_gap).preferred:
+            grid, _ = fill_handover(mean, levels, first, ramp, max_gap=max_gap)
+            filled = fill_voids(grid, max_position_gap=max_gap, levels=levels)
     voids = int(np.isnan(mean).sum() - np.isnan(filled).sum())
     forward = np.fmax.accumulate(filled, axis=1)
     return forward, levels, voids, int((count > 1).sum()), mean
@@ -727,6 +741,7 @@ def build_tables(
     denoise: bool = True,
     bias_weight: float = 10.0,
     onset: bool = True,
+    handover: bool = True,
     path: str | os.PathLike[str] | None = None,
 ) -> TableSet:
     """Build the per-phase torque-linearisation tables from characterisation data (paper §4.3).
@@ -772,6 +787,11 @@ def build_tables(
         row's noise), extend each position's curve with the physical onset law of
         :mod:`torquemap.linearize.onset` fitted to the readings above it (the friction zone),
         and invert on every pulse width.
+    handover
+        ``"interp"`` only: between measured positions where one phase's ramp switches on or
+        off, read that phase at its own actuation (:mod:`torquemap.linearize.handover`) when
+        the measured cells inside the ramps confirm it predicts better than the linear
+        interpolation.
     path
         The data file, named in error messages.
 
@@ -827,7 +847,9 @@ def build_tables(
     if denoise and method == "interp":
         cleaned = denoise_blocks(pw, tau, bias_weight=bias_weight)
         tau, rank = cleaned.torque, cleaned.rank
-    forward, levels, voids, averaged, _ = _forward_model(spec, pos, pw, tau, gap)
+    forward, levels, voids, averaged, _ = _forward_model(
+        spec, pos, pw, tau, gap, handover=handover and method == "interp"
+    )
     reach = np.nanmax(np.where(np.isnan(forward), -np.inf, forward), axis=1)
     if (reach <= floor).any():
         p = int(np.argmax(reach <= floor))
