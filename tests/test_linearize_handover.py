@@ -6,9 +6,12 @@ own smooth gain and a torque growing with the square of its actuation past a dea
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 from numpy.typing import NDArray
 
+from torquemap.linearize.export import load_tables, save_tables
 from torquemap.linearize.handover import check_handover, fill_handover
 from torquemap.linearize.metrics import apmd_report
 from torquemap.linearize.motor import MotorSpec, motor_spec, ramped_actuation
@@ -61,9 +64,10 @@ def test_fill_recovers_a_phase_switching_on_between_measured_positions() -> None
         known = np.arange(0, 128, 4)
         lin[:, j] = np.interp(np.arange(128), known, mean[known, j], period=128)
     err_lin = np.abs(lin - truth[:, cols])[new]
-    # the gains change between the positions (the only error left): several times smaller
-    assert err.max() < 0.25 * err_lin.max()
-    assert np.sqrt(np.mean(err**2)) < 0.25 * np.sqrt(np.mean(err_lin**2))
+    # the gains change between the positions (the only error left): a tenth (measured 0.14
+    # against 1.79 N m rms)
+    assert err.max() < 0.2 * err_lin.max()
+    assert np.sqrt(np.mean(err**2)) < 0.2 * np.sqrt(np.mean(err_lin**2))
 
 
 def test_check_prefers_the_handover_only_where_it_predicts_better() -> None:
@@ -98,6 +102,7 @@ def test_tables_with_the_handover_are_closer_to_linear() -> None:
 
     def apmd(handover: bool) -> float:
         t = build_tables(spec, rows_p, rows_u, tau, denoise=False, onset=False, handover=handover)
+        assert (t.handover_cells > 0) == handover  # the check chose it on the cells inside ramps
         act = np.moveaxis(t.phases[:, :, : t.command_max + 1], 0, -1)  # (P, C + 1, m)
         k = np.arange(spec.phases)
         pp = np.arange(n)[:, None, None]
@@ -109,4 +114,15 @@ def test_tables_with_the_handover_are_closer_to_linear() -> None:
         ).apmd
 
     with_handover, without = apmd(True), apmd(False)
-    assert with_handover < 0.5 * without
+    assert with_handover < 0.25 * without  # measured 0.76 % against 6.2 %
+
+
+def test_handover_cells_survive_the_tables_file(tmp_path: Path) -> None:
+    spec = _spec()
+    p, w = np.meshgrid(np.arange(0, 128, 4), np.arange(0, A + 1, 4), indexing="ij")
+    tau = _torque(spec, p.ravel(), w.ravel().astype(np.float64))
+    t = build_tables(spec, p.ravel(), w.ravel(), tau, denoise=False, onset=False)
+    save_tables(tmp_path / "t.npz", t)
+    assert (
+        t.handover_cells > 0 and load_tables(tmp_path / "t.npz").handover_cells == t.handover_cells
+    )

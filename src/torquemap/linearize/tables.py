@@ -124,6 +124,9 @@ class TableSet:
     denoise_rank
         Singular values kept by :func:`torquemap.linearize.denoise.denoise_blocks` (0: the
         rows were used as measured).
+    handover_cells
+        Cells between measured positions estimated with a phase read at its own actuation
+        (:mod:`torquemap.linearize.handover`; 0: linear interpolation everywhere).
     """
 
     phases: NDArray[np.int64]
@@ -146,6 +149,7 @@ class TableSet:
     median_cells: int
     monotonic_fixes: int
     denoise_rank: int = 0
+    handover_cells: int = 0
 
     @property
     def command_max(self) -> int:
@@ -625,7 +629,7 @@ def _forward_model(
     max_gap: int,
     *,
     handover: bool = False,
-) -> tuple[NDArray[np.float64], NDArray[np.float64], int, int, NDArray[np.float64]]:
+) -> tuple[NDArray[np.float64], NDArray[np.float64], int, int, int]:
     """Torque on the (position, measured pulse width) grid, monotone in pulse width.
 
     With ``handover``, the cells between measured positions where one phase's ramp changes
@@ -634,7 +638,7 @@ def _forward_model(
     predicts better than the linear interpolation.
 
     Returns the grid (P, n_levels), the levels, the cells filled, the cells averaged and the
-    cell means before filling (NaN where no rows).
+    cells the hand-over estimated.
     """
     levels, col = np.unique(pw, return_inverse=True)
     n = spec.positions_per_cycle
@@ -643,15 +647,16 @@ def _forward_model(
         have = count[p] > 0
         mean[p, have] = isotonic_regression(mean[p, have], weights=count[p, have]).x
     filled = fill_voids(mean, max_position_gap=max_gap, levels=levels)
+    cells = 0
     if handover:
         ramp = np.asarray(spec.ramp, dtype=np.float64)
         first = _fine(np.fmax.accumulate(filled, axis=1), levels, spec.actuation_max)
         if check_handover(mean, levels, first, ramp, max_gap=max_gap).preferred:
-            grid, _ = fill_handover(mean, levels, first, ramp, max_gap=max_gap)
+            grid, cells = fill_handover(mean, levels, first, ramp, max_gap=max_gap)
             filled = fill_voids(grid, max_position_gap=max_gap, levels=levels)
     voids = int(np.isnan(mean).sum() - np.isnan(filled).sum())
     forward = np.fmax.accumulate(filled, axis=1)
-    return forward, levels, voids, int((count > 1).sum()), mean
+    return forward, levels, voids, int((count > 1).sum()), cells
 
 
 def _fine(
@@ -847,7 +852,7 @@ def build_tables(
     if denoise and method == "interp":
         cleaned = denoise_blocks(pw, tau, bias_weight=bias_weight)
         tau, rank = cleaned.torque, cleaned.rank
-    forward, levels, voids, averaged, _ = _forward_model(
+    forward, levels, voids, averaged, handover_cells = _forward_model(
         spec, pos, pw, tau, gap, handover=handover and method == "interp"
     )
     reach = np.nanmax(np.where(np.isnan(forward), -np.inf, forward), axis=1)
@@ -938,6 +943,7 @@ def build_tables(
         median_cells=averaged,
         monotonic_fixes=fixes,
         denoise_rank=rank,
+        handover_cells=handover_cells,
     )
 
 
