@@ -76,6 +76,7 @@ def npz_arrays(tables: TableSet) -> dict[str, NDArray[Any]]:
         out[name] = np.asarray(list(value) if isinstance(value, tuple) else value)
     out["denoise_rank"] = np.asarray(tables.denoise_rank)  # optional on reading (added later)
     out["handover_cells"] = np.asarray(tables.handover_cells)  # optional on reading (added later)
+    out["detent_harmonics"] = np.asarray(tables.detent_harmonics, dtype=np.int64)  # optional too
     return out
 
 

@@ -42,6 +42,7 @@ from scipy.optimize import isotonic_regression
 from torquemap.errors import InputError
 from torquemap.io import numeric_column, read_table
 from torquemap.linearize.denoise import denoise_blocks
+from torquemap.linearize.detent import detent_correction, fit_detent
 from torquemap.linearize.handover import check_handover, fill_handover
 from torquemap.linearize.motor import MotorSpec
 from torquemap.linearize.onset import extend_below, fit_onset
@@ -127,6 +128,9 @@ class TableSet:
     handover_cells
         Cells between measured positions estimated with a phase read at its own actuation
         (:mod:`torquemap.linearize.handover`; 0: linear interpolation everywhere).
+    detent_harmonics
+        Periods per cycle of the torque at rest taken between measured positions
+        (:mod:`torquemap.linearize.detent`; empty: interpolated).
     """
 
     phases: NDArray[np.int64]
@@ -150,6 +154,7 @@ class TableSet:
     monotonic_fixes: int
     denoise_rank: int = 0
     handover_cells: int = 0
+    detent_harmonics: tuple[int, ...] = ()
 
     @property
     def command_max(self) -> int:
@@ -629,7 +634,8 @@ def _forward_model(
     max_gap: int,
     *,
     handover: bool = False,
-) -> tuple[NDArray[np.float64], NDArray[np.float64], int, int, int]:
+    detent: bool = False,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], int, int, int, tuple[int, ...]]:
     """Torque on the (position, measured pulse width) grid, monotone in pulse width.
 
     With ``handover``, the cells between measured positions where one phase's ramp changes
@@ -637,8 +643,11 @@ def _forward_model(
     (:mod:`torquemap.linearize.handover`), when the measured cells inside the ramps say that
     predicts better than the linear interpolation.
 
-    Returns the grid (P, n_levels), the levels, the cells filled, the cells averaged and the
-    cells the hand-over estimated.
+    With ``detent``, the torque at rest (cogging) between measured positions is taken from its
+    spectrum (:mod:`torquemap.linearize.detent`) instead of the linear interpolation.
+
+    Returns the grid (P, n_levels), the levels, the cells filled, the cells averaged, the
+    cells the hand-over estimated and the cogging harmonics used.
     """
     levels, col = np.unique(pw, return_inverse=True)
     n = spec.positions_per_cycle
@@ -655,8 +664,17 @@ def _forward_model(
             grid, cells = fill_handover(mean, levels, first, ramp, max_gap=max_gap)
             filled = fill_voids(grid, max_position_gap=max_gap, levels=levels)
     voids = int(np.isnan(mean).sum() - np.isnan(filled).sum())
+    harmonics: tuple[int, ...] = ()
+    if detent:
+        anchors = np.flatnonzero(np.isfinite(mean[:, 0]))  # the blocks' targets (level 0)
+        fit = fit_detent(mean, np.asarray(spec.ramp, dtype=np.float64), anchors)
+        if fit.harmonics:
+            harmonics = fit.harmonics
+            shift = detent_correction(fit.torque, anchors)[:, None]
+            # the cells the interpolation filled, where the sensor reads torque
+            filled = np.where(np.isnan(mean) & (filled > 0), np.maximum(filled + shift, 0), filled)
     forward = np.fmax.accumulate(filled, axis=1)
-    return forward, levels, voids, int((count > 1).sum()), cells
+    return forward, levels, voids, int((count > 1).sum()), cells, harmonics
 
 
 def _fine(
@@ -747,6 +765,7 @@ def build_tables(
     bias_weight: float = 10.0,
     onset: bool = True,
     handover: bool = True,
+    detent: bool = True,
     path: str | os.PathLike[str] | None = None,
 ) -> TableSet:
     """Build the per-phase torque-linearisation tables from characterisation data (paper §4.3).
@@ -797,6 +816,10 @@ def build_tables(
         off, read that phase at its own actuation (:mod:`torquemap.linearize.handover`) when
         the measured cells inside the ramps confirm it predicts better than the linear
         interpolation.
+    detent
+        ``"interp"`` only: between measured positions, take the torque at rest (cogging) from
+        a Fourier fit of one fundamental and its multiples (:mod:`torquemap.linearize.detent`),
+        kept only while it predicts the measured curves better, instead of interpolating it.
     path
         The data file, named in error messages.
 
@@ -852,8 +875,14 @@ def build_tables(
     if denoise and method == "interp":
         cleaned = denoise_blocks(pw, tau, bias_weight=bias_weight)
         tau, rank = cleaned.torque, cleaned.rank
-    forward, levels, voids, averaged, handover_cells = _forward_model(
-        spec, pos, pw, tau, gap, handover=handover and method == "interp"
+    forward, levels, voids, averaged, handover_cells, harmonics = _forward_model(
+        spec,
+        pos,
+        pw,
+        tau,
+        gap,
+        handover=handover and method == "interp",
+        detent=detent and method == "interp",
     )
     reach = np.nanmax(np.where(np.isnan(forward), -np.inf, forward), axis=1)
     if (reach <= floor).any():
@@ -944,6 +973,7 @@ def build_tables(
         monotonic_fixes=fixes,
         denoise_rank=rank,
         handover_cells=handover_cells,
+        detent_harmonics=harmonics,
     )
 
 
