@@ -86,14 +86,15 @@ def _contribution(
     high: NDArray[np.float64], low: NDArray[np.float64], hi: float, lo: float, v: float
 ) -> float:
     """``T(v)`` from ``D = high - low``: ``T(hi u) - T(lo u) = D(u)``, ``T(0) = 0``."""
-    total = 0.0
-    arg = v / hi
-    for _ in range(64):
-        total += _value(high, arg) - _value(low, arg)
-        if lo <= 0.0 or arg < 0.25:
-            break
-        arg *= lo / hi
-    return total
+    first = v / hi
+    if lo <= 0.0 or first < 0.25:
+        return _value(high, first) - _value(low, first)
+    ratio = lo / hi
+    # the terms of the telescoping sum, down to a quarter pulse width (at most 64)
+    count = min(64, 1 + int(np.ceil(np.log(0.25 / first) / np.log(ratio))))
+    arg = np.minimum(first * ratio ** np.arange(max(count, 1)), float(high.size - 1))
+    x = np.arange(high.size, dtype=np.float64)
+    return float(np.sum(np.interp(arg, x, high) - np.interp(arg, x, low)))
 
 
 def _changed_phase(
