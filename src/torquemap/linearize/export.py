@@ -75,6 +75,8 @@ def npz_arrays(tables: TableSet) -> dict[str, NDArray[Any]]:
         value = getattr(tables, name)
         out[name] = np.asarray(list(value) if isinstance(value, tuple) else value)
     out["denoise_rank"] = np.asarray(tables.denoise_rank)  # optional on reading (added later)
+    out["handover_cells"] = np.asarray(tables.handover_cells)  # optional on reading (added later)
+    out["detent_harmonics"] = np.asarray(tables.detent_harmonics, dtype=np.int64)  # optional too
     return out
 
 
@@ -137,6 +139,7 @@ def load_tables(path: str | os.PathLike[str]) -> TableSet:
             median_cells=int(meta["median_cells"]),
             monotonic_fixes=int(meta["monotonic_fixes"]),
             denoise_rank=int(data["denoise_rank"].item()) if "denoise_rank" in data else 0,
+            handover_cells=(int(data["handover_cells"].item()) if "handover_cells" in data else 0),
         )
     except (TypeError, ValueError) as exc:
         raise InputError(f"tables file has malformed contents ({exc})", path=p) from None

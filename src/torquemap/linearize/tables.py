@@ -42,6 +42,8 @@ from scipy.optimize import isotonic_regression
 from torquemap.errors import InputError
 from torquemap.io import numeric_column, read_table
 from torquemap.linearize.denoise import denoise_blocks
+from torquemap.linearize.detent import detent_correction, fit_detent
+from torquemap.linearize.handover import check_handover, fill_handover
 from torquemap.linearize.motor import MotorSpec
 from torquemap.linearize.onset import extend_below, fit_onset
 
@@ -123,6 +125,12 @@ class TableSet:
     denoise_rank
         Singular values kept by :func:`torquemap.linearize.denoise.denoise_blocks` (0: the
         rows were used as measured).
+    handover_cells
+        Cells between measured positions estimated with a phase read at its own actuation
+        (:mod:`torquemap.linearize.handover`; 0: linear interpolation everywhere).
+    detent_harmonics
+        Periods per cycle of the torque at rest taken between measured positions
+        (:mod:`torquemap.linearize.detent`; empty: interpolated).
     """
 
     phases: NDArray[np.int64]
@@ -145,6 +153,8 @@ class TableSet:
     median_cells: int
     monotonic_fixes: int
     denoise_rank: int = 0
+    handover_cells: int = 0
+    detent_harmonics: tuple[int, ...] = ()
 
     @property
     def command_max(self) -> int:
@@ -622,11 +632,22 @@ def _forward_model(
     pw: NDArray[np.float64],
     tau: NDArray[np.float64],
     max_gap: int,
-) -> tuple[NDArray[np.float64], NDArray[np.float64], int, int, NDArray[np.float64]]:
+    *,
+    handover: bool = False,
+    detent: bool = False,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], int, int, int, tuple[int, ...]]:
     """Torque on the (position, measured pulse width) grid, monotone in pulse width.
 
-    Returns the grid (P, n_levels), the levels, the cells filled, the cells averaged and the
-    cell means before filling (NaN where no rows).
+    With ``handover``, the cells between measured positions where one phase's ramp changes
+    are estimated with that phase read at its own actuation
+    (:mod:`torquemap.linearize.handover`), when the measured cells inside the ramps say that
+    predicts better than the linear interpolation.
+
+    With ``detent``, the torque at rest (cogging) between measured positions is taken from its
+    spectrum (:mod:`torquemap.linearize.detent`) instead of the linear interpolation.
+
+    Returns the grid (P, n_levels), the levels, the cells filled, the cells averaged, the
+    cells the hand-over estimated and the cogging harmonics used.
     """
     levels, col = np.unique(pw, return_inverse=True)
     n = spec.positions_per_cycle
@@ -635,9 +656,25 @@ def _forward_model(
         have = count[p] > 0
         mean[p, have] = isotonic_regression(mean[p, have], weights=count[p, have]).x
     filled = fill_voids(mean, max_position_gap=max_gap, levels=levels)
+    cells = 0
+    if handover:
+        ramp = np.asarray(spec.ramp, dtype=np.float64)
+        first = _fine(np.fmax.accumulate(filled, axis=1), levels, spec.actuation_max)
+        if check_handover(mean, levels, first, ramp, max_gap=max_gap).preferred:
+            grid, cells = fill_handover(mean, levels, first, ramp, max_gap=max_gap)
+            filled = fill_voids(grid, max_position_gap=max_gap, levels=levels)
     voids = int(np.isnan(mean).sum() - np.isnan(filled).sum())
+    harmonics: tuple[int, ...] = ()
+    if detent:
+        anchors = np.flatnonzero(np.isfinite(mean[:, 0]))  # the blocks' targets (level 0)
+        fit = fit_detent(mean, np.asarray(spec.ramp, dtype=np.float64), anchors)
+        if fit.harmonics:
+            harmonics = fit.harmonics
+            shift = detent_correction(fit.torque, anchors)[:, None]
+            # the cells the interpolation filled, where the sensor reads torque
+            filled = np.where(np.isnan(mean) & (filled > 0), np.maximum(filled + shift, 0), filled)
     forward = np.fmax.accumulate(filled, axis=1)
-    return forward, levels, voids, int((count > 1).sum()), mean
+    return forward, levels, voids, int((count > 1).sum()), cells, harmonics
 
 
 def _fine(
@@ -727,6 +764,8 @@ def build_tables(
     denoise: bool = True,
     bias_weight: float = 10.0,
     onset: bool = True,
+    handover: bool = True,
+    detent: bool = True,
     path: str | os.PathLike[str] | None = None,
 ) -> TableSet:
     """Build the per-phase torque-linearisation tables from characterisation data (paper §4.3).
@@ -772,6 +811,15 @@ def build_tables(
         row's noise), extend each position's curve with the physical onset law of
         :mod:`torquemap.linearize.onset` fitted to the readings above it (the friction zone),
         and invert on every pulse width.
+    handover
+        ``"interp"`` only: between measured positions where one phase's ramp switches on or
+        off, read that phase at its own actuation (:mod:`torquemap.linearize.handover`) when
+        the measured cells inside the ramps confirm it predicts better than the linear
+        interpolation.
+    detent
+        ``"interp"`` only: between measured positions, take the torque at rest (cogging) from
+        a Fourier fit of one fundamental and its multiples (:mod:`torquemap.linearize.detent`),
+        kept only while it predicts the measured curves better, instead of interpolating it.
     path
         The data file, named in error messages.
 
@@ -827,7 +875,15 @@ def build_tables(
     if denoise and method == "interp":
         cleaned = denoise_blocks(pw, tau, bias_weight=bias_weight)
         tau, rank = cleaned.torque, cleaned.rank
-    forward, levels, voids, averaged, _ = _forward_model(spec, pos, pw, tau, gap)
+    forward, levels, voids, averaged, handover_cells, harmonics = _forward_model(
+        spec,
+        pos,
+        pw,
+        tau,
+        gap,
+        handover=handover and method == "interp",
+        detent=detent and method == "interp",
+    )
     reach = np.nanmax(np.where(np.isnan(forward), -np.inf, forward), axis=1)
     if (reach <= floor).any():
         p = int(np.argmax(reach <= floor))
@@ -916,6 +972,8 @@ def build_tables(
         median_cells=averaged,
         monotonic_fixes=fixes,
         denoise_rank=rank,
+        handover_cells=handover_cells,
+        detent_harmonics=harmonics,
     )
 
 
