@@ -40,7 +40,7 @@ from numpy.typing import NDArray
 
 from torquemap._callable import make_callable as _make_callable
 from torquemap.errors import InputError
-from torquemap.filters import differentiate, lowpass
+from torquemap.filters import differentiate_rates, lowpass
 from torquemap.io import Log
 from torquemap.model import Model, friction_torque, pdtv_torque
 from torquemap.pdtv import (
@@ -219,7 +219,7 @@ def _signal(
     for k, joint in enumerate(robot.joints):
         theta = joint.gear_ratio * log.q[:, k]
         try:
-            d = differentiate(log.t, theta, window=window)
+            d = differentiate_rates(log.t, theta, window=window)
         except InputError as exc:
             raise InputError(exc.message, path=log.path) from None
         jm = model.joints[joint.name]
@@ -627,7 +627,13 @@ def _force_sigma(
     ok = ~singular & np.isfinite(q).all(axis=1) & np.isfinite(tau_sigma).all(axis=1)
     if ok.any():
         jt = np.swapaxes(np.asarray(arm.jacobian(q[ok]), dtype=np.float64), -1, -2)
-        m = np.linalg.pinv(jt)  # (n, axes, nj): F = m @ tau
+        if jt.shape[-2:] == (2, 2):  # the inverse in closed form: batched pinv is an SVD each
+            a, b, c, d = jt[:, 0, 0], jt[:, 0, 1], jt[:, 1, 0], jt[:, 1, 1]
+            det = a * d - b * c
+            m = np.stack([np.stack([d, -b], axis=-1), np.stack([-c, a], axis=-1)], axis=-2)
+            m /= det[:, None, None]
+        else:
+            m = np.asarray(np.linalg.pinv(jt), dtype=np.float64)  # (n, axes, nj): F = m @ tau
         out[ok] = np.sqrt(np.einsum("nij,nj->ni", m**2, tau_sigma[ok] ** 2))
     return out
 

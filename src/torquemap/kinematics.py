@@ -178,7 +178,12 @@ def force_from_joint_torque(
     force = np.full_like(tau, np.nan)
     ok = ~singular
     if ok.any():
-        force[ok] = np.linalg.solve(np.swapaxes(J[ok], -1, -2), tau[ok][..., None])[..., 0]
+        # J^T F = tau in closed form (Cramer's rule): batched linalg.solve costs 10x more
+        a, b, c, d = J[ok, 0, 0], J[ok, 0, 1], J[ok, 1, 0], J[ok, 1, 1]
+        t0, t1 = tau[ok, 0], tau[ok, 1]
+        det = a * d - b * c
+        force[ok, 0] = (d * t0 - c * t1) / det
+        force[ok, 1] = (a * t1 - b * t0) / det
     return ForceFromTorque(force=force, singular=singular)
 
 
