@@ -952,5 +952,15 @@ def forces_columns(estimate: ForceEstimate) -> dict[str, NDArray[Any]]:
     return cols
 
 
+def __getattr__(name: str) -> Any:
+    """``ForceEstimator``, the streaming estimator, lives in :mod:`torquemap.stream` (which
+    imports this module): it is imported on first use."""
+    if name == "ForceEstimator":
+        from torquemap.stream import ForceEstimator
+
+        return ForceEstimator
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 # ``torquemap.estimate(...)`` calls :func:`torquemap.api.estimate` (the module stays a module).
 _make_callable(__name__, "torquemap.api:estimate")

@@ -833,10 +833,7 @@ def iter_log_chunks(
                     f"missing column 'i_{j}' or 'tau_{j}' for joint {j!r}", path=os.fspath(p)
                 )
             raise InputError(f"missing column {name!r}", path=os.fspath(p))
-    first_row = 0
-    last_t: float | None = None
-    last_counts: NDArray[np.float64] | None = None
-    advanced = False
+    chain = _ChunkChain(robot, os.fspath(p))
     batches = _record_batches(p, names, rows)
     while True:
         try:
@@ -848,40 +845,149 @@ def iter_log_chunks(
             ) from None
         if batch is None:
             break
-        if batch.num_rows == 0:
-            continue
-        cols: Columns = {
-            n: batch.column(n).to_numpy(zero_copy_only=False) for n in batch.schema.names
-        }
+        if batch.num_rows:
+            yield chain.chunk({n: batch.column(n).to_numpy(zero_copy_only=False) for n in names})
+    chain.close()
+
+
+class _ChunkChain:
+    """Checks and state carried from one chunk of a log to the next (time, counts, rows)."""
+
+    def __init__(self, robot: Robot, path: str) -> None:
+        self.robot = robot
+        self.path = path
+        self.rows = 0
+        self.last_t: float | None = None
+        self.last_counts: NDArray[np.float64] | None = None
+        self.advanced = False
+
+    def chunk(self, cols: Columns) -> LogChunk:
+        """The next chunk from its columns (checked, counts unwrapped)."""
+        robot, first_row = self.robot, self.rows
         t, q, tau = _log_arrays(
-            cols, robot, os.fspath(p), first_row=first_row, last_counts=last_counts, whole=False
+            cols, robot, self.path, first_row=first_row, last_counts=self.last_counts, whole=False
         )
-        joined = t if last_t is None else np.concatenate(([last_t], t))
+        joined = t if self.last_t is None else np.concatenate(([self.last_t], t))
         step = np.diff(joined)
         if step.size and not np.all(step >= 0):
-            row = int(np.argmax(step < 0)) + 1 + first_row + (1 if last_t is None else 0)
-            raise InputError(f"time 't' goes backwards (at data row {row})", path=p)
-        advanced = advanced or bool(np.any(step > 0))
-        counts = [k for k, j in enumerate(robot.joints) if j.position_unit == "counts"]
-        if counts:
-            if last_counts is None:
-                last_counts = np.zeros((2, len(robot.joints)))
-            for k in counts:
-                joint = robot.joints[k]
-                raw = float(cols[f"q_{joint.name}"][-1])
-                cpr = float(joint.encoder_counts_per_rev or 0)
-                # unwrapping adds whole periods: recover their number exactly
-                turns = round((q[-1, k] * joint.gear_ratio * cpr / (2.0 * np.pi) - raw) / cpr)
-                last_counts[:, k] = raw, raw + turns * cpr
-        last_t = float(t[-1])
-        yield LogChunk(t=t, q=q, motor_torque=tau, first_row=first_row)
-        first_row += t.size
-    if first_row == 0:
-        raise InputError("table has no rows", path=p)
-    if first_row < 2:
-        raise InputError("log needs at least two samples", path=p)
-    if not advanced:
-        raise InputError("time 't' never advances", path=p)
+            row = int(np.argmax(step < 0)) + first_row + (2 if self.last_t is None else 1)
+            raise InputError(f"time 't' goes backwards (at data row {row})", path=self.path)
+        self.advanced = self.advanced or bool(np.any(step > 0))
+        for k, joint in enumerate(robot.joints):
+            if joint.position_unit != "counts":
+                continue
+            if self.last_counts is None:
+                self.last_counts = np.zeros((2, len(robot.joints)))
+            raw = float(np.asarray(cols[f"q_{joint.name}"], dtype=np.float64)[-1])
+            cpr = float(joint.encoder_counts_per_rev or 0)
+            # unwrapping adds whole periods: recover their number exactly
+            turns = round((q[-1, k] * joint.gear_ratio * cpr / (2.0 * np.pi) - raw) / cpr)
+            self.last_counts[:, k] = raw, raw + turns * cpr
+        self.last_t = float(t[-1])
+        self.rows += t.size
+        return LogChunk(t=t, q=q, motor_torque=tau, first_row=first_row)
+
+    def close(self) -> None:
+        """InputError unless the whole log had rows, two samples and advancing time."""
+        if self.rows == 0:
+            raise InputError("table has no rows", path=self.path)
+        if self.rows < 2:
+            raise InputError("log needs at least two samples", path=self.path)
+        if not self.advanced:
+            raise InputError("time 't' never advances", path=self.path)
+
+
+def follow_log_chunks(
+    path: str | os.PathLike[str],
+    robot: Robot,
+    *,
+    poll: float = 0.2,
+    timeout: float = 10.0,
+    sleep: Callable[[float], object] | None = None,
+) -> Iterator[LogChunk]:
+    """Read a CSV log that another program is still writing, as it grows (``tail -f``).
+
+    The file is polled every ``poll`` seconds; each poll yields the complete lines written
+    since the last (a line still being written waits for its newline). Reading stops when the
+    file has not grown for ``timeout`` seconds, or on Ctrl-C (KeyboardInterrupt while waiting);
+    then a last line without its newline is read too. Checked as :func:`iter_log_chunks`.
+
+    Parameters
+    ----------
+    path
+        A ``.csv`` log with its header line written.
+    robot
+        The robot whose joints the log must hold.
+    poll
+        Seconds between polls.
+    timeout
+        Seconds without growth after which reading stops.
+    sleep
+        The waiting function (``time.sleep``; tests pass their own).
+
+    Yields
+    ------
+    LogChunk
+    """
+    import io as _io
+    import time
+
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    p = Path(path)
+    if p.suffix.lower() != ".csv":
+        raise InputError("--follow reads a growing CSV log (.csv)", path=p)
+    if not p.exists():
+        raise InputError("file not found", path=p)
+    wait = time.sleep if sleep is None else sleep
+    header = _csv_header(p)
+    names = _log_column_names(robot, header)
+    for name in names:
+        if name not in header:
+            raise InputError(f"missing column {name!r}", path=p)
+    chain = _ChunkChain(robot, os.fspath(p))
+    with open(p, "rb") as handle:
+        head = handle.readline()
+        pending = b""
+        quiet = 0.0
+        stop = False
+        while True:
+            data = handle.read()
+            if data:
+                quiet = 0.0
+                pending += data
+            cut = pending.rfind(b"\n") + 1
+            if stop and pending.strip():
+                cut = len(pending)
+            if cut:
+                lines, pending = pending[:cut], pending[cut:]
+                if lines.strip():
+                    try:
+                        table = pacsv.read_csv(
+                            _io.BytesIO(head + lines),
+                            convert_options=pacsv.ConvertOptions(
+                                include_columns=names,
+                                column_types={n: pa.float64() for n in names},
+                            ),
+                        )
+                    except (pa.ArrowException, ValueError) as exc:
+                        first = str(exc).strip().splitlines()[0]
+                        raise InputError(f"cannot parse rows ({first})", path=p) from None
+                    yield chain.chunk({n: table.column(n).to_numpy() for n in names})
+            if stop:
+                break
+            if not data:
+                if quiet >= timeout:
+                    stop = True
+                    continue
+                try:
+                    wait(poll)
+                except KeyboardInterrupt:
+                    stop = True
+                    continue
+                quiet += poll
+    chain.close()
 
 
 @contextlib.contextmanager

@@ -15,8 +15,9 @@ each block is computed with its margins, only its centre is kept) and returns th
 filters have settled. Memory is bounded by a block, and the latency by ``margin + hop``.
 
 Not local, hence not reproduced in blocks: the ``paper`` method (it filters whole monotonic
-passes, refused here), stretches of undetermined friction longer than the margin (a hold:
-in a block they carry the estimate from their one visible side), and the thresholds of
+passes, refused here), stretches of undetermined friction longer than ``hold`` (the batch
+fills such a hold from both sides; a block that cuts it, from its one visible side: measured
+1e-7 N m, at the samples within the low-pass's reach of such a hold), and the thresholds of
 implausible samples (:func:`torquemap.sanitize.implausible_samples`, from each block's own
 statistics).
 """
@@ -60,6 +61,7 @@ def settling_time(
     method: StreamMethod = "model",
     delay: float = 0.0,
     tolerance: float = EXACT_TOLERANCE,
+    hold: float = 0.0,
 ) -> float:
     """The margin [s] a block needs on each side for its centre to equal the batch estimate.
 
@@ -78,6 +80,10 @@ def settling_time(
     tolerance
         What the low-pass's impulse response has decayed to at the margin, relative to its
         peak (> 0, < 1).
+    hold
+        Longest hold [s] (a stretch of undetermined friction longer than ``bridge_reversals``)
+        to be answered as in the batch: the batch fills a hold from both its sides, so a block
+        must hold it whole to do the same.
 
     Returns
     -------
@@ -94,7 +100,7 @@ def settling_time(
     tail = 0.0
     if method != "raw":
         tail = math.log(1.0 / tolerance) / (2.0 * math.pi * cutoff * math.cos(math.pi / 4))
-    return tail + max(bridge_reversals, 0.0) + 2.0 * window + abs(delay)
+    return tail + max(bridge_reversals, hold, 0.0) + 2.0 * window + abs(delay)
 
 
 def _empty_like(est: ForceEstimate) -> ForceEstimate:
@@ -183,8 +189,9 @@ class ForceEstimator:
         and is refused).
     cutoff, window, bridge_reversals, reversal_band, min_sin_elbow, check_robot
         As :func:`~torquemap.estimate.estimate_forces`.
-    tolerance
-        Decay of the low-pass's response at the margin (:func:`settling_time`).
+    tolerance, hold
+        Decay of the low-pass's response at the margin and the longest hold answered as in
+        the batch [s] (:func:`settling_time`).
     hop
         Fewest seconds of settled samples answered at once [s]: each block recomputes its
         margins, so blocks much shorter than the margin multiply the cost.
@@ -225,6 +232,7 @@ class ForceEstimator:
         min_sin_elbow: float = 0.05,
         check_robot: bool = True,
         tolerance: float = STREAM_TOLERANCE,
+        hold: float = 0.0,
         hop: float = 0.25,
         max_rows: int = 1 << 18,
         path: str = "<stream>",
@@ -258,6 +266,7 @@ class ForceEstimator:
             method=method,
             delay=delay,
             tolerance=tolerance,
+            hold=hold,
         )
         self.hop = float(hop)
         self.max_rows = int(max_rows)
@@ -522,8 +531,9 @@ def estimate_in_chunks(
     bridge_reversals: float = 0.5,
     reversal_band: float | Mapping[str, float] | None = None,
     min_sin_elbow: float = 0.05,
-    rows: int = 1 << 18,
+    rows: int = 1 << 19,
     tolerance: float = EXACT_TOLERANCE,
+    hold: float = 5.0,
     path: str = "<chunks>",
 ) -> Iterator[ForceEstimate]:
     """Estimate forces over a log given in chunks, block by block (memory bounded by ``rows``).
@@ -543,8 +553,9 @@ def estimate_in_chunks(
         As :func:`~torquemap.estimate.estimate_forces` (``paper`` refused).
     rows
         Samples answered per block.
-    tolerance
-        :func:`settling_time`.
+    tolerance, hold
+        :func:`settling_time`: with the defaults, answers equal the batch's to rounding
+        except within the low-pass's reach of holds longer than 5 s.
     path
         The log's name, for messages.
 
@@ -562,6 +573,7 @@ def estimate_in_chunks(
         reversal_band=reversal_band,
         min_sin_elbow=min_sin_elbow,
         tolerance=tolerance,
+        hold=hold,
         hop=math.inf,
         max_rows=rows,
         path=path,
