@@ -308,8 +308,11 @@ def reversal_mask(
     if not slow.any():
         return slow
     idx = np.flatnonzero(slow)
-    lo = np.searchsorted(t, t[idx] - 0.5 * window, side="left")
-    hi = np.searchsorted(t, t[idx] + 0.5 * window, side="right")
+    # a sample half a window away, to within a hundredth of a step, is in: whether it lands a
+    # rounding error in or out would depend on the stamps' offset (Unix-epoch seconds)
+    reach = 0.5 * window + 0.01 * float(t[-1] - t[0]) / max(t.size - 1, 1)
+    lo = np.searchsorted(t, t[idx] - reach, side="left")
+    hi = np.searchsorted(t, t[idx] + reach, side="right")
     edges = np.zeros(t.size + 1, dtype=np.int64)
     np.add.at(edges, lo, 1)
     np.add.at(edges, hi, -1)
@@ -352,21 +355,25 @@ def bridge_gaps(
     out = values.copy()
     if gaps.all():
         return out
+    # ties (a sample exactly ``support`` away) are in, to a hundredth of a step, and times are
+    # taken from the run's start: the same answer for stamps from zero or Unix-epoch seconds
+    tie = 0.01 * float(t[-1] - t[0]) / max(t.size - 1, 1)
     for a, b in _gap_runs(gaps):
         if t[b - 1] - t[a] > longest or ((a == 0 or b == gaps.size) and not ends):
             continue
+        origin = t[a]
         sides_t, sides_v = [], []
         if a > 0:
-            a0 = min(int(np.searchsorted(t, t[a - 1] - support, side="left")), a - 1)
+            a0 = min(int(np.searchsorted(t, t[a - 1] - support - tie, side="left")), a - 1)
             keep = ~gaps[a0:a]
-            sides_t.append(t[a0:a][keep].mean())
+            sides_t.append((t[a0:a][keep] - origin).mean())
             sides_v.append(values[a0:a][keep].mean())
         if b < gaps.size:
-            b1 = max(int(np.searchsorted(t, t[b] + support, side="right")), b + 1)
+            b1 = max(int(np.searchsorted(t, t[b] + support + tie, side="right")), b + 1)
             keep = ~gaps[b:b1]
-            sides_t.append(t[b:b1][keep].mean())
+            sides_t.append((t[b:b1][keep] - origin).mean())
             sides_v.append(values[b:b1][keep].mean())
-        out[a:b] = np.interp(t[a:b], sides_t, sides_v)
+        out[a:b] = np.interp(t[a:b] - origin, sides_t, sides_v)
     return out
 
 

@@ -26,8 +26,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import re
 from collections.abc import Iterable, Iterator, Mapping
+from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
@@ -289,6 +291,16 @@ class ForceEstimator:
     def latency(self) -> float:
         """Log time [s] from a sample's arrival to its answer, at most (``margin + hop``)."""
         return self.margin + self.hop
+
+    @property
+    def buffered(self) -> int:
+        """Samples held (the margin behind and the samples not yet answered)."""
+        return self._rows
+
+    @property
+    def blocks(self) -> int:
+        """Blocks estimated so far."""
+        return self._blocks
 
     @property
     def warnings(self) -> tuple[str, ...]:
@@ -584,3 +596,171 @@ def estimate_in_chunks(
             yield part
     last = est.finish()
     yield dataclasses.replace(last, warnings=est.warnings)
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class StreamSummary:
+    """What :func:`estimate_to_file` wrote, for a one-line report.
+
+    Attributes
+    ----------
+    samples
+        Rows written.
+    sound
+        Rows with flag 0.
+    joint_names
+        Joint names.
+    tau_ext_mean
+        Mean of each ``tau_ext_<j>`` over the sound rows [N m], shape (n_joints,) (NaN when
+        none).
+    force_median
+        Median of ``|F|`` over the sound rows [N] (None without an end effector or sound
+        rows); from every ``stride``-th sound row.
+    stride
+        1 when ``force_median`` is exact; else the decimation of the rows it is taken from
+        (at most 2**20 values are kept, whatever the log's length).
+    warnings
+        One line each.
+    blocks
+        Blocks the log was estimated in.
+    stopped
+        ``"end"`` (the file ended), or for a followed log ``"timeout"`` or ``"interrupt"``.
+    """
+
+    samples: int
+    sound: int
+    joint_names: tuple[str, ...]
+    tau_ext_mean: NDArray[np.float64]
+    force_median: float | None
+    stride: int
+    warnings: tuple[str, ...]
+    blocks: int
+    stopped: str = "end"
+
+
+class _Decimated:
+    """Every ``stride``-th value of a stream, at most ``cap`` kept (the stride doubles)."""
+
+    def __init__(self, cap: int = 1 << 20) -> None:
+        self.cap = cap
+        self.stride = 1
+        self.seen = 0
+        self.parts: list[NDArray[np.float64]] = []
+        self.kept = 0
+
+    def add(self, values: NDArray[np.float64]) -> None:
+        first = (-self.seen) % self.stride
+        self.parts.append(values[first :: self.stride])
+        self.kept += self.parts[-1].size
+        self.seen += values.size
+        while self.kept > self.cap:
+            kept = np.concatenate(self.parts)[::2]
+            self.parts, self.kept = [kept], kept.size
+            self.stride *= 2  # kept: the values whose index is a multiple of the stride
+
+    def median(self) -> float | None:
+        if not self.kept:
+            return None
+        return float(np.median(np.concatenate(self.parts)))
+
+
+def estimate_to_file(
+    model: Model,
+    chunks: Iterable[LogChunk | Log],
+    output: str | os.PathLike[str],
+    *,
+    method: StreamMethod = "model",
+    cutoff: float = 2.0,
+    window: float | None = None,
+    reversal_band: float | Mapping[str, float] | None = None,
+    rows: int = 1 << 19,
+    follow: bool = False,
+    path: str = "<chunks>",
+) -> StreamSummary:
+    """Estimate forces over a log in chunks and write them as they are answered.
+
+    The table (``.csv`` or ``.parquet``, :func:`torquemap.estimate.forces_columns`) is written
+    block by block into a temporary file and appears under ``output`` whole, at the end
+    (:func:`torquemap.io.table_stream`). Memory is bounded by ``rows``; the answers are those of
+    :func:`estimate_in_chunks`. With ``follow`` the chunks come from a growing log
+    (:func:`torquemap.io.follow_log_chunks`): answers are written (and flushed, for CSV) as
+    their filters settle, and Ctrl-C ends the log like its end would.
+
+    Parameters
+    ----------
+    model
+        Identified model.
+    chunks
+        The log in consecutive pieces.
+    output
+        ``.csv`` or ``.parquet``.
+    method, cutoff, window, reversal_band
+        As :func:`~torquemap.estimate.estimate_forces` (``paper`` refused).
+    rows
+        Samples answered per block.
+    follow
+        The log is growing: answer in small blocks (:class:`ForceEstimator`'s default hop
+        and tolerance) instead of ``rows``.
+    path
+        The log's name, for messages.
+
+    Returns
+    -------
+    StreamSummary
+    """
+    from torquemap.estimate import forces_columns
+    from torquemap.io import table_stream
+
+    estimator = ForceEstimator(
+        model,
+        method=method,
+        cutoff=cutoff,
+        window=window,
+        reversal_band=reversal_band,
+        tolerance=STREAM_TOLERANCE if follow else EXACT_TOLERANCE,
+        hold=0.0 if follow else 5.0,
+        hop=0.25 if follow else math.inf,
+        max_rows=rows,
+        path=path,
+    )
+    nj = len(model.robot.joints)
+    totals = np.zeros(nj)
+    counts = {"samples": 0, "sound": 0}
+    magnitudes = _Decimated()
+    stopped = "end"
+    with table_stream(output, flush=follow) as append:
+
+        def write(part: ForceEstimate) -> None:
+            if not part.t.size:
+                return
+            append(forces_columns(part))
+            ok = part.flag == 0
+            counts["samples"] += part.t.size
+            counts["sound"] += int(ok.sum())
+            totals[:] += part.tau_ext[ok].sum(axis=0)
+            if part.force is not None and part.force.shape[1] >= 2:
+                magnitudes.add(np.hypot(part.force[ok, 0], part.force[ok, 1]))
+
+        try:
+            for chunk in chunks:
+                write(estimator.update_chunk(chunk))
+        except KeyboardInterrupt:
+            if not follow:
+                raise
+            stopped = "interrupt"
+        write(estimator.finish())
+    if follow and stopped == "end":
+        stopped = "timeout"
+    sound = counts["sound"]
+    has_force = bool(model.robot.arm.wrench_axes)
+    return StreamSummary(
+        samples=counts["samples"],
+        sound=sound,
+        joint_names=model.robot.joint_names,
+        tau_ext_mean=totals / sound if sound else np.full(nj, np.nan),
+        force_median=magnitudes.median() if has_force else None,
+        stride=magnitudes.stride,
+        warnings=estimator.warnings,
+        blocks=estimator.blocks,
+        stopped=stopped,
+    )
