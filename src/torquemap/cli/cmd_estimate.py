@@ -19,9 +19,11 @@ from torquemap.cli.outputs import (
 )
 from torquemap.estimate import METHODS
 
-#: Logs larger than this [bytes] are read, estimated and written in blocks (bounded memory);
-#: smaller ones in one piece (the same numbers: docs/performance.md).
-STREAM_BYTES = 64 << 20
+#: Logs of more samples than this (Parquet: its row count; CSV: judged by its size, STREAM_BYTES)
+#: are read, estimated and written in blocks, in bounded memory; smaller ones in one piece (the
+#: same numbers, to rounding: docs/performance.md).
+STREAM_ROWS = 1 << 19
+STREAM_BYTES = 32 << 20
 
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
@@ -187,9 +189,14 @@ def _estimate(args: argparse.Namespace) -> int:
 
 
 def _large(path: str) -> bool:
+    p = Path(path)
     try:
-        return Path(path).stat().st_size > STREAM_BYTES
-    except OSError:
+        if p.suffix.lower() == ".parquet":
+            import pyarrow.parquet as pq
+
+            return bool(pq.ParquetFile(p).metadata.num_rows > STREAM_ROWS)
+        return p.stat().st_size > STREAM_BYTES
+    except Exception:  # unreadable: read_log says why, in one line
         return False
 
 
