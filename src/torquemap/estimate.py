@@ -562,9 +562,13 @@ def estimate_forces(
             reversal_band=reversal_band,
         )
         rows = piece.rows
+        # consecutive rows (no repeated stamp dropped): a slice, not a gather, per column
+        at: slice | NDArray[np.int64] = rows
+        if rows.size and int(rows[-1]) - int(rows[0]) == rows.size - 1:
+            at = slice(int(rows[0]), int(rows[-1]) + 1)
         for key in out:
-            out[key][rows] = part.arrays[key]
-        flag[rows] |= part.flag
+            out[key][at] = part.arrays[key]
+        flag[at] |= part.flag
         any_pass |= part.any_pass
         for k in range(nj):
             passes[k].extend(
