@@ -757,6 +757,7 @@ def _csv_header(p: Path) -> list[str]:
         line = raw.decode("utf-8")
     except UnicodeDecodeError:
         raise InputError("not UTF-8 text in the header; save the file as UTF-8", path=p) from None
+    line = line.removeprefix("\ufeff")  # a byte-order mark, as spreadsheets write
     return [name.strip().strip('"') for name in line.rstrip("\r\n").split(",")]
 
 
