@@ -226,7 +226,7 @@ def _estimate_in_blocks(args: argparse.Namespace, model: Any) -> int | None:
         chunks = follow_log_chunks(args.log, model.robot, timeout=args.follow_timeout)
     else:
         chunks = iter_log_chunks(args.log, model.robot)
-    if args.follow:
+    if args.follow and not getattr(args, "quiet", False):
         from torquemap.stream import ForceEstimator
 
         latency = ForceEstimator(
