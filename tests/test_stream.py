@@ -134,3 +134,15 @@ def test_epoch_stamps_give_the_same_answer_at_the_same_cost(model: Model, circle
     # the old irregular-time path cost 6.5-8.6x; the fast path costs the same, up to the noise
     # of a shared machine
     assert costs["epoch"] < 1.6 * costs["zero"]
+
+
+def test_the_summary_median_keeps_every_stride_th_value() -> None:
+    from torquemap.stream import _Decimated
+
+    values = np.random.default_rng(1).normal(size=10_000)
+    keep = _Decimated(cap=1000)
+    for a in range(0, values.size, 777):  # uneven parts: the phase must carry over
+        keep.add(values[a : a + 777])
+    assert keep.stride == 16  # 10000 values into at most 1000: halved four times
+    # exactly the median of every 16th value (an independent decimation of the whole)
+    assert keep.median() == np.median(values[::16])
