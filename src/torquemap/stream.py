@@ -105,8 +105,33 @@ def settling_time(
     return tail + max(bridge_reversals, hold, 0.0) + 2.0 * window + abs(delay)
 
 
+_ROW_FIELDS = (
+    "t",
+    "q",
+    "motor_angle",
+    "velocity",
+    "t_est",
+    "filtered",
+    "motor_external",
+    "tau_ext",
+    "force",
+    "flag",
+    "tau_ext_sigma",
+    "force_sigma",
+)
+
+
+def _compact(est: ForceEstimate) -> ForceEstimate:
+    """``est`` with its arrays copied: a slice must not keep its whole block's arrays alive."""
+    copies: dict[str, Any] = {}
+    for name in _ROW_FIELDS:
+        value = getattr(est, name)
+        copies[name] = None if value is None else np.array(value)
+    return dataclasses.replace(est, **copies)
+
+
 def _empty_like(est: ForceEstimate) -> ForceEstimate:
-    return _slice(est, 0, 0)
+    return _compact(_slice(est, 0, 0))
 
 
 def _slice(est: ForceEstimate, a: int, b: int) -> ForceEstimate:
@@ -461,7 +486,7 @@ class ForceEstimator:
                 self._warnings[key][1] += 1
             else:
                 self._warnings[key] = [w, 1]
-        part = _slice(est, a - lo, b - lo)
+        part = _compact(_slice(est, a - lo, b - lo))
         return dataclasses.replace(part, warnings=())
 
     def _empty(self) -> ForceEstimate:
@@ -510,27 +535,7 @@ def _concatenate(parts: list[ForceEstimate]) -> ForceEstimate:
         )
         for k in range(len(first.passes))
     )
-    return dataclasses.replace(
-        first,
-        **{
-            name: cat(name)
-            for name in (
-                "t",
-                "q",
-                "motor_angle",
-                "velocity",
-                "t_est",
-                "filtered",
-                "motor_external",
-                "tau_ext",
-                "force",
-                "flag",
-                "tau_ext_sigma",
-                "force_sigma",
-            )
-        },
-        passes=passes,
-    )
+    return dataclasses.replace(first, **{name: cat(name) for name in _ROW_FIELDS}, passes=passes)
 
 
 def estimate_in_chunks(
