@@ -40,7 +40,7 @@ from numpy.typing import NDArray
 
 from torquemap._callable import make_callable as _make_callable
 from torquemap.errors import InputError
-from torquemap.filters import differentiate, lowpass
+from torquemap.filters import differentiate_rates, lowpass
 from torquemap.io import Log
 from torquemap.model import Model, friction_torque, pdtv_torque
 from torquemap.pdtv import (
@@ -219,7 +219,7 @@ def _signal(
     for k, joint in enumerate(robot.joints):
         theta = joint.gear_ratio * log.q[:, k]
         try:
-            d = differentiate(log.t, theta, window=window)
+            d = differentiate_rates(log.t, theta, window=window)
         except InputError as exc:
             raise InputError(exc.message, path=log.path) from None
         jm = model.joints[joint.name]
@@ -308,8 +308,11 @@ def reversal_mask(
     if not slow.any():
         return slow
     idx = np.flatnonzero(slow)
-    lo = np.searchsorted(t, t[idx] - 0.5 * window, side="left")
-    hi = np.searchsorted(t, t[idx] + 0.5 * window, side="right")
+    # a sample half a window away, to within a hundredth of a step, is in: whether it lands a
+    # rounding error in or out would depend on the stamps' offset (Unix-epoch seconds)
+    reach = 0.5 * window + 0.01 * float(t[-1] - t[0]) / max(t.size - 1, 1)
+    lo = np.searchsorted(t, t[idx] - reach, side="left")
+    hi = np.searchsorted(t, t[idx] + reach, side="right")
     edges = np.zeros(t.size + 1, dtype=np.int64)
     np.add.at(edges, lo, 1)
     np.add.at(edges, hi, -1)
@@ -352,21 +355,25 @@ def bridge_gaps(
     out = values.copy()
     if gaps.all():
         return out
+    # ties (a sample exactly ``support`` away) are in, to a hundredth of a step, and times are
+    # taken from the run's start: the same answer for stamps from zero or Unix-epoch seconds
+    tie = 0.01 * float(t[-1] - t[0]) / max(t.size - 1, 1)
     for a, b in _gap_runs(gaps):
         if t[b - 1] - t[a] > longest or ((a == 0 or b == gaps.size) and not ends):
             continue
+        origin = t[a]
         sides_t, sides_v = [], []
         if a > 0:
-            a0 = min(int(np.searchsorted(t, t[a - 1] - support, side="left")), a - 1)
+            a0 = min(int(np.searchsorted(t, t[a - 1] - support - tie, side="left")), a - 1)
             keep = ~gaps[a0:a]
-            sides_t.append(t[a0:a][keep].mean())
+            sides_t.append((t[a0:a][keep] - origin).mean())
             sides_v.append(values[a0:a][keep].mean())
         if b < gaps.size:
-            b1 = max(int(np.searchsorted(t, t[b] + support, side="right")), b + 1)
+            b1 = max(int(np.searchsorted(t, t[b] + support + tie, side="right")), b + 1)
             keep = ~gaps[b:b1]
-            sides_t.append(t[b:b1][keep].mean())
+            sides_t.append((t[b:b1][keep] - origin).mean())
             sides_v.append(values[b:b1][keep].mean())
-        out[a:b] = np.interp(t[a:b], sides_t, sides_v)
+        out[a:b] = np.interp(t[a:b] - origin, sides_t, sides_v)
     return out
 
 
@@ -555,9 +562,13 @@ def estimate_forces(
             reversal_band=reversal_band,
         )
         rows = piece.rows
+        # consecutive rows (no repeated stamp dropped): a slice, not a gather, per column
+        at: slice | NDArray[np.int64] = rows
+        if rows.size and int(rows[-1]) - int(rows[0]) == rows.size - 1:
+            at = slice(int(rows[0]), int(rows[-1]) + 1)
         for key in out:
-            out[key][rows] = part.arrays[key]
-        flag[rows] |= part.flag
+            out[key][at] = part.arrays[key]
+        flag[at] |= part.flag
         any_pass |= part.any_pass
         for k in range(nj):
             passes[k].extend(
@@ -627,7 +638,13 @@ def _force_sigma(
     ok = ~singular & np.isfinite(q).all(axis=1) & np.isfinite(tau_sigma).all(axis=1)
     if ok.any():
         jt = np.swapaxes(np.asarray(arm.jacobian(q[ok]), dtype=np.float64), -1, -2)
-        m = np.linalg.pinv(jt)  # (n, axes, nj): F = m @ tau
+        if jt.shape[-2:] == (2, 2):  # the inverse in closed form: batched pinv is an SVD each
+            a, b, c, d = jt[:, 0, 0], jt[:, 0, 1], jt[:, 1, 0], jt[:, 1, 1]
+            det = a * d - b * c
+            m = np.stack([np.stack([d, -b], axis=-1), np.stack([-c, a], axis=-1)], axis=-2)
+            m /= det[:, None, None]
+        else:
+            m = np.asarray(np.linalg.pinv(jt), dtype=np.float64)  # (n, axes, nj): F = m @ tau
         out[ok] = np.sqrt(np.einsum("nij,nj->ni", m**2, tau_sigma[ok] ** 2))
     return out
 
@@ -944,6 +961,16 @@ def forces_columns(estimate: ForceEstimate) -> dict[str, NDArray[Any]]:
             cols[f"{axis}_sigma"] = estimate.force_sigma[:, a]
     cols["flag"] = estimate.flag
     return cols
+
+
+def __getattr__(name: str) -> Any:
+    """``ForceEstimator``, the streaming estimator, lives in :mod:`torquemap.stream` (which
+    imports this module): it is imported on first use."""
+    if name == "ForceEstimator":
+        from torquemap.stream import ForceEstimator
+
+        return ForceEstimator
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 # ``torquemap.estimate(...)`` calls :func:`torquemap.api.estimate` (the module stays a module).

@@ -113,10 +113,11 @@ def differentiate(t: ArrayLike, x: ArrayLike, *, window: float) -> Derivatives:
         raise InputError(
             f"{n} samples: differentiation needs at least {MIN_WINDOW_SAMPLES} samples"
         )
-    h = uniform_step(tt)
-    half = math.floor(w / (2 * h) + 1e-9)
-    if half >= 2 and 2 * half + 1 <= n and np.allclose(np.diff(tt), h, rtol=1e-9, atol=0.0):
-        return _differentiate_uniform(xx, h, 2 * half + 1)
+    h = regular_step(tt, rtol=1e-9)
+    if h is not None:
+        half = math.floor(w / (2 * h) + 1e-9)
+        if half >= 2 and 2 * half + 1 <= n:
+            return _differentiate_uniform(xx, h, 2 * half + 1)
     lo, hi = _windows(tt, w)
     two_d = xx.ndim == 2
     x2 = xx if two_d else xx[:, None]
@@ -192,6 +193,96 @@ def _differentiate_uniform(x: NDArray[np.float64], h: float, length: int) -> Der
     )
 
 
+@dataclass(frozen=True, slots=True, eq=False)
+class Rates:
+    """The velocity and acceleration of a signal, from :func:`differentiate_rates`.
+
+    Attributes
+    ----------
+    velocity
+        First derivative, shaped like the signal [unit/s].
+    acceleration
+        Second derivative, shaped like the signal [unit/s^2].
+    """
+
+    velocity: NDArray[np.float64]
+    acceleration: NDArray[np.float64]
+
+
+def differentiate_rates(t: ArrayLike, x: ArrayLike, *, window: float) -> Rates:
+    """:func:`differentiate` for its two derivatives only, at about a third of its cost.
+
+    The same local quadratic fit. On a uniform grid the two Savitzky-Golay kernels are applied
+    by direct (not FFT) convolution and the smoothed position is not computed; the results
+    equal :func:`differentiate`'s to floating-point rounding (the sums run in another order).
+    Irregular time takes :func:`differentiate` itself.
+
+    Parameters
+    ----------
+    t
+        Time [s], strictly increasing, shape (n,).
+    x
+        Signal [unit], shape (n,) or (n, m).
+    window
+        Window length [s] (:func:`differentiate`).
+
+    Returns
+    -------
+    Rates
+        Velocity [unit/s] and acceleration [unit/s^2], each shaped like ``x``.
+
+    Raises
+    ------
+    InputError
+        As :func:`differentiate`.
+
+    Examples
+    --------
+    >>> t = np.linspace(0.0, 1.0, 101)
+    >>> r = differentiate_rates(t, 3.0 * t**2, window=0.1)
+    >>> round(float(r.velocity[50]), 9), round(float(r.acceleration[0]), 9)
+    (3.0, 6.0)
+    """
+    tt, xx = _time_and_values(t, x)
+    w = float(window)
+    n = tt.size
+    h = regular_step(tt, rtol=1e-9)
+    if h is not None and np.isfinite(w) and w > 0 and tt[-1] - tt[0] >= w:
+        half = math.floor(w / (2 * h) + 1e-9)
+        if half >= 2 and 2 * half + 1 <= n and n >= MIN_WINDOW_SAMPLES:
+            return _rates_uniform(xx, h, 2 * half + 1)
+    d = differentiate(tt, xx, window=w)
+    return Rates(velocity=d.velocity, acceleration=d.acceleration)
+
+
+def _rates_uniform(x: NDArray[np.float64], h: float, length: int) -> Rates:
+    """Savitzky-Golay velocity and acceleration of ``length`` samples (``mode="interp"``)."""
+    from scipy import signal
+
+    half = length // 2
+    # the fit of the first and last window, evaluated at their outer halves (scipy's "interp")
+    s = np.arange(length, dtype=np.float64) - half
+    fit = np.linalg.pinv(np.vander(s, 3, increasing=True))  # (3, length): 1, s, s^2 from x
+    head_s, tail_s = s[:half], s[half + 1 :]
+    columns = x[:, None] if x.ndim == 1 else x
+    out: list[NDArray[np.float64]] = []
+    for deriv in (1, 2):
+        kernel = signal.savgol_coeffs(length, 2, deriv=deriv, delta=h, use="conv")
+        if deriv == 1:
+            head = (fit[1][None, :] + 2.0 * head_s[:, None] * fit[2][None, :]) / h
+            tail = (fit[1][None, :] + 2.0 * tail_s[:, None] * fit[2][None, :]) / h
+        else:
+            head = tail = np.repeat(2.0 * fit[2][None, :] / h**2, half, axis=0)
+        result = np.empty(columns.shape)
+        for k in range(columns.shape[1]):
+            y = columns[:, k] - columns[0, k]
+            result[half:-half, k] = np.convolve(y, kernel, mode="valid")
+            result[:half, k] = head @ y[:length]
+            result[-half:, k] = tail @ y[-length:]
+        out.append(result[:, 0] if x.ndim == 1 else result)
+    return Rates(velocity=out[0], acceleration=out[1])
+
+
 def smooth_as_acceleration(t: ArrayLike, x: ArrayLike, *, window: float) -> NDArray[np.float64]:
     """Smooth a signal with the kernel through which :func:`differentiate` sees acceleration.
 
@@ -247,6 +338,73 @@ def uniform_step(t: NDArray[np.float64]) -> float:
     return float(np.median(np.diff(t)))
 
 
+def regular_step(t: NDArray[np.float64], *, rtol: float = 1e-9) -> float | None:
+    """The step [s] of ``t`` if it is uniform, else None.
+
+    Uniform means every step equals the mean step ``(t[-1] - t[0]) / (n - 1)`` within ``rtol``
+    of it plus the resolution of the stamps themselves: a stamp is a float64 and holds its
+    value to half a unit in the last place (2.4e-7 s at Unix-epoch seconds, 4.5e-13 s past
+    4096 s), so the difference of two stamps of a perfectly regular log is off by up to one
+    unit in the last place of the largest stamp. Testing against ``rtol`` alone would call a
+    log stamped in Unix-epoch seconds irregular on its rounding alone. The mean step is
+    returned (:func:`round_step`): it is exact to that resolution divided by ``n - 1``, while
+    a single step (or the median) carries the full rounding of two stamps.
+
+    Parameters
+    ----------
+    t
+        Time [s], shape (n,), n >= 2.
+    rtol
+        Relative tolerance on each step.
+
+    Returns
+    -------
+    float or None
+        The step [s], or None when the steps differ by more than the tolerance.
+
+    Examples
+    --------
+    >>> regular_step(1.7e9 + 5e-4 * np.arange(1000))
+    0.0005
+    >>> regular_step(np.array([0.0, 1.0, 2.5])) is None
+    True
+    """
+    n = t.size
+    if n < 2:
+        return None
+    h = float(t[-1] - t[0]) / (n - 1)
+    if not h > 0:
+        return None
+    resolution = float(np.spacing(max(abs(float(t[0])), abs(float(t[-1])))))
+    tol = rtol * h + 2.0 * resolution
+    step = np.diff(t)
+    if float(step.max()) - h > tol or h - float(step.min()) > tol:
+        return None
+    return round_step(h, resolution=resolution, n=n)
+
+
+def round_step(h: float, *, resolution: float, n: int) -> float:
+    """The shortest decimal within the error of a mean step ``h`` [s] of ``n`` stamps.
+
+    Stamps are held to ``resolution`` [s], so their mean step to about
+    ``2 resolution / (n - 1)``: a log stamped at 2 kHz from 1.7e9 s has a mean step of
+    0.0005 give or take 1e-13 s. Any value within that error is as good as ``h``; the
+    shortest decimal among them is what a zero-based log of the same rate yields too, so the
+    two are processed with the same step, to the bit.
+
+    Examples
+    --------
+    >>> round_step(0.000500000000009, resolution=2.4e-7, n=4_000_000)
+    0.0005
+    """
+    tol = 2.0 * resolution / max(n - 1, 1)
+    for digits in range(1, 18):
+        rounded = float(f"{h:.{digits}g}")
+        if abs(rounded - h) <= tol:
+            return rounded
+    return h
+
+
 def lowpass(t: ArrayLike, x: ArrayLike, *, cutoff: float, order: int = 2) -> NDArray[np.float64]:
     """Zero-phase Butterworth low-pass filter.
 
@@ -289,14 +447,15 @@ def lowpass(t: ArrayLike, x: ArrayLike, *, cutoff: float, order: int = 2) -> NDA
     tt, xx = _time_and_values(t, x)
     if order < 1:
         raise InputError(f"filter order must be >= 1, got {order}")
-    h = uniform_step(tt)
+    step = regular_step(tt, rtol=1e-6)
+    regular = step is not None
+    h = uniform_step(tt) if step is None else step
     nyquist = 0.5 / h
     if not (0 < cutoff < nyquist):
         raise InputError(
             f"low-pass cut-off {cutoff:.6g} Hz must be in (0, {nyquist:.6g}) Hz (Nyquist of the "
             "median sampling step)"
         )
-    regular = bool(np.allclose(np.diff(tt), h, rtol=1e-6, atol=0.0))
     if regular:
         grid, values = tt, xx
     else:

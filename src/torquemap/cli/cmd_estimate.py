@@ -19,6 +19,12 @@ from torquemap.cli.outputs import (
 )
 from torquemap.estimate import METHODS
 
+#: Logs of more samples than this (Parquet: its row count; CSV: judged by its size, STREAM_BYTES)
+#: are read, estimated and written in blocks, in bounded memory; smaller ones in one piece (the
+#: same numbers, to rounding: docs/performance.md).
+STREAM_ROWS = 1 << 19
+STREAM_BYTES = 32 << 20
+
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add ``estimate`` to subparsers."""
@@ -92,6 +98,21 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         default=None,
         help="also plot the estimated torques (and forces) against time (.png, .svg or .pdf)",
     )
+    p.add_argument(
+        "--follow",
+        action="store_true",
+        help="LOG is a CSV still being written: read it as it grows and write each row once "
+        "its filters have settled (the latency is printed); stop after --follow-timeout "
+        "seconds without growth or on Ctrl-C (model, lowpass or raw method; .csv or .parquet "
+        "output, renamed into place when reading stops)",
+    )
+    p.add_argument(
+        "--follow-timeout",
+        type=float_in(0.0, low_open=True),
+        default=10.0,
+        metavar="S",
+        help="with --follow: stop when the log has not grown for S seconds (default 10)",
+    )
     p.set_defaults(handler=_estimate)
 
 
@@ -126,6 +147,10 @@ def _estimate(args: argparse.Namespace) -> int:
             f"--method {args.method} needs an arm with a URDF (kinematics = 'urdf')",
             path=args.model,
         )
+    if args.follow or _large(args.log):
+        streamed = _estimate_in_blocks(args, model)
+        if streamed is not None:
+            return streamed
     log = args.progress.run("read the log", lambda: read_log(args.log, model.robot))
     est = args.progress.run(
         f"estimate ({args.method} method)",
@@ -158,6 +183,82 @@ def _estimate(args: argparse.Namespace) -> int:
     if est.force is not None and ok.any():
         mag = np.hypot(est.force[ok, 0], est.force[ok, 1])
         parts.append(f"|F| median {np.median(mag):.4g} N")
+    print(f"{args.method}: " + ", ".join(parts))
+    print(f"wrote {args.output}")
+    return 0
+
+
+def _large(path: str) -> bool:
+    p = Path(path)
+    try:
+        if p.suffix.lower() == ".parquet":
+            import pyarrow.parquet as pq
+
+            return bool(pq.ParquetFile(p).metadata.num_rows > STREAM_ROWS)
+        return p.stat().st_size > STREAM_BYTES
+    except Exception:  # unreadable: read_log says why, in one line
+        return False
+
+
+def _estimate_in_blocks(args: argparse.Namespace, model: Any) -> int | None:
+    """Estimate a large or growing log in blocks (None: this run needs the whole log)."""
+    from torquemap.errors import InputError
+
+    blockwise = (
+        args.method in ("model", "lowpass", "raw")
+        and not args.figure
+        and Path(args.output).suffix.lower() in (".csv", ".parquet")
+    )
+    if not blockwise:
+        if args.follow:
+            raise InputError(
+                "--follow estimates with the model, lowpass or raw method into a .csv or "
+                ".parquet table, without --figure",
+                path=args.log,
+            )
+        return None
+    import numpy as np
+
+    from torquemap.io import follow_log_chunks, iter_log_chunks
+    from torquemap.stream import estimate_to_file
+
+    if args.follow:
+        chunks = follow_log_chunks(args.log, model.robot, timeout=args.follow_timeout)
+    else:
+        chunks = iter_log_chunks(args.log, model.robot)
+    if args.follow and not getattr(args, "quiet", False):
+        from torquemap.stream import ForceEstimator
+
+        latency = ForceEstimator(
+            model, method=args.method, cutoff=args.cutoff, window=args.window
+        ).latency
+        print(
+            f"following {args.log}: rows written {latency:.3g} s of log time after they arrive",
+            file=sys.stderr,
+        )
+    summary = args.progress.run(
+        f"estimate in blocks ({args.method} method)",
+        lambda: estimate_to_file(
+            model,
+            chunks,
+            args.output,
+            method=args.method,
+            cutoff=args.cutoff,
+            window=args.window,
+            reversal_band=args.reversal_band,
+            follow=args.follow,
+            path=str(args.log),
+        ),
+    )
+    for w in summary.warnings:
+        print(f"torquemap: warning: {w}", file=sys.stderr)
+    parts = [f"{summary.sound}/{summary.samples} samples sound"]
+    if summary.sound:
+        for k, name in enumerate(summary.joint_names):
+            parts.append(f"tau_ext_{name} mean {summary.tau_ext_mean[k]:+.4g} N m")
+    if summary.force_median is not None and np.isfinite(summary.force_median):
+        approx = "" if summary.stride == 1 else "~"
+        parts.append(f"|F| median {approx}{summary.force_median:.4g} N")
     print(f"{args.method}: " + ", ".join(parts))
     print(f"wrote {args.output}")
     return 0

@@ -1,0 +1,116 @@
+"""Logs read in chunks (iter_log_chunks), followed as they grow, and tables written in parts."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.testing import assert_array_equal
+
+from torquemap.errors import InputError
+from torquemap.io import (
+    follow_log_chunks,
+    iter_log_chunks,
+    read_log,
+    read_table,
+    table_stream,
+    write_table,
+)
+from torquemap.robot import Joint, Robot
+
+COUNTS = Robot(
+    name="m", kinematics="none", link_lengths=(), joints=(Joint("m", 50.0, 0.5, 8192, "counts"),)
+)
+
+
+def _counts_log(n: int = 5000) -> dict[str, np.ndarray]:
+    t = np.arange(n) * 1e-3
+    motor_angle = 0.3 + 20.0 * np.sin(0.8 * t) + 9.0 * t  # several revolutions, both ways
+    counts = np.floor(motor_angle / (2 * math.pi / 8192))
+    return {"t": t, "q_m": np.mod(counts, 8192), "i_m": np.cos(t)}
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_chunks_join_to_the_whole_log(tmp_path: Path, suffix: str) -> None:
+    p = tmp_path / f"log{suffix}"
+    write_table(p, _counts_log())
+    whole = read_log(p, COUNTS)
+    chunks = list(iter_log_chunks(p, COUNTS, rows=700))
+    assert len(chunks) >= 3  # the wrapped register crosses chunk boundaries
+    assert [c.first_row for c in chunks] == list(np.cumsum([0] + [c.t.size for c in chunks])[:-1])
+    # the same parse, and unwrapping carried across chunks: equal to the bit
+    assert_array_equal(np.concatenate([c.t for c in chunks]), whole.t)
+    assert_array_equal(np.concatenate([c.q for c in chunks]), whole.q)
+    assert_array_equal(np.concatenate([c.motor_torque for c in chunks]), whole.motor_torque)
+
+
+def test_a_fault_in_a_later_chunk_names_its_row_in_the_file(tmp_path: Path) -> None:
+    cols = _counts_log(3000)
+    cols["t"][2500] = cols["t"][2498]  # time goes back at data row 2501
+    p = tmp_path / "log.parquet"
+    write_table(p, cols)
+    with pytest.raises(InputError, match="goes backwards \\(at data row 2501\\)"):
+        list(iter_log_chunks(p, COUNTS, rows=1000))
+    with pytest.raises(InputError, match="goes backwards \\(at data row 2501\\)"):
+        read_log(p, COUNTS)
+    cols = _counts_log(3000)
+    cols["i_m"][2100] = np.nan
+    write_table(p, cols)
+    with pytest.raises(InputError, match="first at data row 2101"):
+        list(iter_log_chunks(p, COUNTS, rows=1000))
+    write_table(p, {"t": cols["t"], "q_m": cols["q_m"]})
+    with pytest.raises(InputError, match="missing column 'i_m' or 'tau_m'"):
+        list(iter_log_chunks(p, COUNTS))
+
+
+def test_a_followed_log_is_read_as_it_grows(tmp_path: Path) -> None:
+    cols = _counts_log(3000)
+    p = tmp_path / "full.csv"
+    write_table(p, cols)
+    text = p.read_bytes()
+    header_end = text.index(b"\n") + 1
+    # another program writes the log in uneven pieces, cutting lines in the middle
+    cuts = [header_end, 500, 20000, 20001, 45000, len(text)]
+    growing = tmp_path / "growing.csv"
+    growing.write_bytes(text[: cuts[0]])
+    pieces = iter(cuts[1:])
+    waits = []
+
+    def sleep(seconds: float) -> None:
+        waits.append(seconds)
+        end = next(pieces, None)
+        if end is not None:
+            growing.write_bytes(text[:end])
+
+    got = list(follow_log_chunks(growing, COUNTS, poll=0.5, timeout=2.0, sleep=sleep))
+    whole = read_log(p, COUNTS)
+    assert_array_equal(np.concatenate([c.t for c in got]), whole.t)
+    assert_array_equal(np.concatenate([c.q for c in got]), whole.q)
+    # it stops after the timeout without growth: 4 polls of 0.5 s after the last piece
+    assert sum(waits[-4:]) == pytest.approx(2.0)
+    with pytest.raises(InputError, match="growing CSV"):
+        list(follow_log_chunks(tmp_path / "x.parquet", COUNTS))
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_a_table_written_in_parts_equals_one_written_whole(tmp_path: Path, suffix: str) -> None:
+    cols = {"t": np.arange(10) * 0.1, "x": np.sin(np.arange(10)), "flag": np.arange(10)}
+    write_table(tmp_path / f"whole{suffix}", cols)
+    with table_stream(tmp_path / f"parts{suffix}") as append:
+        for a, b in ((0, 3), (3, 3), (3, 10)):
+            append({k: v[a:b] for k, v in cols.items()})
+    if suffix == ".csv":
+        assert (tmp_path / "parts.csv").read_bytes() == (tmp_path / "whole.csv").read_bytes()
+    got = read_table(tmp_path / f"parts{suffix}")
+    for k, v in cols.items():
+        assert_array_equal(got[k], v)
+
+
+def test_a_failed_stream_leaves_no_file(tmp_path: Path) -> None:
+    out = tmp_path / "out.csv"
+    with pytest.raises(RuntimeError), table_stream(out) as append:
+        append({"a": np.arange(3.0)})
+        raise RuntimeError("disk full")
+    assert list(tmp_path.iterdir()) == []
