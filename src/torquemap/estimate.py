@@ -539,6 +539,9 @@ def estimate_forces(
         )
         flag[near] |= FLAG_GAP
     warnings: list[str] = list(clean.warnings)
+    from torquemap.vertical import model_gravity_warnings
+
+    warnings += model_gravity_warnings(model)
     passes: list[list[Pass]] = [[] for _ in range(nj)]
     any_pass = False
     for piece in clean.pieces:
