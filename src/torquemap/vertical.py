@@ -31,7 +31,7 @@ import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -137,8 +137,82 @@ def _coulomb(model: Model, joint: str) -> float:
     return 0.5 * (abs(up) + abs(down))
 
 
+@dataclass(frozen=True, slots=True, eq=False)
+class ResidualPiece:
+    """One contiguous stretch of a no-load log, seen by a model (one joint).
+
+    Attributes
+    ----------
+    t
+        Time [s], shape (m,).
+    q
+        Joint angles of the whole robot [rad], shape (m, nj).
+    velocity
+        Motor velocity [rad/s], shape (m,).
+    angle
+        Motor angle [rad], shape (m,).
+    eq7
+        The Eq 7 signal (motor torque minus inertia and friction) [N m, motor side], shape (m,).
+    acceleration
+        Motor acceleration [rad/s^2], shape (m,).
+    """
+
+    t: NDArray[np.float64]
+    q: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+    angle: NDArray[np.float64]
+    eq7: NDArray[np.float64]
+    acceleration: NDArray[np.float64]
+
+
+def no_load_residuals(
+    model: Model, logs: Sequence[Log], *, window: float, shortest: float = 1.5
+) -> dict[str, list[ResidualPiece]]:
+    """Per joint, the Eq 7 signal of ``model`` over the (sanitised) no-load ``logs``, the torque
+    channel's identified delay undone; pieces shorter than ``shortest`` [s] left out."""
+    from torquemap.delay import shift_channel
+    from torquemap.estimate import _signal, identified_delays
+    from torquemap.sanitize import sanitize_log
+
+    delays = identified_delays(model)
+    robot = model.robot
+    out: dict[str, list[ResidualPiece]] = {n: [] for n in robot.joint_names}
+    for log in logs:
+        for piece in sanitize_log(log, window=window).pieces:
+            plog = piece.log
+            if float(plog.t[-1] - plog.t[0]) < shortest:
+                continue
+            if any(delays.get(name, 0.0) for name in robot.joint_names):
+                tau = plog.motor_torque.copy()
+                for k, name in enumerate(robot.joint_names):
+                    if delays.get(name, 0.0):
+                        tau[:, k] = shift_channel(plog.t, tau[:, k], delays[name])
+                plog = dataclasses.replace(plog, motor_torque=tau)
+            try:
+                t_est, angle, velocity, acceleration = _signal(model, plog, window=window)
+            except InputError:
+                continue
+            for k, name in enumerate(robot.joint_names):
+                out[name].append(
+                    ResidualPiece(
+                        t=plog.t,
+                        q=plog.q,
+                        velocity=velocity[:, k],
+                        angle=angle[:, k],
+                        eq7=t_est[:, k],
+                        acceleration=acceleration[:, k],
+                    )
+                )
+    return out
+
+
 def check_no_load(
-    model: Model, logs: Sequence[Log], *, window: float, joints: Sequence[str] | None = None
+    model: Model,
+    logs: Sequence[Log],
+    *,
+    window: float,
+    joints: Sequence[str] | None = None,
+    residuals: Mapping[str, list[ResidualPiece]] | None = None,
 ) -> tuple[GravityCheck, ...]:
     """Test each joint's no-load torque for a gravity-like component the model cannot explain.
 
@@ -152,57 +226,39 @@ def check_no_load(
         Differentiator window [s].
     joints
         Joints to test; default all.
+    residuals
+        :func:`no_load_residuals` of ``model`` and ``logs`` when already computed.
 
     Returns
     -------
     tuple of GravityCheck
         One per tested joint, in the robot's order.
     """
-    from torquemap.delay import shift_channel
-    from torquemap.estimate import estimation_signal, identified_delays
-    from torquemap.sanitize import sanitize_log
-
-    delays = identified_delays(model)
-
     robot = model.robot
     planar = robot.arm.kind == "planar2r"
     names = robot.joint_names if joints is None else tuple(joints)
-    rows: dict[str, list[tuple[NDArray[np.float64], ...]]] = {n: [] for n in names}
-    for log in logs:
-        for piece in sanitize_log(log, window=window).pieces:
-            plog = piece.log
-            if float(plog.t[-1] - plog.t[0]) < 3.0 / CUTOFF:
-                continue
-            if any(delays.get(name, 0.0) for name in robot.joint_names):
-                tau = plog.motor_torque.copy()
-                for k, name in enumerate(robot.joint_names):
-                    if delays.get(name, 0.0):
-                        tau[:, k] = shift_channel(plog.t, tau[:, k], delays[name])
-                plog = dataclasses.replace(plog, motor_torque=tau)
-            try:
-                t_est, angle, velocity = estimation_signal(model, plog, window=window)
-            except InputError:
-                continue
-            for k, joint in enumerate(robot.joints):
-                if joint.name not in rows:
-                    continue
-                jm = model.joints[joint.name]
-                v = velocity[:, k]
-                # a line slower than one cycle per motor revolution is no motor-angle PDTV
-                # (cogging, eccentricity): it may be gravity the line picking took for one
-                lines = tuple(line for line in jm.pdtv if line.order >= MIN_ORDER)
-                residual = t_est[:, k] - pdtv_torque(angle[:, k], lines, velocity=v)
-                try:
-                    low = lowpass(plog.t, residual, cutoff=CUTOFF)
-                    v_low = lowpass(plog.t, v, cutoff=CUTOFF)
-                except InputError:
-                    continue
-                rows[joint.name].append((plog.t, plog.q, v, v_low, low))
+    if residuals is None:
+        residuals = no_load_residuals(model, logs, window=window)
     out: list[GravityCheck] = []
     for k, joint in enumerate(robot.joints):
-        if joint.name not in rows:
+        if joint.name not in names:
             continue
-        out.append(_test_joint(model, joint.name, k, rows[joint.name], planar))
+        jm = model.joints[joint.name]
+        # a line slower than one cycle per motor revolution is no motor-angle PDTV (cogging,
+        # eccentricity): it may be gravity the line picking took for one
+        lines = tuple(line for line in jm.pdtv if line.order >= MIN_ORDER)
+        rows: list[tuple[NDArray[np.float64], ...]] = []
+        for p in residuals.get(joint.name, []):
+            if float(p.t[-1] - p.t[0]) < 3.0 / CUTOFF:
+                continue
+            residual = p.eq7 - pdtv_torque(p.angle, lines, velocity=p.velocity)
+            try:
+                low = lowpass(p.t, residual, cutoff=CUTOFF)
+                v_low = lowpass(p.t, p.velocity, cutoff=CUTOFF)
+            except InputError:
+                continue
+            rows.append((p.t, p.q, p.velocity, v_low, low))
+        out.append(_test_joint(model, joint.name, k, rows, planar))
     return tuple(out)
 
 
@@ -278,10 +334,14 @@ def checked_identification(
 ) -> Identification:
     """Run :func:`check_no_load` on an identification's model and its (sanitised) logs:
     refuse (``vertical="refuse"``, InputError naming ``path``) or warn, and record the result
-    in the model's notes. Used by :func:`torquemap.identify.identify_model` for every friction
-    method."""
+    in the model's notes; for joints without a parameter covariance, also record the no-load
+    residual's level per speed (:func:`torquemap.uncertainty.residual_table`), estimation's
+    sigma. Used by :func:`torquemap.identify.identify_model` for every friction method."""
     model = ident.model
-    checks = check_no_load(model, logs, window=window, joints=tuple(ident.joints))
+    residuals = no_load_residuals(model, logs, window=window)
+    checks = check_no_load(
+        model, logs, window=window, joints=tuple(ident.joints), residuals=residuals
+    )
     for c in checks:
         if vertical == "refuse" and c.refuses:
             raise InputError(c.message(), path=path)
@@ -294,9 +354,30 @@ def checked_identification(
     }
     added = [c.message() for c in checks if c.warns and c.joint not in said]
     notes = dict(model.notes)
-    joints = {k: dict(v) for k, v in notes.get("joints", {}).items()}
+    joints: dict[str, dict[str, Any]] = {k: dict(v) for k, v in notes.get("joints", {}).items()}
     for name, entry in gravity_notes(checks).items():
         joints.setdefault(name, {}).update(entry)
+    # joints without a parameter covariance (the pass method, a whole fit that fell back to
+    # it): the no-load residual's level per speed is their estimate's uncertainty
+    from torquemap.estimate import _bands
+    from torquemap.uncertainty import residual_table
+
+    bands = _bands(dataclasses.replace(model, notes=notes), None)
+    for name in ident.joints:
+        record = joints.setdefault(name, {})
+        if "uncertainty" in record:
+            continue
+        lines = model.joints[name].pdtv
+        pieces = residuals.get(name, [])
+        table = residual_table(
+            [p.t for p in pieces],
+            [p.velocity for p in pieces],
+            [p.acceleration for p in pieces],
+            [p.eq7 - pdtv_torque(p.angle, lines, velocity=p.velocity) for p in pieces],
+            band=bands[name],
+        )
+        if table is not None:
+            record["uncertainty"] = table
     notes["joints"] = joints
     warnings = [*ident.warnings, *(w for w in added if w not in ident.warnings)]
     notes["warnings"] = list(warnings)
