@@ -838,8 +838,8 @@ def check_answered(
         )
         raise InputError(
             "at every sample of the log some joint moves slower than its reversal band "
-            f"(motor side: {listed}), where this model's friction is undetermined (it was "
-            "identified from passes at steady speeds): record every joint moving faster than "
+            f"(motor side: {listed}), where this model's friction is undetermined (it has "
+            "no friction law through zero speed): record every joint moving faster than "
             "that, or identify the model with --friction whole (friction through zero speed)",
             path=path,
         )
