@@ -56,6 +56,8 @@ from torquemap.sim.truth_law import TrueFriction
 
 METHODS = ("model", "paper", "passes", "oracle")
 HAS_PASSES = "friction" in inspect.signature(identify_model).parameters
+#: ``identify --friction`` of the default identification (``--friction`` of this script).
+DEFAULT_FRICTION: dict[str, str] = {}
 
 
 # -- table 1: the paper's bench ------------------------------------------------------------
@@ -192,7 +194,7 @@ def family_robot(seed: int, cutoff: float) -> dict[str, Any]:
     )
     models: dict[str, Model | str] = {"oracle": oracle}
     times = {}
-    for key, kw in (("default", {}), ("passes", {"friction": "passes"})):
+    for key, kw in (("default", DEFAULT_FRICTION), ("passes", {"friction": "passes"})):
         if key == "passes" and not HAS_PASSES:
             models["passes"] = models["default"]
             continue
@@ -352,7 +354,15 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="6 robots unless --robots")
     parser.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
     parser.add_argument("--no-paper", action="store_true", help="skip table 1")
+    parser.add_argument(
+        "--friction",
+        choices=("default", "whole", "passes"),
+        default="default",
+        help="identification of the model and paper columns (default: identify's default)",
+    )
     args = parser.parse_args()
+    if args.friction != "default":
+        DEFAULT_FRICTION["friction"] = args.friction  # inherited by the forked workers
     robots = args.robots if args.robots is not None else (6 if args.quick else 20)
     tasks: list[tuple[str, int, float]] = []
     if not args.no_paper:

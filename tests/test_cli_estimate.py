@@ -196,3 +196,39 @@ def test_every_sample_answered_with_honest_sigmas(
     assert 0.90 <= share <= 0.99
     # every sample scored, standstill at both ends included: under 3 % of the 3.5 N spring
     assert force_error(np.c_[out["fx"], out["fy"]], np.c_[truth["fx"], truth["fy"]]).rms < 0.105
+
+
+def test_logs_of_another_robot_too_slow_or_too_sparse(
+    scara_bench: Path,
+    identified: Path,
+    scara_model: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # issue 12, bad input: one line saying what is missing and what to record instead
+    circle = read_table(scara_bench / "circle.csv")
+    out = tmp_path / "out.csv"
+    other = {("q_x" if k == "q_a" else "i_x" if k == "i_a" else k): v for k, v in circle.items()}
+    write_table(tmp_path / "other.csv", other)
+    err = _bad(["estimate", str(identified), str(tmp_path / "other.csv"), "-o", str(out)], capsys)
+    assert "another robot" in err and "(x)" in err and "(a, b)" in err
+    assert not out.exists()
+    # the arm holding still: a pass-method model knows friction only above its slowest pass
+    n = 4000
+    still = {k: np.array(v[:n]) for k, v in circle.items()}
+    still["q_a"][:] = still["q_a"][0]
+    still["q_b"][:] = still["q_b"][0]
+    write_table(tmp_path / "still.csv", still)
+    err = _bad(["estimate", str(identified), str(tmp_path / "still.csv"), "-o", str(out)], capsys)
+    assert "slower than its reversal band" in err and "--friction whole" in err
+    assert not out.exists()
+    # a model that knows friction through zero answers it
+    held = _run(scara_model, tmp_path / "still.csv", out)
+    assert np.all(held["flag"] == 0)
+    # 40 Hz: fewer than 5 samples per 0.05 s differentiator window, answered with a warning
+    sparse = {k: np.array(v[::50]) for k, v in circle.items()}
+    write_table(tmp_path / "sparse.csv", sparse)
+    capsys.readouterr()
+    assert main(["estimate", str(identified), str(tmp_path / "sparse.csv"), "-o", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "median sample interval 0.025 s" in err and "record at 80 Hz or more" in err

@@ -396,3 +396,45 @@ def test_retyped_parquet_logs(clean: Clean, column: str, arrow_type: str, nulls:
                 str(d / "f.csv")]  # fmt: skip
         status, err = _run(argv)
         assert_clean_outcome(status, err, argv)
+
+
+@pytest.mark.parametrize("kind", ["1000 s gap", "position jump", "1e6 A", "1e300 A"])
+def test_the_issue_cases_from_the_cli(clean: Clean, kind: str) -> None:
+    """Issue 15 item 3, end to end: a 1000 s gap in ``t``, a position jump beyond the robot's
+    speed (that persists), one current of 1e6 A or 1e300 A, in the middle of the log.
+
+    Exit 0 (or, for 1e300 A, the reader's one-line refusal naming the row), the event's samples flagged, and every sample flagged sound farther than the
+    filters' support (0.05 s + 1 / 2 Hz) from the event within 0.02 N m of the clean run (the
+    tolerance of the test above). After a persistent jump the angles themselves are off, so
+    only the samples before it are compared.
+    """
+    columns = read_table(clean["log.csv"])
+    row = 750
+    columns = {k: np.array(v, dtype=np.float64) for k, v in columns.items()}
+    if kind == "1000 s gap":
+        columns["t"][row:] += 1000.0
+    elif kind == "position jump":
+        columns["q_a"][row:] += 0.5  # 0.5 rad in 2 ms: 250 rad/s at the joint
+    else:
+        columns["i_b"][row] = float(kind.split()[0])
+    with _scratch() as d:
+        write_table(d / "log.csv", columns)
+        argv = _commands(clean.folder, d, **{"log.csv": d / "log.csv"})[1]
+        status, err = _run(argv)
+        if kind == "1e300 A" and status != 0:  # the reader refuses currents beyond 1e15 A
+            assert_clean_outcome(status, err, argv)
+            assert "data row 751" in err
+            return
+        assert status == 0, err
+        got, want = read_table(d / "forces.csv"), read_table(clean["out"] / "forces.csv")
+    t = want["t"]
+    assert got["flag"][row] != 0 or got["flag"][row - 1] != 0
+    far = np.abs(t - t[row]) > 0.05 + 1 / 2.0
+    if kind == "position jump":
+        far &= t < t[row]
+        assert "jumps" in err
+    sound = (got["flag"] == 0) & (want["flag"] == 0) & far
+    assert sound.sum() > 0.5 * far.sum()
+    for name in ("tau_ext_a", "tau_ext_b"):
+        assert np.all(np.isfinite(got[name][got["flag"] == 0])), name
+        assert np.all(np.abs(got[name][sound] - want[name][sound]) <= 0.02), name

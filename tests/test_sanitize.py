@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from torquemap.io import Log
@@ -56,3 +58,22 @@ def test_gaps_the_filters_bridge_do_not_cut() -> None:
     clean = sanitize_log(_log(t, 0.1 * t, np.sin(t)), window=0.05)
     assert max_gap_for(0.05) >= 0.1
     assert len(clean.pieces) == 1 and not clean.unprocessed.any()
+
+
+def test_a_persistent_angle_jump_cuts_the_log() -> None:
+    # an angle that jumps by 0.4 rad in 1 ms and stays (an encoder re-zeroing) while the arm
+    # moves at most 0.6 rad/s: cut there, the sample after the jump flagged
+    t = np.arange(3000) * 1e-3
+    q = np.c_[0.2 * np.sin(3.0 * t), 0.1 * np.cos(2.0 * t)]
+    q[1700:, 1] += 0.4
+    log = Log(t=t, q=q, motor_torque=np.zeros_like(q), joint_names=("a", "b"), path="j.csv")
+    clean = sanitize_log(log, window=0.05)
+    assert len(clean.pieces) == 2
+    assert clean.pieces[1].rows[0] == 1700
+    assert np.flatnonzero(clean.implausible).tolist() == [1700]
+    assert any("jumps" in w and "joint b" in w for w in clean.warnings)
+    # the same motion with a gap in time of 80 ms (the arm moves on at its speed) is no jump
+    gap = np.r_[t[:1700], t[1700:] + 0.08]
+    moved = np.c_[0.2 * np.sin(3.0 * gap), 0.1 * np.cos(2.0 * gap)]
+    quiet = sanitize_log(dataclasses.replace(log, t=gap, q=moved), window=0.05)
+    assert not quiet.implausible.any() and len(quiet.pieces) == 1

@@ -533,7 +533,7 @@ def estimate_forces(
     nan2 = np.full((n, nj), np.nan)
     out = {
         name: nan2.copy()
-        for name in ("angle", "velocity", "t_est", "filtered", "external", "sigma")
+        for name in ("angle", "velocity", "t_est", "filtered", "external", "sigma", "rest")
     }
     flag = np.zeros(n, dtype=np.int64)
     flag[clean.unprocessed] |= FLAG_GAP
@@ -546,6 +546,20 @@ def estimate_forces(
         )
         flag[near] |= FLAG_GAP
     warnings: list[str] = list(clean.warnings)
+    from torquemap.filters import MIN_WINDOW_SAMPLES
+    from torquemap.vertical import model_gravity_warnings
+
+    spacing = float(np.median(np.diff(log.t))) if n > 1 else 0.0
+    if spacing * (MIN_WINDOW_SAMPLES - 1) > win:
+        warnings.append(
+            f"the log's median sample interval {spacing:.3g} s leaves fewer than "
+            f"{MIN_WINDOW_SAMPLES} samples in the {win:.3g} s differentiator window: velocity "
+            f"and acceleration are smoothed over {spacing * (MIN_WINDOW_SAMPLES - 1):.3g} s "
+            f"instead; record at {(MIN_WINDOW_SAMPLES - 1) / win:.3g} Hz or more, or pass a "
+            "longer --window"
+        )
+
+    warnings += model_gravity_warnings(model)
     passes: list[list[Pass]] = [[] for _ in range(nj)]
     any_pass = False
     for piece in clean.pieces:
@@ -585,6 +599,16 @@ def estimate_forces(
             "(use --method model)",
             path=log.path,
         )
+    bands = _bands(model, reversal_band)
+    whole = whole_fit_joints(model)
+    for k, joint in enumerate(robot.joints):
+        rest = out["rest"][:, k] > 0
+        if rest.any() and joint.name not in whole:
+            warnings.append(
+                f"joint {joint.name}: {np.mean(rest):.1%} of samples at or near zero "
+                f"velocity (motor slower than {bands[joint.name]:.3g} rad/s, the reversal band), "
+                "where friction is undetermined (flagged)"
+            )
     gear = np.array([j.gear_ratio for j in robot.joints])
     tau_ext = -out["external"] * gear
     tau_sigma = out["sigma"] * gear
@@ -689,23 +713,7 @@ def _estimate_piece(
     all_passes: list[tuple[Pass, ...]] = []
     rests: list[NDArray[np.bool_]] = []
     whole = whole_fit_joints(model)
-    if reversal_band is None:
-        slowest = identified_slowest_speeds(model)
-        bands = {
-            j.name: (
-                TRANSITION_SPAN * _law_width(model.joints[j.name].friction)
-                if j.name in whole
-                else max(_law_width(model.joints[j.name].friction), slowest.get(j.name, 0.0))
-            )
-            for j in robot.joints
-        }
-    elif isinstance(reversal_band, Mapping):
-        bands = {
-            j.name: float(reversal_band.get(j.name, _law_width(model.joints[j.name].friction)))
-            for j in robot.joints
-        }
-    else:
-        bands = {j.name: float(reversal_band) for j in robot.joints}
+    bands = _bands(model, reversal_band)
     for name, band in bands.items():
         if not (math.isfinite(band) and band >= 0):
             raise InputError(f"reversal band of joint {name} must be >= 0, got {band!r} rad/s")
@@ -811,14 +819,8 @@ def _estimate_piece(
                 modulation=modulation[:, k],
                 cutoff=cutoff,
             )
-    for k, joint in enumerate(robot.joints):
-        if rests[k].any() and joint.name not in whole:
-            warnings.append(
-                f"joint {joint.name}: {np.mean(rests[k]):.1%} of samples at or near zero "
-                f"velocity (motor slower than {bands[joint.name]:.3g} rad/s, the reversal band), "
-                "where friction is undetermined (flagged)"
-            )
     arrays = {
+        "rest": np.column_stack(rests).astype(np.float64) if nj else np.zeros((n, 0)),
         "angle": angle,
         "velocity": velocity,
         "t_est": t_est,
@@ -833,6 +835,53 @@ def _estimate_piece(
         any_pass=any_pass,
         warnings=tuple(warnings),
     )
+
+
+def check_answered(
+    estimate: ForceEstimate,
+    model: Model,
+    *,
+    reversal_band: float | Mapping[str, float] | None = None,
+    path: str | None = None,
+) -> None:
+    """Refuse (InputError) an estimate in which every sample is flagged slow
+    (``FLAG_LOW_SPEED``): the log is too slow for the model, and the line says what to record
+    instead. ``torquemap estimate`` calls it before writing; the library returns such an
+    estimate (every sample flagged, answered)."""
+    slow = (estimate.flag & FLAG_LOW_SPEED) > 0
+    if slow.size and slow.all():
+        listed = ", ".join(
+            f"{name} {value:.3g} rad/s" for name, value in _bands(model, reversal_band).items()
+        )
+        raise InputError(
+            "at every sample of the log some joint moves slower than its reversal band "
+            f"(motor side: {listed}), where this model's friction is undetermined (it has "
+            "no friction law through zero speed): record every joint moving faster than "
+            "that, or identify the model with --friction whole (friction through zero speed)",
+            path=path,
+        )
+
+
+def _bands(model: Model, reversal_band: float | Mapping[str, float] | None) -> dict[str, float]:
+    """Each joint's reversal band [rad/s, motor side] (:func:`estimate_forces`)."""
+    robot = model.robot
+    if reversal_band is None:
+        whole = whole_fit_joints(model)
+        slowest = identified_slowest_speeds(model)
+        return {
+            j.name: (
+                TRANSITION_SPAN * _law_width(model.joints[j.name].friction)
+                if j.name in whole
+                else max(_law_width(model.joints[j.name].friction), slowest.get(j.name, 0.0))
+            )
+            for j in robot.joints
+        }
+    if isinstance(reversal_band, Mapping):
+        return {
+            j.name: float(reversal_band.get(j.name, _law_width(model.joints[j.name].friction)))
+            for j in robot.joints
+        }
+    return {j.name: float(reversal_band) for j in robot.joints}
 
 
 #: Where a law's smooth transition through zero still blends the two branches, in units of its

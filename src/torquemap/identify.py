@@ -925,20 +925,26 @@ def identify_model(
         notes["warnings"] = list(warnings)
         notes["friction_fit"] = "passes"
         model = Model(robot=rb, joints=base.model.joints, notes=notes)
-        return Identification(model=model, joints=base.joints, warnings=warnings)
-    return _identify_whole(
-        rb,
-        base,
-        pieces,
-        sound,
-        logs,
-        window=window,
-        stribeck=stribeck,
-        direction_significance=direction_significance,
-        channel_delay=channel_delay,
-        cleaning=cleaning,
-        vertical=vertical,
-    )
+        ident = Identification(model=model, joints=base.joints, warnings=warnings)
+    else:
+        ident = _identify_whole(
+            rb,
+            base,
+            pieces,
+            sound,
+            logs,
+            window=window,
+            stribeck=stribeck,
+            direction_significance=direction_significance,
+            channel_delay=channel_delay,
+            cleaning=cleaning,
+            vertical=vertical,
+        )
+    # a vertical arm (gravity), for every friction method: torquemap.vertical
+    from torquemap.vertical import checked_identification
+
+    path = logs[0].path if len(logs) == 1 else None
+    return checked_identification(ident, pieces, window=window, vertical=vertical, path=path)
 
 
 def _identify_whole(

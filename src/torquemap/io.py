@@ -645,6 +645,15 @@ def _log_arrays(
     t = numeric_column(cols, "t", p, max_abs=MAX_TIME, unit="s", first_row=first_row)
     if whole:
         check_time(t, p)
+    missing = [j.name for j in robot.joints if f"q_{j.name}" not in cols]
+    others = sorted(k[2:] for k in cols if k.startswith("q_") and k[2:] not in robot.joint_names)
+    if missing and others:  # issue 12: a log from another robot, refused clearly
+        raise InputError(
+            f"the log's joints ({', '.join(others)}) are not the robot's "
+            f"({', '.join(robot.joint_names)}): a log from another robot? Use this robot's "
+            "logs, or the model identified from the other robot",
+            path=p,
+        )
     q = np.empty((t.size, len(robot.joints)))
     tau = np.empty_like(q)
 

@@ -10,7 +10,10 @@ Before anything is differentiated or filtered, :func:`sanitize_log`
    the straight line between its sound neighbours, so that it spoils nothing around it; the
    sample is flagged;
 3. cuts the log where the time between two samples exceeds what the filters can bridge
-   (``max_gap``): each piece is processed on its own and nothing leaks across a gap.
+   (``max_gap``), and where a joint angle jumps by more than the robot moves between two
+   samples (:func:`angle_jumps`: an encoder glitch that persists, a re-zeroing; the sample
+   after the jump is flagged implausible): each piece is processed on its own and nothing
+   leaks across a cut.
 
 The result keeps the original rows (for the output) and the pieces (for the filters).
 """
@@ -67,7 +70,7 @@ class CleanLog:
     unprocessed
         Rows in no piece (repeated stamps, stretches between gaps too short to process).
     gaps
-        ``(t_before, t_after)`` of each gap the log was cut at [s].
+        ``(t_before, t_after)`` of each gap (or angle jump) the log was cut at [s].
     warnings
         One line each.
     """
@@ -119,6 +122,43 @@ def implausible_samples(x: NDArray[np.float64]) -> NDArray[np.bool_]:
     if bad.any() and bad.mean() > 0.2:  # not isolated excursions: leave the channel alone
         return np.zeros(v.size, dtype=bool)
     return np.asarray(bad, dtype=bool)
+
+
+#: A step of a joint angle between two samples is a jump when it exceeds this many times both
+#: the 99th percentile of the channel's steps and the 99th percentile of its speed.
+JUMP_FACTOR = 20.0
+
+
+def angle_jumps(t: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Steps of one joint angle beyond the robot's speed: True at sample ``i`` when the angle
+    jumps between samples ``i - 1`` and ``i`` by more than ``JUMP_FACTOR`` times the largest
+    steps the channel makes (99th percentile), at more than ``JUMP_FACTOR`` times its largest
+    speeds (an encoder glitch that persists, a re-zeroing). A step across a long time interval
+    at the usual speed is no jump, nor a short interval with a usual step (jitter).
+
+    Examples
+    --------
+    >>> t = np.arange(400) * 1e-3
+    >>> q = np.sin(t)
+    >>> q[250:] += 1.0
+    >>> np.flatnonzero(angle_jumps(t, q)).tolist()
+    [250]
+    """
+    out = np.zeros(t.size, dtype=bool)
+    if t.size < MEDIAN_SPAN:
+        return out
+    dq = np.abs(np.diff(q))
+    dt = np.diff(t)
+    if not (np.all(np.isfinite(dq)) and np.all(dt > 0)):
+        return out
+    speed = dq / dt
+    step_top = float(np.percentile(dq, 99))
+    speed_top = float(np.percentile(speed, 99))
+    jump = (dq > JUMP_FACTOR * max(step_top, 1e-12)) & (speed > JUMP_FACTOR * max(speed_top, 1e-12))
+    if jump.mean() > 0.005:  # not isolated: the channel's nature, leave it
+        return out
+    out[1:] = jump
+    return out
 
 
 def max_gap_for(window: float) -> float:
@@ -173,10 +213,24 @@ def sanitize_log(log: Log, *, window: float, min_piece: float | None = None) -> 
                     "what the signal does between samples): bridged from their neighbours and "
                     "flagged"
                 )
+    jumps = np.zeros(keep.size, dtype=bool)
+    for k in range(q.shape[1]):
+        jk = angle_jumps(tk, q[:, k])
+        if jk.any():
+            name = log.joint_names[k] if k < len(log.joint_names) else str(k)
+            i = int(np.flatnonzero(jk)[0])
+            warnings.append(
+                f"joint {name}: the angle jumps {int(jk.sum())} times between two samples by "
+                f"more than the robot moves (first at t = {tk[i]:.6g} s, by "
+                f"{q[i, k] - q[i - 1, k]:+.4g} rad): an encoder glitch or re-zeroing? The log "
+                "is cut there and the samples flagged"
+            )
+            jumps |= jk
+    bad_any |= jumps
     implausible = np.zeros(n, dtype=bool)
     implausible[keep[bad_any]] = True
     gap_limit = max_gap_for(window)
-    cuts = np.flatnonzero(np.diff(tk) > gap_limit) + 1
+    cuts = np.flatnonzero((np.diff(tk) > gap_limit) | jumps[1:]) + 1
     edges = np.concatenate(([0], cuts, [tk.size]))
     shortest = float(window) if min_piece is None else float(min_piece)
     pieces: list[Piece] = []
@@ -189,10 +243,11 @@ def sanitize_log(log: Log, *, window: float, min_piece: float | None = None) -> 
         sub = dataclasses.replace(log, t=tk[a:b], q=q[a:b], motor_torque=tau[a:b])
         pieces.append(Piece(log=sub, rows=rows.astype(np.int64)))
     gaps = tuple((float(tk[c - 1]), float(tk[c])) for c in cuts)
-    if gaps:
-        longest = max(b - a for a, b in gaps)
+    in_time = [(a, b) for a, b in gaps if b - a > gap_limit]
+    if in_time:
+        longest = max(b - a for a, b in in_time)
         warnings.append(
-            f"{len(gaps)} gaps in time longer than {gap_limit:.3g} s (the longest "
+            f"{len(in_time)} gaps in time longer than {gap_limit:.3g} s (the longest "
             f"{longest:.3g} s): the log is processed in {len(pieces)} pieces between them"
         )
     short = unprocessed & ~repeated

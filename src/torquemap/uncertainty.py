@@ -31,6 +31,11 @@ from torquemap.filters import lowpass
 from torquemap.identify_whole import LOWPASS_ENB
 from torquemap.model import Model
 
+#: Low-pass cut-off [Hz] at which the residual table of a pass-method model is measured.
+RESIDUAL_CUTOFF = 2.0
+#: Speed bins of the residual table (log-spaced between the reversal band and the top speed).
+RESIDUAL_BINS = 8
+
 
 def joint_uncertainty(model: Model, joint: str) -> Mapping[str, Any] | None:
     """The ``uncertainty`` table of a joint's notes, or None when the model has none."""
@@ -39,6 +44,10 @@ def joint_uncertainty(model: Model, joint: str) -> Mapping[str, Any] | None:
     table = entry.get("uncertainty") if isinstance(entry, Mapping) else None
     if not isinstance(table, Mapping):
         return None
+    if table.get("kind") == "residual":
+        speeds, rms = table.get("speeds"), table.get("rms")
+        ok = isinstance(speeds, list) and isinstance(rms, list) and len(speeds) == len(rms)
+        return table if ok and speeds else None
     names = table.get("parameters")
     cov = table.get("covariance")
     if not isinstance(names, list) or not isinstance(cov, list):
@@ -131,11 +140,15 @@ def joint_sigma(
     n = t.size
     if table is None:
         return np.full(n, np.nan)
+    law = model.joints[joint].friction
+    if table.get("kind") == "residual":
+        return _residual_sigma(
+            table, law, t=t, velocity=velocity, cutoff=cutoff, acceleration=acceleration
+        )
     names = [str(x) for x in table["parameters"]]
     cov = np.asarray(table["covariance"], dtype=np.float64)
     if cov.shape != (len(names), len(names)) or not np.all(np.isfinite(cov)):
         raise InputError(f"[identification.joints.{joint}.uncertainty] covariance is malformed")
-    law = model.joints[joint].friction
     g = regressor_columns(
         names,
         law=law,
@@ -157,3 +170,120 @@ def joint_sigma(
     if not math.isfinite(float(np.max(out, initial=0.0))):
         out = np.where(np.isfinite(out), out, np.nan)
     return out
+
+
+def _residual_sigma(
+    table: Mapping[str, Any],
+    law: Any,
+    *,
+    t: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    cutoff: float,
+    acceleration: NDArray[np.float64] | None = None,
+) -> NDArray[np.float64]:
+    """Sigma [N m, motor side] from a residual table (:func:`residual_table`)."""
+    speeds = np.asarray(table["speeds"], dtype=np.float64)
+    rms = np.asarray(table["rms"], dtype=np.float64)
+    if not (np.all(np.isfinite(speeds)) and np.all(np.isfinite(rms)) and np.all(rms >= 0)):
+        raise InputError("[identification.joints.<j>.uncertainty] residual table is malformed")
+    reference = float(table.get("reference_cutoff", RESIDUAL_CUTOFF))
+    # measured at the reference cut-off: a wider low-pass lets more noise through (taken as if
+    # all of it were noise), a narrower one keeps the systematic part (taken as if all of it
+    # were systematic): conservative both ways
+    level = np.interp(np.log(np.maximum(np.abs(velocity), 1e-12)), np.log(speeds), rms)
+    level = level * math.sqrt(max(1.0, cutoff / max(reference, 1e-12)))
+    per_acc = float(table.get("acceleration_sigma", 0.0))
+    if math.isfinite(per_acc) and per_acc > 0 and acceleration is not None:
+        level = np.hypot(level, per_acc * np.abs(lowpass(t, acceleration, cutoff=cutoff)))
+    level = lowpass(t, level, cutoff=cutoff)
+    width = max(float(getattr(law, "zero_velocity", 0.0)), 1e-9)
+    sign = lowpass(t, sign_sigma(law, velocity, width), cutoff=cutoff)
+    return np.asarray(np.sqrt(np.maximum(level, 0.0) ** 2 + np.maximum(sign, 0.0) ** 2))
+
+
+def residual_table(
+    t: list[NDArray[np.float64]],
+    velocity: list[NDArray[np.float64]],
+    acceleration: list[NDArray[np.float64]],
+    residual: list[NDArray[np.float64]],
+    *,
+    band: float,
+) -> dict[str, Any] | None:
+    """The uncertainty table of a joint identified by the pass method (no covariance).
+
+    On the no-load logs the estimate of the external torque should be zero: what the model
+    leaves there (the Eq 7 residual minus the PDTV model, through the ``RESIDUAL_CUTOFF``
+    low-pass) IS the estimate's error, friction misfit, inertia and noise together. Its RMS
+    over the steady samples (low-passed acceleration below 5 % of its 99th percentile plus
+    0.1 s^-1 times the speed), in ``RESIDUAL_BINS`` log-spaced bins of the motor speed above
+    ``band`` (the reversal band: slower samples are flagged), is the table;
+    :func:`joint_sigma` interpolates it in ``log |v|``. What the accelerating samples (ramps)
+    add beyond it, per unit of low-passed acceleration (``sqrt(sum excess^2 / sum acc^2)``),
+    is ``acceleration_sigma`` [N m s^2/rad]: an inertia or delay misfit.
+
+    Parameters
+    ----------
+    t, velocity, acceleration, residual
+        Per contiguous piece of the logs: time [s], motor velocity [rad/s], motor acceleration
+        [rad/s^2] and the residual [N m, motor side], each shape (m,).
+    band
+        Reversal band [rad/s].
+
+    Returns
+    -------
+    dict or None
+        ``{"kind": "residual", "speeds": [...], "rms": [...], "reference_cutoff": ...}``
+        (bin centres [rad/s], RMS [N m]); None when too few moving samples.
+    """
+    vs, rs, acs, steps = [], [], [], []
+    for tt, v, a, r in zip(t, velocity, acceleration, residual, strict=True):
+        if tt.size < 20 or float(tt[-1] - tt[0]) < 2.0 / RESIDUAL_CUTOFF:
+            continue
+        try:
+            low = lowpass(tt, r, cutoff=RESIDUAL_CUTOFF)
+            acc = lowpass(tt, a, cutoff=RESIDUAL_CUTOFF)
+        except InputError:
+            continue
+        vs.append(np.abs(v))
+        steps.append(np.diff(tt))
+        rs.append(low)
+        acs.append(np.abs(acc))
+    if not vs:
+        return None
+    speed = np.concatenate(vs)
+    spacing = float(np.median(np.concatenate(steps)))
+    low = np.concatenate(rs)
+    acc = np.concatenate(acs)
+    lo = max(band, 1e-6)
+    moving = speed > lo
+    if int(moving.sum()) < 100:
+        return None
+    steady = acc < 0.05 * float(np.percentile(acc[moving], 99)) + 0.1 * speed
+    ramps = moving & ~steady
+    moving &= steady
+    if int(moving.sum()) < 100:
+        return None
+    top = float(np.max(speed[moving]))
+    edges = np.geomspace(lo, max(top, 1.01 * lo), RESIDUAL_BINS + 1)
+    centres, values = [], []
+    which = np.clip(np.searchsorted(edges, speed[moving]) - 1, 0, RESIDUAL_BINS - 1)
+    for b in range(RESIDUAL_BINS):
+        sel = low[moving][which == b]
+        if sel.size < 50 or sel.size * spacing < 4.0 / RESIDUAL_CUTOFF:  # a few correlation times
+            continue
+        centres.append(float(math.sqrt(edges[b] * edges[b + 1])))
+        values.append(float(np.sqrt(np.mean(sel**2))))
+    if not centres:
+        return None
+    per_acc = 0.0
+    if ramps.any():
+        base = np.interp(np.log(speed[ramps]), np.log(centres), values)
+        excess = np.maximum(low[ramps] ** 2 - base**2, 0.0)
+        per_acc = float(math.sqrt(np.sum(excess) / max(float(np.sum(acc[ramps] ** 2)), 1e-300)))
+    return {
+        "kind": "residual",
+        "speeds": centres,
+        "rms": values,
+        "acceleration_sigma": per_acc,
+        "reference_cutoff": RESIDUAL_CUTOFF,
+    }

@@ -542,8 +542,12 @@ def _force_section(
             path,
             "forces",
         )
-    from torquemap.estimate import forces_columns
+    from torquemap.estimate import check_answered, forces_columns
 
+    try:  # a log too slow for the model: say what to record instead
+        check_answered(est, model)
+    except InputError as exc:
+        warnings.append(f"no sound force estimate: {exc.message}")
     cols = forces_columns(est)
     for w in est.warnings:
         # resting and reversing are normal: say how much was flagged, do not alarm

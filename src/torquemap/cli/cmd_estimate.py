@@ -119,7 +119,7 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
 def _estimate(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from torquemap.estimate import estimate_forces, forces_columns
+    from torquemap.estimate import check_answered, estimate_forces, forces_columns
     from torquemap.io import Writer, figure_writer, read_log, write_all
     from torquemap.model import load_model
 
@@ -164,6 +164,7 @@ def _estimate(args: argparse.Namespace) -> int:
             reversal_band=args.reversal_band,
         ),
     )
+    check_answered(est, model, reversal_band=args.reversal_band, path=args.log)
     writers: dict[str, Writer] = {args.output: columns_writer(args.output, forces_columns(est))}
     if args.figure:
         from torquemap.plots.force import estimate_figure
