@@ -119,6 +119,10 @@ def scara_identified(scara_bench: Path, tmp_path_factory: pytest.TempPathFactory
     return _run_in(folder, [IDENTIFY])
 
 
+#: Mark of the tests that take ``scara_model``: one worker runs them, so it is built once.
+WHOLE_MODEL = pytest.mark.xdist_group("scara_model")
+
+
 @pytest.fixture(scope="session")
 def scara_model(scara_bench: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The model ``torquemap identify --friction whole`` writes from the bench's sweeps.

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import Ran
+from conftest import WHOLE_MODEL, Ran
 
 from torquemap.cli.main import main
 from torquemap.io import read_table, write_table
@@ -150,6 +150,7 @@ def test_unknown_method_is_refused(identified: Path, capsys: pytest.CaptureFixtu
     assert "kalman" in capsys.readouterr().err
 
 
+@WHOLE_MODEL
 def test_reversal_band_option(
     scara_bench: Path,
     identified: Path,
@@ -180,6 +181,7 @@ def test_reversal_band_option(
     assert not out.exists()
 
 
+@WHOLE_MODEL
 def test_every_sample_answered_with_honest_sigmas(
     scara_bench: Path, scara_model: Path, tmp_path: Path
 ) -> None:
@@ -198,6 +200,7 @@ def test_every_sample_answered_with_honest_sigmas(
     assert force_error(np.c_[out["fx"], out["fy"]], np.c_[truth["fx"], truth["fy"]]).rms < 0.105
 
 
+@WHOLE_MODEL
 def test_logs_of_another_robot_too_slow_or_too_sparse(
     scara_bench: Path,
     identified: Path,

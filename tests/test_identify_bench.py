@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import Ran
+from conftest import WHOLE_MODEL, Ran
 from numpy.testing import assert_allclose
 
 from torquemap.model import Model, load_model
@@ -65,6 +65,7 @@ def test_pdtv_lines_against_truth(identified: tuple[Model, Model], joint: str) -
         assert abs(d) < 0.05, f"{joint} {order} CPR phase off by {d:.3f} rad"
 
 
+@WHOLE_MODEL
 @pytest.mark.parametrize("joint", ["a", "b"])
 def test_whole_fit_records_its_uncertainty(scara_model: Path, joint: str) -> None:
     model = load_model(scara_model)  # identify --friction whole

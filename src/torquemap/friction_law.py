@@ -188,7 +188,8 @@ class StribeckFriction:
         self, velocity: ArrayLike
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         w = np.asarray(velocity, dtype=np.float64)
-        s = np.exp(-((np.abs(w) / self.stribeck_velocity) ** self.stribeck_exponent))
+        with np.errstate(over="ignore", divide="ignore"):  # a tiny Stribeck velocity: s -> 0
+            s = np.exp(-((np.abs(w) / self.stribeck_velocity) ** self.stribeck_exponent))
         w0 = self.zero_velocity
         if self.transition == "linear":
             b = np.clip((w + w0) / (2.0 * w0), 0.0, 1.0)
