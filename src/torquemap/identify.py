@@ -1018,6 +1018,7 @@ def _identify_whole(
             elbow_term=elbow_term,
             stribeck=stribeck,
             delay=channel_delay,
+            reference_delay=res.channel_delay if channel_delay == "auto" else None,
             joint=name,
             gravity_check=k if joint.gear_ratio > 1.0 else None,
             inertia=res.inertia is not None and res.inertia.samples >= 3,
@@ -1122,6 +1123,7 @@ def _whole_notes(fit: Any, resolution: float) -> dict[str, Any]:
     return {
         "friction_fit": "whole",
         "channel_delay": float(fit.delay),
+        "channel_delay_interval": [float(x) for x in fit.delay_interval],
         "stribeck": bool(fit.stribeck),
         "whole_samples": int(fit.samples),
         "velocity_resolution": float(resolution),

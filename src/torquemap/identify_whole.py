@@ -22,8 +22,9 @@ neighbours are correlated. Everything here is linear in the number of samples.
 
 from __future__ import annotations
 
+import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -33,6 +34,7 @@ from scipy import optimize, stats
 from torquemap.errors import InputError
 from torquemap.filters import lowpass, smooth_as_acceleration
 from torquemap.robust import (
+    HUBER_K,
     cluster_covariance,
     huber_weights,
     robust_scale,
@@ -111,6 +113,9 @@ class WholeFit:
         (a gravity-like term that PDTV of the motor angle cannot explain); 0 when not tested.
     gravity_significant
         Whether that term is statistically significant.
+    delay_interval
+        95 % profile confidence interval of the delay [s] (spanning every candidate when the
+        logs do not tell the delay apart).
     warnings
         One line each.
     """
@@ -129,6 +134,7 @@ class WholeFit:
     samples: int
     gravity_torque: float = 0.0
     gravity_significant: bool = False
+    delay_interval: tuple[float, float] = (0.0, 0.0)
     warnings: tuple[str, ...] = field(default_factory=tuple)
 
     def value(self, name: str, default: float = 0.0) -> float:
@@ -335,6 +341,7 @@ def fit_joint_whole(
     stribeck: str = "auto",
     delay: float | str = "auto",
     max_delay: float = 0.25,
+    reference_delay: float | None = None,
     joint: str = "",
     gravity_check: int | None = None,
     planar: bool = False,
@@ -367,6 +374,9 @@ def fit_joint_whole(
         fixed delay [s].
     max_delay
         Search range of the delay [s].
+    reference_delay
+        The pass method's delay [s] (:func:`torquemap.delay.estimate_delay`), a cross-check:
+        it picks among equally good delays and is reported when it disagrees.
     joint
         Joint name (messages).
     gravity_check
@@ -431,6 +441,22 @@ def fit_joint_whole(
     def cost(vs: float, ex: float, w0: float, st: bool, d: float) -> float:
         return _solve(design_sub(vs, ex, w0, st), _torque(prep, d, search=True), ws).wrss
 
+    # the delay moves which rows are outliers (a misaligned ramp is one): each delay is scored
+    # by Huber's loss at one common scale after its own reweighting, not with the weights of
+    # the start, which down-weight exactly the ramps that tell the delay
+    scale0 = robust_scale(first.residual)
+
+    def delay_cost(vs: float, ex: float, w0: float, st: bool, d: float) -> float:
+        a_ = design_sub(vs, ex, w0, st)
+        y_ = _torque(prep, d, search=True)
+        trial = _solve(a_, y_, ws)
+        trial = _solve(a_, y_, huber_weights(trial.residual, scale0))
+        return huber_cost(trial.residual, scale0)
+
+    # about four search rows per differentiator window: neighbours share most of their data
+    delay_dof = max(sub.size / 4.0, 1.0)
+    profile: DelayProfile | None = None
+
     def scan_log(f: object, lo: float, hi: float, count: int) -> float:
         fun = f
         grid = np.geomspace(lo, hi, count)
@@ -470,11 +496,18 @@ def fit_joint_whole(
         )
         if delay != "auto":
             break
-        d_new = _scan_delay(lambda x, vs=vs, ex=ex, w0=w0: cost(vs, ex, w0, use_st, x), max_delay)
+        profile = delay_profile(
+            functools.partial(delay_cost, vs, ex, w0, use_st), max_delay, dof=delay_dof
+        )
+        d_new = profile.best
         moved = abs(d_new - d)
         d = d_new
         if moved < 0.1 * window:
             break
+    delay_interval = (d, d)
+    if profile is not None:
+        d, delay_interval, note = _judge_delay(profile, reference_delay, max_delay)
+        warnings += note
     # the Stribeck test (nested F test on the search rows, about independent after smoothing)
     st_used = use_st
     ysub = _torque(prep, d, search=True)
@@ -495,6 +528,7 @@ def fit_joint_whole(
         f = (zero.wrss - best_d.wrss) / max(best_d.wrss / dof, 1e-300)
         if not f > stats.f.ppf(1.0 - 1e-6, 1, dof):
             d = 0.0
+            delay_interval = (min(delay_interval[0], 0.0), max(delay_interval[1], 0.0))
     y = _torque(prep, d)
     first_full = _solve(design(vs, ex, w0, st_used), y, np.ones(n))
     weights = huber_weights(first_full.residual, robust_scale(first_full.residual))
@@ -572,8 +606,46 @@ def fit_joint_whole(
         samples=n,
         gravity_torque=grav,
         gravity_significant=grav_sig,
+        delay_interval=(float(delay_interval[0]), float(delay_interval[1])),
         warnings=tuple(name + w for w in warnings),
     )
+
+
+def _judge_delay(
+    profile: DelayProfile, reference: float | None, max_delay: float
+) -> tuple[float, tuple[float, float], list[str]]:
+    """The delay to keep, its interval and warnings: an ambiguous profile takes the candidate
+    nearest the pass method's delay ``reference`` (when given) and says so; a minimum at the
+    search's bound is reported; a pass method's delay outside the interval is reported."""
+    notes: list[str] = []
+    d = profile.best
+    interval = (profile.low, profile.high)
+    step = float(profile.grid[1] - profile.grid[0])
+    if len(profile.candidates) > 1:
+        listed = ", ".join(f"{1000 * c:.0f}" for c in profile.candidates)
+        if reference is not None:
+            d = min(profile.candidates, key=lambda c: abs(c - reference))
+        notes.append(
+            f"the torque channel's delay is not identifiable from these logs (the fit is "
+            f"about as good at {listed} ms); {1000 * d:.0f} ms kept"
+            + (" (nearest the pass method's)" if reference is not None else "")
+            + "; record sweeps with clear accelerations (ramps) so that the delay shows"
+        )
+        lo = min(profile.candidates) - 0.5 * step
+        hi = max(profile.candidates) + 0.5 * step
+        interval = (max(min(lo, profile.low), -max_delay), min(max(hi, profile.high), max_delay))
+    elif abs(d) > max_delay - step:
+        notes.append(
+            f"the torque channel's delay found ({1000 * d:.0f} ms) lies at the bound of the "
+            f"search ({1000 * max_delay:.0f} ms): the logs may be misaligned by more"
+        )
+    elif reference is not None and not interval[0] - step <= reference <= interval[1] + step:
+        notes.append(
+            f"the pass method's delay ({1000 * reference:.0f} ms) lies outside the whole-log "
+            f"fit's 95 % interval ({1000 * interval[0]:.0f} to {1000 * interval[1]:.0f} ms); "
+            f"the whole-log delay ({1000 * d:.0f} ms) is kept"
+        )
+    return d, interval, notes
 
 
 @dataclass(slots=True)
@@ -598,20 +670,102 @@ def _irls(
     return _Irls(coef=trial.coef, bread=trial.bread, residual=trial.residual, weights=w)
 
 
-def _scan_delay(cost: object, max_delay: float) -> float:
-    fun = cost
-    grid = np.linspace(-max_delay, max_delay, 25)
-    vals = np.array([fun(float(x)) for x in grid])  # type: ignore[operator]
+@dataclass(frozen=True, slots=True, eq=False)
+class DelayProfile:
+    """The whole-log fit's cost against the torque channel's delay.
+
+    Attributes
+    ----------
+    grid, cost
+        Delays tried [s] and the robust cost of the fit at each.
+    best
+        The cost-minimising delay (grid, refined by a parabola) [s].
+    low, high
+        The 95 % profile confidence interval [s] (the delays whose cost is not significantly
+        worse than at ``best``; correlated neighbours counted once per window).
+    candidates
+        Separate local minima of the cost within that threshold (``best`` first) [s]: more than
+        one means the logs do not tell the delay apart.
+    """
+
+    grid: NDArray[np.float64]
+    cost: NDArray[np.float64]
+    best: float
+    low: float
+    high: float
+    candidates: tuple[float, ...]
+
+
+def delay_profile(
+    cost: Callable[[float], float], max_delay: float, *, dof: float, steps: int = 25
+) -> DelayProfile:
+    """Scan ``cost`` over delays in ``[-max_delay, max_delay]`` (grid, then a parabola through
+    the best three) and bound the delay by a profile F test at 95 % with ``dof`` degrees of
+    freedom.
+
+    Examples
+    --------
+    >>> p = delay_profile(lambda d: 100.0 + 1e6 * (d - 0.05) ** 2, 0.25, dof=100.0)
+    >>> round(p.best, 4), p.low < 0.05 < p.high, p.candidates == (p.best,)
+    (0.05, True, True)
+    """
+    grid = np.linspace(-max_delay, max_delay, steps)
+    vals = np.array([cost(float(x)) for x in grid])
     k = int(np.argmin(vals))
+    best, c_best = float(grid[k]), float(vals[k])
     if 0 < k < grid.size - 1:
         y0, y1, y2 = vals[k - 1], vals[k], vals[k + 1]
         den = y0 - 2 * y1 + y2
         if den > 0:
             step = float(grid[1] - grid[0])
-            best = float(grid[k] + 0.5 * step * (y0 - y2) / den)
-            if fun(best) <= y1:  # type: ignore[operator]
-                return best
-    return float(grid[k])
+            trial = float(grid[k] + 0.5 * step * (y0 - y2) / den)
+            c_trial = cost(trial)
+            if c_trial <= y1:
+                best, c_best = trial, c_trial
+    dof = max(dof, 1.0)
+    limit = c_best * (1.0 + float(stats.f.ppf(0.95, 1, dof)) / dof)
+    inside = vals <= limit
+    # the interval: the grid points around the best within the limit, half a step beyond
+    half = 0.5 * float(grid[1] - grid[0])
+    lo_k = hi_k = k
+    while lo_k > 0 and inside[lo_k - 1]:
+        lo_k -= 1
+    while hi_k < grid.size - 1 and inside[hi_k + 1]:
+        hi_k += 1
+    low = max(float(grid[lo_k]) - half, -max_delay)
+    high = min(float(grid[hi_k]) + half, max_delay)
+    # other local minima within the limit, outside that interval
+    others = [
+        float(grid[i])
+        for i in range(grid.size)
+        if inside[i]
+        and (i < lo_k or i > hi_k)
+        and (i == 0 or vals[i] <= vals[i - 1])
+        and (i == grid.size - 1 or vals[i] <= vals[i + 1])
+    ]
+    return DelayProfile(
+        grid=grid,
+        cost=vals,
+        best=best,
+        low=low,
+        high=high,
+        candidates=(best, *others),
+    )
+
+
+def huber_cost(residual: NDArray[np.float64], scale: float) -> float:
+    """Sum of Huber's loss of ``residual`` at ``scale`` (k = 1.345), in squared units.
+
+    Examples
+    --------
+    >>> huber_cost(np.array([0.0, 1.0, 10.0]), 1.0) == 0.5 + 1.345 * 10 - 0.5 * 1.345**2
+    True
+    """
+    if scale <= 0:
+        return float(0.5 * np.sum(residual**2))
+    k = HUBER_K * scale
+    a = np.abs(residual)
+    return float(np.sum(np.where(a <= k, 0.5 * a * a, k * a - 0.5 * k * k)))
 
 
 def _residual_psd(prep: _Prepared, residual: NDArray[np.float64], scale: float) -> float:
