@@ -120,3 +120,31 @@ def test_a_log_from_another_robot_is_refused(delayed) -> None:  # type: ignore[n
         estimate_forces(delayed.model, other)
     same = simulate(seed=4)
     assert estimate_forces(delayed.model, same).tau_ext.shape == (same.t.size, 1)
+
+
+@pytest.mark.parametrize("jitter", [0.0, 0.3])
+def test_row_smoother_matches_the_full_smoothing(jitter: float) -> None:
+    # the search's smoothing at a subset of rows against filters.smooth_as_acceleration on
+    # every sample (a second implementation: savgol on a uniform grid, normal equations else)
+    from torquemap.filters import smooth_as_acceleration
+    from torquemap.identify_whole import RowSmoother
+
+    rng = np.random.default_rng(1)
+    h = 1.0 / 900.0
+    t = np.cumsum(h * (1.0 + jitter * rng.uniform(-1.0, 1.0, 6000)))
+    x = np.c_[np.tanh(20.0 * np.sin(3.0 * t)), rng.normal(size=t.size), 5.0 + t]
+    rows = np.arange(0, t.size, 7)
+    full = smooth_as_acceleration(t, x, window=0.05)[rows]
+    assert_allclose(RowSmoother.build(t, rows, 0.05)(x), full, atol=1e-7)
+
+
+def test_an_ambiguous_delay_is_reported() -> None:
+    from torquemap.identify_whole import delay_profile
+
+    # two equally deep minima, at -0.1 and +0.1 s: both are candidates
+    def cost(d: float) -> float:
+        return 100.0 + 1e5 * min((d - 0.1) ** 2, (d + 0.1) ** 2)
+
+    p = delay_profile(cost, 0.25, dof=100.0)
+    assert len(p.candidates) == 2
+    assert sorted(round(c, 2) for c in p.candidates) == [-0.1, 0.1]
