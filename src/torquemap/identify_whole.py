@@ -160,19 +160,23 @@ def friction_basis(
     stribeck_exponent: float,
     zero_velocity: float,
     stribeck: bool = True,
+    split_viscous: bool = False,
 ) -> NDArray[np.float64]:
     """Columns of the friction law, linear parameters in this order: ``coulomb_positive,
-    coulomb_negative, viscous[, stribeck_positive, stribeck_negative]``.
+    coulomb_negative, viscous[, stribeck_positive, stribeck_negative][, viscous_negative]``.
 
     ``f = p (c+ + s+ e) - (1 - p) (c- + s- e) + b v`` with ``p`` the smooth transition
-    (:func:`transition`) and ``e = exp(-(|v| / vs)^exponent)``.
+    (:func:`transition`) and ``e = exp(-(|v| / vs)^exponent)``; with ``split_viscous`` the
+    viscous term is ``(p b + (1 - p) b-) v`` (a slope per direction).
     """
     v = np.asarray(velocity, dtype=np.float64)
     p = transition(v, zero_velocity)
-    cols = [p, -(1.0 - p), v]
+    cols = [p, -(1.0 - p), p * v if split_viscous else v]
     if stribeck:
         e = np.exp(-((np.abs(v) / stribeck_velocity) ** stribeck_exponent))
         cols += [p * e, -(1.0 - p) * e]
+    if split_viscous:
+        cols.append((1.0 - p) * v)
     return np.column_stack(cols)
 
 
@@ -375,7 +379,14 @@ def _double_integral(t: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[
 
 
 def _friction_columns(
-    prep: _Prepared, vs: float, exponent: float, w0: float, stribeck: bool, *, search: bool = False
+    prep: _Prepared,
+    vs: float,
+    exponent: float,
+    w0: float,
+    stribeck: bool,
+    *,
+    search: bool = False,
+    split: bool = False,
 ) -> NDArray[np.float64]:
     out = []
     for i, (t, v, r) in enumerate(zip(prep.t, prep.velocity, prep.rows, strict=True)):
@@ -385,6 +396,7 @@ def _friction_columns(
             stribeck_exponent=exponent,
             zero_velocity=w0,
             stribeck=stribeck,
+            split_viscous=split,
         )
         if search:
             out.append(prep.smoothers[i](basis))
@@ -565,18 +577,31 @@ def fit_joint_whole(
     for rnd in range(2):
         if use_st:
             best = (math.inf, vs, ex)
+            scanned: dict[float, tuple[float, float]] = {}
             for e in EXPONENTS if rnd == 0 else (ex,):
+                # a Stribeck dip narrower than the transition through zero trades off with it
+                # (huge opposite terms that cancel): the Stribeck velocity stays above 2 w0
                 v_best = scan_log(
-                    lambda x, e=e, w0=w0, d=d: cost(x, e, w0, True, d), vs_lo, vs_hi, 8
+                    lambda x, e=e, w0=w0, d=d: cost(x, e, w0, True, d),
+                    min(max(vs_lo, 2.0 * w0), 0.5 * vs_hi),
+                    vs_hi,
+                    8,
                 )
                 c = cost(v_best, e, w0, True, d)
+                scanned[e] = (c, v_best)
                 if c < best[0]:
                     best = (c, v_best, e)
+            # the Gaussian form (exponent 2) stays unless another exponent fits significantly
+            # better (F test at 5 %, four search rows per window counted as one)
+            if 2.0 in scanned and best[2] != 2.0:
+                c2, v2 = scanned[2.0]
+                if c2 - best[0] < stats.f.ppf(0.95, 1, delay_dof) * best[0] / delay_dof:
+                    best = (c2, v2, 2.0)
             _, vs, ex = best
         w0 = scan_log(
             lambda x, vs=vs, ex=ex, d=d: cost(vs, ex, x, use_st, d),
             w0_lo / 4.0,
-            max(vs_hi, w0_lo),
+            max(0.5 * vs, w0_lo / 2.0) if use_st else max(vs_hi, w0_lo),
             8,
         )
         if delay != "auto":
@@ -605,6 +630,14 @@ def fit_joint_whole(
             f > stats.f.ppf(1.0 - significance, 2, dof)
             and with_st.coef[-2] > 0
             and with_st.coef[-1] > 0
+        )
+    if use_st and not st_used:
+        # the width was bounded by a Stribeck velocity that is not kept
+        w0 = scan_log(
+            lambda x, vs=vs, ex=ex, d=d: cost(vs, ex, x, False, d),
+            w0_lo / 4.0,
+            max(vs_hi, w0_lo),
+            8,
         )
     if delay == "auto" and d != 0.0:
         zero = _solve(design_sub(vs, ex, w0, st_used), _torque(prep, 0.0, search=True), ws)
@@ -657,7 +690,24 @@ def fit_joint_whole(
             prep = _prepare(
                 pieces, chosen, window=window, elbow_term=elbow_term, block=block, inertia=inertia
             )
-    a = np.hstack((prep.fixed, _friction_columns(prep, vs, ex, w0, st_used)))
+    # a viscous slope per direction (only when both directions were swept): kept when the
+    # difference of the two slopes is significant (Wald test, cluster covariance)
+    split_visc = False
+    if directional:
+        a_v = np.hstack((prep.fixed, _friction_columns(prep, vs, ex, w0, st_used, split=True)))
+        fit_v = _irls(a_v, y, weights)
+        cov_v = cluster_covariance(a_v, fit_v.residual, fit_v.weights, fit_v.bread, prep.clusters)
+        iv, ivn = prep.fixed.shape[1] + 2, a_v.shape[1] - 1
+        dv = float(fit_v.coef[iv] - fit_v.coef[ivn])
+        var = float(cov_v[iv, iv] + cov_v[ivn, ivn] - 2.0 * cov_v[iv, ivn])
+        split_visc = bool(
+            var > 0
+            and dv * dv / var > stats.chi2.ppf(1.0 - significance, 1)
+            and min(fit_v.coef[iv], fit_v.coef[ivn]) > 0
+            # and, like a directional PDTV line, by more than 10 %
+            and abs(dv) > 0.1 * max(fit_v.coef[iv], fit_v.coef[ivn])
+        )
+    a = np.hstack((prep.fixed, _friction_columns(prep, vs, ex, w0, st_used, split=split_visc)))
     fit = _irls(a, y, weights)
     if inertia and fit.coef[0] <= 0:
         warnings.append(
@@ -667,10 +717,12 @@ def fit_joint_whole(
         prep = _prepare(
             pieces, final_orders, window=window, elbow_term=False, block=block, inertia=False
         )
-        a = np.hstack((prep.fixed, _friction_columns(prep, vs, ex, w0, st_used)))
+        a = np.hstack((prep.fixed, _friction_columns(prep, vs, ex, w0, st_used, split=split_visc)))
         fit = _irls(a, y, weights)
     cov = cluster_covariance(a, fit.residual, fit.weights, fit.bread, prep.clusters)
     names = [*prep.fixed_names, *FRICTION_NAMES[: 5 if st_used else 3]]
+    if split_visc:
+        names.append("friction.viscous_negative")
     scale = robust_scale(fit.residual)
     psd = _residual_psd(prep, fit.residual, scale)
     grav, grav_sig = 0.0, False
