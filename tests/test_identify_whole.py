@@ -49,6 +49,7 @@ def simulate(
     gear: float = 1.0,
     counts: int = 8000,
     seed: int = 3,
+    law: object = LAW,
 ) -> Log:
     """Passes at 0.5-8 rad/s both ways with raised-cosine ramps through rest; the torque read
     ``delay`` late; ``gravity`` [N m, motor side] times cos of the joint angle."""
@@ -66,7 +67,7 @@ def simulate(
     t = np.arange(w.size) * h
     acc = np.gradient(w, h)
     theta = np.concatenate(([0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * h)))
-    tau = J * acc + LAW.torque(w) + pdtv_torque(theta, LINES)
+    tau = J * acc + law.torque(w) + pdtv_torque(theta, LINES)  # type: ignore[attr-defined]
     tau += gravity * np.cos(theta / gear)
     tau = np.interp(t - delay, t, tau) + rng.normal(0.0, 0.005, t.size)
     q = np.round(theta * counts / (2 * np.pi)) * (2 * np.pi / counts) / gear
@@ -82,6 +83,8 @@ def test_recovers_the_law_through_zero_and_the_delay(delayed) -> None:  # type: 
     m = delayed.model.joints["m"]
     f = m.friction
     assert f.transition == "smooth"
+    # one viscous slope: the directions do not differ
+    assert isinstance(f, StribeckFriction)
     # 10^4 samples per pass of 5 mN m noise: the linear terms within 2 %, the Stribeck
     # velocity (searched outside the linear fit) within 10 %, the inertia within 5 %
     assert_allclose([f.coulomb_positive, f.coulomb_negative], [0.05, 0.06], rtol=0.02)
@@ -148,3 +151,17 @@ def test_an_ambiguous_delay_is_reported() -> None:
     p = delay_profile(cost, 0.25, dof=100.0)
     assert len(p.candidates) == 2
     assert sorted(round(c, 2) for c in p.candidates) == [-0.1, 0.1]
+
+
+def test_a_viscous_slope_per_direction() -> None:
+    import dataclasses
+
+    from torquemap.friction_law import DirectionalViscousFriction
+
+    fields = {f.name: getattr(LAW, f.name) for f in dataclasses.fields(LAW)}
+    law = DirectionalViscousFriction(**fields, viscous_negative=0.006)
+    res = identify_model(robot(), [simulate(law=law)], max_order=20, friction="whole")  # type: ignore[arg-type]
+    f = res.model.joints["m"].friction
+    assert isinstance(f, DirectionalViscousFriction)
+    # 0.004 and 0.006 N m s/rad, from 10^4 samples per pass of 5 mN m noise
+    assert_allclose([f.viscous, f.viscous_negative], [0.004, 0.006], rtol=0.03)

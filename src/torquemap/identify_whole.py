@@ -520,12 +520,15 @@ def fit_joint_whole(
             if len(cache) > 64:
                 cache.clear()
             cache[key] = np.hstack(
-                (fixed_sub, _friction_columns(prep, vs, ex, w0, st, search=True))
+                (
+                    fixed_sub,
+                    _friction_columns(prep, vs, ex, w0, st, search=True, split=directional),
+                )
             )
         return cache[key]
 
     def design(vs: float, ex: float, w0: float, st: bool) -> NDArray[np.float64]:
-        return np.hstack((prep.fixed, _friction_columns(prep, vs, ex, w0, st)))
+        return np.hstack((prep.fixed, _friction_columns(prep, vs, ex, w0, st, split=directional)))
 
     # starting point: no Stribeck, transition at twice the resolution, no delay; Huber weights
     # from it, held fixed through the search
@@ -565,7 +568,7 @@ def fit_joint_whole(
                 lambda x: fun(math.exp(x)),  # type: ignore[operator]
                 bounds=(math.log(a_), math.log(b_)),
                 method="bounded",
-                options={"xatol": 0.1},
+                options={"xatol": 0.03},
             )
             if float(res.fun) <= vals[i]:
                 return math.exp(float(res.x))
@@ -626,10 +629,11 @@ def fit_joint_whole(
         without = _solve(design_sub(vs, ex, w0, False), ysub, ws)
         dof = max(sub.size - with_st.coef.size, 1)
         f = ((without.wrss - with_st.wrss) / 2.0) / max(with_st.wrss / dof, 1e-300)
+        i_st = fixed_sub.shape[1] + 3  # after the Coulomb pair and the (positive) viscous
         st_used = bool(
             f > stats.f.ppf(1.0 - significance, 2, dof)
-            and with_st.coef[-2] > 0
-            and with_st.coef[-1] > 0
+            and with_st.coef[i_st] > 0
+            and with_st.coef[i_st + 1] > 0
         )
     if use_st and not st_used:
         # the width was bounded by a Stribeck velocity that is not kept
