@@ -165,3 +165,7 @@ def test_a_viscous_slope_per_direction() -> None:
     assert isinstance(f, DirectionalViscousFriction)
     # 0.004 and 0.006 N m s/rad, from 10^4 samples per pass of 5 mN m noise
     assert_allclose([f.viscous, f.viscous_negative], [0.004, 0.006], rtol=0.03)
+    # the model file's table reads back as the same law
+    from torquemap.friction_law import friction_law_from_dict
+
+    assert friction_law_from_dict(f.to_dict()).to_dict() == f.to_dict()
