@@ -32,7 +32,6 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import argparse
 import dataclasses
-import inspect
 import math
 import multiprocessing
 import tempfile
@@ -54,10 +53,13 @@ from torquemap.sim.score import PAPER_FORCE, common_mask, force_error
 from torquemap.sim.trajectory import circle_reference
 from torquemap.sim.truth_law import TrueFriction
 
-METHODS = ("model", "paper", "passes", "oracle")
-HAS_PASSES = "friction" in inspect.signature(identify_model).parameters
-#: ``identify --friction`` of the default identification (``--friction`` of this script).
-DEFAULT_FRICTION: dict[str, str] = {}
+METHODS = ("whole", "passes", "paper", "oracle")
+#: method -> (identification, estimation method); the oracle is the true model
+PIPELINES = {
+    "whole": ("whole", "model"),
+    "passes": ("passes", "model"),
+    "paper": ("passes", "paper"),
+}
 
 
 # -- table 1: the paper's bench ------------------------------------------------------------
@@ -78,13 +80,17 @@ def paper_table(seed: int, cutoff: float) -> str:
         truth = read_table(d / "truth.csv")
     true_force = np.c_[truth["fx"], truth["fy"]]
     t0 = time.perf_counter()
-    identified = identify_model(robot, [sweep]).model
-    t_id = time.perf_counter() - t0
+    passes = identify_model(robot, [sweep], friction="passes").model
+    t_passes = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    whole = identify_model(robot, [sweep], friction="whole").model
+    t_whole = time.perf_counter() - t0
     runs: list[tuple[str, Model, str]] = [
-        ("raw Eq 7", identified, "raw"),
-        ("low-pass only", identified, "lowpass"),
-        ("paper", identified, "paper"),
-        ("model", identified, "model"),
+        ("raw Eq 7 (passes)", passes, "raw"),
+        ("low-pass only", passes, "lowpass"),
+        ("paper (passes)", passes, "paper"),
+        ("model (passes)", passes, "model"),
+        ("model (whole)", whole, "model"),
         ("oracle (true model)", truth_model, "model"),
     ]
     results = []
@@ -97,7 +103,10 @@ def paper_table(seed: int, cutoff: float) -> str:
         f"Table 1. The paper's bench (seed {seed}, cut-off {cutoff:g} Hz, {circle.t.size} "
         f"samples, {mask.mean():.1%} scored; spring force {PAPER_FORCE} N)"
     )
-    lines.append(f"simulate {t_sim:.1f} s, identify {t_id:.1f} s")
+    lines.append(
+        f"simulate {t_sim:.1f} s, identify --friction passes {t_passes:.1f} s, "
+        f"--friction whole {t_whole:.1f} s"
+    )
     head = (
         f"{'method':<22}{'RMS [N]':>9}{'% of 3.5 N':>12}{'max [N]':>9}{'all: RMS [N]':>14}"
         f"{'time [s]':>10}"
@@ -112,11 +121,12 @@ def paper_table(seed: int, cutoff: float) -> str:
         lines.append(
             f"{label:<22}{s.rms:>9.4f}{s.percent:>11.2f}%{s.max_abs:>9.3f}{a.rms:>14.4f}{dt:>10.2f}"
         )
-    ratio = scores["model"] / scores["oracle (true model)"]
+    oracle = scores["oracle (true model)"]
     lines.append(
-        f"model / oracle = {ratio:.2f} (target <= 1.3); model {scores['model'] / PAPER_FORCE:.1%} "
-        f"of 3.5 N (target < 3 %); paper / low-pass = "
-        f"{scores['paper'] / scores['low-pass only']:.2f} (target clearly < 1)"
+        f"model / oracle = {scores['model (whole)'] / oracle:.2f} whole, "
+        f"{scores['model (passes)'] / oracle:.2f} passes (target <= 1.3); model (whole) "
+        f"{scores['model (whole)'] / PAPER_FORCE:.1%} of 3.5 N (target < 3 %); paper / low-pass = "
+        f"{scores['paper (passes)'] / scores['low-pass only']:.2f} (target clearly < 1)"
     )
     return "\n".join(lines)
 
@@ -194,13 +204,13 @@ def family_robot(seed: int, cutoff: float) -> dict[str, Any]:
     )
     models: dict[str, Model | str] = {"oracle": oracle}
     times = {}
-    for key, kw in (("default", DEFAULT_FRICTION), ("passes", {"friction": "passes"})):
-        if key == "passes" and not HAS_PASSES:
-            models["passes"] = models["default"]
-            continue
+    delays: dict[str, list[float]] = {}
+    for key in ("whole", "passes"):
         t1 = time.perf_counter()
         try:
-            models[key] = identify_model(robot, [sweep], **kw).model  # type: ignore[arg-type]
+            ident = identify_model(robot, [sweep], friction=key)  # type: ignore[arg-type]
+            models[key] = ident.model
+            delays[key] = [ident.joints[ax.name].channel_delay for ax in bench.axes]
         except InputError as exc:
             models[key] = f"identify refused: {exc.message}"
         except Exception as exc:  # a benchmark reports, it does not stop
@@ -208,14 +218,13 @@ def family_robot(seed: int, cutoff: float) -> dict[str, Any]:
         times[key] = time.perf_counter() - t1
     scores: dict[str, dict[str, Any]] = {}
     for method in METHODS:
-        model = models["default" if method in ("model", "paper") else method]
+        ident_key, est_method = PIPELINES.get(method, ("oracle", "model"))
+        model = models[ident_key]
         if isinstance(model, str):
             scores[method] = {"error": model, "flagged": 1.0, "rms": math.nan}
             continue
         try:
-            est = estimate_forces(
-                model, circle, method="paper" if method == "paper" else "model", cutoff=cutoff
-            )
+            est = estimate_forces(model, circle, method=est_method, cutoff=cutoff)  # type: ignore[arg-type]
             scores[method] = _score(est, true_force, spring)
         except InputError as exc:
             scores[method] = {"error": f"estimate refused: {exc.message}", "flagged": 1.0}
@@ -243,6 +252,7 @@ def family_robot(seed: int, cutoff: float) -> dict[str, Any]:
         "time": time.perf_counter() - t0,
         "t_sim": t_sim,
         "t_identify": times,
+        "delays": delays,
     }
 
 
@@ -257,6 +267,15 @@ def _fmt(x: float, spec: str) -> str:
     return "-" if not math.isfinite(x) else format(x, spec)
 
 
+def _delays(r: dict[str, Any]) -> str:
+    """Identified delays [ms] per joint, whole | passes."""
+    out = []
+    for key in ("whole", "passes"):
+        ds = r.get("delays", {}).get(key)
+        out.append("-" if ds is None else "/".join(f"{1000 * x:.0f}" for x in ds))
+    return " | ".join(out)
+
+
 def family_tables(results: list[dict[str, Any]], cutoff: float) -> str:
     """Table 2 (summary), table 3 (per robot) and the worst cases, as text."""
     results = sorted(results, key=lambda r: r["seed"])
@@ -265,7 +284,8 @@ def family_tables(results: list[dict[str, Any]], cutoff: float) -> str:
         f"Table 2. {n} random robots (seeds {results[0]['seed']}..{results[-1]['seed']}, "
         f"cut-off {cutoff:g} Hz): RMS force error in % of each robot's spring force over the "
         "samples the method answers; ratio to the oracle over the samples both answer"
-        + ("" if HAS_PASSES else "; 'passes' = the default identification (no --friction)")
+        + "; whole = model method on identify --friction whole, passes = model method on "
+        "--friction passes, paper = paper method on --friction passes"
     ]
     head = (
         f"{'method':<8}{'median %':>10}{'worst %':>10}{'med ratio':>11}{'worst ratio':>13}"
@@ -306,7 +326,7 @@ def family_tables(results: list[dict[str, Any]], cutoff: float) -> str:
     )
     head = (
         f"{'seed':>4} {'laws':<16}{'gears':>8}{'rate':>6}{'delay':>6}{'gaps':>5}{'F':>6}"
-        f"{'slow/peak':>11}" + "".join(f"{m:>22}" for m in METHODS)
+        f"{'slow/peak':>11}{'delay whole|passes':>20}" + "".join(f"{m:>22}" for m in METHODS)
     )
     lines += [head, "-" * len(head)]
     for r in results:
@@ -323,7 +343,7 @@ def family_tables(results: list[dict[str, Any]], cutoff: float) -> str:
         lines.append(
             f"{r['seed']:>4} {d['laws']:<16}{d['gears']:>8}{d['rate']:>6.0f}"
             f"{1000 * d['delay']:>6.0f}{d['gaps']:>5}{d['force']:>6.1f}"
-            f"{d['slowest']:>5.1f}/{d['circle_peak']:<5.0f}" + "".join(cells)
+            f"{d['slowest']:>5.1f}/{d['circle_peak']:<5.0f}{_delays(r):>20}" + "".join(cells)
         )
     errors = [
         (r["seed"], m, r["scores"][m]["error"])
@@ -337,10 +357,16 @@ def family_tables(results: list[dict[str, Any]], cutoff: float) -> str:
         lines += [f"  robot {seed} {m}: {msg}" for seed, m, msg in errors]
     lines.append("")
     total = sum(r["time"] for r in results)
+    t_id = {
+        key: [r["t_identify"][key] for r in results if key in r["t_identify"]]
+        for key in ("whole", "passes")
+    }
     lines.append(
         f"time per robot: median {np.median([r['time'] for r in results]):.0f} s, "
         f"total {total:.0f} s (simulate median "
-        f"{np.median([r['t_sim'] for r in results]):.0f} s)"
+        f"{np.median([r['t_sim'] for r in results]):.0f} s; identify median / worst: whole "
+        f"{np.median(t_id['whole']):.0f} / {np.max(t_id['whole']):.0f} s, passes "
+        f"{np.median(t_id['passes']):.0f} / {np.max(t_id['passes']):.0f} s)"
     )
     return "\n".join(lines)
 
@@ -354,15 +380,7 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="6 robots unless --robots")
     parser.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
     parser.add_argument("--no-paper", action="store_true", help="skip table 1")
-    parser.add_argument(
-        "--friction",
-        choices=("default", "whole", "passes"),
-        default="default",
-        help="identification of the model and paper columns (default: identify's default)",
-    )
     args = parser.parse_args()
-    if args.friction != "default":
-        DEFAULT_FRICTION["friction"] = args.friction  # inherited by the forked workers
     robots = args.robots if args.robots is not None else (6 if args.quick else 20)
     tasks: list[tuple[str, int, float]] = []
     if not args.no_paper:

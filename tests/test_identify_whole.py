@@ -49,6 +49,7 @@ def simulate(
     gear: float = 1.0,
     counts: int = 8000,
     seed: int = 3,
+    law: object = LAW,
 ) -> Log:
     """Passes at 0.5-8 rad/s both ways with raised-cosine ramps through rest; the torque read
     ``delay`` late; ``gravity`` [N m, motor side] times cos of the joint angle."""
@@ -66,7 +67,7 @@ def simulate(
     t = np.arange(w.size) * h
     acc = np.gradient(w, h)
     theta = np.concatenate(([0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * h)))
-    tau = J * acc + LAW.torque(w) + pdtv_torque(theta, LINES)
+    tau = J * acc + law.torque(w) + pdtv_torque(theta, LINES)  # type: ignore[attr-defined]
     tau += gravity * np.cos(theta / gear)
     tau = np.interp(t - delay, t, tau) + rng.normal(0.0, 0.005, t.size)
     q = np.round(theta * counts / (2 * np.pi)) * (2 * np.pi / counts) / gear
@@ -82,6 +83,8 @@ def test_recovers_the_law_through_zero_and_the_delay(delayed) -> None:  # type: 
     m = delayed.model.joints["m"]
     f = m.friction
     assert f.transition == "smooth"
+    # one viscous slope: the directions do not differ
+    assert isinstance(f, StribeckFriction)
     # 10^4 samples per pass of 5 mN m noise: the linear terms within 2 %, the Stribeck
     # velocity (searched outside the linear fit) within 10 %, the inertia within 5 %
     assert_allclose([f.coulomb_positive, f.coulomb_negative], [0.05, 0.06], rtol=0.02)
@@ -120,3 +123,49 @@ def test_a_log_from_another_robot_is_refused(delayed) -> None:  # type: ignore[n
         estimate_forces(delayed.model, other)
     same = simulate(seed=4)
     assert estimate_forces(delayed.model, same).tau_ext.shape == (same.t.size, 1)
+
+
+@pytest.mark.parametrize("jitter", [0.0, 0.3])
+def test_row_smoother_matches_the_full_smoothing(jitter: float) -> None:
+    # the search's smoothing at a subset of rows against filters.smooth_as_acceleration on
+    # every sample (a second implementation: savgol on a uniform grid, normal equations else)
+    from torquemap.filters import smooth_as_acceleration
+    from torquemap.identify_whole import RowSmoother
+
+    rng = np.random.default_rng(1)
+    h = 1.0 / 900.0
+    t = np.cumsum(h * (1.0 + jitter * rng.uniform(-1.0, 1.0, 6000)))
+    x = np.c_[np.tanh(20.0 * np.sin(3.0 * t)), rng.normal(size=t.size), 5.0 + t]
+    rows = np.arange(0, t.size, 7)
+    full = smooth_as_acceleration(t, x, window=0.05)[rows]
+    assert_allclose(RowSmoother.build(t, rows, 0.05)(x), full, atol=1e-7)
+
+
+def test_an_ambiguous_delay_is_reported() -> None:
+    from torquemap.identify_whole import delay_profile
+
+    # two equally deep minima, at -0.1 and +0.1 s: both are candidates
+    def cost(d: float) -> float:
+        return 100.0 + 1e5 * min((d - 0.1) ** 2, (d + 0.1) ** 2)
+
+    p = delay_profile(cost, 0.25, dof=100.0)
+    assert len(p.candidates) == 2
+    assert sorted(round(c, 2) for c in p.candidates) == [-0.1, 0.1]
+
+
+def test_a_viscous_slope_per_direction() -> None:
+    import dataclasses
+
+    from torquemap.friction_law import DirectionalViscousFriction
+
+    fields = {f.name: getattr(LAW, f.name) for f in dataclasses.fields(LAW)}
+    law = DirectionalViscousFriction(**fields, viscous_negative=0.006)
+    res = identify_model(robot(), [simulate(law=law)], max_order=20, friction="whole")  # type: ignore[arg-type]
+    f = res.model.joints["m"].friction
+    assert isinstance(f, DirectionalViscousFriction)
+    # 0.004 and 0.006 N m s/rad, from 10^4 samples per pass of 5 mN m noise
+    assert_allclose([f.viscous, f.viscous_negative], [0.004, 0.006], rtol=0.03)
+    # the model file's table reads back as the same law
+    from torquemap.friction_law import friction_law_from_dict
+
+    assert friction_law_from_dict(f.to_dict()).to_dict() == f.to_dict()

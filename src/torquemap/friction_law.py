@@ -265,6 +265,126 @@ class StribeckFriction:
             raise InputError(f"{where} {exc.message}", path=path) from None
 
 
+@register_friction_law
+@dataclass(frozen=True, slots=True, eq=False)
+class DirectionalViscousFriction:
+    """:class:`StribeckFriction` with a viscous coefficient per direction.
+
+    ``f(w) = b(w) (f+(w) + viscous w) + (1 - b(w)) (f-(w) + viscous_negative w)`` with the
+    branches, blend and fields of :class:`StribeckFriction` (``viscous`` is the positive
+    direction's). Whole-log identification uses it when the two directions' viscous slopes
+    differ significantly.
+
+    Examples
+    --------
+    >>> f = DirectionalViscousFriction(coulomb_positive=0.1, coulomb_negative=0.2,
+    ...                                viscous=0.01, viscous_negative=0.02)
+    >>> f.torque([2.0, -2.0]).round(6)
+    array([ 0.12, -0.24])
+    >>> bool(np.allclose(f.basis([2.0, -2.0]) @ f.linear_parameters(), f.torque([2.0, -2.0])))
+    True
+    """
+
+    kind: ClassVar[str] = "stribeck-directional-viscous"
+    linear_parameter_names: ClassVar[tuple[str, ...]] = (
+        *StribeckFriction.linear_parameter_names,
+        "viscous_negative",
+    )
+
+    coulomb_positive: float = 0.0
+    coulomb_negative: float = 0.0
+    viscous: float = 0.0
+    stribeck_positive: float = 0.0
+    stribeck_negative: float = 0.0
+    stribeck_velocity: float = 1.0
+    zero_velocity: float = 1e-3
+    stribeck_exponent: float = 2.0
+    transition: Transition = "linear"
+    viscous_negative: float = 0.0
+
+    def __post_init__(self) -> None:
+        self._static()  # validates the shared fields
+        if isinstance(self.viscous_negative, bool) or not (
+            isinstance(self.viscous_negative, int | float) and math.isfinite(self.viscous_negative)
+        ):
+            raise InputError(
+                f"friction viscous_negative must be a finite number, got {self.viscous_negative!r}"
+            )
+
+    def _static(self) -> StribeckFriction:
+        """The same law without viscous terms."""
+        return StribeckFriction(
+            coulomb_positive=self.coulomb_positive,
+            coulomb_negative=self.coulomb_negative,
+            viscous=0.0,
+            stribeck_positive=self.stribeck_positive,
+            stribeck_negative=self.stribeck_negative,
+            stribeck_velocity=self.stribeck_velocity,
+            zero_velocity=self.zero_velocity,
+            stribeck_exponent=self.stribeck_exponent,
+            transition=self.transition,
+        )
+
+    def torque(self, velocity: ArrayLike, *, t: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Friction torque [N m] at motor velocity [rad/s] (static: ``t`` is ignored)."""
+        static = self._static()
+        w, b, _ = static._blend_and_shape(velocity)
+        out: NDArray[np.float64] = static.torque(velocity) + w * (
+            b * self.viscous + (1.0 - b) * self.viscous_negative
+        )
+        return out
+
+    def static_levels(self) -> tuple[float, float]:
+        """``(coulomb_positive + stribeck_positive, coulomb_negative + stribeck_negative)``."""
+        return self._static().static_levels()
+
+    def basis(self, velocity: ArrayLike) -> NDArray[np.float64]:
+        """Columns (n, 6) for the linear parameters, in ``linear_parameter_names`` order."""
+        static = self._static()
+        w, b, _ = static._blend_and_shape(velocity)
+        w, b = np.atleast_1d(w), np.atleast_1d(b)
+        cols = static.basis(velocity)
+        cols[..., 2] = w * b
+        return np.concatenate([cols, (w * (1.0 - b))[..., None]], axis=-1)
+
+    def linear_parameters(self) -> NDArray[np.float64]:
+        """Values of the linear parameters (``linear_parameter_names`` order)."""
+        return np.array([float(getattr(self, k)) for k in self.linear_parameter_names])
+
+    def with_linear_parameters(self, values: ArrayLike) -> Self:
+        """A copy with the linear parameters replaced."""
+        v = np.asarray(values, dtype=np.float64).reshape(-1)
+        if v.size != len(self.linear_parameter_names):
+            raise ValueError(f"expected {len(self.linear_parameter_names)} values, got {v.size}")
+        values_by_name: dict[str, Any] = {
+            k: float(x) for k, x in zip(self.linear_parameter_names, v, strict=True)
+        }
+        return dataclasses.replace(self, **values_by_name)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``[joints.<j>.friction]`` table."""
+        out: dict[str, Any] = {"kind": self.kind}
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            out[f.name] = value if f.name == "transition" else float(value)
+        return out
+
+    @classmethod
+    def from_dict(
+        cls, table: Mapping[str, Any], *, where: str = "friction", path: str | None = None
+    ) -> DirectionalViscousFriction:
+        """Read the law from its table (``kind`` already removed); InputError on bad keys."""
+        body = dict(table)
+        negative = body.pop("viscous_negative", 0.0)
+        base = StribeckFriction.from_dict(body, where=where, path=path)
+        if isinstance(negative, bool) or not (
+            isinstance(negative, int | float) and math.isfinite(negative)
+        ):
+            raise InputError(f"{where} viscous_negative must be a finite number", path=path)
+        fields = {f.name: getattr(base, f.name) for f in dataclasses.fields(base)}
+        return cls(**fields, viscous_negative=float(negative))
+
+
 def friction_law_from_dict(
     table: Mapping[str, Any], *, where: str = "friction", path: str | os.PathLike[str] | None = None
 ) -> FrictionLaw:

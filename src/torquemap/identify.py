@@ -1024,6 +1024,7 @@ def _identify_whole(
             elbow_term=elbow_term,
             stribeck=stribeck,
             delay=channel_delay,
+            reference_delay=res.channel_delay if channel_delay == "auto" else None,
             joint=name,
             gravity_check=k if joint.gear_ratio > 1.0 else None,
             inertia=res.inertia is not None and res.inertia.samples >= 3,
@@ -1054,6 +1055,7 @@ def _identify_whole(
         )
         if (
             fit.value("friction.viscous") < 0
+            or fit.value("friction.viscous_negative") < 0
             or (seen[0] and fit.value("friction.coulomb_positive") < 0)
             or (seen[1] and fit.value("friction.coulomb_negative") < 0)
         ):
@@ -1082,12 +1084,12 @@ def _whole_joint_model(fit: Any, jm: JointModel, seen: tuple[bool, bool]) -> Joi
     """The joint model of a whole-log fit (:class:`torquemap.identify_whole.WholeFit`); a
     direction never moved in takes the other's Coulomb and Stribeck levels (the pass method's
     warning says so)."""
-    from torquemap.friction_law import StribeckFriction
+    from torquemap.friction_law import DirectionalViscousFriction, StribeckFriction
 
     inertia = InertiaModel(
         constant=fit.value("inertia.constant"), cos_elbow=fit.value("inertia.cos_elbow")
     )
-    law = StribeckFriction(
+    law: StribeckFriction | DirectionalViscousFriction = StribeckFriction(
         coulomb_positive=max(fit.value("friction.coulomb_positive"), 0.0),
         coulomb_negative=max(fit.value("friction.coulomb_negative"), 0.0),
         viscous=fit.value("friction.viscous"),
@@ -1098,6 +1100,11 @@ def _whole_joint_model(fit: Any, jm: JointModel, seen: tuple[bool, bool]) -> Joi
         stribeck_exponent=fit.stribeck_exponent if fit.stribeck else 2.0,
         transition="smooth",
     )
+    if "friction.viscous_negative" in fit.names:
+        fields = {f.name: getattr(law, f.name) for f in dataclasses.fields(law)}
+        law = DirectionalViscousFriction(
+            **fields, viscous_negative=fit.value("friction.viscous_negative")
+        )
     if seen[0] != seen[1]:
         side = "positive" if seen[0] else "negative"
         law = dataclasses.replace(
@@ -1128,6 +1135,7 @@ def _whole_notes(fit: Any, resolution: float) -> dict[str, Any]:
     return {
         "friction_fit": "whole",
         "channel_delay": float(fit.delay),
+        "channel_delay_interval": [float(x) for x in fit.delay_interval],
         "stribeck": bool(fit.stribeck),
         "whole_samples": int(fit.samples),
         "velocity_resolution": float(resolution),

@@ -22,17 +22,19 @@ neighbours are correlated. Everything here is linear in the number of samples.
 
 from __future__ import annotations
 
+import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import optimize, stats
+from scipy import optimize, sparse, stats
 
 from torquemap.errors import InputError
 from torquemap.filters import lowpass, smooth_as_acceleration
 from torquemap.robust import (
+    HUBER_K,
     cluster_covariance,
     huber_weights,
     robust_scale,
@@ -111,6 +113,9 @@ class WholeFit:
         (a gravity-like term that PDTV of the motor angle cannot explain); 0 when not tested.
     gravity_significant
         Whether that term is statistically significant.
+    delay_interval
+        95 % profile confidence interval of the delay [s] (spanning every candidate when the
+        logs do not tell the delay apart).
     warnings
         One line each.
     """
@@ -129,6 +134,7 @@ class WholeFit:
     samples: int
     gravity_torque: float = 0.0
     gravity_significant: bool = False
+    delay_interval: tuple[float, float] = (0.0, 0.0)
     warnings: tuple[str, ...] = field(default_factory=tuple)
 
     def value(self, name: str, default: float = 0.0) -> float:
@@ -154,19 +160,23 @@ def friction_basis(
     stribeck_exponent: float,
     zero_velocity: float,
     stribeck: bool = True,
+    split_viscous: bool = False,
 ) -> NDArray[np.float64]:
     """Columns of the friction law, linear parameters in this order: ``coulomb_positive,
-    coulomb_negative, viscous[, stribeck_positive, stribeck_negative]``.
+    coulomb_negative, viscous[, stribeck_positive, stribeck_negative][, viscous_negative]``.
 
     ``f = p (c+ + s+ e) - (1 - p) (c- + s- e) + b v`` with ``p`` the smooth transition
-    (:func:`transition`) and ``e = exp(-(|v| / vs)^exponent)``.
+    (:func:`transition`) and ``e = exp(-(|v| / vs)^exponent)``; with ``split_viscous`` the
+    viscous term is ``(p b + (1 - p) b-) v`` (a slope per direction).
     """
     v = np.asarray(velocity, dtype=np.float64)
     p = transition(v, zero_velocity)
-    cols = [p, -(1.0 - p), v]
+    cols = [p, -(1.0 - p), p * v if split_viscous else v]
     if stribeck:
         e = np.exp(-((np.abs(v) / stribeck_velocity) ** stribeck_exponent))
         cols += [p * e, -(1.0 - p) * e]
+    if split_viscous:
+        cols.append((1.0 - p) * v)
     return np.column_stack(cols)
 
 
@@ -229,6 +239,7 @@ class _Prepared:
     window: float
     search: list[NDArray[np.intp]]  # per piece, rows of the nonlinear search (a subset of rows)
     search_pos: NDArray[np.intp]  # their positions in the stacked rows
+    smoothers: list[RowSmoother]  # per piece, the smoothing at the search rows
 
 
 def _prepare(
@@ -283,22 +294,114 @@ def _prepare(
         window=window,
         search=search,
         search_pos=np.concatenate(pos).astype(np.intp),
+        smoothers=[RowSmoother.build(t, rs, window) for t, rs in zip(ts, search, strict=True)],
     )
 
 
+@dataclass(frozen=True, slots=True, eq=False)
+class RowSmoother:
+    """:func:`torquemap.filters.smooth_as_acceleration` evaluated at some rows only.
+
+    The smoothed signal at row ``i`` is the differentiator's acceleration (a local quadratic
+    least-squares fit over the window of ``i``, :func:`torquemap.filters.differentiate`) of the
+    signal's double integral; that fit is a fixed linear combination of the window's samples,
+    precomputed here once per time axis. Evaluating it at one row per quarter window costs
+    about four operations per sample, whatever the window holds, where smoothing every sample
+    costs the window's length per sample: the nonlinear search's trials use this.
+
+    Attributes
+    ----------
+    t
+        Time [s] of the whole piece, shape (n,).
+    operator
+        The rows' weights on the double integral, sparse (rows, n).
+    """
+
+    t: NDArray[np.float64]
+    operator: sparse.csr_matrix
+
+    @classmethod
+    def build(cls, t: NDArray[np.float64], rows: NDArray[np.intp], window: float) -> RowSmoother:
+        """The smoother of time axis ``t`` [s] at ``rows`` for a window of ``window`` [s]."""
+        from torquemap.filters import MIN_WINDOW_SAMPLES, uniform_step
+
+        n = t.size
+        h = uniform_step(t)
+        half = math.floor(window / (2 * h) + 1e-9)
+        if half >= 2 and 2 * half + 1 <= n and np.allclose(np.diff(t), h, rtol=1e-9, atol=0.0):
+            length = 2 * half + 1
+            lo = np.clip(rows - half, 0, n - length)
+            hi = lo + length
+        else:
+            start = np.clip(t[rows] - window / 2, t[0], t[-1] - window)
+            lo = np.searchsorted(t, start, side="left")
+            hi = np.searchsorted(t, start + window * (1 + 1e-12), side="right")
+            short = (hi - lo) < MIN_WINDOW_SAMPLES
+            if short.any():
+                i = rows[short]
+                left = np.clip(i - MIN_WINDOW_SAMPLES // 2, 0, n - MIN_WINDOW_SAMPLES)
+                lo[short] = np.minimum(lo[short], left)
+                hi[short] = np.maximum(hi[short], left + MIN_WINDOW_SAMPLES)
+        width = int((hi - lo).max()) if rows.size else 1
+        offsets = np.arange(width)
+        index = np.minimum(lo[:, None] + offsets, n - 1)
+        inside = (lo[:, None] + offsets) < hi[:, None]
+        scale = np.maximum(0.5 * (t[hi - 1] - t[lo]), 1e-300)
+        sc = np.where(inside, (t[index] - t[rows][:, None]) / scale[:, None], 0.0)
+        m = inside.astype(np.float64)
+        basis = np.stack([m, m * sc, m * sc * sc], axis=-1)  # (rows, L, 3)
+        normal = np.einsum("rli,rlj->rij", basis, basis)
+        # the curvature's row of (S^T S)^-1 S^T, times 2 / scale^2 (acceleration)
+        unit = np.broadcast_to(np.array([0.0, 0.0, 1.0]), (rows.size, 3))[:, :, None]
+        e = np.linalg.solve(normal, unit)[:, :, 0]
+        weight = 2.0 * np.einsum("rlj,rj->rl", basis, e) / (scale**2)[:, None]
+        operator = sparse.csr_matrix(
+            (weight.ravel(), index.ravel(), np.arange(0, weight.size + 1, width)),
+            shape=(rows.size, n),
+        )
+        return cls(t=t, operator=operator)
+
+    def __call__(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The smoothed ``x`` (n, m) at the rows, shape (rows, m)."""
+        mean = np.mean(x, axis=0)
+        out = self.operator @ _double_integral(self.t, x - mean) + mean
+        return np.asarray(out, dtype=np.float64)
+
+
+def _double_integral(t: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Twice the cumulative trapezoidal integral of ``x`` (n, m) over ``t`` [s], from 0."""
+    dt = np.diff(t)[:, None]
+    out = np.zeros_like(x)
+    out[1:] = np.cumsum(0.5 * (x[1:] + x[:-1]) * dt, axis=0)
+    second = np.zeros_like(x)
+    second[1:] = np.cumsum(0.5 * (out[1:] + out[:-1]) * dt, axis=0)
+    return second
+
+
 def _friction_columns(
-    prep: _Prepared, vs: float, exponent: float, w0: float, stribeck: bool, *, search: bool = False
+    prep: _Prepared,
+    vs: float,
+    exponent: float,
+    w0: float,
+    stribeck: bool,
+    *,
+    search: bool = False,
+    split: bool = False,
 ) -> NDArray[np.float64]:
     out = []
-    for t, v, r, rs in zip(prep.t, prep.velocity, prep.rows, prep.search, strict=True):
+    for i, (t, v, r) in enumerate(zip(prep.t, prep.velocity, prep.rows, strict=True)):
         basis = friction_basis(
             v,
             stribeck_velocity=vs,
             stribeck_exponent=exponent,
             zero_velocity=w0,
             stribeck=stribeck,
+            split_viscous=split,
         )
-        out.append(smooth_as_acceleration(t, basis, window=prep.window)[rs if search else r])
+        if search:
+            out.append(prep.smoothers[i](basis))
+        else:
+            out.append(smooth_as_acceleration(t, basis, window=prep.window)[r])
     return np.vstack(out)
 
 
@@ -335,6 +438,7 @@ def fit_joint_whole(
     stribeck: str = "auto",
     delay: float | str = "auto",
     max_delay: float = 0.25,
+    reference_delay: float | None = None,
     joint: str = "",
     gravity_check: int | None = None,
     planar: bool = False,
@@ -367,6 +471,9 @@ def fit_joint_whole(
         fixed delay [s].
     max_delay
         Search range of the delay [s].
+    reference_delay
+        The pass method's delay [s] (:func:`torquemap.delay.estimate_delay`), a cross-check:
+        it picks among equally good delays and is reported when it disagrees.
     joint
         Joint name (messages).
     gravity_check
@@ -413,12 +520,15 @@ def fit_joint_whole(
             if len(cache) > 64:
                 cache.clear()
             cache[key] = np.hstack(
-                (fixed_sub, _friction_columns(prep, vs, ex, w0, st, search=True))
+                (
+                    fixed_sub,
+                    _friction_columns(prep, vs, ex, w0, st, search=True, split=directional),
+                )
             )
         return cache[key]
 
     def design(vs: float, ex: float, w0: float, st: bool) -> NDArray[np.float64]:
-        return np.hstack((prep.fixed, _friction_columns(prep, vs, ex, w0, st)))
+        return np.hstack((prep.fixed, _friction_columns(prep, vs, ex, w0, st, split=directional)))
 
     # starting point: no Stribeck, transition at twice the resolution, no delay; Huber weights
     # from it, held fixed through the search
@@ -431,6 +541,22 @@ def fit_joint_whole(
     def cost(vs: float, ex: float, w0: float, st: bool, d: float) -> float:
         return _solve(design_sub(vs, ex, w0, st), _torque(prep, d, search=True), ws).wrss
 
+    # the delay moves which rows are outliers (a misaligned ramp is one): each delay is scored
+    # by Huber's loss at one common scale after its own reweighting, not with the weights of
+    # the start, which down-weight exactly the ramps that tell the delay
+    scale0 = robust_scale(first.residual)
+
+    def delay_cost(vs: float, ex: float, w0: float, st: bool, d: float) -> float:
+        a_ = design_sub(vs, ex, w0, st)
+        y_ = _torque(prep, d, search=True)
+        trial = _solve(a_, y_, ws)
+        trial = _solve(a_, y_, huber_weights(trial.residual, scale0))
+        return huber_cost(trial.residual, scale0)
+
+    # about four search rows per differentiator window: neighbours share most of their data
+    delay_dof = max(sub.size / 4.0, 1.0)
+    profile: DelayProfile | None = None
+
     def scan_log(f: object, lo: float, hi: float, count: int) -> float:
         fun = f
         grid = np.geomspace(lo, hi, count)
@@ -442,7 +568,7 @@ def fit_joint_whole(
                 lambda x: fun(math.exp(x)),  # type: ignore[operator]
                 bounds=(math.log(a_), math.log(b_)),
                 method="bounded",
-                options={"xatol": 0.1},
+                options={"xatol": 0.03},
             )
             if float(res.fun) <= vals[i]:
                 return math.exp(float(res.x))
@@ -454,27 +580,47 @@ def fit_joint_whole(
     for rnd in range(2):
         if use_st:
             best = (math.inf, vs, ex)
+            scanned: dict[float, tuple[float, float]] = {}
             for e in EXPONENTS if rnd == 0 else (ex,):
+                # a Stribeck dip narrower than the transition through zero trades off with it
+                # (huge opposite terms that cancel): the Stribeck velocity stays above 2 w0
                 v_best = scan_log(
-                    lambda x, e=e, w0=w0, d=d: cost(x, e, w0, True, d), vs_lo, vs_hi, 8
+                    lambda x, e=e, w0=w0, d=d: cost(x, e, w0, True, d),
+                    min(max(vs_lo, 2.0 * w0), 0.5 * vs_hi),
+                    vs_hi,
+                    8,
                 )
                 c = cost(v_best, e, w0, True, d)
+                scanned[e] = (c, v_best)
                 if c < best[0]:
                     best = (c, v_best, e)
+            # the Gaussian form (exponent 2) stays unless another exponent fits significantly
+            # better (F test at 5 %, four search rows per window counted as one)
+            if 2.0 in scanned and best[2] != 2.0:
+                c2, v2 = scanned[2.0]
+                if c2 - best[0] < stats.f.ppf(0.95, 1, delay_dof) * best[0] / delay_dof:
+                    best = (c2, v2, 2.0)
             _, vs, ex = best
         w0 = scan_log(
             lambda x, vs=vs, ex=ex, d=d: cost(vs, ex, x, use_st, d),
             w0_lo / 4.0,
-            max(vs_hi, w0_lo),
+            max(0.5 * vs, w0_lo / 2.0) if use_st else max(vs_hi, w0_lo),
             8,
         )
         if delay != "auto":
             break
-        d_new = _scan_delay(lambda x, vs=vs, ex=ex, w0=w0: cost(vs, ex, w0, use_st, x), max_delay)
+        profile = delay_profile(
+            functools.partial(delay_cost, vs, ex, w0, use_st), max_delay, dof=delay_dof
+        )
+        d_new = profile.best
         moved = abs(d_new - d)
         d = d_new
         if moved < 0.1 * window:
             break
+    delay_interval = (d, d)
+    if profile is not None:
+        d, delay_interval, note = _judge_delay(profile, reference_delay, max_delay)
+        warnings += note
     # the Stribeck test (nested F test on the search rows, about independent after smoothing)
     st_used = use_st
     ysub = _torque(prep, d, search=True)
@@ -483,10 +629,19 @@ def fit_joint_whole(
         without = _solve(design_sub(vs, ex, w0, False), ysub, ws)
         dof = max(sub.size - with_st.coef.size, 1)
         f = ((without.wrss - with_st.wrss) / 2.0) / max(with_st.wrss / dof, 1e-300)
+        i_st = fixed_sub.shape[1] + 3  # after the Coulomb pair and the (positive) viscous
         st_used = bool(
             f > stats.f.ppf(1.0 - significance, 2, dof)
-            and with_st.coef[-2] > 0
-            and with_st.coef[-1] > 0
+            and with_st.coef[i_st] > 0
+            and with_st.coef[i_st + 1] > 0
+        )
+    if use_st and not st_used:
+        # the width was bounded by a Stribeck velocity that is not kept
+        w0 = scan_log(
+            lambda x, vs=vs, ex=ex, d=d: cost(vs, ex, x, False, d),
+            w0_lo / 4.0,
+            max(vs_hi, w0_lo),
+            8,
         )
     if delay == "auto" and d != 0.0:
         zero = _solve(design_sub(vs, ex, w0, st_used), _torque(prep, 0.0, search=True), ws)
@@ -495,6 +650,7 @@ def fit_joint_whole(
         f = (zero.wrss - best_d.wrss) / max(best_d.wrss / dof, 1e-300)
         if not f > stats.f.ppf(1.0 - 1e-6, 1, dof):
             d = 0.0
+            delay_interval = (min(delay_interval[0], 0.0), max(delay_interval[1], 0.0))
     y = _torque(prep, d)
     first_full = _solve(design(vs, ex, w0, st_used), y, np.ones(n))
     weights = huber_weights(first_full.residual, robust_scale(first_full.residual))
@@ -538,7 +694,24 @@ def fit_joint_whole(
             prep = _prepare(
                 pieces, chosen, window=window, elbow_term=elbow_term, block=block, inertia=inertia
             )
-    a = np.hstack((prep.fixed, _friction_columns(prep, vs, ex, w0, st_used)))
+    # a viscous slope per direction (only when both directions were swept): kept when the
+    # difference of the two slopes is significant (Wald test, cluster covariance)
+    split_visc = False
+    if directional:
+        a_v = np.hstack((prep.fixed, _friction_columns(prep, vs, ex, w0, st_used, split=True)))
+        fit_v = _irls(a_v, y, weights)
+        cov_v = cluster_covariance(a_v, fit_v.residual, fit_v.weights, fit_v.bread, prep.clusters)
+        iv, ivn = prep.fixed.shape[1] + 2, a_v.shape[1] - 1
+        dv = float(fit_v.coef[iv] - fit_v.coef[ivn])
+        var = float(cov_v[iv, iv] + cov_v[ivn, ivn] - 2.0 * cov_v[iv, ivn])
+        split_visc = bool(
+            var > 0
+            and dv * dv / var > stats.chi2.ppf(1.0 - significance, 1)
+            and min(fit_v.coef[iv], fit_v.coef[ivn]) > 0
+            # and, like a directional PDTV line, by more than 10 %
+            and abs(dv) > 0.1 * max(fit_v.coef[iv], fit_v.coef[ivn])
+        )
+    a = np.hstack((prep.fixed, _friction_columns(prep, vs, ex, w0, st_used, split=split_visc)))
     fit = _irls(a, y, weights)
     if inertia and fit.coef[0] <= 0:
         warnings.append(
@@ -548,10 +721,12 @@ def fit_joint_whole(
         prep = _prepare(
             pieces, final_orders, window=window, elbow_term=False, block=block, inertia=False
         )
-        a = np.hstack((prep.fixed, _friction_columns(prep, vs, ex, w0, st_used)))
+        a = np.hstack((prep.fixed, _friction_columns(prep, vs, ex, w0, st_used, split=split_visc)))
         fit = _irls(a, y, weights)
     cov = cluster_covariance(a, fit.residual, fit.weights, fit.bread, prep.clusters)
     names = [*prep.fixed_names, *FRICTION_NAMES[: 5 if st_used else 3]]
+    if split_visc:
+        names.append("friction.viscous_negative")
     scale = robust_scale(fit.residual)
     psd = _residual_psd(prep, fit.residual, scale)
     grav, grav_sig = 0.0, False
@@ -572,8 +747,46 @@ def fit_joint_whole(
         samples=n,
         gravity_torque=grav,
         gravity_significant=grav_sig,
+        delay_interval=(float(delay_interval[0]), float(delay_interval[1])),
         warnings=tuple(name + w for w in warnings),
     )
+
+
+def _judge_delay(
+    profile: DelayProfile, reference: float | None, max_delay: float
+) -> tuple[float, tuple[float, float], list[str]]:
+    """The delay to keep, its interval and warnings: an ambiguous profile takes the candidate
+    nearest the pass method's delay ``reference`` (when given) and says so; a minimum at the
+    search's bound is reported; a pass method's delay outside the interval is reported."""
+    notes: list[str] = []
+    d = profile.best
+    interval = (profile.low, profile.high)
+    step = float(profile.grid[1] - profile.grid[0])
+    if len(profile.candidates) > 1:
+        listed = ", ".join(f"{1000 * c:.0f}" for c in profile.candidates)
+        if reference is not None:
+            d = min(profile.candidates, key=lambda c: abs(c - reference))
+        notes.append(
+            f"the torque channel's delay is not identifiable from these logs (the fit is "
+            f"about as good at {listed} ms); {1000 * d:.0f} ms kept"
+            + (" (nearest the pass method's)" if reference is not None else "")
+            + "; record sweeps with clear accelerations (ramps) so that the delay shows"
+        )
+        lo = min(profile.candidates) - 0.5 * step
+        hi = max(profile.candidates) + 0.5 * step
+        interval = (max(min(lo, profile.low), -max_delay), min(max(hi, profile.high), max_delay))
+    elif abs(d) > max_delay - step:
+        notes.append(
+            f"the torque channel's delay found ({1000 * d:.0f} ms) lies at the bound of the "
+            f"search ({1000 * max_delay:.0f} ms): the logs may be misaligned by more"
+        )
+    elif reference is not None and not interval[0] - step <= reference <= interval[1] + step:
+        notes.append(
+            f"the pass method's delay ({1000 * reference:.0f} ms) lies outside the whole-log "
+            f"fit's 95 % interval ({1000 * interval[0]:.0f} to {1000 * interval[1]:.0f} ms); "
+            f"the whole-log delay ({1000 * d:.0f} ms) is kept"
+        )
+    return d, interval, notes
 
 
 @dataclass(slots=True)
@@ -598,20 +811,102 @@ def _irls(
     return _Irls(coef=trial.coef, bread=trial.bread, residual=trial.residual, weights=w)
 
 
-def _scan_delay(cost: object, max_delay: float) -> float:
-    fun = cost
-    grid = np.linspace(-max_delay, max_delay, 25)
-    vals = np.array([fun(float(x)) for x in grid])  # type: ignore[operator]
+@dataclass(frozen=True, slots=True, eq=False)
+class DelayProfile:
+    """The whole-log fit's cost against the torque channel's delay.
+
+    Attributes
+    ----------
+    grid, cost
+        Delays tried [s] and the robust cost of the fit at each.
+    best
+        The cost-minimising delay (grid, refined by a parabola) [s].
+    low, high
+        The 95 % profile confidence interval [s] (the delays whose cost is not significantly
+        worse than at ``best``; correlated neighbours counted once per window).
+    candidates
+        Separate local minima of the cost within that threshold (``best`` first) [s]: more than
+        one means the logs do not tell the delay apart.
+    """
+
+    grid: NDArray[np.float64]
+    cost: NDArray[np.float64]
+    best: float
+    low: float
+    high: float
+    candidates: tuple[float, ...]
+
+
+def delay_profile(
+    cost: Callable[[float], float], max_delay: float, *, dof: float, steps: int = 25
+) -> DelayProfile:
+    """Scan ``cost`` over delays in ``[-max_delay, max_delay]`` (grid, then a parabola through
+    the best three) and bound the delay by a profile F test at 95 % with ``dof`` degrees of
+    freedom.
+
+    Examples
+    --------
+    >>> p = delay_profile(lambda d: 100.0 + 1e6 * (d - 0.05) ** 2, 0.25, dof=100.0)
+    >>> round(p.best, 4), p.low < 0.05 < p.high, p.candidates == (p.best,)
+    (0.05, True, True)
+    """
+    grid = np.linspace(-max_delay, max_delay, steps)
+    vals = np.array([cost(float(x)) for x in grid])
     k = int(np.argmin(vals))
+    best, c_best = float(grid[k]), float(vals[k])
     if 0 < k < grid.size - 1:
         y0, y1, y2 = vals[k - 1], vals[k], vals[k + 1]
         den = y0 - 2 * y1 + y2
         if den > 0:
             step = float(grid[1] - grid[0])
-            best = float(grid[k] + 0.5 * step * (y0 - y2) / den)
-            if fun(best) <= y1:  # type: ignore[operator]
-                return best
-    return float(grid[k])
+            trial = float(grid[k] + 0.5 * step * (y0 - y2) / den)
+            c_trial = cost(trial)
+            if c_trial <= y1:
+                best, c_best = trial, c_trial
+    dof = max(dof, 1.0)
+    limit = c_best * (1.0 + float(stats.f.ppf(0.95, 1, dof)) / dof)
+    inside = vals <= limit
+    # the interval: the grid points around the best within the limit, half a step beyond
+    half = 0.5 * float(grid[1] - grid[0])
+    lo_k = hi_k = k
+    while lo_k > 0 and inside[lo_k - 1]:
+        lo_k -= 1
+    while hi_k < grid.size - 1 and inside[hi_k + 1]:
+        hi_k += 1
+    low = max(float(grid[lo_k]) - half, -max_delay)
+    high = min(float(grid[hi_k]) + half, max_delay)
+    # other local minima within the limit, outside that interval
+    others = [
+        float(grid[i])
+        for i in range(grid.size)
+        if inside[i]
+        and (i < lo_k or i > hi_k)
+        and (i == 0 or vals[i] <= vals[i - 1])
+        and (i == grid.size - 1 or vals[i] <= vals[i + 1])
+    ]
+    return DelayProfile(
+        grid=grid,
+        cost=vals,
+        best=best,
+        low=low,
+        high=high,
+        candidates=(best, *others),
+    )
+
+
+def huber_cost(residual: NDArray[np.float64], scale: float) -> float:
+    """Sum of Huber's loss of ``residual`` at ``scale`` (k = 1.345), in squared units.
+
+    Examples
+    --------
+    >>> huber_cost(np.array([0.0, 1.0, 10.0]), 1.0) == 0.5 + 1.345 * 10 - 0.5 * 1.345**2
+    True
+    """
+    if scale <= 0:
+        return float(0.5 * np.sum(residual**2))
+    k = HUBER_K * scale
+    a = np.abs(residual)
+    return float(np.sum(np.where(a <= k, 0.5 * a * a, k * a - 0.5 * k * k)))
 
 
 def _residual_psd(prep: _Prepared, residual: NDArray[np.float64], scale: float) -> float:
