@@ -106,9 +106,39 @@ def _finite_floats(
     return out
 
 
+class _LinearLaw:
+    """What a static law with named linear parameters and dataclass fields shares."""
+
+    __slots__ = ()
+    linear_parameter_names: ClassVar[tuple[str, ...]]
+    kind: ClassVar[str]
+
+    def linear_parameters(self) -> NDArray[np.float64]:
+        """Values of the linear parameters (``linear_parameter_names`` order; N m, N m s/rad)."""
+        return np.array([float(getattr(self, k)) for k in self.linear_parameter_names])
+
+    def with_linear_parameters(self, values: ArrayLike) -> Self:
+        """A copy with the linear parameters replaced."""
+        v = np.asarray(values, dtype=np.float64).reshape(-1)
+        if v.size != len(self.linear_parameter_names):
+            raise ValueError(f"expected {len(self.linear_parameter_names)} values, got {v.size}")
+        values_by_name: dict[str, Any] = {
+            k: float(x) for k, x in zip(self.linear_parameter_names, v, strict=True)
+        }
+        return dataclasses.replace(self, **values_by_name)  # type: ignore[type-var]
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``[joints.<j>.friction]`` table."""
+        out: dict[str, Any] = {"kind": self.kind}
+        for f in dataclasses.fields(self):  # type: ignore[arg-type]
+            value = getattr(self, f.name)
+            out[f.name] = value if f.name == "transition" else float(value)
+        return out
+
+
 @register_friction_law
 @dataclass(frozen=True, slots=True, eq=False)
-class StribeckFriction:
+class StribeckFriction(_LinearLaw):
     """Coulomb per direction, viscous and Stribeck friction with a transition through zero.
 
     For motor velocity ``w`` [rad/s], with ``s(w) = exp(-(|w| / stribeck_velocity) **
@@ -219,28 +249,6 @@ class StribeckFriction:
         b, s = np.atleast_1d(b), np.atleast_1d(s)
         return np.stack([b, -(1.0 - b), w, b * s, -(1.0 - b) * s], axis=-1)
 
-    def linear_parameters(self) -> NDArray[np.float64]:
-        """Values of the linear parameters [N m, N m, N m s/rad, N m, N m]."""
-        return np.array([float(getattr(self, k)) for k in self.linear_parameter_names])
-
-    def with_linear_parameters(self, values: ArrayLike) -> Self:
-        """A copy with the linear parameters replaced."""
-        v = np.asarray(values, dtype=np.float64).reshape(-1)
-        if v.size != len(self.linear_parameter_names):
-            raise ValueError(f"expected {len(self.linear_parameter_names)} values, got {v.size}")
-        values_by_name: dict[str, Any] = {
-            k: float(x) for k, x in zip(self.linear_parameter_names, v, strict=True)
-        }
-        return dataclasses.replace(self, **values_by_name)
-
-    def to_dict(self) -> dict[str, Any]:
-        """The ``[joints.<j>.friction]`` table."""
-        out: dict[str, Any] = {"kind": self.kind}
-        for f in dataclasses.fields(self):
-            value = getattr(self, f.name)
-            out[f.name] = value if f.name == "transition" else float(value)
-        return out
-
     @classmethod
     def from_dict(
         cls, table: Mapping[str, Any], *, where: str = "friction", path: str | None = None
@@ -267,7 +275,7 @@ class StribeckFriction:
 
 @register_friction_law
 @dataclass(frozen=True, slots=True, eq=False)
-class DirectionalViscousFriction:
+class DirectionalViscousFriction(_LinearLaw):
     """:class:`StribeckFriction` with a viscous coefficient per direction.
 
     ``f(w) = b(w) (f+(w) + viscous w) + (1 - b(w)) (f-(w) + viscous_negative w)`` with the
@@ -346,28 +354,6 @@ class DirectionalViscousFriction:
         cols = static.basis(velocity)
         cols[..., 2] = w * b
         return np.concatenate([cols, (w * (1.0 - b))[..., None]], axis=-1)
-
-    def linear_parameters(self) -> NDArray[np.float64]:
-        """Values of the linear parameters (``linear_parameter_names`` order)."""
-        return np.array([float(getattr(self, k)) for k in self.linear_parameter_names])
-
-    def with_linear_parameters(self, values: ArrayLike) -> Self:
-        """A copy with the linear parameters replaced."""
-        v = np.asarray(values, dtype=np.float64).reshape(-1)
-        if v.size != len(self.linear_parameter_names):
-            raise ValueError(f"expected {len(self.linear_parameter_names)} values, got {v.size}")
-        values_by_name: dict[str, Any] = {
-            k: float(x) for k, x in zip(self.linear_parameter_names, v, strict=True)
-        }
-        return dataclasses.replace(self, **values_by_name)
-
-    def to_dict(self) -> dict[str, Any]:
-        """The ``[joints.<j>.friction]`` table."""
-        out: dict[str, Any] = {"kind": self.kind}
-        for f in dataclasses.fields(self):
-            value = getattr(self, f.name)
-            out[f.name] = value if f.name == "transition" else float(value)
-        return out
 
     @classmethod
     def from_dict(

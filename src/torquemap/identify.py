@@ -175,50 +175,12 @@ def _identify_passes(
     torque_lag: float | Literal["auto"] = 0.0,
     channel_delay: float | Literal["auto"] = "auto",
 ) -> Identification:
-    """Identify inertia, friction and PDTV of a robot's joints from no-load logs.
+    """:func:`identify_model` with ``friction="passes"`` on logs already sanitised.
 
-    Parameters
-    ----------
-    robot
-        The robot, or a model whose non-identified joints are kept.
-    logs
-        No-load logs read with :func:`torquemap.io.read_log` for this robot.
-    joints
-        Joint names to identify; default all.
-    max_order
-        Highest PDTV order [CPR]; default the resolvable limit of the slowest pass.
-    window
-        Differentiation window [s] (:func:`torquemap.filters.differentiate`).
-    false_alarm
-        Probability that noise alone yields a spurious PDTV line, per joint.
-    stribeck
-        Stribeck term: ``"auto"`` (F test), ``"never"`` or ``"always"``.
-    direction_significance
-        Level of the test that a line differs between directions (Bonferroni over lines).
-    torque_lag
-        Time constant [s] of a first-order lag of the torque (current) channel behind the
-        position (a drive's current-report filter), default 0. ``"auto"`` fits it jointly
-        with the PDTV harmonics (experimental: the estimate depends on the torque-rate noise;
-        see docs/identification.md). The torque is corrected by ``tau + lag * dtau/dt``
-        before PDTV and inertia.
-    channel_delay
-        Pure time delay [s] of the torque (current) channel behind the position channel
-        (host polling, a drive's report latency): each joint's torque is read ``delay``
-        later before anything is identified. ``"auto"`` (default) estimates it per joint with
-        :func:`torquemap.delay.estimate_delay` where the data make it identifiable (the speed
-        varies along the slow passes, so a delay is not just an angle offset of the PDTV) and
-        significant; otherwise 0.
-
-    Returns
-    -------
-    Identification
-        The model and per-joint diagnostics.
-
-    Raises
-    ------
-    InputError
-        No log, an unknown joint, a log shorter than the differentiation window, no motion at
-        all, or ``max_order`` beyond what the slowest pass resolves.
+    The paper's method (friction from the means of constant-speed passes, Eq 5). Parameters,
+    result and errors as :func:`identify_model`'s; ``torque_lag`` [s] is the time constant of a
+    first-order lag of the torque channel (``"auto"`` fits it, experimental), corrected by
+    ``tau + lag * dtau/dt`` before PDTV and inertia.
     """
     model_in = robot if isinstance(robot, Model) else None
     rb = robot.robot if isinstance(robot, Model) else robot
