@@ -70,12 +70,17 @@ def _run(kind: str, *args: str) -> dict[str, float]:
 
 
 def tile(columns: dict[str, np.ndarray], n: int) -> dict[str, np.ndarray]:
-    """``n`` samples of a log repeated forwards then backwards, at its own step from t = 0."""
+    """``n`` samples of a log repeated forwards, at its own step from t = 0.
+
+    Each repeat starts where the log starts (a position jump at the seam, which sanitising cuts
+    there); a log played backwards would not do: friction would aid the motion, and identify
+    refuses such a log as holding torque it cannot explain.
+    """
     t = columns["t"]
     m = t.size
     h = float(np.median(np.diff(t)))
     reps = -(-n // m)
-    idx = np.concatenate([np.arange(m) if r % 2 == 0 else np.arange(m)[::-1] for r in range(reps)])
+    idx = np.concatenate([np.arange(m) for _ in range(reps)])
     out = {"t": h * np.arange(n)}
     for name, values in columns.items():
         if name != "t":
