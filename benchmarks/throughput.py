@@ -1,7 +1,7 @@
 """Throughput of ``torquemap estimate`` and ``identify`` against the read-plus-one-pass floor.
 
 The simulated SCARA bench (``simulate scara``, seed 0) is identified once; its 31 s circle
-(62 k samples at 2 kHz) is tiled, forwards then backwards so that the joints never jump, into
+(62 k samples at 2 kHz) is tiled, forwards (a position jump at each seam, cut there), into
 Parquet logs of 0.25, 1, 4 and 16 M samples, and its sweep likewise for ``identify``. Each
 command runs in its own process with one BLAS thread; the process reports the CPU time (user +
 sys) of the command alone (after its imports) and its peak resident memory (``VmHWM``, the
