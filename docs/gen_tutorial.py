@@ -89,6 +89,36 @@ def masked(text: str) -> str:
     return text
 
 
+#: A decimal number as the commands print it (sign, digits, optional fraction and exponent).
+NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?")
+
+
+def mismatches(got: str, shown: str, *, rtol: float) -> list[str]:
+    """Where ``got`` differs from ``shown`` beyond floating-point noise, one line each.
+
+    The words must be identical and the numbers equal within ``rtol`` of the larger (or within
+    one unit of the last digit printed). Another CPU or BLAS build rounds differently, and a
+    discrete choice near a tie (a sample flagged or not) moves a count by one or two: those are
+    not drift of the docs, which is what this catches (a changed word, format or result).
+    """
+    got_m, shown_m = masked(got), masked(shown)
+    if NUMBER.sub("#", got_m) != NUMBER.sub("#", shown_m):
+        import difflib
+
+        diff = difflib.unified_diff(
+            shown_m.splitlines(), got_m.splitlines(), "shown", "printed", lineterm="", n=0
+        )
+        return ["the words differ:", *diff]
+    out: list[str] = []
+    for a, b in zip(NUMBER.findall(got_m), NUMBER.findall(shown_m), strict=True):
+        x, y = float(a), float(b)
+        digits = b.split(".")[1] if "." in b and "e" not in b.lower() else ""
+        ulp = 10.0 ** -len(digits) if "e" not in b.lower() else 0.0
+        if abs(x - y) > max(rtol * max(abs(x), abs(y)), ulp * 1.0001):
+            out.append(f"printed {a}, shown {b}")
+    return out
+
+
 @contextlib.contextmanager
 def working_directory(path: Path) -> Iterator[None]:
     """Run the block inside ``path`` (the commands use relative paths, as a reader types them)."""
