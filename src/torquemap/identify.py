@@ -994,6 +994,7 @@ def _identify_whole(
             max_order=float(res.max_order),
             planar=planar,
             direction_significance=direction_significance,
+            slowest_speed=min((abs(p.speed) for _, p in res.passes), default=0.0),
         )
         warnings.extend(fit.warnings)
         coulomb = 0.5 * (
@@ -1011,25 +1012,7 @@ def _identify_whole(
             if vertical == "refuse" and fit.gravity_torque > 0.5 * coulomb:
                 raise InputError(msg, path=logs[0].path if len(logs) == 1 else None)
             warnings.append(msg)
-        seen = (
-            any(p.direction == "positive" for _, p in res.passes),
-            any(p.direction == "negative" for _, p in res.passes),
-        )
-        if (
-            fit.value("friction.viscous") < 0
-            or fit.value("friction.viscous_negative") < 0
-            or (seen[0] and fit.value("friction.coulomb_positive") < 0)
-            or (seen[1] and fit.value("friction.coulomb_negative") < 0)
-        ):
-            warnings.append(
-                f"joint {name}: the whole-log fit gave a friction law that is not dissipative "
-                f"(viscous {fit.value('friction.viscous'):.3g} N m s/rad, Coulomb "
-                f"{fit.value('friction.coulomb_positive'):.3g} / "
-                f"{fit.value('friction.coulomb_negative'):.3g} N m): the pass method's model "
-                "is kept for this joint"
-            )
-            continue
-        new_joints[name] = _whole_joint_model(fit, jm, seen)
+        new_joints[name] = _whole_joint_model(fit)
         entry = joint_notes.get(name, {})
         entry.update(_whole_notes(fit, resolution))
         joint_notes[name] = entry
@@ -1042,40 +1025,11 @@ def _identify_whole(
     return Identification(model=model, joints=results, warnings=tuple(warnings))
 
 
-def _whole_joint_model(fit: Any, jm: JointModel, seen: tuple[bool, bool]) -> JointModel:
-    """The joint model of a whole-log fit (:class:`torquemap.identify_whole.WholeFit`); a
-    direction never moved in takes the other's Coulomb and Stribeck levels (the pass method's
-    warning says so)."""
-    from torquemap.friction_law import DirectionalViscousFriction, StribeckFriction
-
+def _whole_joint_model(fit: Any) -> JointModel:
+    """The joint model of a whole-log fit (:class:`torquemap.identify_whole.WholeFit`)."""
     inertia = InertiaModel(
         constant=fit.value("inertia.constant"), cos_elbow=fit.value("inertia.cos_elbow")
     )
-    law: StribeckFriction | DirectionalViscousFriction = StribeckFriction(
-        coulomb_positive=max(fit.value("friction.coulomb_positive"), 0.0),
-        coulomb_negative=max(fit.value("friction.coulomb_negative"), 0.0),
-        viscous=fit.value("friction.viscous"),
-        stribeck_positive=fit.value("friction.stribeck_positive"),
-        stribeck_negative=fit.value("friction.stribeck_negative"),
-        stribeck_velocity=fit.stribeck_velocity if fit.stribeck else 1.0,
-        zero_velocity=fit.zero_velocity,
-        stribeck_exponent=fit.stribeck_exponent if fit.stribeck else 2.0,
-        transition="smooth",
-    )
-    if "friction.viscous_negative" in fit.names:
-        fields = {f.name: getattr(law, f.name) for f in dataclasses.fields(law)}
-        law = DirectionalViscousFriction(
-            **fields, viscous_negative=fit.value("friction.viscous_negative")
-        )
-    if seen[0] != seen[1]:
-        side = "positive" if seen[0] else "negative"
-        law = dataclasses.replace(
-            law,
-            coulomb_positive=getattr(law, f"coulomb_{side}"),
-            coulomb_negative=getattr(law, f"coulomb_{side}"),
-            stribeck_positive=getattr(law, f"stribeck_{side}"),
-            stribeck_negative=getattr(law, f"stribeck_{side}"),
-        )
     lines: list[PdtvLine] = []
     for order, directional in fit.orders:
         for direction in ("positive", "negative") if directional else ("both",):
@@ -1089,7 +1043,7 @@ def _whole_joint_model(fit: Any, jm: JointModel, seen: tuple[bool, bool]) -> Joi
                     direction=direction,
                 )
             )
-    return JointModel(inertia=inertia, friction=law, pdtv=tuple(lines))
+    return JointModel(inertia=inertia, friction=fit.law, pdtv=tuple(lines))
 
 
 def _whole_notes(fit: Any, resolution: float) -> dict[str, Any]:
@@ -1107,6 +1061,7 @@ def _whole_notes(fit: Any, resolution: float) -> dict[str, Any]:
             "covariance": [[float(x) for x in row] for row in fit.covariance],
             "residual_scale": float(fit.residual_scale),
             "residual_psd": float(fit.residual_psd),
+            **({"residual": fit.residual} if fit.residual else {}),
         },
     }
 
