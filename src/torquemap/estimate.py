@@ -818,6 +818,7 @@ def _estimate_piece(
                 acceleration=acceleration[:, k],
                 modulation=modulation[:, k],
                 cutoff=cutoff,
+                bridged=rests[k],
             )
     arrays = {
         "rest": np.column_stack(rests).astype(np.float64) if nj else np.zeros((n, 0)),
