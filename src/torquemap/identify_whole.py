@@ -75,9 +75,6 @@ RUN_WINDOWS = 4.0
 #: in units of the friction level: a Stribeck rise of half the level within a decade of
 #: speed below the slowest pass is about one sigma.
 FLAT_PRIOR = 0.25
-#: Rows near a start from rest enter the table's fit when their own speed exceeds this share
-#: of the slowest observed speed (slower ones are creep or the transition through zero).
-MOVING_SHARE = 0.2
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -158,6 +155,9 @@ class WholeFit:
     residual
         What the model leaves on its own logs, low-passed, per speed
         (:func:`torquemap.uncertainty.residual_table`), or None.
+    observed_speed
+        The slowest speed [rad/s] the table was fitted at (half the slowest pass); below it the
+        table holds its prior's extrapolation.
     warnings
         One line each.
     """
@@ -176,6 +176,7 @@ class WholeFit:
     gravity_significant: bool = False
     delay_interval: tuple[float, float] = (0.0, 0.0)
     residual: dict[str, object] | None = None
+    observed_speed: float = 0.0
     warnings: tuple[str, ...] = field(default_factory=tuple)
 
     @property
@@ -633,8 +634,7 @@ def fit_joint_whole(
             for p, r in zip(rows.pieces, rows.rows, strict=True)
         ]
     )
-    moving = np.abs(rows.at(lambda p: p.velocity)) >= MOVING_SHARE * observed
-    keep = (~near | moving).astype(np.float64)
+    keep = (~near).astype(np.float64)
     w0 = min(2.0 * w0_lo, 0.25 * observed)
     fric = _friction_columns(rows, speeds, w0)
     y0 = _torque(rows, 0.0)
@@ -650,13 +650,6 @@ def fit_joint_whole(
 
     a = np.hstack((fixed, fric))
     first = _psolve(a, y0, keep, embed(fixed.shape[1], (0.1 * level) ** 2))
-    # rows near a start from rest (ramps through low speed) are noisier than steady ones
-    # (the velocity changes fastest there): each group weighted by its own noise level
-    steady_scale = robust_scale(first.residual[(keep > 0) & ~near])
-    near_scale = robust_scale(first.residual[(keep > 0) & near])
-    if near_scale > 0 and steady_scale > 0:
-        keep = np.where(near, min(1.0, (steady_scale / near_scale) ** 2), 1.0) * keep
-        first = _psolve(a, y0, keep, embed(fixed.shape[1], (0.1 * level) ** 2))
     scale0 = robust_scale(first.residual[keep > 0])
     noise = scale0**2 * _inflation(first.residual * keep, rows.clusters)
     prior = embed(fixed.shape[1], noise)
@@ -713,8 +706,13 @@ def fit_joint_whole(
     if max_order >= 1:
         theta = rows.at(lambda p: p.theta)
         inside = keep > 0
+        # the rows sample the angle more coarsely than the log: search only the orders they
+        # resolve (twice the motor angle's step between neighbouring rows per period)
+        step = np.abs(np.diff(theta))
+        step = step[step > 0]
+        resolved = math.pi / (2.0 * float(np.percentile(step, 90))) if step.size else 0.0
         missed = _missed_orders(
-            theta[inside], fit.residual[inside], [o for o, _ in both], max_order
+            theta[inside], fit.residual[inside], [o for o, _ in both], min(max_order, resolved)
         )
         if missed:
             both = sorted([*both, *((o, False) for o in missed)])
@@ -792,6 +790,7 @@ def fit_joint_whole(
         gravity_significant=grav_sig,
         delay_interval=(float(delay_interval[0]), float(delay_interval[1])),
         residual=table,
+        observed_speed=float(observed),
         warnings=tuple(name + w for w in warnings),
     )
 
