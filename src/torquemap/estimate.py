@@ -869,9 +869,13 @@ def _bands(model: Model, reversal_band: float | Mapping[str, float] | None) -> d
     if reversal_band is None:
         whole = whole_fit_joints(model)
         slowest = identified_slowest_speeds(model)
+        observed = observed_speeds(model)
         return {
             j.name: (
-                TRANSITION_SPAN * _law_width(model.joints[j.name].friction)
+                max(
+                    TRANSITION_SPAN * _law_width(model.joints[j.name].friction),
+                    observed.get(j.name, 0.0),
+                )
                 if j.name in whole
                 else max(_law_width(model.joints[j.name].friction), slowest.get(j.name, 0.0))
             )
@@ -974,6 +978,20 @@ def identified_slowest_speeds(model: Model) -> dict[str, float]:
                 values = [v for v in values if math.isfinite(v) and v > 0]
                 if values:
                     out[str(name)] = min(values)
+    return out
+
+
+def observed_speeds(model: Model) -> dict[str, float]:
+    """Per joint, the slowest motor speed [rad/s] a whole-log fit fitted its friction table at
+    (``[identification.joints.<j>] friction_observed_speed``); below it the table is held by
+    its prior."""
+    out: dict[str, float] = {}
+    joints = model.notes.get("joints", {})
+    if isinstance(joints, Mapping):
+        for name, entry in joints.items():
+            value = entry.get("friction_observed_speed") if isinstance(entry, Mapping) else None
+            if isinstance(value, int | float) and math.isfinite(value) and value > 0:
+                out[str(name)] = float(value)
     return out
 
 
