@@ -1054,6 +1054,7 @@ def _whole_notes(fit: Any, resolution: float) -> dict[str, Any]:
         "channel_delay_interval": [float(x) for x in fit.delay_interval],
         "stribeck": bool(fit.stribeck),
         "whole_samples": int(fit.samples),
+        "friction_observed_speed": float(fit.observed_speed),
         "velocity_resolution": float(resolution),
         "gravity_torque": float(fit.gravity_torque),
         "uncertainty": {
