@@ -997,10 +997,7 @@ def _identify_whole(
             slowest_speed=min((abs(p.speed) for _, p in res.passes), default=0.0),
         )
         warnings.extend(fit.warnings)
-        coulomb = 0.5 * (
-            abs(fit.value("friction.coulomb_positive"))
-            + abs(fit.value("friction.coulomb_negative"))
-        )
+        coulomb = 0.5 * float(np.sum(fit.law.levels(np.array([fit.observed_speed]))))
         if fit.gravity_significant and fit.gravity_torque > 0.1 * max(coulomb, 1e-300):
             msg = (
                 f"joint {name}: the no-load torque holds {fit.gravity_torque:.3g} N m (motor "
