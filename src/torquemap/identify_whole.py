@@ -752,7 +752,7 @@ def fit_joint_whole(
         prior = embed(fixed.shape[1], noise)
         fit = _irls(a, y, fit.weights, prior, keep=keep)
     m = fixed.shape[1]
-    fit, bound_note = _dissipative(a, y, fit, prior, m, k)
+    fit, bound_note = _dissipative(a, y, fit, prior, m, k, noise=noise)
     if bound_note:
         warnings.append(bound_note)
     scale = robust_scale(fit.residual[keep > 0])
@@ -845,6 +845,8 @@ def _dissipative(
     prior: NDArray[np.float64],
     m: int,
     k: int,
+    *,
+    noise: float | None = None,
 ) -> tuple[_Trial, str]:
     """The fit with every table level and viscous slope >= 0 (friction opposes motion).
 
@@ -874,7 +876,10 @@ def _dissipative(
         weights=w,
         objective=float(np.sum(w * r * r) + coef @ prior @ coef),
     )
-    sd = np.sqrt(np.maximum(np.diag(fit.bread), 0.0)) * robust_scale(fit.residual)
+    # the posterior standard deviation (``noise``: the residual's variance with the rows'
+    # correlation, as in the prior's scale)
+    var = robust_scale(fit.residual) ** 2 if noise is None else noise
+    sd = np.sqrt(np.maximum(np.diag(fit.bread), 0.0) * var)
     moved = (fit.coef < 0) & (np.arange(p) >= m) & (-fit.coef > 2.0 * sd)
     note = ""
     if moved.any():
