@@ -65,7 +65,7 @@ KNOT_SPAN = 1000.0
 #: Prior standard deviation of the table's second difference between neighbouring knots, in
 #: units of the joint's friction level: a Stribeck drop of the whole level within two knots
 #: (a factor 3.2 in speed) is one sigma.
-CURVATURE_PRIOR = 0.15
+CURVATURE_PRIOR = 0.05
 #: Prior standard deviation of the table's first difference, in units of the friction level:
 #: weak, it only keeps the table level where the logs tell nothing (friction flattens at rest).
 SLOPE_PRIOR = 1.0

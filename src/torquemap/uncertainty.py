@@ -339,3 +339,53 @@ def residual_table(
         "acceleration_sigma": per_acc,
         "reference_cutoff": RESIDUAL_CUTOFF,
     }
+
+
+def bridge_departure(
+    t: NDArray[np.float64],
+    estimate: NDArray[np.float64],
+    bridged: NDArray[np.bool_],
+    *,
+    cutoff: float,
+) -> NDArray[np.float64]:
+    """Standard deviation [unit of ``estimate``] of the load's departure from the straight
+    line a bridged run holds.
+
+    Over a run from ``ta`` to ``tb`` (``D = tb - ta``) the answer is the line between the
+    estimates at its ends; a load whose slope goes from ``s1`` (just before) to ``s2`` (just
+    after) departs from that chord as a parabola would, ``|s2 - s1| (t - ta) (tb - t) / (2 D)``
+    (``|s2 - s1| D / 8`` at the middle). The slopes are those of ``estimate`` over the half run,
+    at most ``1 / cutoff``, beyond each end. A run at an end of the log holds its one
+    neighbour's value: there the departure is that neighbour's slope times the time from it.
+    Zero outside the runs.
+
+    Examples
+    --------
+    >>> t = np.linspace(0.0, 4.0, 401)
+    >>> load = np.where(t < 2.0, 0.0, t - 2.0)          # a kink at t = 2 s: slopes 0, then 1
+    >>> bridged = (t > 1.5) & (t < 2.5)
+    >>> round(float(bridge_departure(t, load, bridged, cutoff=2.0).max()), 3)  # 1 * 1 / 8
+    0.125
+    """
+    from torquemap.estimate import _gap_runs
+
+    out = np.zeros(t.size)
+    span = 1.0 / max(cutoff, 1e-12)
+    for a, b in _gap_runs(bridged):
+        ta = float(t[a - 1]) if a > 0 else float(t[a])
+        tb = float(t[b]) if b < t.size else float(t[b - 1])
+        d = max(tb - ta, 1e-12)
+        reach = min(0.5 * d, span)
+        slopes = []
+        for lo, hi in ((ta - reach, ta), (tb, tb + reach)):
+            sel = (t >= lo) & (t <= hi) & ~bridged
+            if int(sel.sum()) >= 3:
+                slopes.append(float(np.polyfit(t[sel] - lo, estimate[sel], 1)[0]))
+        if not slopes:
+            continue
+        tt = t[a:b]
+        if a > 0 and b < t.size and len(slopes) == 2:
+            out[a:b] = abs(slopes[1] - slopes[0]) * (tt - ta) * (tb - tt) / (2.0 * d)
+        else:  # a run at an end holds its one neighbour's value: the load may go on moving
+            out[a:b] = abs(slopes[0]) * (tt - ta if b == t.size else tb - tt)
+    return out
