@@ -805,7 +805,7 @@ def _estimate_piece(
                 )
     sigma = np.full((n, nj), np.nan)
     if method == "model":
-        from torquemap.uncertainty import joint_sigma
+        from torquemap.uncertainty import bridge_departure, joint_sigma
 
         modulation = robot.arm.inertia_modulation(log.q)
         for k, joint in enumerate(robot.joints):
@@ -820,6 +820,12 @@ def _estimate_piece(
                 cutoff=cutoff,
                 bridged=rests[k],
             )
+            if rests[k].any() and joint.name in whole:
+                # where the answer is a line carried over a bridged run: the load's departure
+                sigma[:, k] = np.hypot(
+                    sigma[:, k],
+                    bridge_departure(log.t, external[:, k], rests[k], cutoff=cutoff),
+                )
     arrays = {
         "rest": np.column_stack(rests).astype(np.float64) if nj else np.zeros((n, 0)),
         "angle": angle,
