@@ -653,17 +653,18 @@ def fit_joint_whole(
     scale0 = robust_scale(first.residual[keep > 0])
     noise = scale0**2 * _inflation(first.residual * keep, rows.clusters)
     prior = embed(fixed.shape[1], noise)
-    ws = huber_weights(first.residual, scale0) * keep
 
     # the delay: each trial reweighted on its own and scored by Huber's loss at one scale (the
     # start's weights down-weight exactly the misaligned ramps that tell the delay)
+    # every row, the ramps' starts from rest included: they are where the torque's timing
+    # shows most (the table's slow knots take up their friction for the purpose)
     def delay_cost(d: float) -> float:
         y_ = _torque(rows, d)
-        trial = _psolve(a, y_, ws, prior)
-        trial = _psolve(a, y_, huber_weights(trial.residual, scale0) * keep, prior)
-        return huber_cost(trial.residual[keep > 0], scale0)
+        trial = _psolve(a, y_, np.ones(n), prior)
+        trial = _psolve(a, y_, huber_weights(trial.residual, scale0), prior)
+        return huber_cost(trial.residual, scale0)
 
-    dof = max(float(keep.sum()) / ROWS_PER_WINDOW, 1.0)  # a window's rows count as one
+    dof = max(n / ROWS_PER_WINDOW, 1.0)  # a window's rows count as one
     d = 0.0 if delay == "auto" else float(delay)
     delay_interval = (d, d)
     if delay == "auto":
