@@ -583,7 +583,7 @@ def identify_arm(
     noise = np.sqrt(np.mean(residual**2, axis=0)) + 1e-12
     orders = no_lines
     if pdtv_max_order > 0:
-        orders = _pick_pdtv(signals, picks, residual, pdtv_max_order)
+        orders = _pick_pdtv(signals, picks, residual, pdtv_max_order, inflation=inflation)
     x, cov, residual, blocks = fit(orders, noise)
     if fit_friction_shape:  # again, with the PDTV lines and the refitted bodies
         current = dataclasses.replace(current, joints=reshape(x, blocks))
@@ -738,8 +738,14 @@ def _pick_pdtv(
     picks: Sequence[NDArray[np.intp]],
     residual: NDArray[np.float64],
     max_order: int,
+    *,
+    inflation: float = 1.0,
 ) -> list[tuple[float, ...]]:
-    """Per joint, the integer orders whose cos/sin fit of the residual is significant."""
+    """Per joint, the integer orders whose cos/sin fit of the residual is significant.
+
+    ``inflation`` multiplies the coefficients' variance: the smoothed residual is correlated
+    over the differentiator's window, so rows closer than that count less (as in the
+    identification's covariance); without it a slow log shows spurious lines."""
     nj = residual.shape[1]
     out: list[tuple[float, ...]] = []
     orders = np.arange(1, max_order + 1, dtype=float)
@@ -762,7 +768,7 @@ def _pick_pdtv(
         for i, order in enumerate(orders):
             c, s = coef[i], coef[max_order + i]
             amp = math.hypot(c, s)
-            var = max(cov[i, i], cov[max_order + i, max_order + i])
+            var = inflation * max(cov[i, i], cov[max_order + i, max_order + i])
             if not (math.isfinite(var) and var > 0):
                 continue  # the orders are not separable on these samples
             if amp > PDTV_SIGNIFICANCE * math.sqrt(var):
