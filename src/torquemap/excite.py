@@ -17,6 +17,7 @@ seen where the robot will work and is not confused with gravity (docs/arm-bench.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -156,6 +157,10 @@ travel, so that the joints span their ranges within their speed limits."""
 ONE_TURN = np.pi
 """A joint swings at most this far [rad] from the centre: gravity and kinematics repeat every
 turn, so joints of wider range (the UR5's +-2 pi) need not sweep more than +-pi."""
+PERIOD_FACTOR = 2.0
+"""The default period is this many times the slowest joint's ``2 pi A_j / v_j``: the
+harmonics share the speed budget, and a path of the bare ``2 pi A / v`` would not reach the
+range's ends."""
 COULOMB_WIDTH = 0.01
 """The Coulomb column of the search's criterion is ``tanh(qd / (this * speed limit))``."""
 
@@ -180,7 +185,7 @@ def exciting_trajectory(
     arm: _Limited,
     *,
     duration: float | None = None,
-    period: float = 20.0,
+    period: float | None = None,
     harmonics: int = 5,
     rate: float = 500.0,
     iterations: int = 80,
@@ -198,10 +203,13 @@ def exciting_trajectory(
         The arm (``torquemap.robots.urdf.UrdfArm``): its limits and base regressor are used.
     duration
         Length [s]: the schedule's traversals in turn (repeated), whole traversals, rounded
-        up; default one of each (``period * sum(1 / |speeds|)``: 100 s by default).
+        up; default one of each (``period * sum(1 / |speeds|)``, five periods by default).
     period
-        Fundamental period [s] of the path at full speed. Long enough for the joints to span
-        their ranges within their speed limits (20 s: about +-pi at 2 rad/s).
+        Fundamental period [s] of the path at full speed. Default: :data:`PERIOD_FACTOR` times
+        the longest time a joint's sine takes to swing over its range (up to +-pi) at its speed
+        limit, ``2 pi A_j / v_j``, rounded up to 0.1 s: long enough for every joint to span its
+        range within its speed limit, and no slower (Panda 19.2 s, UR5 18 s, the simulated
+        leg 2.9 s); at most ``duration`` when that is given.
     harmonics
         Number of harmonics per joint.
     rate
@@ -236,10 +244,6 @@ def exciting_trajectory(
     schedule = tuple(float(v) for v in speeds)
     if not schedule or not all(0 < abs(v) <= 1 for v in schedule):
         raise InputError(f"speeds must be fractions 0 < |v| <= 1 of full speed, got {schedule}")
-    if duration is None:
-        duration = period * sum(1.0 / abs(v) for v in schedule)
-    if not (duration > 0 and period > 0 and rate > 0 and harmonics >= 1):
-        raise InputError("duration, period and rate must be positive, harmonics >= 1")
     gen = np.random.default_rng(rng)
     lo, hi = arm.position_limits
     lo = np.where(np.isfinite(lo), lo, -np.pi)
@@ -267,6 +271,15 @@ def exciting_trajectory(
     half_range = np.minimum(half_range, ONE_TURN)
     vmax = arm.velocity_limits
     speed = speed_fraction * np.where(np.isfinite(vmax), vmax, 2.0)
+    if period is None:  # the slowest joint's swing over its range at its speed limit, twice
+        period = math.ceil(10.0 * PERIOD_FACTOR * float(np.max(2 * np.pi * half_range / speed)))
+        period /= 10.0
+        if duration is not None:
+            period = min(period, duration)
+    if duration is None:
+        duration = period * sum(1.0 / abs(v) for v in schedule)
+    if not (duration > 0 and period > 0 and rate > 0 and harmonics >= 1):
+        raise InputError("duration, period and rate must be positive, harmonics >= 1")
     nj = len(arm.joint_names)
     w: NDArray[np.float64] = 2.0 * np.pi / period * np.arange(1, harmonics + 1, dtype=np.float64)
     grid = np.linspace(0.0, period, max(8 * harmonics, 40), endpoint=False)

@@ -470,12 +470,13 @@ def free_reference(
     iterations: int = 8,
     spec: ArmSpec = PANDA,
     centre: NDArray[np.float64] | None = None,
-    period: float = 20.0,
+    period: float | None = None,
     speeds: Sequence[float] = (1.0, 0.25),
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """An exciting trajectory (``torquemap.excite``) at 1 kHz on the nominal arm, about
-    ``centre`` (default the middle of the joints' ranges): the path of ``period`` (at most
-    ``duration``) played at each of ``speeds`` in turn, whole traversals up to ``duration``."""
+    ``centre`` (default the middle of the joints' ranges): the path of ``period`` (default
+    excite's, from the limits; at most ``duration``) played at each of ``speeds`` in turn,
+    whole traversals up to ``duration``."""
     from torquemap.excite import exciting_trajectory
     from torquemap.robots.urdf import urdf_arm
 
@@ -483,7 +484,7 @@ def free_reference(
     traj = exciting_trajectory(
         arm,
         duration=duration,
-        period=min(period, duration),
+        period=None if period is None else min(period, duration),
         rate=1.0 / TIMESTEP,
         iterations=iterations,
         centre=centre,
@@ -532,7 +533,7 @@ def write_arm_bench(
     iterations: int = 8,
     arm: str = "panda",
     free_centre: str = "middle",
-    free_period: float = 20.0,
+    free_period: float | None = None,
     free_speeds: Sequence[float] = (1.0, 0.25),
 ) -> list[Path]:
     """Simulate the Panda bench and write its files into ``out``.
@@ -548,7 +549,9 @@ def write_arm_bench(
     swings about: ``"middle"`` of the joints' ranges (the default of ``torquemap excite``) or
     ``"task"``, the task's start pose (``excite --centre``: excite where the robot works);
     ``free_period`` and ``free_speeds`` its path's period [s] and speed schedule (the
-    defaults of ``torquemap excite``: 20 s, full speed then a quarter; 100 s in all).
+    defaults of ``torquemap excite``: twice the slowest joint's swing over its range at its
+    speed limit, 19.2 s for the Panda, 18 s for the UR5 and 2.9 s for the leg; full speed then
+    a quarter; whole traversals up to ``free_duration``).
 
     Returns
     -------
