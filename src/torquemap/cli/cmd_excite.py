@@ -76,6 +76,16 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     p.set_defaults(handler=_excite)
 
 
+def _floats(text: str, flag: str, what: str) -> list[float]:
+    """Comma-separated numbers; InputError naming ``flag`` otherwise."""
+    from torquemap.errors import InputError
+
+    try:
+        return [float(v) for v in text.split(",")]
+    except ValueError:
+        raise InputError(f"{flag} must be comma-separated {what}, got {text!r}") from None
+
+
 def _excite(args: argparse.Namespace) -> int:
     from torquemap.errors import InputError
     from torquemap.excite import exciting_trajectory, trajectory_columns
@@ -88,20 +98,8 @@ def _excite(args: argparse.Namespace) -> int:
         raise InputError("excite needs an arm with a URDF (kinematics = 'urdf')", path=args.robot)
     if not 0 < args.speed_fraction <= 1:
         raise InputError(f"--speed-fraction must be in (0, 1], got {args.speed_fraction}")
-    centre = None
-    if args.centre is not None:
-        try:
-            centre = [float(v) for v in args.centre.split(",")]
-        except ValueError:
-            raise InputError(
-                f"--centre must be comma-separated angles [rad], got {args.centre!r}"
-            ) from None
-    try:
-        speeds = [float(v) for v in args.speeds.split(",")]
-    except ValueError:
-        raise InputError(
-            f"--speeds must be comma-separated fractions, got {args.speeds!r}"
-        ) from None
+    centre = None if args.centre is None else _floats(args.centre, "--centre", "angles [rad]")
+    speeds = _floats(args.speeds, "--speeds", "fractions")
     traj = exciting_trajectory(
         arm,
         duration=args.duration,
