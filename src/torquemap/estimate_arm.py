@@ -452,7 +452,8 @@ def estimate_arm(
     Returns
     -------
     ArmEstimate
-        Torques, wrench, sigmas and flags.
+        Torques, wrench, sigmas and flags; warnings where the log leaves the poses or motor
+        speeds the model was identified from (its sigmas grow there, ``extrapolation``).
 
     Raises
     ------
