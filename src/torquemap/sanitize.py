@@ -110,18 +110,45 @@ def implausible_samples(x: NDArray[np.float64]) -> NDArray[np.bool_]:
     if not math.isfinite(big) or big == 0.0:
         return np.zeros(v.size, dtype=bool)
     u = v / big
+    du = np.abs(np.diff(u))
+    moves = du[du > 0]
+    typical = float(np.median(moves)) if moves.size else 0.0
+    if _none_beyond(u, max(10.0 * typical, 1e-12)):
+        return np.zeros(v.size, dtype=bool)
     med = median_filter(u, size=MEDIAN_SPAN, mode="nearest")
     dev = np.abs(u - med)
     scale = 1.4826 * float(np.median(dev))
-    du = np.abs(np.diff(u))
     step = float(np.percentile(np.abs(np.diff(med)), 99))
-    moves = du[du > 0]
-    typical = float(np.median(moves)) if moves.size else 0.0
     floor = max(SPIKE_SIGMAS * scale, 10.0 * step, 10.0 * typical, 1e-12)
     bad = dev > floor
     if bad.any() and bad.mean() > 0.2:  # not isolated excursions: leave the channel alone
         return np.zeros(v.size, dtype=bool)
     return np.asarray(bad, dtype=bool)
+
+
+def _none_beyond(u: NDArray[np.float64], bound: float) -> bool:
+    """Whether no sample leaves the running median of ``MEDIAN_SPAN`` by more than ``bound``.
+
+    A cheap exact test before the running median of every sample: the median of a window
+    lies between its smallest and largest value, so a sample can leave it by at most its
+    distance to the farthest value of its window (running maximum and minimum, O(n)). Only
+    the samples where that distance exceeds ``bound`` get their median computed.
+    """
+    from scipy.ndimage import maximum_filter1d, minimum_filter1d
+
+    reach = np.maximum(
+        maximum_filter1d(u, MEDIAN_SPAN, mode="nearest") - u,
+        u - minimum_filter1d(u, MEDIAN_SPAN, mode="nearest"),
+    )
+    suspect = np.flatnonzero(reach > bound)
+    if suspect.size == 0:
+        return True
+    if suspect.size > u.size // 100:
+        return False  # many: the full running median is as cheap
+    half = MEDIAN_SPAN // 2
+    window = np.clip(suspect[:, None] + np.arange(-half, half + 1)[None, :], 0, u.size - 1)
+    local = np.median(u[window], axis=1)  # ``mode="nearest"``: the ends repeat
+    return bool(np.all(np.abs(u[suspect] - local) <= bound))
 
 
 #: A step of a joint angle between two samples is a jump when it exceeds this many times both
