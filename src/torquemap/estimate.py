@@ -736,44 +736,67 @@ def _estimate_piece(
             )
         )
 
-    def smooth(x: NDArray[np.float64], k: int) -> NDArray[np.float64]:
+    def prepared(x: NDArray[np.float64], k: int) -> tuple[list[NDArray[np.float64]], Any]:
+        """What the low-pass of ``x`` (joint ``k``) filters, and where the second column wins.
+
+        Stretches too long to bridge (a hold, the log's ends) keep the model's value; they must
+        not leak into the samples around them through the filter, which therefore sees them
+        filled from their neighbours. Where the model knows friction through zero
+        (whole-log identification) the answer there is the estimate carried over from the
+        neighbours (its sigma covers the friction band): the external load is continuous,
+        the friction at rest is not known.
+        """
+        if bridge_reversals <= 0 or not rests[k].any():
+            return [x], None
+        gaps = rests[k]
+        bridged = bridge_gaps(log.t, x, gaps, longest=bridge_reversals, support=window)
+        held = gaps & ~bridged_runs(log.t, gaps, longest=bridge_reversals)
+        if not held.any():
+            return [bridged], None
+        filled = bridge_gaps(log.t, x, gaps, longest=math.inf, support=window, ends=True)
+        if robot.joints[k].name in whole:
+            return [filled], None
+        return [bridged, filled], held
+
+    # every low-pass of the piece in one call (the filter and its checks run once)
+    jobs: list[tuple[NDArray[np.float64], int]] = []
+    if method != "raw":
+        jobs += [(t_est[:, k], k) for k in range(nj)]
+    lined = [k for k, j in enumerate(robot.joints) if model.joints[j.name].pdtv]
+    if method == "model":
+        for k in lined:
+            lines = model.joints[robot.joints[k].name].pdtv
+            pdtv = pdtv_torque(angle[:, k], lines, velocity=velocity[:, k])
+            jobs.append((t_est[:, k] - pdtv, k))
+    plans: list[tuple[int, int, Any]] = []
+    columns: list[NDArray[np.float64]] = []
+    for x, k in jobs:
+        cols, held = prepared(x, k)
+        plans.append((len(columns), len(cols), held))
+        columns.extend(cols)
+    smoothed: list[NDArray[np.float64]] = []
+    if columns:
         try:
-            if bridge_reversals <= 0 or not rests[k].any():
-                return lowpass(log.t, x, cutoff=cutoff)
-            gaps = rests[k]
-            bridged = bridge_gaps(log.t, x, gaps, longest=bridge_reversals, support=window)
-            y = lowpass(log.t, bridged, cutoff=cutoff)
-            held = gaps & ~bridged_runs(log.t, gaps, longest=bridge_reversals)
-            if held.any():
-                # Stretches too long to bridge (a hold, the log's ends) keep the model's value;
-                # they must not leak into the samples around them through the filter, which
-                # therefore sees them filled from their neighbours.
-                # Where the model knows friction through zero (whole-log identification) the
-                # answer there is the estimate carried over from the neighbours (its sigma
-                # covers the friction band): the external load is continuous, the friction at
-                # rest is not known.
-                filled = bridge_gaps(log.t, x, gaps, longest=math.inf, support=window, ends=True)
-                smooth_filled = lowpass(log.t, filled, cutoff=cutoff)
-                if robot.joints[k].name in whole:
-                    return smooth_filled
-                y = np.where(held, y, smooth_filled)
-            return y
+            y = lowpass(log.t, np.column_stack(columns), cutoff=cutoff)
         except InputError as exc:
             raise InputError(exc.message, path=log.path) from None
-
+        for first, count, held in plans:
+            part = y[:, first]
+            if count == 2:
+                part = np.where(held, part, y[:, first + 1])
+            smoothed.append(part)
     filtered = t_est.copy()
     external = t_est.copy()
     if method != "raw":
         for k in range(nj):
-            filtered[:, k] = smooth(t_est[:, k], k)
+            filtered[:, k] = smoothed[k]
     any_pass = False
     if method == "lowpass":
         external = filtered.copy()
     elif method == "model":
-        for k, joint in enumerate(robot.joints):
-            lines = model.joints[joint.name].pdtv
-            residual = t_est[:, k] - pdtv_torque(angle[:, k], lines, velocity=velocity[:, k])
-            external[:, k] = smooth(residual, k) if lines else filtered[:, k]
+        external = filtered.copy()
+        for i, k in enumerate(lined):
+            external[:, k] = smoothed[nj + i]
     elif method == "paper":
         external = filtered.copy()
         for k, joint in enumerate(robot.joints):
