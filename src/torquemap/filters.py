@@ -178,20 +178,11 @@ def _differentiate_uniform(x: NDArray[np.float64], h: float, length: int) -> Der
     """:func:`differentiate` on a uniform grid: the Savitzky-Golay filter of ``length`` samples.
 
     The same local quadratic fit (centred windows, and at the ends the first and last window,
-    scipy's ``mode="interp"``), computed by convolution instead of per-sample normal equations.
+    scipy's ``mode="interp"``), computed by convolution instead of per-sample normal equations
+    (:func:`_savgol_uniform`).
     """
-    from scipy import signal
-
-    offset = x[0]
-    y = x - offset
-    position = signal.savgol_filter(y, length, 2, deriv=0, mode="interp", axis=0) + offset
-    velocity = signal.savgol_filter(y, length, 2, deriv=1, delta=h, mode="interp", axis=0)
-    acceleration = signal.savgol_filter(y, length, 2, deriv=2, delta=h, mode="interp", axis=0)
-    return Derivatives(
-        position=np.asarray(position, dtype=np.float64),
-        velocity=np.asarray(velocity, dtype=np.float64),
-        acceleration=np.asarray(acceleration, dtype=np.float64),
-    )
+    position, velocity, acceleration = _savgol_uniform(x, h, length, (0, 1, 2))
+    return Derivatives(position=position, velocity=velocity, acceleration=acceleration)
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -258,18 +249,34 @@ def differentiate_rates(t: ArrayLike, x: ArrayLike, *, window: float) -> Rates:
 
 def _rates_uniform(x: NDArray[np.float64], h: float, length: int) -> Rates:
     """Savitzky-Golay velocity and acceleration of ``length`` samples (``mode="interp"``)."""
+    velocity, acceleration = _savgol_uniform(x, h, length, (1, 2))
+    return Rates(velocity=velocity, acceleration=acceleration)
+
+
+def _savgol_uniform(
+    x: NDArray[np.float64], h: float, length: int, derivs: tuple[int, ...]
+) -> list[NDArray[np.float64]]:
+    """Savitzky-Golay quadratic fits of ``length`` samples, derivatives ``derivs`` (0 to 2).
+
+    scipy's ``savgol_filter(mode="interp")``: centred windows by direct (not FFT) convolution
+    (``numpy.convolve``, several times faster than ``scipy.ndimage``'s correlation for these
+    lengths), and the first and last windows' fits evaluated at their outer halves. Equal to
+    it to rounding (the sums run in another order).
+    """
     from scipy import signal
 
     half = length // 2
-    # the fit of the first and last window, evaluated at their outer halves (scipy's "interp")
     s = np.arange(length, dtype=np.float64) - half
     fit = np.linalg.pinv(np.vander(s, 3, increasing=True))  # (3, length): 1, s, s^2 from x
     head_s, tail_s = s[:half], s[half + 1 :]
     columns = x[:, None] if x.ndim == 1 else x
     out: list[NDArray[np.float64]] = []
-    for deriv in (1, 2):
+    for deriv in derivs:
         kernel = signal.savgol_coeffs(length, 2, deriv=deriv, delta=h, use="conv")
-        if deriv == 1:
+        if deriv == 0:
+            head = fit[0][None, :] + head_s[:, None] * fit[1] + head_s[:, None] ** 2 * fit[2]
+            tail = fit[0][None, :] + tail_s[:, None] * fit[1] + tail_s[:, None] ** 2 * fit[2]
+        elif deriv == 1:
             head = (fit[1][None, :] + 2.0 * head_s[:, None] * fit[2][None, :]) / h
             tail = (fit[1][None, :] + 2.0 * tail_s[:, None] * fit[2][None, :]) / h
         else:
@@ -280,8 +287,10 @@ def _rates_uniform(x: NDArray[np.float64], h: float, length: int) -> Rates:
             result[half:-half, k] = np.convolve(y, kernel, mode="valid")
             result[:half, k] = head @ y[:length]
             result[-half:, k] = tail @ y[-length:]
+            if deriv == 0:
+                result[:, k] += columns[0, k]
         out.append(result[:, 0] if x.ndim == 1 else result)
-    return Rates(velocity=out[0], acceleration=out[1])
+    return out
 
 
 def smooth_as_acceleration(t: ArrayLike, x: ArrayLike, *, window: float) -> NDArray[np.float64]:
@@ -330,7 +339,7 @@ def smooth_as_acceleration(t: ArrayLike, x: ArrayLike, *, window: float) -> NDAr
     mean = np.mean(xx, axis=0)  # a constant passes a unit-sum kernel unchanged
     first = integrate.cumulative_trapezoid(xx - mean, tt, initial=0.0, axis=0)
     second = integrate.cumulative_trapezoid(first, tt, initial=0.0, axis=0)
-    out: NDArray[np.float64] = differentiate(tt, second, window=window).acceleration + mean
+    out: NDArray[np.float64] = differentiate_rates(tt, second, window=window).acceleration + mean
     return out
 
 
