@@ -12,9 +12,12 @@ from torquemap.errors import InputError
 from torquemap.pdtv import (
     discrete_position_signal,
     fit_harmonics,
+    noise_floor,
     notch_position_signal,
+    phasors,
     pick_lines,
     position_spectrum,
+    rayleigh_threshold,
 )
 
 BW = 2 * np.pi / 1024
@@ -62,6 +65,47 @@ def test_picking_finds_true_lines_and_none_on_noise() -> None:
     # designed false-alarm rate 1 % per spectrum; the floor is itself estimated (a running
     # median of 101 orders), which measured ~3 % over 100 spectra: allow 4 in 50 (P ~ 0.05)
     assert false <= 4
+
+
+def test_a_comb_at_one_fractional_part_is_not_picked_but_real_fractional_lines_are() -> None:
+    # 8 revolutions: orders every 1/8 CPR are searched. Noise that repeats in time rather than
+    # in angle lifts one fractional part of every order (a comb at k + 0.75 here, each line of
+    # Rayleigh amplitude 2.5 times the white floor); real lines at 5 and 12.5 CPR (a gear
+    # stage) stand well above the white floor
+    rng = np.random.default_rng(11)
+    bw = 2 * np.pi / 512
+    theta = (np.arange(512 * 8) + 0.5) * bw
+    sigma = 0.1
+    white = sigma * np.sqrt(2.0 / theta.size)  # Rayleigh scale of white noise's amplitudes
+    y = rng.normal(0.0, sigma, theta.size)
+    y += 0.05 * np.cos(5.0 * theta + 0.3) + 0.04 * np.cos(12.5 * theta - 1.0)
+    comb = np.arange(1, 200) + 0.75
+    y += sum(
+        a * np.cos(o * theta + p)
+        for o, a, p in zip(
+            comb,
+            rng.rayleigh(2.5 * white, comb.size),
+            rng.uniform(-np.pi, np.pi, comb.size),
+            strict=True,
+        )
+    )
+    spectrum = position_spectrum(discrete_position_signal(theta, y, bin_width=bw))
+    picks = pick_lines(spectrum)
+    assert sorted(picks.order.tolist()) == [5.0, 12.5]
+    # the floor of all orders alone would have picked part of the comb: the test can fail
+    alone = spectrum.amplitude > rayleigh_threshold(spectrum.order.size) * noise_floor(spectrum)
+    assert np.sum(alone & np.isin(spectrum.order, comb)) >= 3
+
+
+def test_phasors_are_the_exponentials() -> None:
+    # powers of exp(i theta) for integer orders, direct for the others; the closed form
+    # exp(i k theta) loses k |theta| units in the last place in its argument (1e-9 rad at
+    # 48 x 2e4 rad), the powers about k: both within 1e-9 of each other
+    theta = np.random.default_rng(2).uniform(-2e4, 2e4, 1000)
+    orders = [1.0, 2.0, 3.0, 21.0, 48.0, 0.75, 12.5]
+    got = phasors(theta, orders)
+    assert got.shape == (len(orders), theta.size)
+    assert_allclose(got, np.exp(1j * np.outer(orders, theta)), rtol=0, atol=1e-9)
 
 
 def test_harmonic_fit_on_noisy_samples() -> None:

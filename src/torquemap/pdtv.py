@@ -303,6 +303,44 @@ def noise_floor(spectrum: Spectrum, *, window: int = 101) -> NDArray[np.float64]
     return np.maximum(floor, max(float(np.median(floor)) * 1e-3, tiny))
 
 
+def fractional_floor(spectrum: Spectrum, *, window: int = 101) -> NDArray[np.float64]:
+    """The noise floor of each non-integer order from the orders of its own fractional part.
+
+    A spectrum over ``R`` whole revolutions has orders ``m / R``; those with the same
+    ``m mod R`` (the same fractional part) form a class. Noise need not be the same in every
+    class: what repeats in time rather than in angle does. At a constant speed the samples of
+    a log fall every ``v T`` radians, an order of ``2 pi / (v T)`` CPR that is in general not
+    an integer (25132.74 CPR at 0.5 rad/s and 2 kHz); it beats with the encoder's counts and
+    the position bins, and lifts the noise at that fractional part of EVERY order (measured:
+    twice the floor at ``k + 0.74`` CPR, a comb of dozens of spurious lines once fractional
+    orders are searched). A running median over all orders does not see such a comb (it is
+    ``1 / R`` of its window); one over the class's own orders does. Integer orders (class 0)
+    keep the floor of all orders: a comb there is a PDTV line's own harmonics.
+
+    Returns
+    -------
+    ndarray
+        Rayleigh scale per order (:func:`noise_floor` of each class's orders), 0 at the
+        integer orders, shape (m,).
+    """
+    from scipy.ndimage import median_filter
+
+    a = spectrum.amplitude
+    out = np.zeros(a.size)
+    revs = round(spectrum.revolutions)
+    if a.size == 0 or revs < 2 or abs(spectrum.revolutions - revs) > 1e-6:
+        return out
+    cls = np.round(spectrum.order * revs).astype(np.int64) % revs
+    for c in range(1, revs):
+        idx = np.flatnonzero(cls == c)
+        if idx.size < 3:
+            continue
+        w = max(3, min(window, idx.size) | 1)
+        med = median_filter(a[idx], size=w, mode="reflect")
+        out[idx] = med / math.sqrt(2.0 * math.log(2.0))
+    return out
+
+
 def rayleigh_threshold(candidates: int, *, false_alarm: float = 0.01) -> float:
     """Multiple of the Rayleigh scale that pure noise exceeds with ``false_alarm`` probability.
 
@@ -390,6 +428,8 @@ def pick_lines(
     integer_only = not (
         fractional == "always" or (fractional == "auto" and spectrum.revolutions >= 4.0)
     )
+    if not integer_only:
+        floor = np.maximum(floor, fractional_floor(spectrum, window=floor_window))
     if integer_only:
         searched = integer
     else:
