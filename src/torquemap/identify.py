@@ -23,7 +23,12 @@ from numpy.typing import NDArray
 
 from torquemap._callable import make_callable as _make_callable
 from torquemap.errors import InputError
-from torquemap.filters import Derivatives, differentiate, smooth_as_acceleration
+from torquemap.filters import (
+    Derivatives,
+    differentiate,
+    differentiate_rates,
+    smooth_as_acceleration,
+)
 from torquemap.friction import (
     FrictionFit,
     InertiaFit,
@@ -368,7 +373,9 @@ def _identify_joint(
 
     elbow_k = _elbow_joint(rb, k)
 
-    rates = [differentiate(log.t, log.motor_torque[:, k], window=window).velocity for log in logs]
+    rates = [
+        differentiate_rates(log.t, log.motor_torque[:, k], window=window).velocity for log in logs
+    ]
 
     def inertia_fit(pdtv: tuple[PdtvLine, ...], lag: float) -> InertiaFit:
         acc, y, elbow = [], [], []

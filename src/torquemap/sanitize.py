@@ -134,12 +134,10 @@ def _none_beyond(u: NDArray[np.float64], bound: float) -> bool:
     distance to the farthest value of its window (running maximum and minimum, O(n)). Only
     the samples where that distance exceeds ``bound`` get their median computed.
     """
-    from scipy.ndimage import maximum_filter1d, minimum_filter1d
-
-    reach = np.maximum(
-        maximum_filter1d(u, MEDIAN_SPAN, mode="nearest") - u,
-        u - minimum_filter1d(u, MEDIAN_SPAN, mode="nearest"),
-    )
+    half = MEDIAN_SPAN // 2
+    padded = np.concatenate((np.full(half, u[0]), u, np.full(half, u[-1])))  # "nearest"
+    top, low = _running_extremes(padded, MEDIAN_SPAN)
+    reach = np.maximum(top - u, u - low)
     suspect = np.flatnonzero(reach > bound)
     if suspect.size == 0:
         return True
@@ -149,6 +147,26 @@ def _none_beyond(u: NDArray[np.float64], bound: float) -> bool:
     window = np.clip(suspect[:, None] + np.arange(-half, half + 1)[None, :], 0, u.size - 1)
     local = np.median(u[window], axis=1)  # ``mode="nearest"``: the ends repeat
     return bool(np.all(np.abs(u[suspect] - local) <= bound))
+
+
+def _running_extremes(
+    x: NDArray[np.float64], span: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Maximum and minimum of every ``span`` consecutive values, shape (x.size - span + 1,).
+
+    By doubling: the extremes of 2, 4, 8, ... consecutive values, then two overlapping runs
+    cover ``span`` (a few elementwise passes; exact, a maximum involves no rounding).
+    """
+    top, low, width = x, x, 1
+    while 2 * width <= span:
+        top = np.maximum(top[:-width], top[width:])
+        low = np.minimum(low[:-width], low[width:])
+        width *= 2
+    rest = span - width
+    if rest:
+        top = np.maximum(top[:-rest], top[rest:])
+        low = np.minimum(low[:-rest], low[rest:])
+    return top, low
 
 
 #: A step of a joint angle between two samples is a jump when it exceeds this many times both
