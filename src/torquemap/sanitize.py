@@ -129,21 +129,23 @@ def implausible_samples(x: NDArray[np.float64]) -> NDArray[np.bool_]:
 def _none_beyond(u: NDArray[np.float64], bound: float) -> bool:
     """Whether no sample leaves the running median of ``MEDIAN_SPAN`` by more than ``bound``.
 
-    A cheap exact test before the running median of every sample: the median of a window
-    lies between its smallest and largest value, so a sample can leave it by at most its
-    distance to the farthest value of its window (running maximum and minimum, O(n)). Only
-    the samples where that distance exceeds ``bound`` get their median computed.
+    A cheap exact test before the running median of every sample. The median of a window of
+    ``2 h + 1`` values lies between the smallest and the largest of ANY ``h + 1`` of them
+    (at most ``h`` values lie strictly above the median, and at most ``h`` below), so a
+    sample leaves it by at most its distance to the farthest of the ``h + 1`` samples centred
+    on it (running maximum and minimum, O(n)). Only the samples where that distance exceeds
+    ``bound`` get their median computed.
     """
     half = MEDIAN_SPAN // 2
-    padded = np.concatenate((np.full(half, u[0]), u, np.full(half, u[-1])))  # "nearest"
-    top, low = _running_extremes(padded, MEDIAN_SPAN)
+    near = half // 2  # the h + 1 = 5 central samples of the 9: i - 2 .. i + 2
+    padded = np.concatenate((np.full(near, u[0]), u, np.full(near, u[-1])))  # "nearest"
+    top, low = _running_extremes(padded, 2 * near + 1)
     reach = np.maximum(top - u, u - low)
     suspect = np.flatnonzero(reach > bound)
     if suspect.size == 0:
         return True
     if suspect.size > u.size // 100:
         return False  # many: the full running median is as cheap
-    half = MEDIAN_SPAN // 2
     window = np.clip(suspect[:, None] + np.arange(-half, half + 1)[None, :], 0, u.size - 1)
     local = np.median(u[window], axis=1)  # ``mode="nearest"``: the ends repeat
     return bool(np.all(np.abs(u[suspect] - local) <= bound))
