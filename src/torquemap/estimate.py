@@ -660,16 +660,27 @@ def _force_sigma(
     joint-torque sigmas."""
     out = np.full((q.shape[0], len(arm.wrench_axes)), np.nan)
     ok = ~singular & np.isfinite(q).all(axis=1) & np.isfinite(tau_sigma).all(axis=1)
-    if ok.any():
-        jt = np.swapaxes(np.asarray(arm.jacobian(q[ok]), dtype=np.float64), -1, -2)
-        if jt.shape[-2:] == (2, 2):  # the inverse in closed form: batched pinv is an SVD each
-            a, b, c, d = jt[:, 0, 0], jt[:, 0, 1], jt[:, 1, 0], jt[:, 1, 1]
-            det = a * d - b * c
-            m = np.stack([np.stack([d, -b], axis=-1), np.stack([-c, a], axis=-1)], axis=-2)
-            m /= det[:, None, None]
+    if not ok.any():
+        return out
+    every = bool(ok.all())  # no gather (a copy of every row) when every row is answered
+    qk, sk = (q, tau_sigma) if every else (q[ok], tau_sigma[ok])
+    jac = np.asarray(arm.jacobian(qk), dtype=np.float64)
+    if jac.shape[-2:] == (2, 2):
+        # J^T = [[a, b], [c, d]] inverted in closed form (batched pinv is an SVD each):
+        # F = [[d, -b], [-c, a]] tau / det, so each component's variance is a sum of squares
+        a, b, c, d = jac[:, 0, 0], jac[:, 1, 0], jac[:, 0, 1], jac[:, 1, 1]
+        inv_det2 = 1.0 / (a * d - b * c) ** 2
+        v0, v1 = sk[:, 0] ** 2, sk[:, 1] ** 2
+        f0 = np.sqrt((d * d * v0 + b * b * v1) * inv_det2)
+        f1 = np.sqrt((c * c * v0 + a * a * v1) * inv_det2)
+        if every:
+            out[:, 0], out[:, 1] = f0, f1
         else:
-            m = np.asarray(np.linalg.pinv(jt), dtype=np.float64)  # (n, axes, nj): F = m @ tau
-        out[ok] = np.sqrt(np.einsum("nij,nj->ni", m**2, tau_sigma[ok] ** 2))
+            out[ok, 0], out[ok, 1] = f0, f1
+    else:
+        jt = np.swapaxes(jac, -1, -2)
+        m = np.asarray(np.linalg.pinv(jt), dtype=np.float64)  # (n, axes, nj): F = m @ tau
+        out[ok] = np.sqrt(np.einsum("nij,nj->ni", m**2, sk**2))
     return out
 
 
