@@ -373,26 +373,37 @@ def _identify_joint(
 
     elbow_k = _elbow_joint(rb, k)
 
-    rates = [
-        differentiate_rates(log.t, log.motor_torque[:, k], window=window).velocity for log in logs
-    ]
+    # the torque's rate enters only through a lag (zero unless given or fitted)
+    rates: list[NDArray[np.float64]] | None = None
+    if torque_lag == "auto" or float(torque_lag) != 0.0:
+        rates = [
+            differentiate_rates(log.t, log.motor_torque[:, k], window=window).velocity
+            for log in logs
+        ]
+    # the ramps are a few per cent of the samples: the inertia fit's torque is formed and
+    # smoothed only around them (:func:`_stretches`), not over whole logs
+    stretches = [(li, mask, _stretches(logs[li].t, mask, window)) for li, mask in ramps]
 
     def inertia_fit(pdtv: tuple[PdtvLine, ...], lag: float) -> InertiaFit:
         acc, y, elbow = [], [], []
-        for li, mask in ramps:
-            if not mask.any():
-                continue
+        for li, mask, spans in stretches:
             d = derivs[li][k]
-            tau = logs[li].motor_torque[:, k] + lag * rates[li]
-            rest = tau - friction_torque(d.velocity, friction)
-            rest -= pdtv_torque(d.position, pdtv, velocity=d.velocity)
-            # the differentiated acceleration is the true one smoothed over the window: smooth
-            # the torque alike, or the fit is biased at every ramp's start and end
-            rest = smooth_as_acceleration(logs[li].t, rest, window=window)
-            acc.append(d.acceleration[mask])
-            y.append(rest[mask])
-            if elbow_k is not None:
-                elbow.append(logs[li].q[mask, elbow_k])
+            for a, b in spans:
+                sl = slice(a, b)
+                tau = logs[li].motor_torque[sl, k]
+                if lag:
+                    assert rates is not None
+                    tau = tau + lag * rates[li][sl]
+                rest = tau - friction_torque(d.velocity[sl], friction)
+                rest -= pdtv_torque(d.position[sl], pdtv, velocity=d.velocity[sl])
+                # the differentiated acceleration is the true one smoothed over the window:
+                # smooth the torque alike, or the fit is biased at every ramp's start and end
+                rest = smooth_as_acceleration(logs[li].t[sl], rest, window=window)
+                m = mask[sl]
+                acc.append(d.acceleration[sl][m])
+                y.append(rest[m])
+                if elbow_k is not None:
+                    elbow.append(logs[li].q[sl, elbow_k][m])
         none = np.empty(0)
         return fit_inertia(
             np.concatenate([none, *acc]),
@@ -452,6 +463,40 @@ def _identify_joint(
         warnings=tuple(warnings),
     )
     return res, jm
+
+
+def _stretches(
+    t: NDArray[np.float64], mask: NDArray[np.bool_], window: float
+) -> list[tuple[int, int]]:
+    """``(start, stop)`` of stretches that hold every True sample of ``mask`` with a
+    differentiator ``window`` [s] (and 3 samples) either side, overlapping ones merged, cut
+    at the log's ends.
+
+    A filter whose output at a sample depends only on the samples within half a window of
+    it (:func:`torquemap.filters.smooth_as_acceleration`, which annihilates the constant and
+    slope that the double integral carries in from earlier samples) gives the same answer
+    on such a stretch as on the whole log, to rounding; a stretch that reaches a log's end
+    is cut there, where the whole log's filter shifts its window too.
+
+    Examples
+    --------
+    >>> t = np.arange(100) * 0.01
+    >>> mask = np.zeros(100, bool); mask[[20, 30, 90]] = True
+    >>> _stretches(t, mask, 0.05)
+    [(13, 38), (82, 99)]
+    """
+    idx = np.flatnonzero(mask)
+    if idx.size == 0:
+        return []
+    lo = np.maximum(np.searchsorted(t, t[idx] - window, side="left") - 3, 0)
+    hi = np.minimum(np.searchsorted(t, t[idx] + window, side="right") + 3, t.size)
+    out: list[tuple[int, int]] = []
+    for a, b in zip(lo.tolist(), hi.tolist(), strict=True):
+        if out and a <= out[-1][1]:
+            out[-1] = (out[-1][0], max(out[-1][1], b))
+        else:
+            out.append((a, b))
+    return out
 
 
 def _elbow_joint(rb: Robot, k: int) -> int | None:
@@ -549,7 +594,7 @@ def _identify_pdtv(
     max_order: float | None,
     false_alarm: float,
     direction_significance: float,
-    torque_rates: Sequence[NDArray[np.float64]],
+    torque_rates: Sequence[NDArray[np.float64]] | None,
     torque_lag: float | Literal["auto"],
 ) -> _PdtvResult:
     name = rb.joints[k].name
@@ -597,7 +642,7 @@ def _identify_pdtv(
         angle.append(d.position[s])
         resid.append(r)
         group.append(np.full(r.size, i))
-        rates.append(torque_rates[li][s])
+        rates.append(torque_rates[li][s] if torque_rates is not None else np.zeros(r.size))
         direction.append(np.full(r.size, 1 if p.direction == "positive" else -1))
     theta = np.concatenate(angle)
     res = np.concatenate(resid)
