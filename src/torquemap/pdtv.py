@@ -562,14 +562,36 @@ def fit_harmonics(
     ncol = 2 * p + ng + ne
     if theta.size < ncol + 1:
         raise InputError(f"{theta.size} samples cannot fit {ncol} unknowns")
-    ata = np.zeros((ncol, ncol))
-    aty = np.zeros(ncol)
+    # normal equations in blocks: the harmonics and extra regressors as rows (2 p + e, m);
+    # the group offsets' columns are one-hot, so their products are per-group sums
+    nx = 2 * p + ne
+    xx = np.zeros((nx, nx))
+    xg = np.zeros((nx, ng))
+    xy = np.zeros(nx)
+    gy = np.zeros(ng)
+    counts = np.zeros(ng)
     yy = 0.0
     for s in range(0, theta.size, chunk):
-        a = _design(theta[s : s + chunk], ords, g[s : s + chunk], ng, ex[s : s + chunk])
-        ata += a.T @ a
-        aty += a.T @ y[s : s + chunk]
-        yy += float(y[s : s + chunk] @ y[s : s + chunk])
+        x = _rows(theta[s : s + chunk], ords, ex[s : s + chunk])
+        gc, yc = g[s : s + chunk], y[s : s + chunk]
+        xx += x @ x.T
+        xy += x @ yc
+        for r in range(nx):
+            xg[r] += np.bincount(gc, weights=x[r], minlength=ng)
+        gy += np.bincount(gc, weights=yc, minlength=ng)
+        counts += np.bincount(gc, minlength=ng)
+        yy += float(yc @ yc)
+    h, e = slice(0, 2 * p), slice(2 * p, nx)
+    ata = np.zeros((ncol, ncol))
+    ata[: 2 * p, : 2 * p] = xx[h, h]
+    ata[: 2 * p, 2 * p : 2 * p + ng] = xg[h]
+    ata[: 2 * p, 2 * p + ng :] = xx[h, e]
+    ata[2 * p : 2 * p + ng, 2 * p : 2 * p + ng] = np.diag(counts)
+    ata[2 * p : 2 * p + ng, 2 * p + ng :] = xg[e].T
+    ata[2 * p + ng :, 2 * p + ng :] = xx[e, e]
+    upper = np.triu(ata, 1)
+    ata = np.triu(ata) + upper.T
+    aty = np.concatenate((xy[h], gy, xy[e]))
     inv = np.linalg.pinv(ata)
     coef = inv @ aty
     # the residual's sum of squares from the normal equations (no second pass over the
@@ -577,10 +599,12 @@ def fit_harmonics(
     # model explains nearly all of y it is summed over the samples instead
     ss = yy - 2.0 * float(coef @ aty) + float(coef @ ata @ coef)
     if not ss > 1e-6 * yy:
+        cx = np.concatenate((coef[: 2 * p], coef[2 * p + ng :]))
         ss = 0.0
         for s in range(0, theta.size, chunk):
-            a = _design(theta[s : s + chunk], ords, g[s : s + chunk], ng, ex[s : s + chunk])
-            ss += float(np.sum((y[s : s + chunk] - a @ coef) ** 2))
+            x = _rows(theta[s : s + chunk], ords, ex[s : s + chunk])
+            fitted = cx @ x + coef[2 * p : 2 * p + ng][g[s : s + chunk]]
+            ss += float(np.sum((y[s : s + chunk] - fitted) ** 2))
     dof = max(theta.size - ncol, 1)
     sigma2 = ss / dof
     ab = coef[: 2 * p].reshape(p, 2)
@@ -661,23 +685,17 @@ def phasors(motor_angle: ArrayLike, orders: ArrayLike) -> NDArray[np.complex128]
     return out
 
 
-def _design(
-    theta: NDArray[np.float64],
-    orders: NDArray[np.float64],
-    groups: NDArray[np.int64],
-    ng: int,
-    extra: NDArray[np.float64],
+def _rows(
+    theta: NDArray[np.float64], orders: NDArray[np.float64], extra: NDArray[np.float64]
 ) -> NDArray[np.float64]:
-    """Design rows: cos and sin of each order, one-hot group offsets, the extra regressors."""
-    a = np.empty((theta.size, 2 * orders.size + ng + extra.shape[1]))
+    """Regressors as rows, shape (2 p + e, m): cos and sin of each order, the extra ones."""
+    x = np.empty((2 * orders.size + extra.shape[1], theta.size))
     if orders.size:
         wave = phasors(theta, orders)
-        a[:, 0 : 2 * orders.size : 2] = wave.real.T
-        a[:, 1 : 2 * orders.size : 2] = wave.imag.T
-    a[:, 2 * orders.size : 2 * orders.size + ng] = 0.0
-    a[np.arange(theta.size), 2 * orders.size + groups] = 1.0
-    a[:, 2 * orders.size + ng :] = extra
-    return a
+        x[0 : 2 * orders.size : 2] = wave.real
+        x[1 : 2 * orders.size : 2] = wave.imag
+    x[2 * orders.size :] = extra.T
+    return x
 
 
 def bins_per_revolution(samples_per_rev: float, *, margin: float = 1.5) -> int:
