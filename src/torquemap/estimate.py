@@ -199,9 +199,10 @@ def estimation_signal(
 
 
 def _signal(
-    model: Model, log: Log, *, window: float
+    model: Model, log: Log, *, window: float, modulation: NDArray[np.float64] | None = None
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """:func:`estimation_signal` plus the motor acceleration [rad/s^2]."""
+    """:func:`estimation_signal` plus the motor acceleration [rad/s^2] (``modulation``: the
+    arm's inertia modulation at ``log.q`` when the caller has it already)."""
     robot = model.robot
     n = log.t.size
     nj = len(robot.joints)
@@ -209,7 +210,8 @@ def _signal(
     t_est = np.empty((n, nj))
     angle = np.empty((n, nj))
     velocity = np.empty((n, nj))
-    modulation = robot.arm.inertia_modulation(log.q)
+    if modulation is None:
+        modulation = robot.arm.inertia_modulation(log.q)
     span = float(log.t[-1] - log.t[0])
     if span < window:
         raise InputError(
@@ -615,16 +617,23 @@ def estimate_forces(
     force = force_sigma = None
     if robot.arm.wrench_axes:
         finite = np.isfinite(tau_ext).all(axis=1)
-        f = robot.arm.wrench_from_joint_torque(
-            log.q, np.nan_to_num(tau_ext), singular_threshold=min_sin_elbow
-        )
-        force = np.array(f.wrench, dtype=np.float64)
+        if robot.arm.kind == "planar2r":
+            # force and its sigma from one closed-form J^-T (five sines per sample, not nine)
+            force, singular, force_sigma = _planar_force(
+                robot.arm, log.q, tau_ext, tau_sigma, min_sin_elbow
+            )
+        else:
+            f = robot.arm.wrench_from_joint_torque(
+                log.q, np.nan_to_num(tau_ext), singular_threshold=min_sin_elbow
+            )
+            force = np.array(f.wrench, dtype=np.float64)
+            singular = f.singular
+            force_sigma = _force_sigma(robot.arm, log.q, tau_sigma, singular)
         force[~finite] = np.nan
-        flag[f.singular] |= FLAG_SINGULAR
-        force_sigma = _force_sigma(robot.arm, log.q, tau_sigma, f.singular)
-        if f.singular.any():
+        flag[singular] |= FLAG_SINGULAR
+        if singular.any():
             warnings.append(
-                f"{int(f.singular.sum())} samples near a singular pose (guard "
+                f"{int(singular.sum())} samples near a singular pose (guard "
                 f"{min_sin_elbow:g}): force not estimated there"
             )
     return ForceEstimate(
@@ -648,6 +657,28 @@ def estimate_forces(
         force_sigma=force_sigma,
         window=win,
     )
+
+
+def _planar_force(
+    arm: Any,
+    q: NDArray[np.float64],
+    tau: NDArray[np.float64],
+    tau_sigma: NDArray[np.float64],
+    guard: float,
+) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]]:
+    """Force ``F = A tau``, singular mask and the force's sigma from the planar arm's
+    ``A = J^-T`` (:meth:`torquemap.robots.planar2r.Planar2R.wrench_map`); NaN where
+    singular, and the sigma where a joint's sigma is not finite."""
+    a, singular = arm.wrench_map(q, singular_threshold=guard)
+    t0, t1 = np.nan_to_num(tau[:, 0]), np.nan_to_num(tau[:, 1])
+    force = np.empty((q.shape[0], 2))
+    force[:, 0] = a[:, 0, 0] * t0 + a[:, 0, 1] * t1
+    force[:, 1] = a[:, 1, 0] * t0 + a[:, 1, 1] * t1
+    v0, v1 = tau_sigma[:, 0] ** 2, tau_sigma[:, 1] ** 2
+    sigma = np.empty((q.shape[0], 2))
+    sigma[:, 0] = np.sqrt(a[:, 0, 0] ** 2 * v0 + a[:, 0, 1] ** 2 * v1)
+    sigma[:, 1] = np.sqrt(a[:, 1, 0] ** 2 * v0 + a[:, 1, 1] ** 2 * v1)
+    return force, singular, sigma
 
 
 def _force_sigma(
@@ -717,7 +748,8 @@ def _estimate_piece(
             if delays.get(name, 0.0):
                 tau[:, k] = shift_channel(log.t, tau[:, k], delays[name])
         log = dataclasses.replace(log, motor_torque=tau)
-    t_est, angle, velocity, acceleration = _signal(model, log, window=window)
+    modulation = robot.arm.inertia_modulation(log.q)
+    t_est, angle, velocity, acceleration = _signal(model, log, window=window, modulation=modulation)
     n, nj = t_est.shape
     warnings: list[str] = []
     flag = np.zeros(n, dtype=np.int64)
@@ -841,7 +873,6 @@ def _estimate_piece(
     if method == "model":
         from torquemap.uncertainty import joint_sigma
 
-        modulation = robot.arm.inertia_modulation(log.q)
         for k, joint in enumerate(robot.joints):
             sigma[:, k] = joint_sigma(
                 model,
