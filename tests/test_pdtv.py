@@ -138,3 +138,20 @@ def test_notch_skips_orders_above_nyquist() -> None:
     assert_allclose(notch_position_signal(s, orders=[600.0]), s.value)
     with pytest.raises(InputError, match="notch width"):
         notch_position_signal(s, orders=[3.0], width=0.0)
+
+
+def test_harmonic_fit_is_the_same_for_groups_in_runs_and_shuffled() -> None:
+    # groups in runs take per-run sums, shuffled ones per-label counts: the same normal
+    # equations summed in another order (1e-12: rounding)
+    rng = np.random.default_rng(6)
+    theta = rng.uniform(0.0, 30.0, 50000)
+    groups = np.repeat([2, 5, 9, 40], 12500)
+    y = 0.2 * np.cos(3 * theta) + 0.1 * np.sin(7 * theta) + groups * 0.01
+    y = y + rng.normal(0.0, 0.1, theta.size)
+    runs = fit_harmonics(theta, y, orders=[3.0, 7.0], groups=groups, chunk=7000)
+    perm = rng.permutation(theta.size)
+    mixed = fit_harmonics(theta[perm], y[perm], orders=[3.0, 7.0], groups=groups[perm])
+    assert_allclose(runs.cos_sin, mixed.cos_sin, rtol=0, atol=1e-12)
+    assert_allclose(runs.offsets, mixed.offsets, rtol=0, atol=1e-12)
+    assert_allclose(runs.residual_rms, mixed.residual_rms, rtol=1e-12)
+    assert_allclose(runs.offsets, [0.02, 0.05, 0.09, 0.40], atol=5e-3)  # 5 sigma of 1e-3

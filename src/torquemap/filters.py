@@ -263,24 +263,11 @@ def _savgol_uniform(
     lengths), and the first and last windows' fits evaluated at their outer halves. Equal to
     it to rounding (the sums run in another order).
     """
-    from scipy import signal
-
     half = length // 2
-    s = np.arange(length, dtype=np.float64) - half
-    fit = np.linalg.pinv(np.vander(s, 3, increasing=True))  # (3, length): 1, s, s^2 from x
-    head_s, tail_s = s[:half], s[half + 1 :]
     columns = x[:, None] if x.ndim == 1 else x
     out: list[NDArray[np.float64]] = []
     for deriv in derivs:
-        kernel = signal.savgol_coeffs(length, 2, deriv=deriv, delta=h, use="conv")
-        if deriv == 0:
-            head = fit[0][None, :] + head_s[:, None] * fit[1] + head_s[:, None] ** 2 * fit[2]
-            tail = fit[0][None, :] + tail_s[:, None] * fit[1] + tail_s[:, None] ** 2 * fit[2]
-        elif deriv == 1:
-            head = (fit[1][None, :] + 2.0 * head_s[:, None] * fit[2][None, :]) / h
-            tail = (fit[1][None, :] + 2.0 * tail_s[:, None] * fit[2][None, :]) / h
-        else:
-            head = tail = np.repeat(2.0 * fit[2][None, :] / h**2, half, axis=0)
+        kernel, head, tail = _savgol_kernels(length, deriv, h)
         result = np.empty(columns.shape)
         for k in range(columns.shape[1]):
             y = columns[:, k] - columns[0, k]
@@ -291,6 +278,33 @@ def _savgol_uniform(
                 result[:, k] += columns[0, k]
         out.append(result[:, 0] if x.ndim == 1 else result)
     return out
+
+
+@functools.lru_cache(maxsize=64)
+def _savgol_kernels(
+    length: int, deriv: int, h: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The centred kernel of :func:`_savgol_uniform` and the first and last windows' rows
+    (designed once per length, derivative and step: the inertia fit smooths hundreds of
+    short stretches with the same filter)."""
+    from scipy import signal
+
+    half = length // 2
+    s = np.arange(length, dtype=np.float64) - half
+    fit = np.linalg.pinv(np.vander(s, 3, increasing=True))  # (3, length): 1, s, s^2 from x
+    head_s, tail_s = s[:half], s[half + 1 :]
+    kernel = np.asarray(signal.savgol_coeffs(length, 2, deriv=deriv, delta=h, use="conv"))
+    if deriv == 0:
+        head = fit[0][None, :] + head_s[:, None] * fit[1] + head_s[:, None] ** 2 * fit[2]
+        tail = fit[0][None, :] + tail_s[:, None] * fit[1] + tail_s[:, None] ** 2 * fit[2]
+    elif deriv == 1:
+        head = (fit[1][None, :] + 2.0 * head_s[:, None] * fit[2][None, :]) / h
+        tail = (fit[1][None, :] + 2.0 * tail_s[:, None] * fit[2][None, :]) / h
+    else:
+        head = tail = np.repeat(2.0 * fit[2][None, :] / h**2, half, axis=0)
+    for a in (kernel, head, tail):
+        a.setflags(write=False)
+    return kernel, head, tail
 
 
 def smooth_as_acceleration(t: ArrayLike, x: ArrayLike, *, window: float) -> NDArray[np.float64]:

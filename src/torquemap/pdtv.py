@@ -549,8 +549,13 @@ def fit_harmonics(
     if groups is None:
         g = np.zeros(theta.size, dtype=np.int64)
     else:
-        _, g = np.unique(np.asarray(groups), return_inverse=True)
-        g = g.astype(np.int64).ravel()
+        labels = np.asarray(groups).ravel()
+        if labels.size and labels.dtype.kind in "iub" and bool(np.all(labels[1:] >= labels[:-1])):
+            # in runs, in order (passes one after another): the ranks without a sort
+            g = np.concatenate(([0], np.cumsum(labels[1:] != labels[:-1]))).astype(np.int64)
+        else:
+            _, g = np.unique(labels, return_inverse=True)
+            g = g.astype(np.int64).ravel()
     ng = int(g.max()) + 1 if g.size else 1
     ex = np.zeros((theta.size, 0)) if extra is None else np.asarray(extra, dtype=np.float64)
     if ex.ndim == 1:
@@ -576,10 +581,18 @@ def fit_harmonics(
         gc, yc = g[s : s + chunk], y[s : s + chunk]
         xx += x @ x.T
         xy += x @ yc
-        for r in range(nx):
-            xg[r] += np.bincount(gc, weights=x[r], minlength=ng)
-        gy += np.bincount(gc, weights=yc, minlength=ng)
-        counts += np.bincount(gc, minlength=ng)
+        if gc.size and bool(np.all(gc[1:] >= gc[:-1])):
+            # groups in runs (passes one after another): sums over each run
+            starts = np.flatnonzero(np.r_[True, gc[1:] != gc[:-1]])
+            which = gc[starts]
+            xg[:, which] += np.add.reduceat(x, starts, axis=1)
+            gy[which] += np.add.reduceat(yc, starts)
+            counts[which] += np.diff(np.r_[starts, gc.size])
+        else:
+            for r in range(nx):
+                xg[r] += np.bincount(gc, weights=x[r], minlength=ng)
+            gy += np.bincount(gc, weights=yc, minlength=ng)
+            counts += np.bincount(gc, minlength=ng)
         yy += float(yc @ yc)
     h, e = slice(0, 2 * p), slice(2 * p, nx)
     ata = np.zeros((ncol, ncol))
