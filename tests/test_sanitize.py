@@ -11,8 +11,10 @@ from scipy.ndimage import median_filter
 
 from torquemap.io import Log
 from torquemap.sanitize import (
+    JUMP_FACTOR,
     MEDIAN_SPAN,
     SPIKE_SIGMAS,
+    angle_jumps,
     implausible_samples,
     max_gap_for,
     sanitize_log,
@@ -127,3 +129,32 @@ def test_the_cheap_pretest_changes_no_answer(
         -2, 3, spikes
     )
     np.testing.assert_array_equal(implausible_samples(x), _implausible_everywhere(x))
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    jumps=st.integers(0, 4),
+    quantised=st.booleans(),
+    smooth=st.booleans(),
+)
+def test_the_jump_pretest_changes_no_answer(
+    seed: int, jumps: int, quantised: bool, smooth: bool
+) -> None:
+    # the percentiles computed always (the implementation before the pre-test) as reference
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(9, 600))
+    t = np.cumsum(rng.uniform(0.5, 1.5, n)) * 1e-3
+    q = np.sin(t * rng.uniform(1, 50)) if smooth else np.cumsum(rng.choice([0, 1, 2], n) * 1e-3)
+    for _ in range(jumps):
+        q[int(rng.integers(1, n)) :] += rng.uniform(-1, 1) * 10 ** rng.uniform(-4, 1)
+    if quantised:
+        q = np.round(q * 100) / 100
+    dq, dt = np.abs(np.diff(q)), np.diff(t)
+    top = JUMP_FACTOR * max(float(np.percentile(dq, 99)), 1e-12)
+    fast = JUMP_FACTOR * max(float(np.percentile(dq / dt, 99)), 1e-12)
+    jump = (dq > top) & (dq / dt > fast)
+    expected = np.zeros(n, dtype=bool)
+    if jump.mean() <= 0.005:
+        expected[1:] = jump
+    np.testing.assert_array_equal(angle_jumps(t, q), expected)
