@@ -465,12 +465,15 @@ def _identify_joint(
     return res, jm
 
 
+JOIN = 2048
+
+
 def _stretches(
     t: NDArray[np.float64], mask: NDArray[np.bool_], window: float
 ) -> list[tuple[int, int]]:
     """``(start, stop)`` of stretches that hold every True sample of ``mask`` with a
-    differentiator ``window`` [s] (and 3 samples) either side, overlapping ones merged, cut
-    at the log's ends.
+    differentiator ``window`` [s] (and 3 samples) either side, those within ``JOIN`` samples
+    of each other merged, cut at the log's ends.
 
     A filter whose output at a sample depends only on the samples within half a window of
     it (:func:`torquemap.filters.smooth_as_acceleration`, which annihilates the constant and
@@ -480,10 +483,10 @@ def _stretches(
 
     Examples
     --------
-    >>> t = np.arange(100) * 0.01
-    >>> mask = np.zeros(100, bool); mask[[20, 30, 90]] = True
+    >>> t = np.arange(10000) * 0.01
+    >>> mask = np.zeros(10000, bool); mask[[20, 30, 9000]] = True
     >>> _stretches(t, mask, 0.05)
-    [(13, 38), (82, 99)]
+    [(13, 38), (8992, 9009)]
     """
     idx = np.flatnonzero(mask)
     if idx.size == 0:
@@ -492,7 +495,9 @@ def _stretches(
     hi = np.minimum(np.searchsorted(t, t[idx] + window, side="right") + 3, t.size)
     out: list[tuple[int, int]] = []
     for a, b in zip(lo.tolist(), hi.tolist(), strict=True):
-        if out and a <= out[-1][1]:
+        # stretches closer than JOIN samples are one: each costs a call's overhead, about
+        # what filtering a few thousand samples costs
+        if out and a <= out[-1][1] + JOIN:
             out[-1] = (out[-1][0], max(out[-1][1], b))
         else:
             out.append((a, b))
