@@ -12,12 +12,14 @@ from torquemap.errors import InputError
 from torquemap.pdtv import (
     discrete_position_signal,
     fit_harmonics,
+    harmonic_normals,
     noise_floor,
     notch_position_signal,
     phasors,
     pick_lines,
     position_spectrum,
     rayleigh_threshold,
+    solve_harmonics,
 )
 
 BW = 2 * np.pi / 1024
@@ -155,3 +157,35 @@ def test_harmonic_fit_is_the_same_for_groups_in_runs_and_shuffled() -> None:
     assert_allclose(runs.offsets, mixed.offsets, rtol=0, atol=1e-12)
     assert_allclose(runs.residual_rms, mixed.residual_rms, rtol=1e-12)
     assert_allclose(runs.offsets, [0.02, 0.05, 0.09, 0.40], atol=5e-3)  # 5 sigma of 1e-3
+
+
+def test_one_pass_of_normal_equations_fits_every_subset() -> None:
+    # identify fits all picked orders, then the kept ones, then each direction: from one
+    # accumulation, each equals a fit of its own (the same sums grouped otherwise: 1e-12)
+    rng = np.random.default_rng(9)
+    theta = np.concatenate([np.linspace(0.0, 40.0, 30000), np.linspace(40.0, 0.0, 30000)])
+    groups = np.repeat([0, 1, 2, 3], 15000)
+    up = np.repeat([1, 1, 0, 0], 15000)
+    y = 0.3 * np.cos(2 * theta + 0.5) + np.where(up == 1, 0.05, 0.08) * np.cos(9 * theta)
+    y = y + groups * 0.01 + rng.normal(0.0, 0.05, theta.size)
+    normals = harmonic_normals(theta, y, orders=[2.0, 5.0, 9.0], groups=groups, split=up)
+    for orders, part in (
+        ([2.0, 5.0, 9.0], None),
+        ([2.0, 9.0], None),
+        ([9.0, 2.0], [1]),
+        ([2.0, 9.0], [0]),
+    ):
+        got = solve_harmonics(normals, orders=orders, parts=part)
+        use = np.ones(theta.size, bool) if part is None else np.isin(up, part)
+        ref = fit_harmonics(theta[use], y[use], orders=orders, groups=groups[use])
+        assert_allclose(got.order, orders)
+        assert_allclose(got.cos_sin, ref.cos_sin, rtol=0, atol=1e-12)
+        assert_allclose(got.covariance, ref.covariance, rtol=1e-9, atol=0)
+        assert_allclose(got.offsets, ref.offsets, rtol=0, atol=1e-12)
+        assert_allclose(got.residual_rms, ref.residual_rms, rtol=1e-9)
+    # the directions' own amplitudes of order 9 (0.05 up, 0.08 down), 5 standard errors
+    up_fit = solve_harmonics(normals, orders=[9.0], parts=[1])
+    down_fit = solve_harmonics(normals, orders=[9.0], parts=[0])
+    assert_allclose([up_fit.amplitude[0], down_fit.amplitude[0]], [0.05, 0.08], atol=3e-3)
+    with pytest.raises(InputError, match="not in the accumulated"):
+        solve_harmonics(normals, orders=[3.0])

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -539,6 +539,83 @@ def fit_harmonics(
     >>> round(float(fit.amplitude[0]), 6), round(float(fit.phase[0]), 6), round(float(fit.offsets[0]), 6)
     (0.5, -0.4, 2.0)
     """
+    normals = harmonic_normals(
+        motor_angle, values, orders=orders, groups=groups, extra=extra, chunk=chunk
+    )
+    return solve_harmonics(normals)
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class HarmonicNormals:
+    """Normal equations of :func:`fit_harmonics`, accumulated in one pass over the samples.
+
+    For a set of orders, per part of a split of the samples (for example the direction of
+    motion), so that :func:`solve_harmonics` fits any subset of the orders to any subset of
+    the parts from them, without another pass. The regressors are the cosine and sine of
+    each order and the extra regressors ("rows"); the group offsets' columns are one-hot, so
+    their products are per-group sums.
+
+    Attributes
+    ----------
+    orders
+        The orders [CPR], shape (p,).
+    xx
+        Products of the rows, shape (s, 2 p + e, 2 p + e), per part.
+    xg, xy
+        The rows summed per group, shape (s, 2 p + e, g), and times the values, (s, 2 p + e).
+    gy, counts
+        The values summed per group, and the samples per group, shape (s, g).
+    yy
+        Sum of squared values per part, shape (s,).
+    n_extra
+        Extra regressors (e).
+    samples
+        ``(theta, values, group ranks, extra, part)``: the inputs, kept (not copied) for an
+        exact second pass where the normal equations' residual would lose precision.
+    chunk
+        Rows per block of that pass.
+    """
+
+    orders: NDArray[np.float64]
+    xx: NDArray[np.float64]
+    xg: NDArray[np.float64]
+    xy: NDArray[np.float64]
+    gy: NDArray[np.float64]
+    counts: NDArray[np.float64]
+    yy: NDArray[np.float64]
+    n_extra: int
+    samples: tuple[NDArray[Any], ...] = ()
+    chunk: int = 20000
+
+
+def harmonic_normals(
+    motor_angle: ArrayLike,
+    values: ArrayLike,
+    *,
+    orders: Sequence[float],
+    groups: ArrayLike | None = None,
+    extra: ArrayLike | None = None,
+    split: ArrayLike | None = None,
+    chunk: int = 20000,
+) -> HarmonicNormals:
+    """Accumulate the normal equations of :func:`fit_harmonics` (solve: :func:`solve_harmonics`).
+
+    Parameters
+    ----------
+    motor_angle, values, orders, groups, extra, chunk
+        As :func:`fit_harmonics`.
+    split
+        Part of each sample, integers 0 .. s - 1, shape (n,); default one part.
+
+    Returns
+    -------
+    HarmonicNormals
+
+    Raises
+    ------
+    InputError
+        On mismatched shapes or orders that are not positive and distinct.
+    """
     theta = np.asarray(motor_angle, dtype=np.float64)
     y = np.asarray(values, dtype=np.float64)
     if theta.ndim != 1 or theta.shape != y.shape:
@@ -556,55 +633,145 @@ def fit_harmonics(
         else:
             _, g = np.unique(labels, return_inverse=True)
             g = g.astype(np.int64).ravel()
+    if g.size != theta.size:
+        raise InputError("groups must have one label per sample")
     ng = int(g.max()) + 1 if g.size else 1
     ex = np.zeros((theta.size, 0)) if extra is None else np.asarray(extra, dtype=np.float64)
     if ex.ndim == 1:
         ex = ex[:, None]
     if ex.shape[0] != theta.size:
         raise InputError("extra regressors must have one row per sample")
-    ne = ex.shape[1]
-    p = ords.size
-    ncol = 2 * p + ng + ne
-    if theta.size < ncol + 1:
-        raise InputError(f"{theta.size} samples cannot fit {ncol} unknowns")
-    # normal equations in blocks: the harmonics and extra regressors as rows (2 p + e, m);
-    # the group offsets' columns are one-hot, so their products are per-group sums
-    nx = 2 * p + ne
-    xx = np.zeros((nx, nx))
-    xg = np.zeros((nx, ng))
-    xy = np.zeros(nx)
-    gy = np.zeros(ng)
-    counts = np.zeros(ng)
-    yy = 0.0
-    for s in range(0, theta.size, chunk):
-        x = _rows(theta[s : s + chunk], ords, ex[s : s + chunk])
-        gc, yc = g[s : s + chunk], y[s : s + chunk]
-        xx += x @ x.T
-        xy += x @ yc
+    part = (
+        np.zeros(theta.size, dtype=np.int64)
+        if split is None
+        else np.asarray(split, dtype=np.int64).ravel()
+    )
+    if part.size != theta.size or (part.size and part.min() < 0):
+        raise InputError("split must give a part >= 0 for every sample")
+    ns = int(part.max()) + 1 if part.size else 1
+    nx = 2 * ords.size + ex.shape[1]
+    xx = np.zeros((ns, nx, nx))
+    xg = np.zeros((ns, nx, ng))
+    xy = np.zeros((ns, nx))
+    gy = np.zeros((ns, ng))
+    counts = np.zeros((ns, ng))
+    yy = np.zeros(ns)
+
+    def add(k: int, x: NDArray[np.float64], gc: NDArray[np.int64], yc: NDArray[np.float64]) -> None:
+        xx[k] += x @ x.T
+        xy[k] += x @ yc
         if gc.size and bool(np.all(gc[1:] >= gc[:-1])):
             # groups in runs (passes one after another): sums over each run
             starts = np.flatnonzero(np.r_[True, gc[1:] != gc[:-1]])
             which = gc[starts]
-            xg[:, which] += np.add.reduceat(x, starts, axis=1)
-            gy[which] += np.add.reduceat(yc, starts)
-            counts[which] += np.diff(np.r_[starts, gc.size])
+            xg[k][:, which] += np.add.reduceat(x, starts, axis=1)
+            gy[k][which] += np.add.reduceat(yc, starts)
+            counts[k][which] += np.diff(np.r_[starts, gc.size])
         else:
             for r in range(nx):
-                xg[r] += np.bincount(gc, weights=x[r], minlength=ng)
-            gy += np.bincount(gc, weights=yc, minlength=ng)
-            counts += np.bincount(gc, minlength=ng)
-        yy += float(yc @ yc)
-    h, e = slice(0, 2 * p), slice(2 * p, nx)
+                xg[k][r] += np.bincount(gc, weights=x[r], minlength=ng)
+            gy[k] += np.bincount(gc, weights=yc, minlength=ng)
+            counts[k] += np.bincount(gc, minlength=ng)
+        yy[k] += float(yc @ yc)
+
+    for s in range(0, theta.size, chunk):
+        x = _rows(theta[s : s + chunk], ords, ex[s : s + chunk])
+        gc, yc, pc = g[s : s + chunk], y[s : s + chunk], part[s : s + chunk]
+        if pc.size and pc.min() == pc.max():
+            add(int(pc[0]), x, gc, yc)
+        else:
+            for k in np.unique(pc):
+                m = pc == k
+                add(int(k), x[:, m], gc[m], yc[m])
+    return HarmonicNormals(
+        orders=ords,
+        xx=xx,
+        xg=xg,
+        xy=xy,
+        gy=gy,
+        counts=counts,
+        yy=yy,
+        n_extra=ex.shape[1],
+        samples=(theta, y, g, ex, part),
+        chunk=chunk,
+    )
+
+
+def solve_harmonics(
+    normals: HarmonicNormals,
+    *,
+    orders: Sequence[float] | None = None,
+    parts: Sequence[int] | None = None,
+) -> HarmonicFit:
+    """The least-squares fit of :func:`fit_harmonics` from accumulated normal equations.
+
+    Parameters
+    ----------
+    normals
+        From :func:`harmonic_normals`.
+    orders
+        A subset of ``normals.orders`` [CPR]; default all.
+    parts
+        The parts of the split fitted; default all. Only the groups with samples in them
+        get an offset.
+
+    Returns
+    -------
+    HarmonicFit
+        As :func:`fit_harmonics` on those orders and samples (equal to rounding: the same
+        sums, grouped otherwise).
+
+    Raises
+    ------
+    InputError
+        On an order not accumulated, or fewer samples than unknowns.
+    """
+    all_orders = normals.orders
+    if orders is None:
+        idx = np.arange(all_orders.size)
+    else:
+        idx = np.array(
+            [
+                int(np.flatnonzero(all_orders == float(o))[0])
+                if np.any(all_orders == float(o))
+                else -1
+                for o in orders
+            ],
+            dtype=np.int64,
+        )
+        if idx.size and idx.min() < 0:
+            raise InputError("an order was not in the accumulated normal equations")
+    chosen = (
+        np.arange(normals.xx.shape[0]) if parts is None else np.asarray(list(parts), dtype=np.int64)
+    )
+    xx = normals.xx[chosen].sum(axis=0)
+    xg = normals.xg[chosen].sum(axis=0)
+    xy = normals.xy[chosen].sum(axis=0)
+    gy = normals.gy[chosen].sum(axis=0)
+    counts = normals.counts[chosen].sum(axis=0)
+    yy = float(normals.yy[chosen].sum())
+    present = np.flatnonzero(counts > 0)
+    p = idx.size
+    ne = normals.n_extra
+    ng = present.size
+    rows = np.concatenate(
+        (np.stack([2 * idx, 2 * idx + 1], axis=1).ravel(), 2 * all_orders.size + np.arange(ne))
+    ).astype(np.int64)
+    ncol = 2 * p + ng + ne
+    n = int(counts.sum())
+    if n < ncol + 1:
+        raise InputError(f"{n} samples cannot fit {ncol} unknowns")
+    h, e = rows[: 2 * p], rows[2 * p :]
     ata = np.zeros((ncol, ncol))
-    ata[: 2 * p, : 2 * p] = xx[h, h]
-    ata[: 2 * p, 2 * p : 2 * p + ng] = xg[h]
-    ata[: 2 * p, 2 * p + ng :] = xx[h, e]
-    ata[2 * p : 2 * p + ng, 2 * p : 2 * p + ng] = np.diag(counts)
-    ata[2 * p : 2 * p + ng, 2 * p + ng :] = xg[e].T
-    ata[2 * p + ng :, 2 * p + ng :] = xx[e, e]
+    ata[: 2 * p, : 2 * p] = xx[np.ix_(h, h)]
+    ata[: 2 * p, 2 * p : 2 * p + ng] = xg[np.ix_(h, present)]
+    ata[: 2 * p, 2 * p + ng :] = xx[np.ix_(h, e)]
+    ata[2 * p : 2 * p + ng, 2 * p : 2 * p + ng] = np.diag(counts[present])
+    ata[2 * p : 2 * p + ng, 2 * p + ng :] = xg[np.ix_(e, present)].T
+    ata[2 * p + ng :, 2 * p + ng :] = xx[np.ix_(e, e)]
     upper = np.triu(ata, 1)
     ata = np.triu(ata) + upper.T
-    aty = np.concatenate((xy[h], gy, xy[e]))
+    aty = np.concatenate((xy[h], gy[present], xy[e]))
     inv = np.linalg.pinv(ata)
     coef = inv @ aty
     # the residual's sum of squares from the normal equations (no second pass over the
@@ -612,13 +779,8 @@ def fit_harmonics(
     # model explains nearly all of y it is summed over the samples instead
     ss = yy - 2.0 * float(coef @ aty) + float(coef @ ata @ coef)
     if not ss > 1e-6 * yy:
-        cx = np.concatenate((coef[: 2 * p], coef[2 * p + ng :]))
-        ss = 0.0
-        for s in range(0, theta.size, chunk):
-            x = _rows(theta[s : s + chunk], ords, ex[s : s + chunk])
-            fitted = cx @ x + coef[2 * p : 2 * p + ng][g[s : s + chunk]]
-            ss += float(np.sum((y[s : s + chunk] - fitted) ** 2))
-    dof = max(theta.size - ncol, 1)
+        ss = _residual_sum(normals, idx, chosen, present, coef)
+    dof = max(n - ncol, 1)
     sigma2 = ss / dof
     ab = coef[: 2 * p].reshape(p, 2)
     cov = np.empty((p, 2, 2))
@@ -628,17 +790,41 @@ def fit_harmonics(
     phase = np.arctan2(-ab[:, 1], ab[:, 0])
     se = np.sqrt(np.maximum(0.5 * (cov[:, 0, 0] + cov[:, 1, 1]), 0.0))
     return HarmonicFit(
-        order=ords,
+        order=all_orders[idx],
         amplitude=amplitude,
         phase=phase,
         amplitude_se=se,
         cos_sin=ab,
         covariance=cov,
         offsets=coef[2 * p : 2 * p + ng],
-        residual_rms=math.sqrt(ss / theta.size),
+        residual_rms=math.sqrt(ss / n),
         extra=coef[2 * p + ng :],
         extra_se=np.sqrt(np.maximum(sigma2 * np.diag(inv)[2 * p + ng :], 0.0)),
     )
+
+
+def _residual_sum(
+    normals: HarmonicNormals,
+    idx: NDArray[np.int64],
+    chosen: NDArray[np.int64],
+    present: NDArray[np.int64],
+    coef: NDArray[np.float64],
+) -> float:
+    """The residual's sum of squares summed over the samples (no cancellation)."""
+    theta, y, g, ex, part = normals.samples
+    p, ng = idx.size, present.size
+    offset = np.zeros(int(g.max()) + 1 if g.size else 1)
+    offset[present] = coef[2 * p : 2 * p + ng]
+    cx = np.concatenate((coef[: 2 * p], coef[2 * p + ng :]))
+    ords = normals.orders[idx]
+    use = np.isin(part, chosen)
+    ss = 0.0
+    for s in range(0, theta.size, normals.chunk):
+        m = use[s : s + normals.chunk]
+        x = _rows(theta[s : s + normals.chunk][m], ords, ex[s : s + normals.chunk][m])
+        fitted = cx @ x + offset[g[s : s + normals.chunk][m]]
+        ss += float(np.sum((y[s : s + normals.chunk][m] - fitted) ** 2))
+    return ss
 
 
 #: Integer orders up to this are raised as powers of ``exp(i theta)`` by :func:`phasors`.
