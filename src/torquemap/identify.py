@@ -49,14 +49,17 @@ from torquemap.model import (
 )
 from torquemap.pdtv import (
     HarmonicFit,
+    HarmonicNormals,
     LinePicks,
     PositionSignal,
     Spectrum,
     bins_per_revolution,
     discrete_position_signal,
     fit_harmonics,
+    harmonic_normals,
     pick_lines,
     position_spectrum,
+    solve_harmonics,
 )
 from torquemap.robot import Robot
 
@@ -179,13 +182,16 @@ def _identify_passes(
     direction_significance: float = 0.001,
     torque_lag: float | Literal["auto"] = 0.0,
     channel_delay: float | Literal["auto"] = "auto",
+    derivatives: Sequence[Sequence[Derivatives]] | None = None,
 ) -> Identification:
     """:func:`identify_model` with ``friction="passes"`` on logs already sanitised.
 
     The paper's method (friction from the means of constant-speed passes, Eq 5). Parameters,
     result and errors as :func:`identify_model`'s; ``torque_lag`` [s] is the time constant of a
     first-order lag of the torque channel (``"auto"`` fits it, experimental), corrected by
-    ``tau + lag * dtau/dt`` before PDTV and inertia.
+    ``tau + lag * dtau/dt`` before PDTV and inertia. ``derivatives``: those of the logs'
+    motor angles when already computed (a torque channel's delay undone leaves them as they
+    are).
     """
     model_in = robot if isinstance(robot, Model) else None
     rb = robot.robot if isinstance(robot, Model) else robot
@@ -194,7 +200,7 @@ def _identify_passes(
     names = list(rb.joint_names) if joints is None else list(joints)
     for name in names:
         rb.joint(name)
-    derivs = [_derivatives(log, rb, window) for log in logs]
+    derivs = [_derivatives(log, rb, window) for log in logs] if derivatives is None else derivatives
     p99 = [
         float(np.percentile(np.concatenate([np.abs(d[k].velocity) for d in derivs]), 99))
         for k in range(len(rb.joints))
@@ -250,6 +256,7 @@ def _identify_passes(
                 direction_significance=direction_significance,
                 torque_lag=torque_lag,
                 channel_delay=0.0,
+                derivatives=derivs,
             )
             joints_out = {
                 n: dataclasses.replace(r, channel_delay=delays.get(n, 0.0))
@@ -694,15 +701,19 @@ def _identify_pdtv(
     picks = pick_lines(spectrum, false_alarm=false_alarm)
     orders = [float(o) for o in picks.order]
     fit = None
+    normals = None
     if orders:
-        fit = fit_harmonics(theta, res, orders=orders, groups=grp)
+        # one pass over the samples for every fit below: all picked orders, then the kept
+        # ones, then each direction (:func:`~torquemap.pdtv.solve_harmonics`)
+        normals = harmonic_normals(theta, res, orders=orders, groups=grp, split=sgn > 0)
+        fit = solve_harmonics(normals)
         thr = np.interp(fit.order, spectrum.order, picks.threshold)
         keep = fit.amplitude > thr
         if not keep.all() and keep.any():
-            fit = fit_harmonics(theta, res, orders=list(fit.order[keep]), groups=grp)
+            fit = solve_harmonics(normals, orders=list(fit.order[keep]))
         elif not keep.any():
             fit = None
-    if fit is None:
+    if fit is None or normals is None:
         return _PdtvResult(
             used=used,
             signal=signal,
@@ -712,7 +723,7 @@ def _identify_pdtv(
             max_order=top,
             torque_lag=lag,
         )
-    lines = _directional_lines(theta, res, grp, sgn, fit, direction_significance)
+    lines = _directional_lines(normals, grp, sgn, fit, direction_significance)
     return _PdtvResult(
         lines=lines,
         used=used,
@@ -727,8 +738,7 @@ def _identify_pdtv(
 
 
 def _directional_lines(
-    theta: NDArray[np.float64],
-    res: NDArray[np.float64],
+    normals: HarmonicNormals,
     grp: NDArray[np.int64],
     sgn: NDArray[np.int64],
     fit: HarmonicFit,
@@ -739,7 +749,8 @@ def _directional_lines(
     A line differs when the chi-square of the difference of its cosine/sine coefficients
     (2 degrees of freedom, covariances of the two independent fits) exceeds the
     ``1 - significance / p`` quantile (Bonferroni over the p lines) and the amplitudes differ
-    by more than 10 % of the larger: statistically and practically significant.
+    by more than 10 % of the larger: statistically and practically significant. The fits
+    come from ``normals``, accumulated with the split ``sgn > 0`` (part 1: positive).
     """
     from scipy import stats
 
@@ -752,8 +763,8 @@ def _directional_lines(
     if pos.sum() < n_unknown or neg.sum() < n_unknown:
         return both
     orders = list(fit.order)
-    fp = fit_harmonics(theta[pos], res[pos], orders=orders, groups=grp[pos])
-    fn = fit_harmonics(theta[neg], res[neg], orders=orders, groups=grp[neg])
+    fp = solve_harmonics(normals, orders=orders, parts=[1])
+    fn = solve_harmonics(normals, orders=orders, parts=[0])
     crit = stats.chi2.ppf(1.0 - significance / fit.order.size, 2)
     lines: list[PdtvLine] = []
     for i, line in enumerate(both):

@@ -262,9 +262,10 @@ def sanitize_log(log: Log, *, window: float, min_piece: float | None = None) -> 
     if repeated.any():
         warnings.append(f"{int(repeated.sum())} samples repeat the previous time stamp: dropped")
     keep = np.flatnonzero(~repeated)
-    tk = t[keep]
-    q = log.q[keep].copy()
-    tau = log.motor_torque[keep].copy()
+    if keep.size == n:  # no repeated stamp: copies (bridging writes into them), no gather
+        tk, q, tau = t, log.q.copy(), log.motor_torque.copy()
+    else:
+        tk, q, tau = t[keep], log.q[keep], log.motor_torque[keep]
     bad_any = np.zeros(keep.size, dtype=bool)
     for k in range(q.shape[1]):
         for arr, what in ((tau, "torque"), (q, "angle")):
