@@ -445,6 +445,7 @@ def estimate_forces(
     channel_delay: Mapping[str, float] | None = None,
     reversal_band: float | Mapping[str, float] | None = None,
     check_robot: bool = True,
+    answers_only: bool = False,
 ) -> ForceEstimate:
     """Estimate the external joint torques and end-effector force from a log.
 
@@ -493,6 +494,10 @@ def estimate_forces(
         through zero they keep their answer with a wider sigma.
     check_robot
         Refuse a log whose encoder steps do not match the model's (another robot).
+    answers_only
+        Compute only what the output table holds (:func:`forces_columns`): ``filtered`` is
+        NaN for the joints whose ``motor_external`` it is not (``model`` method, joints with
+        PDTV lines), sparing their low-pass.
 
     Returns
     -------
@@ -576,6 +581,7 @@ def estimate_forces(
             bridge_reversals=bridge_reversals,
             channel_delay=channel_delay,
             reversal_band=reversal_band,
+            answers_only=answers_only,
         )
         rows = piece.rows
         # consecutive rows (no repeated stamp dropped): a slice, not a gather, per column
@@ -736,6 +742,7 @@ def _estimate_piece(
     bridge_reversals: float,
     channel_delay: Mapping[str, float] | None,
     reversal_band: float | Mapping[str, float] | None,
+    answers_only: bool = False,
 ) -> _PieceEstimate:
     """:func:`estimate_forces` on one piece of a log (no gap, sound samples)."""
     robot = model.robot
@@ -803,9 +810,16 @@ def _estimate_piece(
 
     # every low-pass of the piece in one call (the filter and its checks run once)
     jobs: list[tuple[NDArray[np.float64], int]] = []
-    if method != "raw":
-        jobs += [(t_est[:, k], k) for k in range(nj)]
     lined = [k for k, j in enumerate(robot.joints) if model.joints[j.name].pdtv]
+    # ``filtered`` of a joint with lines is not an answer of the model method
+    unfiltered = set(lined) if answers_only and method == "model" else set()
+    smoothed_at: dict[int, int] = {}
+    if method != "raw":
+        for k in range(nj):
+            if k not in unfiltered:
+                smoothed_at[k] = len(jobs)
+                jobs.append((t_est[:, k], k))
+    first_external = len(jobs)
     if method == "model":
         for k in lined:
             lines = model.joints[robot.joints[k].name].pdtv
@@ -832,14 +846,14 @@ def _estimate_piece(
     external = t_est.copy()
     if method != "raw":
         for k in range(nj):
-            filtered[:, k] = smoothed[k]
+            filtered[:, k] = smoothed[smoothed_at[k]] if k in smoothed_at else np.nan
     any_pass = False
     if method == "lowpass":
         external = filtered.copy()
     elif method == "model":
         external = filtered.copy()
         for i, k in enumerate(lined):
-            external[:, k] = smoothed[nj + i]
+            external[:, k] = smoothed[first_external + i]
     elif method == "paper":
         external = filtered.copy()
         for k, joint in enumerate(robot.joints):
