@@ -734,6 +734,7 @@ def estimate_to_file(
         path=path,
     )
     estimator._copy_rows = False  # each answer is written and dropped at once
+    estimator._options["answers_only"] = True  # ``filtered`` is not in the table
     nj = len(model.robot.joints)
     totals = np.zeros(nj)
     counts = {"samples": 0, "sound": 0}
