@@ -681,6 +681,7 @@ def _identify_pdtv(
         signal = discrete_position_signal(theta, res, bin_width=TWO_PI / nb)
         spectrum = position_spectrum(signal, max_order=top)
         picks = pick_lines(spectrum, false_alarm=false_alarm)
+        picked_at = lag
         if torque_lag != "auto" or picks.order.size == 0:
             break
         # measured = true - T d(measured)/dt (a first-order lag T): fit T with the lines
@@ -695,10 +696,11 @@ def _identify_pdtv(
             lag = new
             break
         lag = new
-    res = raw + lag * rate
-    signal = discrete_position_signal(theta, res, bin_width=TWO_PI / nb)
-    spectrum = position_spectrum(signal, max_order=top)
-    picks = pick_lines(spectrum, false_alarm=false_alarm)
+    if lag != picked_at:  # the last pick was made at another lag: again at this one
+        res = raw + lag * rate
+        signal = discrete_position_signal(theta, res, bin_width=TWO_PI / nb)
+        spectrum = position_spectrum(signal, max_order=top)
+        picks = pick_lines(spectrum, false_alarm=false_alarm)
     orders = [float(o) for o in picks.order]
     fit = None
     normals = None
