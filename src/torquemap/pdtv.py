@@ -867,21 +867,24 @@ def phasors(motor_angle: ArrayLike, orders: ArrayLike) -> NDArray[np.complex128]
         z = np.empty(theta.size, dtype=np.complex128)
         z.real = np.cos(theta)
         z.imag = np.sin(theta)
+        # a plain function, not a closure that calls itself: such a closure is a reference
+        # cycle that would keep every power alive until the garbage collector runs
         powers: dict[int, NDArray[np.complex128]] = {1: z}
-
-        def power(k: int) -> NDArray[np.complex128]:
-            if k not in powers:
-                half = power(k // 2)
-                powers[k] = half * half if k % 2 == 0 else half * half * z
-            return powers[k]
-
         for j in np.flatnonzero(integer):
-            out[j] = power(int(ords[j]))
+            out[j] = _power(powers, int(ords[j]))
     for j in np.flatnonzero(~integer):
         arg = ords[j] * theta
         out[j].real = np.cos(arg)
         out[j].imag = np.sin(arg)
     return out
+
+
+def _power(powers: dict[int, NDArray[np.complex128]], k: int) -> NDArray[np.complex128]:
+    """``z ** k`` by repeated squaring, ``powers`` holding ``{1: z}`` and those made so far."""
+    if k not in powers:
+        half = _power(powers, k // 2)
+        powers[k] = half * half if k % 2 == 0 else half * half * powers[1]
+    return powers[k]
 
 
 def _rows(
