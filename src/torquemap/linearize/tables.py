@@ -753,7 +753,10 @@ SURFACE_SHARE_STEP = 1.0 / 14.0
 
 
 def ramp_share_step(ramp: NDArray[np.float64], anchors: NDArray[np.int64]) -> float:
-    """Largest change of any phase's share between consecutive measured positions.
+    """Largest change of any phase's share across a gap between measured positions.
+
+    Only gaps with unmeasured positions count (a collection with the ramp's transitions
+    measures every position where the ramp changes: nothing is bridged there).
 
     Parameters
     ----------
@@ -765,7 +768,8 @@ def ramp_share_step(ramp: NDArray[np.float64], anchors: NDArray[np.int64]) -> fl
     Returns
     -------
     float
-        ``max |ramp[a_{i+1}] - ramp[a_i]|`` over consecutive anchors (cyclic) and phases.
+        ``max |ramp[a_{i+1}] - ramp[a_i]|`` over consecutive anchors (cyclic) more than one
+        position apart, and over phases; 0 when no gap is bridged.
 
     Examples
     --------
@@ -773,11 +777,17 @@ def ramp_share_step(ramp: NDArray[np.float64], anchors: NDArray[np.int64]) -> fl
     >>> r = ramp_function("narrow", phases=3, positions_per_cycle=24)
     >>> ramp_share_step(r, np.arange(0, 24, 4))
     0.5
+    >>> ramp_share_step(r, np.arange(24))
+    0.0
     """
+    n = ramp.shape[0]
     if anchors.size < 2:
         return 0.0
     nxt = np.roll(anchors, -1)
-    return float(np.max(np.abs(ramp[nxt] - ramp[anchors])))
+    bridged = (nxt - anchors) % n > 1
+    if not bridged.any():
+        return 0.0
+    return float(np.max(np.abs(ramp[nxt[bridged]] - ramp[anchors[bridged]])))
 
 
 def _snap(
