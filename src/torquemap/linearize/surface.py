@@ -40,6 +40,8 @@ from numpy.typing import NDArray
 from scipy.optimize import nnls
 from scipy.sparse.linalg import spsolve
 
+from torquemap.linearize.detent import loo_press
+
 #: Alternating least-squares rounds.
 ROUNDS = 12
 #: Pulse-width units between the knots of ``phi``.
@@ -80,16 +82,6 @@ def _second_difference(n: int) -> sp.csr_matrix:
     return sp.csr_matrix((vals, (rows, cols)), shape=(n, n))
 
 
-def _press(
-    design: NDArray[np.float64], target: NDArray[np.float64]
-) -> tuple[float, NDArray[np.float64]]:
-    """Leave-one-out prediction error of a least-squares fit, and its coefficients."""
-    coef = np.asarray(np.linalg.lstsq(design, target, rcond=None)[0], dtype=np.float64)
-    leverage = np.einsum("ij,ji->i", design, np.linalg.pinv(design))
-    loo = (target - design @ coef) / (1.0 - np.clip(leverage, 0.0, 0.999))
-    return float(loo @ loo), coef
-
-
 def _interpolate_rest(
     rest: NDArray[np.float64], anchors: NDArray[np.int64], n: int
 ) -> NDArray[np.float64]:
@@ -99,34 +91,34 @@ def _interpolate_rest(
     y = rest[anchors]
     top = (anchors.size - 1) // 2
     kept: list[int] = []
-    best, coef = _press(np.ones((x.size, 1)), y)
+    best, coef = loo_press(np.ones((x.size, 1)), y)
     while 2 * len(kept) + 3 < anchors.size:
         trials = []
         for h in range(1, top + 1):
             if h in kept:
                 continue
-            d = _indicatorier_set(x, [*kept, h], n)
+            d = _fourier_set(x, [*kept, h], n)
             sol, *_ = np.linalg.lstsq(d, y, rcond=None)
             rr = y - d @ sol
             trials.append((float(rr @ rr), h))
         if not trials:
             break
         _, h = min(trials)
-        press, sol = _press(_indicatorier_set(x, [*kept, h], n), y)
+        press, sol = loo_press(_fourier_set(x, [*kept, h], n), y)
         if not press < best:
             break
         best, coef = press, sol
         kept.append(h)
     allp = np.arange(n, dtype=np.float64)
-    smooth = _indicatorier_set(allp, kept, n) @ coef
-    resid = y - _indicatorier_set(x, kept, n) @ coef
+    smooth = _fourier_set(allp, kept, n) @ coef
+    resid = y - _fourier_set(x, kept, n) @ coef
     ext = np.concatenate([anchors - n, anchors, anchors + n])
     out = smooth + np.interp(allp, ext, np.tile(resid, 3))
     out[anchors] = y
     return out
 
 
-def _indicatorier_set(p: NDArray[np.float64], harmonics: list[int], n: int) -> NDArray[np.float64]:
+def _fourier_set(p: NDArray[np.float64], harmonics: list[int], n: int) -> NDArray[np.float64]:
     x = 2.0 * np.pi * p[:, None] / n
     h = np.asarray(harmonics, dtype=np.float64)[None, :]
     return np.concatenate([np.ones((p.size, 1)), np.cos(x * h), np.sin(x * h)], axis=1)
