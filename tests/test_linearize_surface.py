@@ -9,10 +9,13 @@ between measured positions.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from numpy.typing import NDArray
 
+from torquemap.linearize.export import load_tables, save_tables
 from torquemap.linearize.metrics import apmd_report
 from torquemap.linearize.motor import MotorSpec, motor_spec, ramp_function, ramped_actuation
 from torquemap.linearize.surface import fit_surface, surface_prediction
@@ -164,6 +167,13 @@ def test_build_tables_with_the_surface_beats_the_interpolation_on_a_wide_ramp() 
     linear = _nf_apmd(spec, without.phases, cmax)
     # measured 1.4 % against 5.6 %: the cogging and the hand-over between measured positions
     assert ours < 0.5 * linear
+
+
+def test_the_surface_flag_travels_in_the_tables_file(tmp_path: Path) -> None:
+    spec = _spec()
+    tables = build_tables(spec, *_collection(spec, noise=0.01, seed=1))
+    save_tables(tmp_path / "t.npz", tables)
+    assert tables.surface and load_tables(tmp_path / "t.npz").surface
 
 
 def test_build_tables_keeps_the_interpolation_where_the_ramp_changes_slowly() -> None:
