@@ -109,7 +109,7 @@ def test_fit_recovers_the_shared_rise_gains_and_cogging_between_measured_positio
     )
     err = np.sqrt(np.mean((model - truth) ** 2))
     err_linear = np.sqrt(np.mean((linear - truth) ** 2))
-    # measured: 0.02 against 0.75 N m rms; a fifth is a wide margin
+    # measured: 0.05 against 1.55 N m rms; a fifth is a wide margin
     assert err < 0.2 * err_linear
 
 
@@ -165,8 +165,10 @@ def test_build_tables_with_the_surface_beats_the_interpolation_on_a_wide_ramp() 
     cmax = with_surface.command_max
     ours = _nf_apmd(spec, with_surface.phases, cmax)
     linear = _nf_apmd(spec, without.phases, cmax)
-    # measured 1.4 % against 5.6 %: the cogging and the hand-over between measured positions
-    assert ours < 0.5 * linear
+    # measured 1.50 % against 3.12 % (the interpolation with its own hand-over and torque at
+    # rest steps): the cogging and the hand-over between measured positions; 0.6 leaves room
+    # for another platform's rounding, none for a surface that does not help
+    assert ours < 0.6 * linear
 
 
 def test_the_surface_flag_travels_in_the_tables_file(tmp_path: Path) -> None:
