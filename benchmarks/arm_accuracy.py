@@ -39,8 +39,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scipy.signal import lfilter
 
 from torquemap.estimate_arm import estimate_arm
+from torquemap.filters import lowpass
 from torquemap.friction_law import StribeckFriction
 from torquemap.identify_arm import identify_arm
 from torquemap.io import Log, read_log, read_table
@@ -71,9 +73,33 @@ def _oracle(robot_path: Path, folder: Path) -> Model:
     return sim.oracle_model(robot_path, folder)
 
 
-def _errors(
-    model: Model, task: Log, truth: dict[str, Any], cutoff: float
-) -> dict[str, tuple[float, float]]:
+Errors = dict[str, tuple[float, float, float, int]]
+
+
+def _filtered(
+    t: np.ndarray, x: np.ndarray, method: str, cutoff: float, zero_phase: bool
+) -> np.ndarray:
+    """``x`` (n, c) through a method's final filter: the zero-phase low-pass of the
+    acceleration method, or the observer's first-order lag ``K / (s + K)`` (run both ways and
+    averaged for the zero-phase observer), discretised as the observer is."""
+    if method == "acceleration":
+        return np.column_stack([lowpass(t, x[:, i], cutoff=cutoff) for i in range(x.shape[1])])
+    a = math.exp(-2.0 * math.pi * cutoff * float(np.median(np.diff(t))))
+
+    def lag(v: np.ndarray) -> np.ndarray:
+        out = np.zeros_like(v)
+        out[1:] = lfilter([1.0 - a], [1.0, -a], v[:-1], axis=0)
+        return out
+
+    forward = lag(x)
+    return 0.5 * (forward + lag(x[::-1])[::-1]) if zero_phase else forward
+
+
+def _errors(model: Model, task: Log, truth: dict[str, Any], cutoff: float) -> Errors:
+    """Per method: RMS force error [N], RMS moment error [N m], the share of force components
+    within two sigmas of the truth seen through the method's own filter (the sigmas cover
+    noise and model errors, not the filter's lag or attenuation of fast force changes), and
+    the number of extrapolation warnings."""
     t = np.asarray(truth["t"], dtype=float)
     force = np.column_stack([truth[a] for a in ("fx", "fy", "fz")])
     moment = np.column_stack([truth[a] for a in ("mx", "my", "mz")])
@@ -87,7 +113,17 @@ def _errors(
             moment_error = float(np.sqrt(np.mean(np.sum(em**2, axis=1))))
         else:  # fewer than six joints: no moments estimated
             moment_error = math.nan
-        out[label] = (float(np.sqrt(np.mean(np.sum(ef**2, axis=1)))), moment_error)
+        seen = _filtered(t, force, method, cutoff, zero_phase)
+        within = float(
+            np.mean(np.abs(est.wrench[ok, :3] - seen[ok]) < 2.0 * est.wrench_sigma[ok, :3])
+        )
+        extrapolated = sum("extrapolat" in w for w in est.warnings)
+        out[label] = (
+            float(np.sqrt(np.mean(np.sum(ef**2, axis=1)))),
+            moment_error,
+            within,
+            extrapolated,
+        )
     return out
 
 
@@ -109,6 +145,27 @@ def main() -> None:
         "about the task's start pose (excite --centre)",
     )
     parser.add_argument(
+        "--free-duration",
+        type=float,
+        default=100.0,
+        metavar="S",
+        help="length of free.csv [s], whole traversals of the exciting path (default 100)",
+    )
+    parser.add_argument(
+        "--free-period",
+        type=float,
+        default=None,
+        metavar="S",
+        help="the exciting path's period [s] (default: torquemap excite's, from the limits)",
+    )
+    parser.add_argument(
+        "--free-speeds",
+        type=lambda text: tuple(float(v) for v in text.split(",")),
+        default=(1.0, 0.25),
+        metavar="V1,V2",
+        help="the exciting path's speed schedule (default 1,0.25: full speed, then a quarter)",
+    )
+    parser.add_argument(
         "--law",
         choices=("fit", "default", "guess", "true"),
         default="fit",
@@ -118,7 +175,7 @@ def main() -> None:
         "or the truth's (diagnostic)",
     )
     args = parser.parse_args()
-    rows: list[tuple[str, str, dict[str, tuple[float, float]]]] = []
+    rows: list[tuple[str, str, Errors]] = []
     keys = []
     for arm_name, seed in [(a, s) for a in args.arms for s in args.seeds]:
         key = f"{arm_name}, seed {seed}"
@@ -126,7 +183,15 @@ def main() -> None:
         with tempfile.TemporaryDirectory() as tmp:
             d = Path(tmp)
             t0 = time.perf_counter()
-            sim.write_arm_bench(d, seed=seed, arm=arm_name, free_centre=args.free_centre)
+            sim.write_arm_bench(
+                d,
+                seed=seed,
+                arm=arm_name,
+                free_centre=args.free_centre,
+                free_duration=args.free_duration,
+                free_period=args.free_period,
+                free_speeds=args.free_speeds,
+            )
             t_sim = time.perf_counter() - t0
             robot_path = d / "robot.toml"
             start = load_model(robot_path)
@@ -176,13 +241,18 @@ def main() -> None:
                 rows.append((key, label, _errors(model, task, truth, cutoff)))
                 errs = rows[-1][2]
                 print(
-                    f"  {label}: " + ", ".join(f"{m} {f:.3g} N" for m, (f, _) in errs.items()),
+                    f"  {label}: "
+                    + ", ".join(
+                        f"{m} {e[0]:.3g} N ({e[2]:.0%} within 2 sigma"
+                        + (f", {e[3]} extrapolation warnings)" if e[3] else ")")
+                        for m, e in errs.items()
+                    ),
                     flush=True,
                 )
     _print(rows, keys)
 
 
-def _print(rows: list[tuple[str, str, dict[str, tuple[float, float]]]], seeds: list[str]) -> None:
+def _print(rows: list[tuple[str, str, Errors]], seeds: list[str]) -> None:
     labels = [m[0] for m in METHODS]
     print()
     print("| arm | model | " + " | ".join(labels) + " |")
@@ -191,7 +261,7 @@ def _print(rows: list[tuple[str, str, dict[str, tuple[float, float]]]], seeds: l
     for seed, label, errs in rows:
         cells = []
         for m in labels:
-            f, mo = errs[m]
+            f, mo, *_ = errs[m]
             cell = f"{f:.3g} N" + ("" if math.isnan(mo) else f" / {mo:.3g} N m")
             if label.startswith("identified"):
                 cell += f" ({f / table[(seed, 'oracle')][m][0]:.2f}x oracle)"
@@ -208,10 +278,14 @@ def _print(rows: list[tuple[str, str, dict[str, tuple[float, float]]]], seeds: l
             gain = [
                 table[(s, "URDF as given")][m][0] / table[(s, "identified")][m][0] for s in keys
             ]
+            within = [table[(s, "identified")][m][2] for s in keys]
+            warned = sum(table[(s, "identified")][m][3] > 0 for s in keys)
             print(
                 f"  {m}: identified/oracle median {np.median(ratio):.2f}x worst "
                 f"{max(ratio):.2f}x; URDF/identified median {np.median(gain):.1f}x worst "
-                f"{min(gain):.1f}x"
+                f"{min(gain):.1f}x; force components within 2 sigma median "
+                f"{np.median(within):.0%} lowest {min(within):.0%}; extrapolation warned on "
+                f"{warned} of {len(keys)}"
             )
 
 

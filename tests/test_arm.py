@@ -228,6 +228,80 @@ def test_sigmas_cover_the_errors(bench: dict[str, object]) -> None:
     assert 0.9 < share < 0.995, share
 
 
+def test_long_run_ratio_counts_correlated_rows() -> None:
+    """White rows: 1; each row the sum of L consecutive white draws (a moving sum, whose
+    autocovariances sum to L times its variance, a closed form): about L. 200 stretches of
+    1 s: the estimate's relative standard error is about sqrt(2 / 200) = 0.1."""
+    from torquemap.arm_model import ArmSignals
+    from torquemap.identify_arm import long_run_ratio
+
+    rng = np.random.default_rng(5)
+    n, L = 20000, 8
+    t = np.arange(n) * 0.01
+    white = rng.standard_normal(n + L)
+    moving = np.convolve(white, np.ones(L), mode="valid")[:n]
+    sig = ArmSignals(
+        t=t,
+        q=np.zeros((n, 2)),
+        qd=np.zeros((n, 2)),
+        qdd=np.zeros((n, 2)),
+        q_measured=np.zeros((n, 2)),
+        motor_torque=np.zeros((n, 2)),
+        gear=np.ones(2),
+        window=0.05,
+    )
+    ratio = long_run_ratio(np.column_stack([white[:n], moving]), [sig], [np.arange(n)])
+    assert_allclose(ratio, [1.0, L], rtol=0.3)
+
+
+def test_extrapolation_is_warned_and_widens_the_sigmas(bench: dict[str, object]) -> None:
+    """A log at poses and speeds the identification did not see: the estimate warns, its
+    sigmas grow there, and the reach is the distance beyond the range in units of its width
+    (the definition, checked on the log's own angles); the same with a model whose recorded
+    range is cut (the shoulder to +-0.5 rad) and whose speeds are 100 times the log's."""
+    task, result = bench["task"], bench["result"]
+    assert isinstance(task, Log)
+    model = result.model  # type: ignore[attr-defined]
+    free = bench["free"]
+    assert isinstance(free, Log)
+    base = estimate_arm(model, task)
+    # the task's elbow bends 0.66 rad further than the free log's did (other seeds, other
+    # paths): warned, with the distance the two logs show
+    text = " ".join(base.warnings)
+    assert "outside those the model was identified from (elbow up to" in text, text
+    reported = float(text.split("(elbow up to ")[1].split(" rad")[0])
+    assert_allclose(reported, free.q[:, 1].min() - task.q[:, 1].min(), atol=0.02)
+    info = dict(model.notes["arm"])
+    lo, hi = np.array(info["position_range"]).T
+    assert_allclose(lo, free.q.min(axis=0), atol=0.02)  # of the samples drawn, smoothed
+    assert_allclose(hi, free.q.max(axis=0), atol=0.02)
+    narrow = [[-0.5, 0.5], [float(lo[1]), float(hi[1])]]  # the shoulder's range cut
+    # as if the identification had turned the motors 100 times faster than it did: near
+    # a speed v it then saw about 1/100 of the share of samples the log holds there
+    faster = [[100.0 * v for v in row] for row in info["motor_speed_quantiles"]]
+    cut = dataclasses.replace(
+        model,
+        notes={
+            **model.notes,
+            "arm": {**info, "position_range": narrow, "motor_speed_quantiles": faster},
+        },
+    )
+    est = estimate_arm(cut, task)
+    text = " ".join(est.warnings)
+    assert "outside those the model was identified from (shoulder up to" in text
+    assert "the friction is extrapolated to motor speeds the identification saw 10 times" in text
+    assert "shoulder in" in text
+    expected = np.maximum(np.abs(est.q[:, 0]) - 0.5, 0.0) / 1.0
+    elbow = np.maximum(est.q[:, 1] - hi[1], lo[1] - est.q[:, 1]) / (hi[1] - lo[1])
+    expected = np.maximum(expected, elbow)
+    assert_allclose(est.extrapolation, np.maximum(expected, 0.0), atol=1e-12)
+    assert np.all(est.tau_ext_sigma >= base.tau_ext_sigma * (1 - 1e-12))
+    outside = est.extrapolation > 0.5
+    assert outside.any()
+    assert np.all(est.tau_ext_sigma[outside, 0] > base.tau_ext_sigma[outside, 0])
+    assert_allclose(est.tau_ext, base.tau_ext)  # the estimate itself is unchanged
+
+
 def _sound(flag: np.ndarray) -> np.ndarray:
     ok = flag == 0
     ok[:2000] = ok[-2000:] = False  # the filters' start-up and end effects

@@ -131,3 +131,26 @@ def test_model_file_reloads(result, tmp_path: Path) -> None:  # type: ignore[no-
     ]
     assert back.joints["m"].friction.viscous == result.model.joints["m"].friction.viscous
     assert back.notes["joints"]["m"]["passes"] == 8
+
+
+def test_smoothing_only_around_the_ramps_equals_smoothing_the_whole_log() -> None:
+    # the inertia fit smooths the torque only around its ramp samples (_stretches): the
+    # filter sees half a window either side, so the answers there are the whole log's, to
+    # rounding (its double integral carries in a constant and a slope, which it annihilates)
+    from torquemap.filters import smooth_as_acceleration
+    from torquemap.identify import _stretches
+
+    rng = np.random.default_rng(8)
+    t = np.arange(40000) * 5e-4
+    x = 0.05 * np.sin(3.0 * t) + 0.02 * np.sign(np.sin(0.5 * t)) + rng.normal(0, 0.01, t.size)
+    mask = np.zeros(t.size, dtype=bool)
+    for a in (3, 5000, 17000, 39990):  # at the log's two ends too
+        mask[a : a + 7] = True
+    whole = smooth_as_acceleration(t, x, window=0.05)
+    for a, b in _stretches(t, mask, 0.05):
+        part = smooth_as_acceleration(t[a:b], x[a:b], window=0.05)
+        m = mask[a:b]
+        # measured 3.4e-10: the whole log's double integral (20 s) rounds at that level after
+        # the differentiator's 1 / h^2; the signal is 0.07, so 1e-9 is rounding, a missed
+        # half window (an edge inside the stretch) would be of the signal's own size
+        np.testing.assert_allclose(part[m], whole[a:b][m], rtol=0, atol=1e-9)

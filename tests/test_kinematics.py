@@ -115,3 +115,25 @@ def test_shape_errors() -> None:
         forward_kinematics([0.1, 0.2, 0.3], LINKS)
     with pytest.raises(ValueError, match=r"shape \(\.\.\., 2\)"):
         jacobian(np.zeros((4, 3)), LINKS)
+
+
+def test_force_map_inverts_the_jacobian_transpose() -> None:
+    # A = J^-T: A @ J^T is the identity, A @ tau is the force of Cramer's rule, and the
+    # singular poses are the same (NaN rows)
+    from torquemap.kinematics import force_from_joint_torque, force_map, jacobian
+
+    rng = np.random.default_rng(3)
+    q = rng.uniform(-3.0, 3.0, (500, 2))
+    q[:5, 1] = 0.01  # near the straight arm: singular under the 0.05 guard
+    tau = rng.normal(size=(500, 2))
+    a, singular = force_map(q, (0.3, 0.2))
+    ref = force_from_joint_torque(q, tau, (0.3, 0.2))
+    np.testing.assert_array_equal(singular, ref.singular)
+    ok = ~singular
+    jt = np.swapaxes(jacobian(q, (0.3, 0.2)), 1, 2)
+    # the inverse of matrices whose determinant is at least 0.05 l1 l2: 1e-12 is rounding
+    np.testing.assert_allclose(
+        (a @ jt)[ok], np.broadcast_to(np.eye(2), (ok.sum(), 2, 2)), atol=1e-12
+    )
+    np.testing.assert_allclose(np.einsum("nij,nj->ni", a, tau)[ok], ref.force[ok], rtol=1e-12)
+    assert np.isnan(a[singular]).all()

@@ -357,6 +357,74 @@ def test_excite_centre(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> No
     assert err.count("\n") == 1 and "centre is outside" in err and "elbow=2.4" in err
 
 
+def test_excite_speed_schedule() -> None:
+    """The path played at each speed of the schedule in turn: the same poses (a quarter speed
+    takes four times as long; backwards runs them in reverse), velocity and acceleration the
+    path's times the speed and its square, agreeing with central differences of the position
+    across the traversals' joins; each traversal starts and ends at rest at the centre."""
+    from torquemap.excite import exciting_trajectory
+
+    arm = _two_link()
+    rate = 200.0
+    tr = exciting_trajectory(
+        arm, period=4.0, speeds=(1.0, 0.25, -0.5), rate=rate, iterations=5, rng=1
+    )
+    assert tr.speeds == (1.0, 0.25, -0.5)
+    assert_allclose(tr.t[-1], 4.0 + 16.0 + 8.0)  # one traversal of each by default
+    fast = tr.q[: int(4 * rate) + 1]
+    slow = tr.q[int(4 * rate) : int(20 * rate) + 1 : 4]  # every 4th sample of the slow one
+    back = tr.q[int(20 * rate) :: 2][::-1]
+    assert_allclose(slow, fast, atol=1e-12)
+    assert_allclose(back, fast, atol=1e-12)
+    k = np.arange(int(4 * rate) + 1)
+    assert_allclose(tr.qd[int(4 * rate) + 4 * k], 0.25 * tr.qd[k], atol=1e-12)
+    assert_allclose(tr.qdd[int(4 * rate) + 4 * k], 0.0625 * tr.qdd[k], atol=1e-12)
+    # velocity and acceleration are the derivatives of position everywhere, joins included
+    # (central differences at 200 Hz on a 0.25-1.25 Hz motion: errors ~ (w h)^2 / 6 of a few
+    # rad/s, below 1e-2)
+    scale = np.abs(tr.qd).max()
+    assert_allclose(np.gradient(tr.q, tr.t, axis=0)[1:-1], tr.qd[1:-1], atol=2e-3 * scale)
+    fd2 = np.gradient(tr.qd, tr.t, axis=0)[1:-1]
+    assert_allclose(fd2, tr.qdd[1:-1], atol=1e-2 * np.abs(tr.qdd).max())
+    for join in (0.0, 4.0, 20.0, 28.0):
+        i = round(join * rate)
+        assert_allclose(tr.q[i], tr.centre, atol=1e-12)
+        assert_allclose(tr.qd[i], 0.0, atol=1e-12)
+    # a duration asks for whole traversals of the schedule in turn, rounded up
+    assert_allclose(
+        exciting_trajectory(arm, period=4.0, duration=5.0, rate=50.0, iterations=2).t[-1],
+        20.0,
+    )
+    with pytest.raises(InputError, match="speeds must be fractions"):
+        exciting_trajectory(arm, speeds=(1.0, 1.5))
+    with pytest.raises(InputError, match="speeds must be fractions"):
+        exciting_trajectory(arm, speeds=(0.0,))
+
+
+def test_excite_spans_the_ranges_within_one_turn() -> None:
+    """The default path (20 s) swings each joint over most of its range: the two-link's
+    joints (+-3 and +-2.5 rad, less 10 % at each end) reach beyond half of what is allowed;
+    a joint of wider range than a turn (the UR5's +-2 pi) stays within +-pi of the centre."""
+    from torquemap.excite import exciting_trajectory
+
+    arm = _two_link()
+    tr = exciting_trajectory(arm, speeds=(1.0,), rate=50.0, iterations=10)
+    allowed = np.array([2.4, 2.0])
+    reach = np.max(np.abs(tr.q - tr.centre), axis=0)
+    assert np.all(reach <= allowed + 1e-9)
+    assert np.all(reach > 0.5 * allowed), reach
+    if ROBOTS is None:
+        return
+    ur5 = urdf_arm(
+        ROBOTS / "ur_description/urdf/ur5_robot.urdf",
+        ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint",
+         "wrist_2_joint", "wrist_3_joint"],
+        end_effector="tool0",
+    )  # fmt: skip
+    tr = exciting_trajectory(ur5, speeds=(1.0,), rate=50.0, iterations=4)
+    assert np.all(np.max(np.abs(tr.q - tr.centre), axis=0) <= np.pi + 1e-9)
+
+
 @pytest.mark.skipif(ROBOTS is None, reason="example-robot-data not installed")
 @pytest.mark.parametrize(
     ("urdf", "joints"),

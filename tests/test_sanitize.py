@@ -5,9 +5,20 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.ndimage import median_filter
 
 from torquemap.io import Log
-from torquemap.sanitize import implausible_samples, max_gap_for, sanitize_log
+from torquemap.sanitize import (
+    JUMP_FACTOR,
+    MEDIAN_SPAN,
+    SPIKE_SIGMAS,
+    angle_jumps,
+    implausible_samples,
+    max_gap_for,
+    sanitize_log,
+)
 
 
 def _log(t: np.ndarray, q: np.ndarray, tau: np.ndarray) -> Log:
@@ -77,3 +88,73 @@ def test_a_persistent_angle_jump_cuts_the_log() -> None:
     moved = np.c_[0.2 * np.sin(3.0 * gap), 0.1 * np.cos(2.0 * gap)]
     quiet = sanitize_log(dataclasses.replace(log, t=gap, q=moved), window=0.05)
     assert not quiet.implausible.any() and len(quiet.pieces) == 1
+
+
+def _implausible_everywhere(x: np.ndarray) -> np.ndarray:
+    """The rule of :func:`implausible_samples` with the running median of every sample (the
+    implementation before the cheap pre-test): the reference the fast path must equal."""
+    u = x / np.max(np.abs(x))
+    med = median_filter(u, size=MEDIAN_SPAN, mode="nearest")
+    dev = np.abs(u - med)
+    du = np.abs(np.diff(u))
+    moves = du[du > 0]
+    typical = float(np.median(moves)) if moves.size else 0.0
+    step = float(np.percentile(np.abs(np.diff(med)), 99))
+    floor = max(SPIKE_SIGMAS * 1.4826 * float(np.median(dev)), 10 * step, 10 * typical, 1e-12)
+    bad = dev > floor
+    return np.zeros(x.size, bool) if bad.mean() > 0.2 else bad
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    tail=st.sampled_from([0.0, 1.0, 3.0]),
+    spikes=st.integers(0, 5),
+    quantum=st.sampled_from([0.0, 1e-3]),
+)
+def test_the_cheap_pretest_changes_no_answer(
+    seed: int, tail: float, spikes: int, quantum: float
+) -> None:
+    # smooth motion, Gaussian or heavy-tailed (Student t) noise, spikes of every size, with
+    # and without encoder quantisation: the same samples as the running median everywhere
+    rng = np.random.default_rng(seed)
+    n = 3000
+    t = np.arange(n) * 1e-3
+    x = np.sin(3.0 * t) + 0.3 * np.sign(np.sin(0.7 * t))
+    noise = rng.standard_t(tail, n) if tail else rng.normal(size=n)
+    x = x + 0.01 * noise
+    if quantum:
+        x = np.round(x / quantum) * quantum
+    x[rng.integers(0, n, spikes)] += rng.choice([-1.0, 1.0], spikes) * 10.0 ** rng.uniform(
+        -2, 3, spikes
+    )
+    np.testing.assert_array_equal(implausible_samples(x), _implausible_everywhere(x))
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    jumps=st.integers(0, 4),
+    quantised=st.booleans(),
+    smooth=st.booleans(),
+)
+def test_the_jump_pretest_changes_no_answer(
+    seed: int, jumps: int, quantised: bool, smooth: bool
+) -> None:
+    # the percentiles computed always (the implementation before the pre-test) as reference
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(9, 600))
+    t = np.cumsum(rng.uniform(0.5, 1.5, n)) * 1e-3
+    q = np.sin(t * rng.uniform(1, 50)) if smooth else np.cumsum(rng.choice([0, 1, 2], n) * 1e-3)
+    for _ in range(jumps):
+        q[int(rng.integers(1, n)) :] += rng.uniform(-1, 1) * 10 ** rng.uniform(-4, 1)
+    if quantised:
+        q = np.round(q * 100) / 100
+    dq, dt = np.abs(np.diff(q)), np.diff(t)
+    top = JUMP_FACTOR * max(float(np.percentile(dq, 99)), 1e-12)
+    fast = JUMP_FACTOR * max(float(np.percentile(dq / dt, 99)), 1e-12)
+    jump = (dq > top) & (dq / dt > fast)
+    expected = np.zeros(n, dtype=bool)
+    if jump.mean() <= 0.005:
+        expected[1:] = jump
+    np.testing.assert_array_equal(angle_jumps(t, q), expected)

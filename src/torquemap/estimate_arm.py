@@ -23,6 +23,7 @@ velocity does not determine.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -52,6 +53,14 @@ FLAG_SINGULAR = 1
 """Flag bit: the pose is near a singularity; the wrench is NaN (the joint torques stand)."""
 SIGMA_STRIDE = 10
 """The parameter part of the sigmas is computed on every this-many samples and interpolated."""
+POSE_TOLERANCE = 0.1
+"""A joint angle beyond the identified range by more than this share of the range's width is
+far outside it: warned about (the parameter sigmas grow with the distance in any case)."""
+UNDER_COVERED = 10.0
+"""A motor speed is under-covered where a log holds this many times the share of its samples
+near it (within a factor of 2) that the identification held."""
+SPEED_SHARE = 0.1
+"""Warn when more than this share of a log's samples is at under-covered motor speeds."""
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -88,6 +97,10 @@ class ArmEstimate:
         Low-pass cut-off or observer bandwidth [Hz].
     warnings
         One line each.
+    extrapolation
+        How far each sample's pose lies outside the poses the identification saw: the largest
+        over the joints of the distance beyond the identified range in units of the range's
+        width [-], 0 inside, shape (n,) (zeros when the model records no range).
     """
 
     t: NDArray[np.float64]
@@ -103,6 +116,129 @@ class ArmEstimate:
     zero_phase: bool
     cutoff: float
     warnings: tuple[str, ...] = ()
+    extrapolation: NDArray[np.float64] = dataclasses.field(default_factory=lambda: np.zeros(0))
+
+
+def _speed_coverage(
+    speed: NDArray[np.float64],
+    quantiles: NDArray[np.float64],
+    levels: NDArray[np.float64],
+    floor: float,
+) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
+    """Samples whose motor speed the identification saw far less often than the log holds it.
+
+    On a log-spaced grid of speeds from ``floor`` (the friction law's transition width: below
+    it the joint is at rest, which the friction-at-rest sigma covers) up, the share of the
+    identification's samples within a factor of 2 (from its quantiles ``quantiles`` at
+    ``levels``) is compared with the log's own share there; where the log's exceeds
+    :data:`UNDER_COVERED` times the identification's, its samples are under-covered (above
+    the fastest speed identified the identification's share is 0).
+
+    Returns
+    -------
+    (under, near)
+        Shape (n,) each: True where under-covered; the nearest covered grid speed [rad/s].
+    """
+    top = max(float(quantiles[-1]), float(speed.max(initial=0.0)), 2.0 * floor)
+    grid = np.geomspace(floor, top, 64)
+    ordered = np.sort(speed)
+
+    def share_log(v: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.searchsorted(ordered, v, side="right") / max(speed.size, 1)
+
+    def share_identified(v: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.interp(v, quantiles, levels, left=0.0, right=1.0)
+
+    half = math.sqrt(2.0)
+    mine = share_log(grid * half) - share_log(grid / half)
+    theirs = share_identified(grid * half) - share_identified(grid / half)
+    covered = mine <= UNDER_COVERED * theirs
+    near = np.full(speed.size, np.nan)
+    under = np.zeros(speed.size, dtype=bool)
+    if covered.all() or not covered.any():
+        if not covered.any():  # nothing covered: the fastest speed identified is the edge
+            moving = speed > floor
+            under[moving] = True
+            near[moving] = float(quantiles[-1])
+        return under, near
+    at = np.clip(
+        np.searchsorted(np.log(grid), np.log(np.maximum(speed, floor)), side="left"),
+        0,
+        grid.size - 1,
+    )
+    under = (speed > floor) & ~covered[at]
+    good = np.flatnonzero(covered)
+    pos = np.clip(np.searchsorted(good, at[under]), 0, good.size - 1)
+    below = good[np.clip(pos - 1, 0, good.size - 1)]
+    above = good[pos]
+    pick = np.where(np.abs(above - at[under]) <= np.abs(at[under] - below), above, below)
+    near[under] = grid[pick]
+    return under, near
+
+
+def _extrapolation(
+    info: Mapping[str, Any] | None, robot: Any, joints: Mapping[str, Any], signals: ArmSignals
+) -> tuple[NDArray[np.float64], NDArray[np.float64], list[str]]:
+    """Where a log leaves what the identification saw (``[identification.arm]``
+    ``position_range`` and ``motor_speed_quantiles``).
+
+    Returns
+    -------
+    (reach, edge, warnings)
+        ``reach`` (n,): the largest distance of a joint angle beyond its identified range in
+        units of the range's width; ``edge`` (n, nj): where a sample's motor speed is one the
+        identification saw far less often than the log holds it (:func:`_speed_coverage`),
+        the nearest speed it saw well [rad/s] (signed as the sample's), NaN elsewhere.
+    """
+    n, nj = signals.q.shape
+    reach = np.zeros(n)
+    edge = np.full((n, nj), np.nan)
+    warnings: list[str] = []
+    if not isinstance(info, Mapping):
+        return reach, edge, warnings
+    names = robot.joint_names
+    pos = np.asarray(info.get("position_range", []), dtype=float)
+    if pos.shape == (nj, 2):
+        width = np.maximum(pos[:, 1] - pos[:, 0], 1e-3)
+        beyond = np.maximum(pos[:, 0] - signals.q, signals.q - pos[:, 1])
+        beyond = np.maximum(beyond, 0.0)
+        reach = np.max(beyond / width, axis=1)
+        far = beyond > POSE_TOLERANCE * width
+        if far.any():
+            worst = ", ".join(
+                f"{names[k]} up to {beyond[:, k].max():.3g} rad"
+                for k in range(nj)
+                if far[:, k].any()
+            )
+            warnings.append(
+                f"{far.any(axis=1).mean():.0%} of the samples lie at poses outside those the "
+                f"model was identified from ({worst} beyond the identified range); the model "
+                "extrapolates there and its sigmas grow with the distance: excite about the "
+                "working poses (torquemap excite --centre)"
+            )
+    levels = np.asarray(info.get("motor_speed_levels", []), dtype=float)
+    quantiles = np.asarray(info.get("motor_speed_quantiles", []), dtype=float)
+    if levels.ndim == 1 and quantiles.shape == (nj, levels.size) and levels.size >= 2:
+        w = signals.gear * signals.qd
+        described = []
+        for k in range(nj):
+            floor = float(joints[names[k]].friction.zero_velocity)
+            under, near = _speed_coverage(np.abs(w[:, k]), quantiles[k], levels, floor)
+            edge[under, k] = np.sign(w[under, k]) * near[under]
+            if under.mean() > SPEED_SHARE:
+                speeds = np.abs(w[under, k])
+                described.append(
+                    f"{names[k]} in {under.mean():.0%} of the samples "
+                    f"({speeds.min():.3g}-{speeds.max():.3g} rad/s)"
+                )
+        if described:
+            warnings.append(
+                "the friction is extrapolated to motor speeds the identification saw "
+                f"{UNDER_COVERED:g} times less often than this log: "
+                + ", ".join(described)
+                + "; sigmas grow there: excite at those speeds too (torquemap excite --speeds)"
+            )
+    return reach, edge, warnings
 
 
 def momentum_observer(
@@ -204,8 +340,16 @@ def _sigma(
     signals: ArmSignals,
     tau_ext_shape: tuple[int, int],
     bandwidth: float,
+    reach: NDArray[np.float64],
+    edge: NDArray[np.float64],
 ) -> tuple[NDArray[np.float64], list[str]]:
     """One-sigma external torque [N m] from the identification's covariance and noise.
+
+    Outside what the identification saw the sigmas grow: the parameter part by
+    ``(1 + reach)^2`` in variance (``reach``: the distance beyond the identified poses in
+    units of their range's width), and at motor speeds outside the identified ones (``edge``
+    not NaN) by the change the friction law predicts from the edge of those speeds to the
+    sample's, taken as its own uncertainty (the law's shape is not known there).
 
     The identification's residual was seen through the differentiator's kernel, whose noise
     bandwidth is ``1.2 / (2 window)``; the estimate's own filter passes ``bandwidth`` of it
@@ -248,8 +392,9 @@ def _sigma(
                 C = cov[np.ix_(sel, sel)]
                 part[:, k] = np.einsum("ni,ij,nj->n", row, C, row)
                 start += width
+            grow = (1.0 + reach) ** 2
             for k in range(nj):
-                var[:, k] += np.interp(np.arange(n), idx, np.maximum(part[:, k], 0.0))
+                var[:, k] += grow * np.interp(np.arange(n), idx, np.maximum(part[:, k], 0.0))
         else:
             warnings.append(
                 "the model's parameters differ from those its covariance was identified for; "
@@ -264,6 +409,10 @@ def _sigma(
         w = gear[k] * signals.qd[:, k]
         near = np.exp(-((w / max(law.zero_velocity, 1e-9)) ** 2))
         var[:, k] += (gear[k] * rest * near) ** 2
+        out = np.isfinite(edge[:, k])
+        if out.any():
+            change = law.torque(w[out]) - law.torque(edge[out, k])
+            var[out, k] += (gear[k] * change) ** 2
     return np.sqrt(var), warnings
 
 
@@ -303,7 +452,8 @@ def estimate_arm(
     Returns
     -------
     ArmEstimate
-        Torques, wrench, sigmas and flags.
+        Torques, wrench, sigmas and flags; warnings where the log leaves the poses or motor
+        speeds the model was identified from (its sigmas grow there, ``extrapolation``).
 
     Raises
     ------
@@ -349,7 +499,10 @@ def estimate_arm(
             back = momentum_observer(-signals.t[::-1], p[::-1], -power[::-1], gain=gain)
             tau_ext = 0.5 * (tau_ext - back[::-1])
     bandwidth = noise_bandwidth(method, cutoff, zero_phase=zero_phase)
-    sigma, warnings = _sigma(model, arm, signals, tau_ext.shape, bandwidth)
+    info = model.notes.get("arm") if isinstance(model.notes, Mapping) else None
+    reach, edge, outside = _extrapolation(info, robot, joints, signals)
+    sigma, warnings = _sigma(model, arm, signals, tau_ext.shape, bandwidth, reach, edge)
+    warnings += outside
     A, singular = arm.wrench_map(signals.q, singular_threshold=singular_threshold)
     wrench = np.einsum("nij,nj->ni", A, tau_ext)
     wrench_sigma = np.sqrt(np.einsum("nij,nj->ni", A**2, sigma**2))
@@ -374,6 +527,7 @@ def estimate_arm(
         zero_phase=zero_phase and method == "momentum",
         cutoff=cutoff,
         warnings=tuple(warnings),
+        extrapolation=reach,
     )
 
 

@@ -8,11 +8,17 @@ Each joint follows a finite Fourier series (Swevers, Ganseman, Tukel, De Schutte
 with the coefficients constrained so that every period starts and ends at ``c_j`` at rest with
 zero acceleration (the user moves the robot to the first row first), scaled into the URDF's
 position and velocity limits, and chosen by a random search for the smallest condition number
-of the base-parameter regressor stacked over one period.
+of the regressor stacked over one period: the base inertial parameters' columns and, per joint,
+a friction offset, a Coulomb step and a viscous column (each column scaled to unit norm).
+The path is played at several speeds in turn (``speeds``, default full speed, then a quarter):
+the same poses at a spread of speeds, slow stretches included, so that friction at low speed is
+seen where the robot will work and is not confused with gravity (docs/arm-bench.md).
 """
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -47,13 +53,18 @@ class ExcitingTrajectory:
     joint_names
         The joints, robot file order.
     period
-        Fundamental period [s].
+        Fundamental period [s] of the path.
+    speeds
+        The speed schedule: the path is played at each of these fractions of its speed in
+        turn, each for one traversal (``period / |v|`` seconds; negative: backwards).
     centre
         ``c_j`` [rad], the start and end pose, shape (nj,).
     sine, cosine
         Coefficients ``a_jl`` and ``b_jl`` [rad/s], shape (nj, harmonics).
     condition_number
-        Condition number of the base regressor stacked over one period [-].
+        Condition number of the regressor (base inertial parameters and per joint a friction
+        offset, Coulomb and viscous column; columns scaled to unit norm) stacked over one
+        period at each speed of the schedule [-].
     """
 
     t: NDArray[np.float64]
@@ -62,6 +73,7 @@ class ExcitingTrajectory:
     qdd: NDArray[np.float64]
     joint_names: tuple[str, ...]
     period: float
+    speeds: tuple[float, ...]
     centre: NDArray[np.float64]
     sine: NDArray[np.float64]
     cosine: NDArray[np.float64]
@@ -138,9 +150,32 @@ def _scale_into_limits(
     b *= factor[:, None]
 
 
-def _condition(arm: _Limited, q: Any, qd: Any, qdd: Any) -> float:
+HARMONIC_DECAY = 1.0
+"""The random search draws harmonic ``l``'s coefficients with standard deviation ``l^-decay``:
+every harmonic then brings the same acceleration on average and the low ones most of the
+travel, so that the joints span their ranges within their speed limits."""
+ONE_TURN = np.pi
+"""A joint swings at most this far [rad] from the centre: gravity and kinematics repeat every
+turn, so joints of wider range (the UR5's +-2 pi) need not sweep more than +-pi."""
+PERIOD_FACTOR = 2.0
+"""The default period is this many times the slowest joint's ``2 pi A_j / v_j``: the
+harmonics share the speed budget, and a path of the bare ``2 pi A / v`` would not reach the
+range's ends."""
+COULOMB_WIDTH = 0.01
+"""The Coulomb column of the search's criterion is ``tanh(qd / (this * speed limit))``."""
+
+
+def _condition(arm: _Limited, q: Any, qd: Any, qdd: Any, speed: NDArray[np.float64]) -> float:
+    """Condition number of the regressor with joint columns, each column scaled to unit norm."""
     Y = arm.regressor(q, qd, qdd)
-    W = Y.reshape(-1, Y.shape[-1])
+    n, nj, _ = Y.shape
+    joint = np.zeros((n, nj, 3 * nj))
+    for k in range(nj):  # a friction offset, a Coulomb step and viscous friction per joint
+        joint[:, k, 3 * k] = 1.0
+        joint[:, k, 3 * k + 1] = np.tanh(qd[:, k] / (COULOMB_WIDTH * speed[k]))
+        joint[:, k, 3 * k + 2] = qd[:, k]
+    W = np.concatenate([Y, joint], axis=2).reshape(n * nj, -1)
+    W = W / (np.linalg.norm(W, axis=0) + 1e-300)
     # through the Gram matrix: a small symmetric eigenproblem, much cheaper than an SVD of W
     ev = np.linalg.eigvalsh(W.T @ W)
     return float(np.sqrt(ev[-1] / ev[0])) if ev[0] > 0 else float("inf")
@@ -149,14 +184,15 @@ def _condition(arm: _Limited, q: Any, qd: Any, qdd: Any) -> float:
 def exciting_trajectory(
     arm: _Limited,
     *,
-    duration: float = 30.0,
-    period: float = 10.0,
+    duration: float | None = None,
+    period: float | None = None,
     harmonics: int = 5,
     rate: float = 500.0,
     iterations: int = 80,
     position_margin: float = 0.1,
     speed_fraction: float = 0.7,
     centre: ArrayLike | None = None,
+    speeds: Sequence[float] = (1.0, 0.25),
     rng: np.random.Generator | int | None = 0,
 ) -> ExcitingTrajectory:
     """An exciting trajectory within the arm's limits, chosen for a well-conditioned regressor.
@@ -166,9 +202,14 @@ def exciting_trajectory(
     arm
         The arm (``torquemap.robots.urdf.UrdfArm``): its limits and base regressor are used.
     duration
-        Length [s]; whole periods, rounded up.
+        Length [s]: the schedule's traversals in turn (repeated), whole traversals, rounded
+        up; default one of each (``period * sum(1 / |speeds|)``, five periods by default).
     period
-        Fundamental period [s].
+        Fundamental period [s] of the path at full speed. Default: :data:`PERIOD_FACTOR` times
+        the longest time a joint's sine takes to swing over its range (up to +-pi) at its speed
+        limit, ``2 pi A_j / v_j``, rounded up to 0.1 s: long enough for every joint to span its
+        range within its speed limit, and no slower (Panda 19.2 s, UR5 18 s, the simulated
+        leg 2.9 s); at most ``duration`` when that is given.
     harmonics
         Number of harmonics per joint.
     rate
@@ -183,6 +224,10 @@ def exciting_trajectory(
         Pose [rad] the motion swings about and starts and ends at, shape (nj,); default the
         middle of each joint's range. Excite about the poses the robot will work at: a model
         identified elsewhere extrapolates there (docs/arm-bench.md, the UR5).
+    speeds
+        Fractions of the path's speed (0 < |v| <= 1; negative: played backwards), one traversal
+        each in turn. The default, full speed then a quarter, shows the friction at the task's
+        low speeds at the same poses (docs/arm-bench.md).
     rng
         Random generator or seed.
 
@@ -194,10 +239,11 @@ def exciting_trajectory(
     Raises
     ------
     InputError
-        On a non-positive duration, period or rate.
+        On a non-positive duration, period or rate, or a speed outside 0 < |v| <= 1.
     """
-    if not (duration > 0 and period > 0 and rate > 0 and harmonics >= 1):
-        raise InputError("duration, period and rate must be positive, harmonics >= 1")
+    schedule = tuple(float(v) for v in speeds)
+    if not schedule or not all(0 < abs(v) <= 1 for v in schedule):
+        raise InputError(f"speeds must be fractions 0 < |v| <= 1 of full speed, got {schedule}")
     gen = np.random.default_rng(rng)
     lo, hi = arm.position_limits
     lo = np.where(np.isfinite(lo), lo, -np.pi)
@@ -222,26 +268,49 @@ def exciting_trajectory(
             )
     centre = mid
     half_range = np.maximum(np.minimum(centre - lo, hi - centre) - margin, 1e-6)
+    half_range = np.minimum(half_range, ONE_TURN)
     vmax = arm.velocity_limits
     speed = speed_fraction * np.where(np.isfinite(vmax), vmax, 2.0)
+    if period is None:  # the slowest joint's swing over its range at its speed limit, twice
+        period = math.ceil(10.0 * PERIOD_FACTOR * float(np.max(2 * np.pi * half_range / speed)))
+        period /= 10.0
+        if duration is not None:
+            period = min(period, duration)
+    if duration is None:
+        duration = period * sum(1.0 / abs(v) for v in schedule)
+    if not (duration > 0 and period > 0 and rate > 0 and harmonics >= 1):
+        raise InputError("duration, period and rate must be positive, harmonics >= 1")
     nj = len(arm.joint_names)
     w: NDArray[np.float64] = 2.0 * np.pi / period * np.arange(1, harmonics + 1, dtype=np.float64)
     grid = np.linspace(0.0, period, max(8 * harmonics, 40), endpoint=False)
+
+    weight = np.arange(1, harmonics + 1, dtype=np.float64) ** -HARMONIC_DECAY
+    played = sorted({abs(v) for v in schedule})
+
+    def draw() -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        return (
+            gen.standard_normal((nj, harmonics)) * weight,
+            gen.standard_normal((nj, harmonics)) * weight,
+        )
 
     def candidate(a: NDArray[np.float64], b: NDArray[np.float64]) -> float:
         _constrain(a, b, w)
         _scale_into_limits(a, b, half_range, speed, period)
         q, qd, qdd = fourier_trajectory(grid, centre, a, b, period=period)
-        return _condition(arm, q, qd, qdd)
+        return _condition(
+            arm,
+            np.concatenate([q] * len(played)),
+            np.concatenate([v * qd for v in played]),
+            np.concatenate([v * v * qdd for v in played]),
+            speed,
+        )
 
-    best_a = gen.standard_normal((nj, harmonics))
-    best_b = gen.standard_normal((nj, harmonics))
+    best_a, best_b = draw()
     best = candidate(best_a, best_b)
     step = 1.0
     for k in range(1, iterations):
         if k < iterations // 3:
-            a = gen.standard_normal((nj, harmonics))
-            b = gen.standard_normal((nj, harmonics))
+            a, b = draw()
         else:
             scale = np.abs(best_a).mean() + np.abs(best_b).mean()
             a = best_a + step * scale * gen.standard_normal((nj, harmonics))
@@ -251,9 +320,21 @@ def exciting_trajectory(
             best, best_a, best_b = value, a, b
         elif k >= iterations // 3:
             step = max(step * 0.97, 0.05)
-    periods = int(np.ceil(duration / period - 1e-9))
-    t = np.arange(round(periods * period * rate) + 1) / rate
-    q, qd, qdd = fourier_trajectory(t, centre, best_a, best_b, period=period)
+    starts, total = [], 0.0
+    while total < duration - 1e-9:  # whole traversals of the schedule, in turn
+        starts.append(total)
+        total += period / abs(schedule[(len(starts) - 1) % len(schedule)])
+    t = np.arange(round(total * rate) + 1) / rate
+    q, qd, qdd = (np.empty((t.size, nj)) for _ in range(3))
+    segment = np.searchsorted(np.asarray(starts), t + 0.5 / rate, side="right") - 1
+    for k, t0 in enumerate(starts):
+        v = schedule[k % len(schedule)]
+        sel = segment == k
+        tau = np.clip((t[sel] - t0) * abs(v), 0.0, period)
+        if v < 0:  # backwards: the same poses, the velocity reversed
+            tau = period - tau
+        pq, pqd, pqdd = fourier_trajectory(tau, centre, best_a, best_b, period=period)
+        q[sel], qd[sel], qdd[sel] = pq, v * pqd, v * v * pqdd
     return ExcitingTrajectory(
         t=t,
         q=q,
@@ -261,6 +342,7 @@ def exciting_trajectory(
         qdd=qdd,
         joint_names=tuple(arm.joint_names),
         period=period,
+        speeds=schedule,
         centre=centre,
         sine=best_a,
         cosine=best_b,

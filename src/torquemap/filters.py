@@ -5,6 +5,7 @@ Both accept irregular time stamps, as logs polled by a host often have.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -177,20 +178,11 @@ def _differentiate_uniform(x: NDArray[np.float64], h: float, length: int) -> Der
     """:func:`differentiate` on a uniform grid: the Savitzky-Golay filter of ``length`` samples.
 
     The same local quadratic fit (centred windows, and at the ends the first and last window,
-    scipy's ``mode="interp"``), computed by convolution instead of per-sample normal equations.
+    scipy's ``mode="interp"``), computed by convolution instead of per-sample normal equations
+    (:func:`_savgol_uniform`).
     """
-    from scipy import signal
-
-    offset = x[0]
-    y = x - offset
-    position = signal.savgol_filter(y, length, 2, deriv=0, mode="interp", axis=0) + offset
-    velocity = signal.savgol_filter(y, length, 2, deriv=1, delta=h, mode="interp", axis=0)
-    acceleration = signal.savgol_filter(y, length, 2, deriv=2, delta=h, mode="interp", axis=0)
-    return Derivatives(
-        position=np.asarray(position, dtype=np.float64),
-        velocity=np.asarray(velocity, dtype=np.float64),
-        acceleration=np.asarray(acceleration, dtype=np.float64),
-    )
+    position, velocity, acceleration = _savgol_uniform(x, h, length, (0, 1, 2))
+    return Derivatives(position=position, velocity=velocity, acceleration=acceleration)
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -257,30 +249,62 @@ def differentiate_rates(t: ArrayLike, x: ArrayLike, *, window: float) -> Rates:
 
 def _rates_uniform(x: NDArray[np.float64], h: float, length: int) -> Rates:
     """Savitzky-Golay velocity and acceleration of ``length`` samples (``mode="interp"``)."""
-    from scipy import signal
+    velocity, acceleration = _savgol_uniform(x, h, length, (1, 2))
+    return Rates(velocity=velocity, acceleration=acceleration)
 
+
+def _savgol_uniform(
+    x: NDArray[np.float64], h: float, length: int, derivs: tuple[int, ...]
+) -> list[NDArray[np.float64]]:
+    """Savitzky-Golay quadratic fits of ``length`` samples, derivatives ``derivs`` (0 to 2).
+
+    scipy's ``savgol_filter(mode="interp")``: centred windows by direct (not FFT) convolution
+    (``numpy.convolve``, several times faster than ``scipy.ndimage``'s correlation for these
+    lengths), and the first and last windows' fits evaluated at their outer halves. Equal to
+    it to rounding (the sums run in another order).
+    """
     half = length // 2
-    # the fit of the first and last window, evaluated at their outer halves (scipy's "interp")
-    s = np.arange(length, dtype=np.float64) - half
-    fit = np.linalg.pinv(np.vander(s, 3, increasing=True))  # (3, length): 1, s, s^2 from x
-    head_s, tail_s = s[:half], s[half + 1 :]
     columns = x[:, None] if x.ndim == 1 else x
     out: list[NDArray[np.float64]] = []
-    for deriv in (1, 2):
-        kernel = signal.savgol_coeffs(length, 2, deriv=deriv, delta=h, use="conv")
-        if deriv == 1:
-            head = (fit[1][None, :] + 2.0 * head_s[:, None] * fit[2][None, :]) / h
-            tail = (fit[1][None, :] + 2.0 * tail_s[:, None] * fit[2][None, :]) / h
-        else:
-            head = tail = np.repeat(2.0 * fit[2][None, :] / h**2, half, axis=0)
+    for deriv in derivs:
+        kernel, head, tail = _savgol_kernels(length, deriv, h)
         result = np.empty(columns.shape)
         for k in range(columns.shape[1]):
             y = columns[:, k] - columns[0, k]
             result[half:-half, k] = np.convolve(y, kernel, mode="valid")
             result[:half, k] = head @ y[:length]
             result[-half:, k] = tail @ y[-length:]
+            if deriv == 0:
+                result[:, k] += columns[0, k]
         out.append(result[:, 0] if x.ndim == 1 else result)
-    return Rates(velocity=out[0], acceleration=out[1])
+    return out
+
+
+@functools.lru_cache(maxsize=64)
+def _savgol_kernels(
+    length: int, deriv: int, h: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The centred kernel of :func:`_savgol_uniform` and the first and last windows' rows
+    (designed once per length, derivative and step: the inertia fit smooths hundreds of
+    short stretches with the same filter)."""
+    from scipy import signal
+
+    half = length // 2
+    s = np.arange(length, dtype=np.float64) - half
+    fit = np.linalg.pinv(np.vander(s, 3, increasing=True))  # (3, length): 1, s, s^2 from x
+    head_s, tail_s = s[:half], s[half + 1 :]
+    kernel = np.asarray(signal.savgol_coeffs(length, 2, deriv=deriv, delta=h, use="conv"))
+    if deriv == 0:
+        head = fit[0][None, :] + head_s[:, None] * fit[1] + head_s[:, None] ** 2 * fit[2]
+        tail = fit[0][None, :] + tail_s[:, None] * fit[1] + tail_s[:, None] ** 2 * fit[2]
+    elif deriv == 1:
+        head = (fit[1][None, :] + 2.0 * head_s[:, None] * fit[2][None, :]) / h
+        tail = (fit[1][None, :] + 2.0 * tail_s[:, None] * fit[2][None, :]) / h
+    else:
+        head = tail = np.repeat(2.0 * fit[2][None, :] / h**2, half, axis=0)
+    for a in (kernel, head, tail):
+        a.setflags(write=False)
+    return kernel, head, tail
 
 
 def smooth_as_acceleration(t: ArrayLike, x: ArrayLike, *, window: float) -> NDArray[np.float64]:
@@ -329,7 +353,7 @@ def smooth_as_acceleration(t: ArrayLike, x: ArrayLike, *, window: float) -> NDAr
     mean = np.mean(xx, axis=0)  # a constant passes a unit-sum kernel unchanged
     first = integrate.cumulative_trapezoid(xx - mean, tt, initial=0.0, axis=0)
     second = integrate.cumulative_trapezoid(first, tt, initial=0.0, axis=0)
-    out: NDArray[np.float64] = differentiate(tt, second, window=window).acceleration + mean
+    out: NDArray[np.float64] = differentiate_rates(tt, second, window=window).acceleration + mean
     return out
 
 
@@ -463,8 +487,8 @@ def lowpass(t: ArrayLike, x: ArrayLike, *, cutoff: float, order: int = 2) -> NDA
         grid = tt[0] + h * np.arange(m)
         grid[-1] = min(grid[-1], tt[-1])
         values = _interp_rows(grid, tt, xx)
-    sos = signal.butter(order, cutoff, btype="low", fs=1.0 / h, output="sos")
-    padlen = 3 * (2 * len(sos) + 1 - min(int((sos[:, 2] == 0).sum()), int((sos[:, 5] == 0).sum())))
+    design, padlen = _butter_lowpass(order, float(cutoff), 1.0 / h)
+    sos = design.copy()  # scipy's filter wants a writable array; the cached one is not
     if grid.size <= padlen:
         raise InputError(
             f"log of {grid.size} samples is shorter than the low-pass filter's padding "
@@ -474,6 +498,21 @@ def lowpass(t: ArrayLike, x: ArrayLike, *, cutoff: float, order: int = 2) -> NDA
     if regular:
         return np.asarray(y, dtype=np.float64)
     return _interp_rows(tt, grid, np.asarray(y, dtype=np.float64))
+
+
+@functools.lru_cache(maxsize=64)
+def _butter_lowpass(order: int, cutoff: float, fs: float) -> tuple[NDArray[np.float64], int]:
+    """The Butterworth's second-order sections and ``sosfiltfilt``'s default padding.
+
+    Designed once per (order, cut-off, rate): a log in blocks filters every piece of every
+    block with the same filter, and the design costs as much as filtering 20 k samples.
+    """
+    from scipy import signal
+
+    sos = np.asarray(signal.butter(order, cutoff, btype="low", fs=fs, output="sos"))
+    sos.setflags(write=False)
+    padlen = 3 * (2 * len(sos) + 1 - min(int((sos[:, 2] == 0).sum()), int((sos[:, 5] == 0).sum())))
+    return sos, padlen
 
 
 def _interp_rows(

@@ -23,7 +23,12 @@ from numpy.typing import NDArray
 
 from torquemap._callable import make_callable as _make_callable
 from torquemap.errors import InputError
-from torquemap.filters import Derivatives, differentiate, smooth_as_acceleration
+from torquemap.filters import (
+    Derivatives,
+    differentiate,
+    differentiate_rates,
+    smooth_as_acceleration,
+)
 from torquemap.friction import (
     FrictionFit,
     InertiaFit,
@@ -44,14 +49,17 @@ from torquemap.model import (
 )
 from torquemap.pdtv import (
     HarmonicFit,
+    HarmonicNormals,
     LinePicks,
     PositionSignal,
     Spectrum,
     bins_per_revolution,
     discrete_position_signal,
     fit_harmonics,
+    harmonic_normals,
     pick_lines,
     position_spectrum,
+    solve_harmonics,
 )
 from torquemap.robot import Robot
 
@@ -174,13 +182,16 @@ def _identify_passes(
     direction_significance: float = 0.001,
     torque_lag: float | Literal["auto"] = 0.0,
     channel_delay: float | Literal["auto"] = "auto",
+    derivatives: Sequence[Sequence[Derivatives]] | None = None,
 ) -> Identification:
     """:func:`identify_model` with ``friction="passes"`` on logs already sanitised.
 
     The paper's method (friction from the means of constant-speed passes, Eq 5). Parameters,
     result and errors as :func:`identify_model`'s; ``torque_lag`` [s] is the time constant of a
     first-order lag of the torque channel (``"auto"`` fits it, experimental), corrected by
-    ``tau + lag * dtau/dt`` before PDTV and inertia.
+    ``tau + lag * dtau/dt`` before PDTV and inertia. ``derivatives``: those of the logs'
+    motor angles when already computed (a torque channel's delay undone leaves them as they
+    are).
     """
     model_in = robot if isinstance(robot, Model) else None
     rb = robot.robot if isinstance(robot, Model) else robot
@@ -189,7 +200,7 @@ def _identify_passes(
     names = list(rb.joint_names) if joints is None else list(joints)
     for name in names:
         rb.joint(name)
-    derivs = [_derivatives(log, rb, window) for log in logs]
+    derivs = [_derivatives(log, rb, window) for log in logs] if derivatives is None else derivatives
     p99 = [
         float(np.percentile(np.concatenate([np.abs(d[k].velocity) for d in derivs]), 99))
         for k in range(len(rb.joints))
@@ -245,6 +256,7 @@ def _identify_passes(
                 direction_significance=direction_significance,
                 torque_lag=torque_lag,
                 channel_delay=0.0,
+                derivatives=derivs,
             )
             joints_out = {
                 n: dataclasses.replace(r, channel_delay=delays.get(n, 0.0))
@@ -368,24 +380,37 @@ def _identify_joint(
 
     elbow_k = _elbow_joint(rb, k)
 
-    rates = [differentiate(log.t, log.motor_torque[:, k], window=window).velocity for log in logs]
+    # the torque's rate enters only through a lag (zero unless given or fitted)
+    rates: list[NDArray[np.float64]] | None = None
+    if torque_lag == "auto" or float(torque_lag) != 0.0:
+        rates = [
+            differentiate_rates(log.t, log.motor_torque[:, k], window=window).velocity
+            for log in logs
+        ]
+    # the ramps are a few per cent of the samples: the inertia fit's torque is formed and
+    # smoothed only around them (:func:`_stretches`), not over whole logs
+    stretches = [(li, mask, _stretches(logs[li].t, mask, window)) for li, mask in ramps]
 
     def inertia_fit(pdtv: tuple[PdtvLine, ...], lag: float) -> InertiaFit:
         acc, y, elbow = [], [], []
-        for li, mask in ramps:
-            if not mask.any():
-                continue
+        for li, mask, spans in stretches:
             d = derivs[li][k]
-            tau = logs[li].motor_torque[:, k] + lag * rates[li]
-            rest = tau - friction_torque(d.velocity, friction)
-            rest -= pdtv_torque(d.position, pdtv, velocity=d.velocity)
-            # the differentiated acceleration is the true one smoothed over the window: smooth
-            # the torque alike, or the fit is biased at every ramp's start and end
-            rest = smooth_as_acceleration(logs[li].t, rest, window=window)
-            acc.append(d.acceleration[mask])
-            y.append(rest[mask])
-            if elbow_k is not None:
-                elbow.append(logs[li].q[mask, elbow_k])
+            for a, b in spans:
+                sl = slice(a, b)
+                tau = logs[li].motor_torque[sl, k]
+                if lag:
+                    assert rates is not None
+                    tau = tau + lag * rates[li][sl]
+                rest = tau - friction_torque(d.velocity[sl], friction)
+                rest -= pdtv_torque(d.position[sl], pdtv, velocity=d.velocity[sl])
+                # the differentiated acceleration is the true one smoothed over the window:
+                # smooth the torque alike, or the fit is biased at every ramp's start and end
+                rest = smooth_as_acceleration(logs[li].t[sl], rest, window=window)
+                m = mask[sl]
+                acc.append(d.acceleration[sl][m])
+                y.append(rest[m])
+                if elbow_k is not None:
+                    elbow.append(logs[li].q[sl, elbow_k][m])
         none = np.empty(0)
         return fit_inertia(
             np.concatenate([none, *acc]),
@@ -445,6 +470,45 @@ def _identify_joint(
         warnings=tuple(warnings),
     )
     return res, jm
+
+
+JOIN = 2048
+
+
+def _stretches(
+    t: NDArray[np.float64], mask: NDArray[np.bool_], window: float
+) -> list[tuple[int, int]]:
+    """``(start, stop)`` of stretches that hold every True sample of ``mask`` with a
+    differentiator ``window`` [s] (and 3 samples) either side, those within ``JOIN`` samples
+    of each other merged, cut at the log's ends.
+
+    A filter whose output at a sample depends only on the samples within half a window of
+    it (:func:`torquemap.filters.smooth_as_acceleration`, which annihilates the constant and
+    slope that the double integral carries in from earlier samples) gives the same answer
+    on such a stretch as on the whole log, to rounding; a stretch that reaches a log's end
+    is cut there, where the whole log's filter shifts its window too.
+
+    Examples
+    --------
+    >>> t = np.arange(10000) * 0.01
+    >>> mask = np.zeros(10000, bool); mask[[20, 30, 9000]] = True
+    >>> _stretches(t, mask, 0.05)
+    [(13, 38), (8992, 9009)]
+    """
+    idx = np.flatnonzero(mask)
+    if idx.size == 0:
+        return []
+    lo = np.maximum(np.searchsorted(t, t[idx] - window, side="left") - 3, 0)
+    hi = np.minimum(np.searchsorted(t, t[idx] + window, side="right") + 3, t.size)
+    out: list[tuple[int, int]] = []
+    for a, b in zip(lo.tolist(), hi.tolist(), strict=True):
+        # stretches closer than JOIN samples are one: each costs a call's overhead, about
+        # what filtering a few thousand samples costs
+        if out and a <= out[-1][1] + JOIN:
+            out[-1] = (out[-1][0], max(out[-1][1], b))
+        else:
+            out.append((a, b))
+    return out
 
 
 def _elbow_joint(rb: Robot, k: int) -> int | None:
@@ -542,7 +606,7 @@ def _identify_pdtv(
     max_order: float | None,
     false_alarm: float,
     direction_significance: float,
-    torque_rates: Sequence[NDArray[np.float64]],
+    torque_rates: Sequence[NDArray[np.float64]] | None,
     torque_lag: float | Literal["auto"],
 ) -> _PdtvResult:
     name = rb.joints[k].name
@@ -590,7 +654,7 @@ def _identify_pdtv(
         angle.append(d.position[s])
         resid.append(r)
         group.append(np.full(r.size, i))
-        rates.append(torque_rates[li][s])
+        rates.append(torque_rates[li][s] if torque_rates is not None else np.zeros(r.size))
         direction.append(np.full(r.size, 1 if p.direction == "positive" else -1))
     theta = np.concatenate(angle)
     res = np.concatenate(resid)
@@ -617,6 +681,7 @@ def _identify_pdtv(
         signal = discrete_position_signal(theta, res, bin_width=TWO_PI / nb)
         spectrum = position_spectrum(signal, max_order=top)
         picks = pick_lines(spectrum, false_alarm=false_alarm)
+        picked_at = lag
         if torque_lag != "auto" or picks.order.size == 0:
             break
         # measured = true - T d(measured)/dt (a first-order lag T): fit T with the lines
@@ -631,21 +696,26 @@ def _identify_pdtv(
             lag = new
             break
         lag = new
-    res = raw + lag * rate
-    signal = discrete_position_signal(theta, res, bin_width=TWO_PI / nb)
-    spectrum = position_spectrum(signal, max_order=top)
-    picks = pick_lines(spectrum, false_alarm=false_alarm)
+    if lag != picked_at:  # the last pick was made at another lag: again at this one
+        res = raw + lag * rate
+        signal = discrete_position_signal(theta, res, bin_width=TWO_PI / nb)
+        spectrum = position_spectrum(signal, max_order=top)
+        picks = pick_lines(spectrum, false_alarm=false_alarm)
     orders = [float(o) for o in picks.order]
     fit = None
+    normals = None
     if orders:
-        fit = fit_harmonics(theta, res, orders=orders, groups=grp)
+        # one pass over the samples for every fit below: all picked orders, then the kept
+        # ones, then each direction (:func:`~torquemap.pdtv.solve_harmonics`)
+        normals = harmonic_normals(theta, res, orders=orders, groups=grp, split=sgn > 0)
+        fit = solve_harmonics(normals)
         thr = np.interp(fit.order, spectrum.order, picks.threshold)
         keep = fit.amplitude > thr
         if not keep.all() and keep.any():
-            fit = fit_harmonics(theta, res, orders=list(fit.order[keep]), groups=grp)
+            fit = solve_harmonics(normals, orders=list(fit.order[keep]))
         elif not keep.any():
             fit = None
-    if fit is None:
+    if fit is None or normals is None:
         return _PdtvResult(
             used=used,
             signal=signal,
@@ -655,7 +725,7 @@ def _identify_pdtv(
             max_order=top,
             torque_lag=lag,
         )
-    lines = _directional_lines(theta, res, grp, sgn, fit, direction_significance)
+    lines = _directional_lines(normals, grp, sgn, fit, direction_significance)
     return _PdtvResult(
         lines=lines,
         used=used,
@@ -670,8 +740,7 @@ def _identify_pdtv(
 
 
 def _directional_lines(
-    theta: NDArray[np.float64],
-    res: NDArray[np.float64],
+    normals: HarmonicNormals,
     grp: NDArray[np.int64],
     sgn: NDArray[np.int64],
     fit: HarmonicFit,
@@ -682,7 +751,8 @@ def _directional_lines(
     A line differs when the chi-square of the difference of its cosine/sine coefficients
     (2 degrees of freedom, covariances of the two independent fits) exceeds the
     ``1 - significance / p`` quantile (Bonferroni over the p lines) and the amplitudes differ
-    by more than 10 % of the larger: statistically and practically significant.
+    by more than 10 % of the larger: statistically and practically significant. The fits
+    come from ``normals``, accumulated with the split ``sgn > 0`` (part 1: positive).
     """
     from scipy import stats
 
@@ -695,8 +765,8 @@ def _directional_lines(
     if pos.sum() < n_unknown or neg.sum() < n_unknown:
         return both
     orders = list(fit.order)
-    fp = fit_harmonics(theta[pos], res[pos], orders=orders, groups=grp[pos])
-    fn = fit_harmonics(theta[neg], res[neg], orders=orders, groups=grp[neg])
+    fp = solve_harmonics(normals, orders=orders, parts=[1])
+    fn = solve_harmonics(normals, orders=orders, parts=[0])
     crit = stats.chi2.ppf(1.0 - significance / fit.order.size, 2)
     lines: list[PdtvLine] = []
     for i, line in enumerate(both):

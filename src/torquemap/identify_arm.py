@@ -517,7 +517,7 @@ def identify_arm(
     # passes white noise as 1.2 D / w independent samples over a duration D. Rows closer than
     # that count less (else the covariance would claim more than the data holds).
     duration = sum(float(s.t[k[-1]] - s.t[k[0]]) for s, k in zip(signals, inner, strict=True))
-    inflation = max(1.0, m * window / (1.2 * max(duration, 1e-12)))
+    inflation = np.full(nj, max(1.0, m * window / (1.2 * max(duration, 1e-12))))
     Y, tau = _rigid_rows(arm, signals, picks)
     no_lines: list[tuple[float, ...]] = [() for _ in range(nj)]
     noise = 0.1 * np.std(tau, axis=0) + 1e-9
@@ -560,7 +560,7 @@ def identify_arm(
         Y, tau = Y[free], tau[free]
         duration *= float(np.count_nonzero(free)) / m
         m = int(np.count_nonzero(free))
-        inflation = max(1.0, m * window / (1.2 * max(duration, 1e-12)))
+        inflation = np.full(nj, max(1.0, m * window / (1.2 * max(duration, 1e-12))))
         if excluded:
             warnings.append(
                 f"{excluded} of {excluded + m} samples excluded as contact (residual outliers)"
@@ -583,12 +583,17 @@ def identify_arm(
     noise = np.sqrt(np.mean(residual**2, axis=0)) + 1e-12
     orders = no_lines
     if pdtv_max_order > 0:
-        orders = _pick_pdtv(signals, picks, residual, pdtv_max_order)
+        orders = _pick_pdtv(
+            signals, picks, residual, pdtv_max_order, inflation=float(np.max(inflation))
+        )
     x, cov, residual, blocks = fit(orders, noise)
     if fit_friction_shape:  # again, with the PDTV lines and the refitted bodies
         current = dataclasses.replace(current, joints=reshape(x, blocks))
         x, cov, residual, blocks = fit(orders, noise)
     noise = np.sqrt(np.mean(residual**2, axis=0)) + 1e-12
+    # rows count less where the residual stays correlated beyond the window (model error):
+    # the measured long-run variance ratio, where it exceeds the window's own correlation
+    inflation = np.maximum(inflation, long_run_ratio(residual, signals, picks))
     x, cov, residual, blocks = fit(orders, noise)
     model = dataclasses.replace(model, joints=current.joints)
     slices = _slices(P, blocks)
@@ -680,6 +685,7 @@ def identify_arm(
             bm.body: {"urdf": bm.urdf, "identified": bm.identified, "sigma": bm.sigma}
             for bm in masses
         },
+        **visited_region(signals, picks),
         "warnings": list(warnings),
     }
     out_model = dataclasses.replace(model, robot=new_robot, joints=joints, notes=notes)
@@ -698,6 +704,72 @@ def identify_arm(
         warnings=tuple(warnings),
         excluded=excluded,
     )
+
+
+SPEED_LEVELS = (0.0, 0.01, 0.02, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.99, 1.0)
+"""Levels of the quantiles of each joint's motor speed that the model keeps
+(``motor_speed_quantiles``): the distribution of speeds the identification saw."""
+
+
+def visited_region(
+    signals: Sequence[ArmSignals], picks: Sequence[NDArray[np.intp]]
+) -> dict[str, Any]:
+    """What the identification saw, per joint: ``position_range`` ``[lowest, highest]``
+    joint angle [rad] and ``motor_speed_quantiles``, the quantiles of ``|N qd|`` [rad/s] at
+    :data:`SPEED_LEVELS`. Estimation compares a log with it: outside, the model extrapolates
+    (:mod:`torquemap.estimate_arm`)."""
+    q = np.concatenate([sig.q[idx] for sig, idx in zip(signals, picks, strict=True)])
+    w = np.abs(
+        np.concatenate([sig.gear * sig.qd[idx] for sig, idx in zip(signals, picks, strict=True)])
+    )
+    quantiles = np.quantile(w, SPEED_LEVELS, axis=0)  # (levels, nj)
+    return {
+        "position_range": [[float(a), float(b)] for a, b in zip(q.min(0), q.max(0), strict=True)],
+        "motor_speed_levels": list(SPEED_LEVELS),
+        "motor_speed_quantiles": [[float(v) for v in col] for col in quantiles.T],
+    }
+
+
+CORRELATION_SPAN = 1.0
+"""Length [s] of the stretches over which :func:`long_run_ratio` sums the residual."""
+
+
+def long_run_ratio(
+    residual: NDArray[np.float64],
+    signals: Sequence[ArmSignals],
+    picks: Sequence[NDArray[np.intp]],
+    *,
+    span: float = CORRELATION_SPAN,
+) -> NDArray[np.float64]:
+    """Per joint, how much more the residual's sums over stretches of ``span`` vary than
+    independent rows would: ``sum_b (sum_{i in b} r_i)^2 / sum_b sum_{i in b} r_i^2`` (1 for
+    white rows; the number of rows a correlated stretch is worth less than its count).
+
+    The rows' weights in the regression are divided by it, so that the covariance counts the
+    independent information in the residual (a long-run variance, as in Newey & West 1987)
+    rather than the rows: model error that persists over a second is not averaged away by
+    more rows in that second.
+
+    Returns
+    -------
+    ndarray
+        Shape (nj,), at least 1; 1 where fewer than 8 stretches.
+    """
+    labels, offset = [], 0
+    for sig, idx in zip(signals, picks, strict=True):
+        seg = np.floor((sig.t[idx] - sig.t[0]) / span).astype(np.intp)
+        _, seg = np.unique(seg, return_inverse=True)
+        labels.append(seg + offset)
+        offset += int(seg.max()) + 1 if seg.size else 0
+    label = np.concatenate(labels)
+    if offset < 8:
+        return np.ones(residual.shape[1])
+    out = np.empty(residual.shape[1])
+    for k in range(residual.shape[1]):
+        sums = np.bincount(label, weights=residual[:, k], minlength=offset)
+        squares = float(np.sum(residual[:, k] ** 2))
+        out[k] = float(np.sum(sums**2)) / squares if squares > 0 else 1.0
+    return np.maximum(out, 1.0)
 
 
 def _lowpassed_residual(
@@ -738,8 +810,14 @@ def _pick_pdtv(
     picks: Sequence[NDArray[np.intp]],
     residual: NDArray[np.float64],
     max_order: int,
+    *,
+    inflation: float = 1.0,
 ) -> list[tuple[float, ...]]:
-    """Per joint, the integer orders whose cos/sin fit of the residual is significant."""
+    """Per joint, the integer orders whose cos/sin fit of the residual is significant.
+
+    ``inflation`` multiplies the coefficients' variance: the smoothed residual is correlated
+    over the differentiator's window, so rows closer than that count less (as in the
+    identification's covariance); without it a slow log shows spurious lines."""
     nj = residual.shape[1]
     out: list[tuple[float, ...]] = []
     orders = np.arange(1, max_order + 1, dtype=float)
@@ -762,7 +840,7 @@ def _pick_pdtv(
         for i, order in enumerate(orders):
             c, s = coef[i], coef[max_order + i]
             amp = math.hypot(c, s)
-            var = max(cov[i, i], cov[max_order + i, max_order + i])
+            var = inflation * max(cov[i, i], cov[max_order + i, max_order + i])
             if not (math.isfinite(var) and var > 0):
                 continue  # the orders are not separable on these samples
             if amp > PDTV_SIGNIFICANCE * math.sqrt(var):

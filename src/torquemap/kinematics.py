@@ -173,22 +173,77 @@ def force_from_joint_torque(
     """
     q = np.atleast_2d(_q2(joint_angles))
     tau = np.atleast_2d(np.asarray(joint_torque, dtype=np.float64))
-    l1, l2 = link_lengths
-    s2 = np.sin(q[:, 1])
-    singular = np.abs(s2) < min_sin_elbow
     # J^T F = tau by Cramer's rule, det J = l1 l2 sin q2 (batched linalg.solve costs 10x more):
     # with J = [[a, b], [c, d]], F = [d t0 - c t1, a t1 - b t0] / det
+    a, b, c, d, inv_det, singular = _cramer(q, link_lengths, min_sin_elbow)
+    force = np.empty_like(tau)
+    force[:, 0] = (d * tau[:, 0] - c * tau[:, 1]) * inv_det
+    force[:, 1] = (a * tau[:, 1] - b * tau[:, 0]) * inv_det
+    return ForceFromTorque(force=force, singular=singular)
+
+
+def _cramer(
+    q: NDArray[np.float64], link_lengths: tuple[float, float], min_sin_elbow: float
+) -> tuple[
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.bool_],
+]:
+    """``J = [[a, b], [c, d]]``, ``1 / det J`` (NaN where singular) and the singular mask."""
+    l1, l2 = link_lengths
+    singular = np.abs(np.sin(q[:, 1])) < min_sin_elbow
     q12 = q[:, 0] + q[:, 1]
     s12, c12 = np.sin(q12), np.cos(q12)
     a = -l1 * np.sin(q[:, 0]) - l2 * s12
     c = l1 * np.cos(q[:, 0]) + l2 * c12
     b, d = -l2 * s12, l2 * c12
     with np.errstate(divide="ignore", invalid="ignore"):
-        inv_det = np.where(singular, np.nan, 1.0 / (a * d - b * c))
-    force = np.empty_like(tau)
-    force[:, 0] = (d * tau[:, 0] - c * tau[:, 1]) * inv_det
-    force[:, 1] = (a * tau[:, 1] - b * tau[:, 0]) * inv_det
-    return ForceFromTorque(force=force, singular=singular)
+        inv_det = np.asarray(np.where(singular, np.nan, 1.0 / (a * d - b * c)), dtype=np.float64)
+    return a, b, c, d, inv_det, np.asarray(singular, dtype=np.bool_)
+
+
+def force_map(
+    joint_angles: ArrayLike, link_lengths: tuple[float, float], *, min_sin_elbow: float = 0.05
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """The matrix ``J(q)^-T`` that maps joint torques to the end-effector force, per sample.
+
+    The same closed form as :func:`force_from_joint_torque` (Cramer's rule, five sines and
+    cosines per sample), as a matrix: for a force and its standard deviation from one set of
+    sines, ``F = A tau`` and ``var F_i = sum_j A_ij^2 var tau_j``.
+
+    Parameters
+    ----------
+    joint_angles
+        Joint angles [rad], shape (n, 2).
+    link_lengths
+        ``(l1, l2)`` [m].
+    min_sin_elbow
+        Poses with ``|sin q2|`` below this are singular (their rows NaN).
+
+    Returns
+    -------
+    (A, singular)
+        ``A`` [1/m], shape (n, 2, 2), rows (fx, fy), columns (tau1, tau2); ``singular``,
+        shape (n,).
+
+    Examples
+    --------
+    >>> a, singular = force_map([[0.0, 1.0]], (0.3, 0.2))
+    >>> f = force_from_joint_torque([[0.0, 1.0]], [[0.5, 0.2]], (0.3, 0.2)).force
+    >>> bool(np.allclose(a[0] @ [0.5, 0.2], f[0]))
+    True
+    """
+    q = np.atleast_2d(_q2(joint_angles))
+    a, b, c, d, inv_det, singular = _cramer(q, link_lengths, min_sin_elbow)
+    out = np.empty((q.shape[0], 2, 2))
+    out[:, 0, 0] = d * inv_det
+    out[:, 0, 1] = -c * inv_det
+    out[:, 1, 0] = -b * inv_det
+    out[:, 1, 1] = a * inv_det
+    return out, singular
 
 
 def inverse_kinematics(

@@ -130,13 +130,28 @@ def pdtv_torque(
     theta = np.asarray(motor_angle, dtype=np.float64)
     out = np.zeros_like(theta)
     w = None if velocity is None else np.asarray(velocity, dtype=np.float64)
-    for line in lines:
-        term = line.amplitude * np.cos(line.order * theta + line.phase)
-        if line.direction == "both":
-            out += term
-        elif w is not None:
-            mask = w > 0 if line.direction == "positive" else w < 0
-            out += np.where(mask, term, 0.0)
+    flat_theta, flat_out = theta.reshape(-1), out.reshape(-1)
+    flat_w = None if w is None else np.broadcast_to(w, theta.shape).reshape(-1)
+    # in place, a cache-sized stretch at a time: the same operations as
+    # ``out += amplitude * cos(order * theta + phase)``, without a temporary of the log's size
+    step = 1 << 15
+    buf = np.empty(min(step, flat_theta.size))
+    for a in range(0, flat_theta.size, step):
+        th, acc = flat_theta[a : a + step], flat_out[a : a + step]
+        b = buf[: th.size]
+        for line in lines:
+            if line.direction != "both" and flat_w is None:
+                continue
+            np.multiply(line.order, th, out=b)
+            b += line.phase
+            np.cos(b, out=b)
+            np.multiply(line.amplitude, b, out=b)
+            if line.direction == "both":
+                acc += b
+            else:
+                assert flat_w is not None
+                wv = flat_w[a : a + step]
+                np.add(acc, b, out=acc, where=wv > 0 if line.direction == "positive" else wv < 0)
     return out
 
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -303,6 +303,44 @@ def noise_floor(spectrum: Spectrum, *, window: int = 101) -> NDArray[np.float64]
     return np.maximum(floor, max(float(np.median(floor)) * 1e-3, tiny))
 
 
+def fractional_floor(spectrum: Spectrum, *, window: int = 101) -> NDArray[np.float64]:
+    """The noise floor of each non-integer order from the orders of its own fractional part.
+
+    A spectrum over ``R`` whole revolutions has orders ``m / R``; those with the same
+    ``m mod R`` (the same fractional part) form a class. Noise need not be the same in every
+    class: what repeats in time rather than in angle does. At a constant speed the samples of
+    a log fall every ``v T`` radians, an order of ``2 pi / (v T)`` CPR that is in general not
+    an integer (25132.74 CPR at 0.5 rad/s and 2 kHz); it beats with the encoder's counts and
+    the position bins, and lifts the noise at that fractional part of EVERY order (measured:
+    twice the floor at ``k + 0.74`` CPR, a comb of dozens of spurious lines once fractional
+    orders are searched). A running median over all orders does not see such a comb (it is
+    ``1 / R`` of its window); one over the class's own orders does. Integer orders (class 0)
+    keep the floor of all orders: a comb there is a PDTV line's own harmonics.
+
+    Returns
+    -------
+    ndarray
+        Rayleigh scale per order (:func:`noise_floor` of each class's orders), 0 at the
+        integer orders, shape (m,).
+    """
+    from scipy.ndimage import median_filter
+
+    a = spectrum.amplitude
+    out = np.zeros(a.size)
+    revs = round(spectrum.revolutions)
+    if a.size == 0 or revs < 2 or abs(spectrum.revolutions - revs) > 1e-6:
+        return out
+    cls = np.round(spectrum.order * revs).astype(np.int64) % revs
+    for c in range(1, revs):
+        idx = np.flatnonzero(cls == c)
+        if idx.size < 3:
+            continue
+        w = max(3, min(window, idx.size) | 1)
+        med = median_filter(a[idx], size=w, mode="reflect")
+        out[idx] = med / math.sqrt(2.0 * math.log(2.0))
+    return out
+
+
 def rayleigh_threshold(candidates: int, *, false_alarm: float = 0.01) -> float:
     """Multiple of the Rayleigh scale that pure noise exceeds with ``false_alarm`` probability.
 
@@ -390,6 +428,8 @@ def pick_lines(
     integer_only = not (
         fractional == "always" or (fractional == "auto" and spectrum.revolutions >= 4.0)
     )
+    if not integer_only:
+        floor = np.maximum(floor, fractional_floor(spectrum, window=floor_window))
     if integer_only:
         searched = integer
     else:
@@ -499,6 +539,83 @@ def fit_harmonics(
     >>> round(float(fit.amplitude[0]), 6), round(float(fit.phase[0]), 6), round(float(fit.offsets[0]), 6)
     (0.5, -0.4, 2.0)
     """
+    normals = harmonic_normals(
+        motor_angle, values, orders=orders, groups=groups, extra=extra, chunk=chunk
+    )
+    return solve_harmonics(normals)
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class HarmonicNormals:
+    """Normal equations of :func:`fit_harmonics`, accumulated in one pass over the samples.
+
+    For a set of orders, per part of a split of the samples (for example the direction of
+    motion), so that :func:`solve_harmonics` fits any subset of the orders to any subset of
+    the parts from them, without another pass. The regressors are the cosine and sine of
+    each order and the extra regressors ("rows"); the group offsets' columns are one-hot, so
+    their products are per-group sums.
+
+    Attributes
+    ----------
+    orders
+        The orders [CPR], shape (p,).
+    xx
+        Products of the rows, shape (s, 2 p + e, 2 p + e), per part.
+    xg, xy
+        The rows summed per group, shape (s, 2 p + e, g), and times the values, (s, 2 p + e).
+    gy, counts
+        The values summed per group, and the samples per group, shape (s, g).
+    yy
+        Sum of squared values per part, shape (s,).
+    n_extra
+        Extra regressors (e).
+    samples
+        ``(theta, values, group ranks, extra, part)``: the inputs, kept (not copied) for an
+        exact second pass where the normal equations' residual would lose precision.
+    chunk
+        Rows per block of that pass.
+    """
+
+    orders: NDArray[np.float64]
+    xx: NDArray[np.float64]
+    xg: NDArray[np.float64]
+    xy: NDArray[np.float64]
+    gy: NDArray[np.float64]
+    counts: NDArray[np.float64]
+    yy: NDArray[np.float64]
+    n_extra: int
+    samples: tuple[NDArray[Any], ...] = ()
+    chunk: int = 20000
+
+
+def harmonic_normals(
+    motor_angle: ArrayLike,
+    values: ArrayLike,
+    *,
+    orders: Sequence[float],
+    groups: ArrayLike | None = None,
+    extra: ArrayLike | None = None,
+    split: ArrayLike | None = None,
+    chunk: int = 20000,
+) -> HarmonicNormals:
+    """Accumulate the normal equations of :func:`fit_harmonics` (solve: :func:`solve_harmonics`).
+
+    Parameters
+    ----------
+    motor_angle, values, orders, groups, extra, chunk
+        As :func:`fit_harmonics`.
+    split
+        Part of each sample, integers 0 .. s - 1, shape (n,); default one part.
+
+    Returns
+    -------
+    HarmonicNormals
+
+    Raises
+    ------
+    InputError
+        On mismatched shapes or orders that are not positive and distinct.
+    """
     theta = np.asarray(motor_angle, dtype=np.float64)
     y = np.asarray(values, dtype=np.float64)
     if theta.ndim != 1 or theta.shape != y.shape:
@@ -509,36 +626,161 @@ def fit_harmonics(
     if groups is None:
         g = np.zeros(theta.size, dtype=np.int64)
     else:
-        _, g = np.unique(np.asarray(groups), return_inverse=True)
-        g = g.astype(np.int64).ravel()
+        labels = np.asarray(groups).ravel()
+        if labels.size and labels.dtype.kind in "iub" and bool(np.all(labels[1:] >= labels[:-1])):
+            # in runs, in order (passes one after another): the ranks without a sort
+            g = np.concatenate(([0], np.cumsum(labels[1:] != labels[:-1]))).astype(np.int64)
+        else:
+            _, g = np.unique(labels, return_inverse=True)
+            g = g.astype(np.int64).ravel()
+    if g.size != theta.size:
+        raise InputError("groups must have one label per sample")
     ng = int(g.max()) + 1 if g.size else 1
     ex = np.zeros((theta.size, 0)) if extra is None else np.asarray(extra, dtype=np.float64)
     if ex.ndim == 1:
         ex = ex[:, None]
     if ex.shape[0] != theta.size:
         raise InputError("extra regressors must have one row per sample")
-    ne = ex.shape[1]
-    p = ords.size
-    ncol = 2 * p + ng + ne
-    if theta.size < ncol + 1:
-        raise InputError(f"{theta.size} samples cannot fit {ncol} unknowns")
-    ata = np.zeros((ncol, ncol))
-    aty = np.zeros(ncol)
+    part = (
+        np.zeros(theta.size, dtype=np.int64)
+        if split is None
+        else np.asarray(split, dtype=np.int64).ravel()
+    )
+    if part.size != theta.size or (part.size and part.min() < 0):
+        raise InputError("split must give a part >= 0 for every sample")
+    ns = int(part.max()) + 1 if part.size else 1
+    nx = 2 * ords.size + ex.shape[1]
+    xx = np.zeros((ns, nx, nx))
+    xg = np.zeros((ns, nx, ng))
+    xy = np.zeros((ns, nx))
+    gy = np.zeros((ns, ng))
+    counts = np.zeros((ns, ng))
+    yy = np.zeros(ns)
+
+    def add(k: int, x: NDArray[np.float64], gc: NDArray[np.int64], yc: NDArray[np.float64]) -> None:
+        xx[k] += x @ x.T
+        xy[k] += x @ yc
+        if gc.size and bool(np.all(gc[1:] >= gc[:-1])):
+            # groups in runs (passes one after another): sums over each run
+            starts = np.flatnonzero(np.r_[True, gc[1:] != gc[:-1]])
+            which = gc[starts]
+            xg[k][:, which] += np.add.reduceat(x, starts, axis=1)
+            gy[k][which] += np.add.reduceat(yc, starts)
+            counts[k][which] += np.diff(np.r_[starts, gc.size])
+        else:
+            for r in range(nx):
+                xg[k][r] += np.bincount(gc, weights=x[r], minlength=ng)
+            gy[k] += np.bincount(gc, weights=yc, minlength=ng)
+            counts[k] += np.bincount(gc, minlength=ng)
+        yy[k] += float(yc @ yc)
+
     for s in range(0, theta.size, chunk):
-        a = np.hstack(
-            (_design(theta[s : s + chunk], ords, g[s : s + chunk], ng), ex[s : s + chunk])
+        x = _rows(theta[s : s + chunk], ords, ex[s : s + chunk])
+        gc, yc, pc = g[s : s + chunk], y[s : s + chunk], part[s : s + chunk]
+        if pc.size and pc.min() == pc.max():
+            add(int(pc[0]), x, gc, yc)
+        else:
+            for k in np.unique(pc):
+                m = pc == k
+                add(int(k), x[:, m], gc[m], yc[m])
+    return HarmonicNormals(
+        orders=ords,
+        xx=xx,
+        xg=xg,
+        xy=xy,
+        gy=gy,
+        counts=counts,
+        yy=yy,
+        n_extra=ex.shape[1],
+        samples=(theta, y, g, ex, part),
+        chunk=chunk,
+    )
+
+
+def solve_harmonics(
+    normals: HarmonicNormals,
+    *,
+    orders: Sequence[float] | None = None,
+    parts: Sequence[int] | None = None,
+) -> HarmonicFit:
+    """The least-squares fit of :func:`fit_harmonics` from accumulated normal equations.
+
+    Parameters
+    ----------
+    normals
+        From :func:`harmonic_normals`.
+    orders
+        A subset of ``normals.orders`` [CPR]; default all.
+    parts
+        The parts of the split fitted; default all. Only the groups with samples in them
+        get an offset.
+
+    Returns
+    -------
+    HarmonicFit
+        As :func:`fit_harmonics` on those orders and samples (equal to rounding: the same
+        sums, grouped otherwise).
+
+    Raises
+    ------
+    InputError
+        On an order not accumulated, or fewer samples than unknowns.
+    """
+    all_orders = normals.orders
+    if orders is None:
+        idx = np.arange(all_orders.size)
+    else:
+        idx = np.array(
+            [
+                int(np.flatnonzero(all_orders == float(o))[0])
+                if np.any(all_orders == float(o))
+                else -1
+                for o in orders
+            ],
+            dtype=np.int64,
         )
-        ata += a.T @ a
-        aty += a.T @ y[s : s + chunk]
+        if idx.size and idx.min() < 0:
+            raise InputError("an order was not in the accumulated normal equations")
+    chosen = (
+        np.arange(normals.xx.shape[0]) if parts is None else np.asarray(list(parts), dtype=np.int64)
+    )
+    xx = normals.xx[chosen].sum(axis=0)
+    xg = normals.xg[chosen].sum(axis=0)
+    xy = normals.xy[chosen].sum(axis=0)
+    gy = normals.gy[chosen].sum(axis=0)
+    counts = normals.counts[chosen].sum(axis=0)
+    yy = float(normals.yy[chosen].sum())
+    present = np.flatnonzero(counts > 0)
+    p = idx.size
+    ne = normals.n_extra
+    ng = present.size
+    rows = np.concatenate(
+        (np.stack([2 * idx, 2 * idx + 1], axis=1).ravel(), 2 * all_orders.size + np.arange(ne))
+    ).astype(np.int64)
+    ncol = 2 * p + ng + ne
+    n = int(counts.sum())
+    if n < ncol + 1:
+        raise InputError(f"{n} samples cannot fit {ncol} unknowns")
+    h, e = rows[: 2 * p], rows[2 * p :]
+    ata = np.zeros((ncol, ncol))
+    ata[: 2 * p, : 2 * p] = xx[np.ix_(h, h)]
+    ata[: 2 * p, 2 * p : 2 * p + ng] = xg[np.ix_(h, present)]
+    ata[: 2 * p, 2 * p + ng :] = xx[np.ix_(h, e)]
+    ata[2 * p : 2 * p + ng, 2 * p : 2 * p + ng] = np.diag(counts[present])
+    ata[2 * p : 2 * p + ng, 2 * p + ng :] = xg[np.ix_(e, present)].T
+    ata[2 * p + ng :, 2 * p + ng :] = xx[np.ix_(e, e)]
+    upper = np.triu(ata, 1)
+    ata = np.triu(ata) + upper.T
+    aty = np.concatenate((xy[h], gy[present], xy[e]))
     inv = np.linalg.pinv(ata)
     coef = inv @ aty
-    ss = 0.0
-    for s in range(0, theta.size, chunk):
-        a = np.hstack(
-            (_design(theta[s : s + chunk], ords, g[s : s + chunk], ng), ex[s : s + chunk])
-        )
-        ss += float(np.sum((y[s : s + chunk] - a @ coef) ** 2))
-    dof = max(theta.size - ncol, 1)
+    # the residual's sum of squares from the normal equations (no second pass over the
+    # samples); it loses about yy / ss of relative precision to cancellation, so where the
+    # model explains nearly all of y it is summed over the samples instead
+    ss = yy - 2.0 * float(coef @ aty) + float(coef @ ata @ coef)
+    if not ss > 1e-6 * yy:
+        ss = _residual_sum(normals, idx, chosen, present, coef)
+    dof = max(n - ncol, 1)
     sigma2 = ss / dof
     ab = coef[: 2 * p].reshape(p, 2)
     cov = np.empty((p, 2, 2))
@@ -548,29 +790,114 @@ def fit_harmonics(
     phase = np.arctan2(-ab[:, 1], ab[:, 0])
     se = np.sqrt(np.maximum(0.5 * (cov[:, 0, 0] + cov[:, 1, 1]), 0.0))
     return HarmonicFit(
-        order=ords,
+        order=all_orders[idx],
         amplitude=amplitude,
         phase=phase,
         amplitude_se=se,
         cos_sin=ab,
         covariance=cov,
         offsets=coef[2 * p : 2 * p + ng],
-        residual_rms=math.sqrt(ss / theta.size),
+        residual_rms=math.sqrt(ss / n),
         extra=coef[2 * p + ng :],
         extra_se=np.sqrt(np.maximum(sigma2 * np.diag(inv)[2 * p + ng :], 0.0)),
     )
 
 
-def _design(
-    theta: NDArray[np.float64], orders: NDArray[np.float64], groups: NDArray[np.int64], ng: int
+def _residual_sum(
+    normals: HarmonicNormals,
+    idx: NDArray[np.int64],
+    chosen: NDArray[np.int64],
+    present: NDArray[np.int64],
+    coef: NDArray[np.float64],
+) -> float:
+    """The residual's sum of squares summed over the samples (no cancellation)."""
+    theta, y, g, ex, part = normals.samples
+    p, ng = idx.size, present.size
+    offset = np.zeros(int(g.max()) + 1 if g.size else 1)
+    offset[present] = coef[2 * p : 2 * p + ng]
+    cx = np.concatenate((coef[: 2 * p], coef[2 * p + ng :]))
+    ords = normals.orders[idx]
+    use = np.isin(part, chosen)
+    ss = 0.0
+    for s in range(0, theta.size, normals.chunk):
+        m = use[s : s + normals.chunk]
+        x = _rows(theta[s : s + normals.chunk][m], ords, ex[s : s + normals.chunk][m])
+        fitted = cx @ x + offset[g[s : s + normals.chunk][m]]
+        ss += float(np.sum((y[s : s + normals.chunk][m] - fitted) ** 2))
+    return ss
+
+
+#: Integer orders up to this are raised as powers of ``exp(i theta)`` by :func:`phasors`.
+POWER_ORDERS = 1 << 20
+
+
+def phasors(motor_angle: ArrayLike, orders: ArrayLike) -> NDArray[np.complex128]:
+    """``exp(i * order * motor_angle)`` for every order and sample, shape (p, n).
+
+    A sine and a cosine cost tens of nanoseconds each; the integer orders (the lines of a
+    motor-angle PDTV) are powers of ``z = exp(i theta)`` instead, by repeated squaring from
+    one sine and one cosine per sample (a complex product costs a few nanoseconds). Order
+    ``k`` then carries a relative rounding error of about ``k`` units in the last place,
+    while ``cos(k * theta)`` carries ``k |theta|`` of them (the product's rounding): the
+    powers are at least as accurate. Other orders are evaluated directly.
+
+    Parameters
+    ----------
+    motor_angle
+        Motor angle [rad], shape (n,).
+    orders
+        Orders [CPR], shape (p,).
+
+    Returns
+    -------
+    ndarray
+        Complex, shape (p, n): one row per order.
+
+    Examples
+    --------
+    >>> theta = np.array([0.3, 2.0])
+    >>> bool(np.allclose(phasors(theta, [3.0, 0.5]), np.exp(1j * np.outer([3.0, 0.5], theta))))
+    True
+    """
+    theta = np.asarray(motor_angle, dtype=np.float64).ravel()
+    ords = np.asarray(orders, dtype=np.float64).ravel()
+    out = np.empty((ords.size, theta.size), dtype=np.complex128)
+    integer = (ords == np.round(ords)) & (ords >= 1) & (ords <= POWER_ORDERS)
+    if integer.any():
+        z = np.empty(theta.size, dtype=np.complex128)
+        z.real = np.cos(theta)
+        z.imag = np.sin(theta)
+        # a plain function, not a closure that calls itself: such a closure is a reference
+        # cycle that would keep every power alive until the garbage collector runs
+        powers: dict[int, NDArray[np.complex128]] = {1: z}
+        for j in np.flatnonzero(integer):
+            out[j] = _power(powers, int(ords[j]))
+    for j in np.flatnonzero(~integer):
+        arg = ords[j] * theta
+        out[j].real = np.cos(arg)
+        out[j].imag = np.sin(arg)
+    return out
+
+
+def _power(powers: dict[int, NDArray[np.complex128]], k: int) -> NDArray[np.complex128]:
+    """``z ** k`` by repeated squaring, ``powers`` holding ``{1: z}`` and those made so far."""
+    if k not in powers:
+        half = _power(powers, k // 2)
+        powers[k] = half * half if k % 2 == 0 else half * half * powers[1]
+    return powers[k]
+
+
+def _rows(
+    theta: NDArray[np.float64], orders: NDArray[np.float64], extra: NDArray[np.float64]
 ) -> NDArray[np.float64]:
-    arg = np.outer(theta, orders)
-    a = np.empty((theta.size, 2 * orders.size + ng))
-    a[:, 0 : 2 * orders.size : 2] = np.cos(arg)
-    a[:, 1 : 2 * orders.size : 2] = np.sin(arg)
-    a[:, 2 * orders.size :] = 0.0
-    a[np.arange(theta.size), 2 * orders.size + groups] = 1.0
-    return a
+    """Regressors as rows, shape (2 p + e, m): cos and sin of each order, the extra ones."""
+    x = np.empty((2 * orders.size + extra.shape[1], theta.size))
+    if orders.size:
+        wave = phasors(theta, orders)
+        x[0 : 2 * orders.size : 2] = wave.real
+        x[1 : 2 * orders.size : 2] = wave.imag
+    x[2 * orders.size :] = extra.T
+    return x
 
 
 def bins_per_revolution(samples_per_rev: float, *, margin: float = 1.5) -> int:

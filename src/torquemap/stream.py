@@ -311,6 +311,9 @@ class ForceEstimator:
         self._warnings: dict[str, list[Any]] = {}
         self._blocks = 0
         self._finished = False
+        # answers are copied out of their block, so that one kept by the caller does not hold
+        # the whole block in memory; a caller that writes and drops them turns this off
+        self._copy_rows = True
 
     @property
     def latency(self) -> float:
@@ -486,7 +489,9 @@ class ForceEstimator:
                 self._warnings[key][1] += 1
             else:
                 self._warnings[key] = [w, 1]
-        part = _compact(_slice(est, a - lo, b - lo))
+        part = _slice(est, a - lo, b - lo)
+        if self._copy_rows:
+            part = _compact(part)
         return dataclasses.replace(part, warnings=())
 
     def _empty(self) -> ForceEstimate:
@@ -728,6 +733,8 @@ def estimate_to_file(
         max_rows=rows,
         path=path,
     )
+    estimator._copy_rows = False  # each answer is written and dropped at once
+    estimator._options["answers_only"] = True  # ``filtered`` is not in the table
     nj = len(model.robot.joints)
     totals = np.zeros(nj)
     counts = {"samples": 0, "sound": 0}

@@ -17,8 +17,10 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         help="an exciting trajectory (Fourier series within the URDF's limits) for identification",
         description="Write an exciting trajectory for an arm with a URDF: a Fourier series per "
         "joint that starts and ends at rest at the middle of each joint's range, stays inside "
-        "the URDF's position and velocity limits, and is chosen for a well-conditioned "
-        "base-parameter regressor. Run it on the robot (after moving to the first row), log "
+        "the URDF's position and velocity limits, spans the ranges (up to +-pi), and is chosen "
+        "for a well-conditioned regressor (inertial parameters and friction); the path is "
+        "played at full speed and again at a quarter (--speeds), so that friction at low speed "
+        "is seen at the same poses. Run it on the robot (after moving to the first row), log "
         "t, q_<j> and i_<j> or tau_<j>, and give the log to `torquemap identify`. "
         "No collision checking: try it slowly first.",
         epilog="example:\n  torquemap excite robot.toml -o excite.csv --duration 60",
@@ -32,9 +34,27 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         required=True,
         help="trajectory to write (t, q_<j>, qd_<j>, qdd_<j>)",
     )
-    p.add_argument("--duration", type=float, default=30.0, metavar="S", help="length [s] (30)")
     p.add_argument(
-        "--period", type=float, default=10.0, metavar="S", help="fundamental period [s] (10)"
+        "--duration",
+        type=float,
+        default=None,
+        metavar="S",
+        help="length [s], whole traversals rounded up (default: one traversal at each speed, "
+        "100 s)",
+    )
+    p.add_argument(
+        "--period",
+        type=float,
+        default=20.0,
+        metavar="S",
+        help="fundamental period [s] of the path at full speed (20)",
+    )
+    p.add_argument(
+        "--speeds",
+        default="1,0.25",
+        metavar="V1,V2,...",
+        help="speed schedule: the path is played at each of these fractions of its speed in "
+        "turn (0 < |v| <= 1, negative: backwards; default 1,0.25)",
     )
     p.add_argument("--harmonics", type=int, default=5, help="harmonics per joint (5)")
     p.add_argument("--rate", type=float, default=500.0, metavar="HZ", help="sample rate (500)")
@@ -56,6 +76,16 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     p.set_defaults(handler=_excite)
 
 
+def _floats(text: str, flag: str, what: str) -> list[float]:
+    """Comma-separated numbers; InputError naming ``flag`` otherwise."""
+    from torquemap.errors import InputError
+
+    try:
+        return [float(v) for v in text.split(",")]
+    except ValueError:
+        raise InputError(f"{flag} must be comma-separated {what}, got {text!r}") from None
+
+
 def _excite(args: argparse.Namespace) -> int:
     from torquemap.errors import InputError
     from torquemap.excite import exciting_trajectory, trajectory_columns
@@ -68,17 +98,12 @@ def _excite(args: argparse.Namespace) -> int:
         raise InputError("excite needs an arm with a URDF (kinematics = 'urdf')", path=args.robot)
     if not 0 < args.speed_fraction <= 1:
         raise InputError(f"--speed-fraction must be in (0, 1], got {args.speed_fraction}")
-    centre = None
-    if args.centre is not None:
-        try:
-            centre = [float(v) for v in args.centre.split(",")]
-        except ValueError:
-            raise InputError(
-                f"--centre must be comma-separated angles [rad], got {args.centre!r}"
-            ) from None
+    centre = None if args.centre is None else _floats(args.centre, "--centre", "angles [rad]")
+    speeds = _floats(args.speeds, "--speeds", "fractions")
     traj = exciting_trajectory(
         arm,
         duration=args.duration,
+        speeds=speeds,
         period=args.period,
         harmonics=args.harmonics,
         rate=args.rate,
@@ -88,8 +113,9 @@ def _excite(args: argparse.Namespace) -> int:
     )
     write_table(args.output, trajectory_columns(traj))
     print(
-        f"{len(traj.joint_names)} joints, {traj.t[-1]:.4g} s, condition number of the base "
-        f"regressor {traj.condition_number:.4g}"
+        f"{len(traj.joint_names)} joints, {traj.t[-1]:.4g} s, speeds "
+        + ", ".join(f"{v:g}" for v in traj.speeds)
+        + f", condition number of the regressor {traj.condition_number:.4g}"
     )
     print(
         "start pose [rad]: "

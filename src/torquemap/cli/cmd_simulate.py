@@ -105,7 +105,13 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         default="panda",
         help="the example-robot-data arm, or the two-link leg (default panda)",
     )
-    arm.add_argument("--free-duration", type=float, default=20.0, help="[s] (default 20)")
+    arm.add_argument(
+        "--free-duration",
+        type=float,
+        default=100.0,
+        help="[s] (default 100: torquemap excite's default, its 20 s path at full speed and "
+        "at a quarter)",
+    )
     arm.add_argument("--task-duration", type=float, default=15.0, help="[s] (default 15)")
     arm.set_defaults(handler=_arm)
     cmd_simulate_rig.register(benches)

@@ -24,7 +24,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from torquemap.errors import InputError
-from torquemap.kinematics import force_from_joint_torque, forward_kinematics, jacobian
+from torquemap.kinematics import (
+    force_from_joint_torque,
+    force_map,
+    forward_kinematics,
+    jacobian,
+)
 from torquemap.robots import WrenchResult, register_arm
 from torquemap.robots.none import as_joint_array
 
@@ -126,6 +131,14 @@ class Planar2R:
         guard = self.min_sin_elbow if singular_threshold is None else singular_threshold
         r = force_from_joint_torque(self._q(q), tau, self.link_lengths, min_sin_elbow=guard)
         return WrenchResult(wrench=r.force, singular=r.singular)
+
+    def wrench_map(
+        self, q: ArrayLike, *, singular_threshold: float | None = None
+    ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+        """``A = J^-T`` (n, 2, 2) with ``F = A tau`` [N], NaN rows where singular, and the
+        singular mask (:func:`torquemap.kinematics.force_map`)."""
+        guard = self.min_sin_elbow if singular_threshold is None else singular_threshold
+        return force_map(self._q(q), self.link_lengths, min_sin_elbow=guard)
 
     def to_dict(self) -> dict[str, Any]:
         """``kinematics`` and ``link_lengths``."""

@@ -18,6 +18,7 @@ import math
 import os
 import sys
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -469,9 +470,13 @@ def free_reference(
     iterations: int = 8,
     spec: ArmSpec = PANDA,
     centre: NDArray[np.float64] | None = None,
+    period: float | None = None,
+    speeds: Sequence[float] = (1.0, 0.25),
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """An exciting trajectory (``torquemap.excite``) at 1 kHz on the nominal arm, about
-    ``centre`` (default the middle of the joints' ranges)."""
+    ``centre`` (default the middle of the joints' ranges): the path of ``period`` (default
+    excite's, from the limits; at most ``duration``) played at each of ``speeds`` in turn,
+    whole traversals up to ``duration``."""
     from torquemap.excite import exciting_trajectory
     from torquemap.robots.urdf import urdf_arm
 
@@ -479,11 +484,12 @@ def free_reference(
     traj = exciting_trajectory(
         arm,
         duration=duration,
-        period=min(10.0, duration),
+        period=None if period is None else min(period, duration),
         rate=1.0 / TIMESTEP,
         iterations=iterations,
         centre=centre,
         rng=seed,
+        speeds=speeds,
     )
     return traj.q, traj.qd, traj.qdd
 
@@ -522,11 +528,13 @@ def write_arm_bench(
     out: str | os.PathLike[str],
     *,
     seed: int = 0,
-    free_duration: float = 20.0,
+    free_duration: float = 100.0,
     task_duration: float = 15.0,
     iterations: int = 8,
     arm: str = "panda",
     free_centre: str = "middle",
+    free_period: float | None = None,
+    free_speeds: Sequence[float] = (1.0, 0.25),
 ) -> list[Path]:
     """Simulate the Panda bench and write its files into ``out``.
 
@@ -539,7 +547,11 @@ def write_arm_bench(
     ground in ``task.csv``; ``free.csv`` is its motion in the air). ``iterations`` is the
     exciting trajectory's random search (``torquemap.excite``); ``free_centre`` the pose it
     swings about: ``"middle"`` of the joints' ranges (the default of ``torquemap excite``) or
-    ``"task"``, the task's start pose (``excite --centre``: excite where the robot works).
+    ``"task"``, the task's start pose (``excite --centre``: excite where the robot works);
+    ``free_period`` and ``free_speeds`` its path's period [s] and speed schedule (the
+    defaults of ``torquemap excite``: twice the slowest joint's swing over its range at its
+    speed limit, 19.2 s for the Panda, 18 s for the UR5 and 2.9 s for the leg; full speed then
+    a quarter; whole traversals up to ``free_duration``).
 
     Returns
     -------
@@ -572,6 +584,8 @@ def write_arm_bench(
             iterations=iterations,
             spec=spec,
             centre=np.asarray(spec.ready) if free_centre == "task" else None,
+            period=free_period,
+            speeds=free_speeds,
         ),
         surface=None,
         seed=seed,
