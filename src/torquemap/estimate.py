@@ -548,10 +548,12 @@ def estimate_forces(
     # the filters' support next to a gap holds data on one side only: flagged (a gap)
     support = win if method == "raw" else max(win, 1.0 / cutoff)
     for before, after in clean.gaps:
-        near = ((log.t >= before - support) & (log.t <= before)) | (
-            (log.t >= after) & (log.t <= after + support)
-        )
-        flag[near] |= FLAG_GAP
+        # the samples in [before - support, before] and [after, after + support]: slices of
+        # the (non-decreasing) time, not masks of the whole log per gap
+        for lo, hi in ((before - support, before), (after, after + support)):
+            a = int(np.searchsorted(log.t, lo, side="left"))
+            b = int(np.searchsorted(log.t, hi, side="right"))
+            flag[a:b] |= FLAG_GAP
     warnings: list[str] = list(clean.warnings)
     from torquemap.filters import MIN_WINDOW_SAMPLES
     from torquemap.vertical import model_gravity_warnings
@@ -673,23 +675,11 @@ def _planar_force(
     guard: float,
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]]:
     """Force ``F = A tau``, singular mask and the force's sigma from the planar arm's
-    ``A = J^-T`` (:meth:`torquemap.robots.planar2r.Planar2R.wrench_map`); NaN where
-    singular, and the sigma where a joint's sigma is not finite."""
-    n = q.shape[0]
-    force = np.empty((n, 2))
-    sigma = np.empty((n, 2))
-    singular = np.empty(n, dtype=bool)
-    step = 1 << 15  # a cache-sized stretch at a time: a third faster than whole blocks
-    for s in range(0, n, step):
-        sl = slice(s, s + step)
-        a, singular[sl] = arm.wrench_map(q[sl], singular_threshold=guard)
-        t0, t1 = np.nan_to_num(tau[sl, 0]), np.nan_to_num(tau[sl, 1])
-        force[sl, 0] = a[:, 0, 0] * t0 + a[:, 0, 1] * t1
-        force[sl, 1] = a[:, 1, 0] * t0 + a[:, 1, 1] * t1
-        v0, v1 = tau_sigma[sl, 0] ** 2, tau_sigma[sl, 1] ** 2
-        sigma[sl, 0] = np.sqrt(a[:, 0, 0] ** 2 * v0 + a[:, 0, 1] ** 2 * v1)
-        sigma[sl, 1] = np.sqrt(a[:, 1, 0] ** 2 * v0 + a[:, 1, 1] ** 2 * v1)
-    return force, singular, sigma
+    ``A = J^-T`` (:func:`torquemap.kinematics.force_and_sigma`, one compiled pass); NaN
+    where singular, and the sigma where a joint's sigma is not finite."""
+    from torquemap.kinematics import force_and_sigma
+
+    return force_and_sigma(q, tau, tau_sigma, arm.link_lengths, min_sin_elbow=guard)
 
 
 def _force_sigma(
