@@ -31,7 +31,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -199,10 +199,17 @@ def estimation_signal(
 
 
 def _signal(
-    model: Model, log: Log, *, window: float, modulation: NDArray[np.float64] | None = None
+    model: Model,
+    log: Log,
+    *,
+    window: float,
+    modulation: NDArray[np.float64] | None = None,
+    rates: Sequence[Any] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """:func:`estimation_signal` plus the motor acceleration [rad/s^2] (``modulation``: the
-    arm's inertia modulation at ``log.q`` when the caller has it already)."""
+    arm's inertia modulation at ``log.q`` when the caller has it already; ``rates``: per
+    joint, the motor angle's velocity and acceleration when already differentiated, e.g.
+    identification's :class:`torquemap.filters.Derivatives`)."""
     robot = model.robot
     n = log.t.size
     nj = len(robot.joints)
@@ -221,7 +228,7 @@ def _signal(
     for k, joint in enumerate(robot.joints):
         theta = joint.gear_ratio * log.q[:, k]
         try:
-            d = differentiate_rates(log.t, theta, window=window)
+            d = differentiate_rates(log.t, theta, window=window) if rates is None else rates[k]
         except InputError as exc:
             raise InputError(exc.message, path=log.path) from None
         jm = model.joints[joint.name]
