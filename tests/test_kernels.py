@@ -8,7 +8,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 from scipy import signal
 
 from torquemap import _kernels as K
-from torquemap.filters import _savgol_lags, differentiate_rates, lowpass
+from torquemap.filters import _savgol_lags, differentiate, differentiate_rates, lowpass
 from torquemap.kinematics import force_and_sigma, force_map
 from torquemap.model import PdtvLine, pdtv_torque
 
@@ -35,7 +35,7 @@ def test_lowpass_takes_scipy_for_higher_orders() -> None:
 
 
 @pytest.mark.parametrize("length", [5, 11, 101])
-def test_savgol_rates_match_scipy(length: int) -> None:
+def test_savgol_fit_matches_scipy(length: int) -> None:
     # scipy designs the weights by least squares (a pseudo-inverse of the Vandermonde matrix,
     # condition ~ half^4 = 6e6 at 101 taps): its second-derivative weights carry ~1e-10 of
     # relative error, and sum to zero only to that (a constant leaks through). Compared after
@@ -46,20 +46,25 @@ def test_savgol_rates_match_scipy(length: int) -> None:
     t = np.arange(4000) * h
     x = 3.0 * np.sin(2.0 * t) + np.cumsum(rng.standard_normal(t.size)) * 1e-4
     r = differentiate_rates(t, x, window=(length - 1) * h)
+    d = differentiate(t, x, window=(length - 1) * h)
+    np.testing.assert_array_equal(d.velocity, r.velocity)  # with or without the position
+    ref = signal.savgol_filter(x, length, 2, mode="interp")
+    # the smoothing weights' design error in scipy: ~1e-13 at 101 taps (exactness: next test)
+    np.testing.assert_allclose(d.position, ref, rtol=0, atol=1e-12 * np.ptp(x))
     for deriv, got in ((1, r.velocity), (2, r.acceleration)):
         ref = signal.savgol_filter(x - x[0], length, 2, deriv=deriv, delta=h, mode="interp")
         np.testing.assert_allclose(got, ref, rtol=0, atol=2e-9 * np.ptp(ref))
 
 
-def test_savgol_rates_exact_against_long_double() -> None:
+def test_savgol_fit_exact_against_long_double() -> None:
     # the closed-form weights applied in extended precision to an angle far from zero: the
     # kernel's sums of local differences lose nothing to the angle's size (1e-14 relative)
     rng = np.random.default_rng(7)
     h, half = 5e-4, 50
     x = 4000.0 + np.cumsum(rng.uniform(0.0, 0.01, 3000))
-    odd, even = _savgol_lags(2 * half + 1, h)
-    v, a = np.empty(x.size), np.empty(x.size)
-    K.savgol_rates(x, odd, even, v, a)
+    smooth, odd, even = _savgol_lags(2 * half + 1, h)
+    p, v, a = np.empty(x.size), np.empty(x.size), np.empty(x.size)
+    K.savgol_fit(x, smooth, odd, even, p, v, a, True)
     k = np.arange(-half, half + 1).astype(np.longdouble)
     s2, s4, n = np.sum(k**2), np.sum(k**4), np.longdouble(2 * half + 1)
     e1 = k / (np.longdouble(h) * s2)
@@ -70,6 +75,11 @@ def test_savgol_rates_exact_against_long_double() -> None:
     ra = np.array(
         [np.sum(e2 * (xl[i - half : i + half + 1] - xl[i])) for i in idx], dtype=np.float64
     )
+    e0 = (3 * (3 * half**2 + 3 * half - 1) - 15 * k**2) / (
+        np.longdouble((2 * half - 1) * (2 * half + 1) * (2 * half + 3))
+    )
+    rp = np.array([np.sum(e0 * xl[i - half : i + half + 1]) for i in idx], dtype=np.float64)
+    np.testing.assert_allclose(p[idx], rp, rtol=1e-15)
     np.testing.assert_allclose(v[idx], rv, rtol=0, atol=1e-14 * np.abs(rv).max())
     np.testing.assert_allclose(a[idx], ra, rtol=0, atol=1e-12 * np.abs(ra).max())
 

@@ -132,38 +132,46 @@ def _filtfilt_four(
 
 
 @jit
-def savgol_rates(
+def savgol_fit(
     y: NDArray[np.float64],
+    smooth: NDArray[np.float64],
     odd: NDArray[np.float64],
     even: NDArray[np.float64],
+    position: NDArray[np.float64],
     velocity: NDArray[np.float64],
     acceleration: NDArray[np.float64],
+    with_position: bool,
 ) -> None:
-    """The centred Savitzky-Golay velocity and acceleration of ``y`` (n,), in place.
+    """The centred Savitzky-Golay fit of ``y`` (n,): position (if ``with_position``), velocity
+    and acceleration, in place.
 
-    ``odd[k]`` and ``even[k]`` (k = 0..half) are the velocity's antisymmetric and the
-    acceleration's symmetric correlation weights at lag ``k``: for ``half <= i < n - half``,
+    ``smooth[k]``, ``odd[k]`` and ``even[k]`` (k = 0..half) are the position's symmetric, the
+    velocity's antisymmetric and the acceleration's symmetric correlation weights at lag ``k``.
+    For ``half <= i < n - half`` and ``d[k] = (y[i + k] - y[i]) + (y[i - k] - y[i])``:
+    ``position[i] = y[i] + sum_k smooth[k] d[k]`` (the weights sum to one),
     ``velocity[i] = sum_k odd[k] (y[i + k] - y[i - k])`` and ``acceleration[i] = sum_k
-    even[k] ((y[i + k] - y[i]) + (y[i - k] - y[i]))`` (the weights sum to zero: the centre's
-    own weight is implied). Both in one pass over a stretch of outputs at a time, four lags
-    at a time outside (so the compiler vectorises across samples); the sums are of local
-    differences,
-    exact to the rounding of the signal's change over the window, not of its value.
+    even[k] d[k]`` (they sum to zero: the centre's own weight is implied). All in one pass
+    over a stretch of outputs at a time, four lags at a time outside (so the compiler
+    vectorises across samples); the sums are of local differences, exact to the rounding of
+    the signal's change over the window, not of its value.
     """
     n = y.size
     half = odd.size - 1
+    acc_p = np.empty(TILE)
     acc_v = np.empty(TILE)
     acc_a = np.empty(TILE)
     for start in range(half, n - half, TILE):
         m = min(TILE, n - half - start)
         centre = y[start : start + m]
         for j in range(m):
+            acc_p[j] = 0.0
             acc_v[j] = 0.0
             acc_a[j] = 0.0
         k = 1
         while k + 3 <= half:  # four lags per pass over the stretch: fewer loads and stores
             c1, c2, c3, c4 = odd[k], odd[k + 1], odd[k + 2], odd[k + 3]
             e1, e2, e3, e4 = even[k], even[k + 1], even[k + 2], even[k + 3]
+            s1, s2, s3, s4 = smooth[k], smooth[k + 1], smooth[k + 2], smooth[k + 3]
             a1 = y[start + k : start + k + m]
             a2 = y[start + k + 1 : start + k + 1 + m]
             a3 = y[start + k + 2 : start + k + 2 + m]
@@ -174,28 +182,38 @@ def savgol_rates(
             b4 = y[start - k - 3 : start - k - 3 + m]
             for j in range(m):
                 c = centre[j]
+                d1 = (a1[j] - c) + (b1[j] - c)
+                d2 = (a2[j] - c) + (b2[j] - c)
+                d3 = (a3[j] - c) + (b3[j] - c)
+                d4 = (a4[j] - c) + (b4[j] - c)
                 acc_v[j] += (c1 * (a1[j] - b1[j]) + c2 * (a2[j] - b2[j])) + (
                     c3 * (a3[j] - b3[j]) + c4 * (a4[j] - b4[j])
                 )
-                acc_a[j] += (
-                    e1 * ((a1[j] - c) + (b1[j] - c)) + e2 * ((a2[j] - c) + (b2[j] - c))
-                ) + (e3 * ((a3[j] - c) + (b3[j] - c)) + e4 * ((a4[j] - c) + (b4[j] - c)))
+                acc_a[j] += (e1 * d1 + e2 * d2) + (e3 * d3 + e4 * d4)
+                if with_position:
+                    acc_p[j] += (s1 * d1 + s2 * d2) + (s3 * d3 + s4 * d4)
             k += 4
         while k <= half:
             ck = odd[k]
             ek = even[k]
+            sk = smooth[k]
             ahead = y[start + k : start + k + m]
             behind = y[start - k : start - k + m]
             for j in range(m):
                 p = ahead[j]
                 q = behind[j]
                 c = centre[j]
+                d = (p - c) + (q - c)
                 acc_v[j] += ck * (p - q)
-                acc_a[j] += ek * ((p - c) + (q - c))
+                acc_a[j] += ek * d
+                if with_position:
+                    acc_p[j] += sk * d
             k += 1
         for j in range(m):
             velocity[start + j] = acc_v[j]
             acceleration[start + j] = acc_a[j]
+            if with_position:
+                position[start + j] = centre[j] + acc_p[j]
 
 
 @jit

@@ -182,7 +182,7 @@ def _differentiate_uniform(x: NDArray[np.float64], h: float, length: int) -> Der
     scipy's ``mode="interp"``), computed by convolution instead of per-sample normal equations
     (:func:`_savgol_uniform`).
     """
-    position, velocity, acceleration = _savgol_uniform(x, h, length, (0, 1, 2))
+    position, velocity, acceleration = _savgol_columns(x, h, length, with_position=True)
     return Derivatives(position=position, velocity=velocity, acceleration=acceleration)
 
 
@@ -249,53 +249,73 @@ def differentiate_rates(t: ArrayLike, x: ArrayLike, *, window: float) -> Rates:
 
 
 def _rates_uniform(x: NDArray[np.float64], h: float, length: int) -> Rates:
-    """Savitzky-Golay velocity and acceleration of ``length`` samples (``mode="interp"``).
+    """Savitzky-Golay velocity and acceleration of ``length`` samples (``mode="interp"``)."""
+    _, velocity, acceleration = _savgol_columns(x, h, length, with_position=False)
+    return Rates(velocity=velocity, acceleration=acceleration)
 
-    The centred windows by the compiled kernel (:func:`torquemap._kernels.savgol_rates`: both
-    derivatives in one pass, from the differences and sums of samples ``k`` either side); the
-    first and last windows as :func:`_savgol_uniform` does them.
+
+def _savgol_columns(
+    x: NDArray[np.float64], h: float, length: int, *, with_position: bool
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Savitzky-Golay position (else an empty array), velocity and acceleration of each column.
+
+    The centred windows by the compiled kernel (:func:`torquemap._kernels.savgol_fit`: every
+    output in one pass, from the local differences of samples ``k`` either side, closed-form
+    weights :func:`_savgol_lags`); the first and last windows as :func:`_savgol_uniform` does
+    them (scipy's ``mode="interp"``).
     """
-    from torquemap._kernels import savgol_rates
+    from torquemap._kernels import savgol_fit
 
     half = length // 2
-    odd, even = _savgol_lags(length, h)
-    v_head, v_tail = _savgol_kernels(length, 1, h)[1:]
-    a_head, a_tail = _savgol_kernels(length, 2, h)[1:]
+    smooth, odd, even = _savgol_lags(length, h)
+    heads = [_savgol_kernels(length, d, h)[1:] for d in (0, 1, 2)]
     columns = x[:, None] if x.ndim == 1 else x
-    velocity, acceleration = [], []
+    outputs: list[list[NDArray[np.float64]]] = [[], [], []]
     for k in range(columns.shape[1]):
         y = np.ascontiguousarray(columns[:, k], dtype=np.float64)
+        pk = np.empty(y.size if with_position else 0)
         vk, ak = np.empty(y.size), np.empty(y.size)
-        savgol_rates(y, odd, even, vk, ak)
+        savgol_fit(y, smooth, odd, even, pk, vk, ak, with_position)
         head, tail = y[:length] - y[0], y[-length:] - y[0]
-        vk[:half], vk[-half:] = v_head @ head, v_tail @ tail
-        ak[:half], ak[-half:] = a_head @ head, a_tail @ tail
-        velocity.append(vk)
-        acceleration.append(ak)
+        for d, out in enumerate((pk, vk, ak)):
+            if d == 0 and not with_position:
+                continue
+            out[:half] = heads[d][0] @ head + (y[0] if d == 0 else 0.0)
+            out[-half:] = heads[d][1] @ tail + (y[0] if d == 0 else 0.0)
+            outputs[d].append(out)
     if x.ndim == 1:
-        return Rates(velocity=velocity[0], acceleration=acceleration[0])
-    return Rates(velocity=np.stack(velocity, axis=1), acceleration=np.stack(acceleration, axis=1))
+        empty = np.empty(0)
+        return (outputs[0][0] if with_position else empty), outputs[1][0], outputs[2][0]
+    stacked = [np.stack(o, axis=1) if o else np.empty((0, x.shape[1])) for o in outputs]
+    return stacked[0], stacked[1], stacked[2]
 
 
 @functools.lru_cache(maxsize=64)
-def _savgol_lags(length: int, h: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The velocity's and acceleration's Savitzky-Golay correlation weights by lag ``k =
-    0..M`` (``length = 2 M + 1``), in closed form.
+def _savgol_lags(
+    length: int, h: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The position's, velocity's and acceleration's Savitzky-Golay correlation weights by lag
+    ``k = 0..M`` (``length = 2 M + 1``), in closed form.
 
-    For a quadratic fit the velocity is the linear fit's slope, ``k / (h S2)``, and the
-    acceleration ``2 (k^2 - S2 / N) / (h^2 (S4 - S2^2 / N))`` with ``N = 2 M + 1``,
-    ``S2 = sum k^2`` and ``S4 = sum k^4`` over ``-M..M`` (integers, exact): exactly
-    antisymmetric and symmetric, the acceleration's of zero sum (scipy's least-squares design
-    is so to rounding only, which lets a constant through at 1e-13 of its size).
+    A quadratic fit's value is ``(3 (3 M^2 + 3 M - 1) - 15 k^2) / ((2 M - 1) (2 M + 1)
+    (2 M + 3))``, its velocity the linear fit's slope ``k / (h S2)``, and its acceleration
+    ``2 (k^2 - S2 / N) / (h^2 (S4 - S2^2 / N))`` with ``N = 2 M + 1``, ``S2 = sum k^2`` and
+    ``S4 = sum k^4`` over ``-M..M`` (integers, exact): exactly symmetric and antisymmetric
+    (scipy's least-squares design is so to rounding only, which lets a constant through the
+    acceleration at 1e-13 of its size).
     """
     half = length // 2
     k = np.arange(half + 1, dtype=np.float64)
     lags = np.arange(-half, half + 1, dtype=np.float64)
     s2, s4 = float(np.sum(lags**2)), float(np.sum(lags**4))
     n = float(length)
+    m = float(half)
+    smooth = (3.0 * (3.0 * m * m + 3.0 * m - 1.0) - 15.0 * k**2) / (
+        (2.0 * m - 1.0) * (2.0 * m + 1.0) * (2.0 * m + 3.0)
+    )
     odd = k / (h * s2)
     even = 2.0 * (k**2 - s2 / n) / (h * h * (s4 - s2 * s2 / n))
-    return odd, even
+    return smooth, odd, even
 
 
 def _savgol_uniform(
