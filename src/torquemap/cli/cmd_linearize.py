@@ -204,6 +204,10 @@ def _build(args: argparse.Namespace) -> int:
     )
     if tables.denoise_rank:
         print(f"rows denoised: low-rank fit of the collection's blocks, rank {tables.denoise_rank}")
+    if tables.surface:
+        print(
+            "between measured positions: the structured torque surface (the ramp hands over there)"
+        )
     print("wrote " + ", ".join(written))
     return 0
 

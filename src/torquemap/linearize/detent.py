@@ -95,7 +95,7 @@ def _equations(
     return rows, offsets
 
 
-def _press(
+def loo_press(
     design: NDArray[np.float64], target: NDArray[np.float64]
 ) -> tuple[float, NDArray[np.float64]]:
     """Leave-one-out prediction error of a least-squares fit, and its coefficients."""
@@ -177,7 +177,7 @@ def fit_detent(
             r = target - d @ sol
             trials.append((float(r @ r), h))
         _, h = min(trials)
-        press, sol = _press(design([*kept, h]), target)
+        press, sol = loo_press(design([*kept, h]), target)
         if not press < best_press:
             break
         best_press, coef = press, sol

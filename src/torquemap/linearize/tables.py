@@ -46,6 +46,7 @@ from torquemap.linearize.detent import detent_correction, fit_detent
 from torquemap.linearize.handover import check_handover, fill_handover
 from torquemap.linearize.motor import MotorSpec
 from torquemap.linearize.onset import extend_below, fit_onset
+from torquemap.linearize.surface import fit_surface, surface_prediction
 
 CommandScaling = Literal["linear", "log"]
 Method = Literal["interp", "paper"]
@@ -131,6 +132,9 @@ class TableSet:
     detent_harmonics
         Periods per cycle of the torque at rest taken between measured positions
         (:mod:`torquemap.linearize.detent`; empty: interpolated).
+    surface
+        Whether the forward model between measured positions came from the structured
+        surface (:mod:`torquemap.linearize.surface`).
     """
 
     phases: NDArray[np.int64]
@@ -155,6 +159,7 @@ class TableSet:
     denoise_rank: int = 0
     handover_cells: int = 0
     detent_harmonics: tuple[int, ...] = ()
+    surface: bool = False
 
     @property
     def command_max(self) -> int:
@@ -701,6 +706,104 @@ def _row_noise(pw: NDArray[np.float64], tau: NDArray[np.float64]) -> float:
     return float(1.4826 * np.median(np.abs(zero - np.median(zero))))
 
 
+def _surface_forward(
+    spec: MotorSpec,
+    pos: NDArray[np.int64],
+    pw: NDArray[np.float64],
+    tau: NDArray[np.float64],
+    levels: NDArray[np.float64],
+    onset_law: tuple[float, float],
+    readable: float,
+) -> NDArray[np.float64]:
+    """Sensed torque on every base pulse width from the structured surface
+    (:mod:`torquemap.linearize.surface`) plus what it misses at the measured cells,
+    interpolated between them; shape (P, A + 1)."""
+    n = spec.positions_per_cycle
+    col = np.searchsorted(levels, pw)
+    mean, count = _cells(pos, col.astype(np.int64), tau, (n, levels.size))
+    for p in np.flatnonzero(count.sum(axis=1)):
+        have = count[p] > 0
+        mean[p, have] = isotonic_regression(mean[p, have], weights=count[p, have]).x
+    ramp = np.asarray(spec.ramp, dtype=np.float64)
+    fit = fit_surface(
+        mean,
+        levels,
+        ramp,
+        actuation_max=spec.actuation_max,
+        readable=readable,
+        dead_zone=onset_law[0],
+        exponent=onset_law[1],
+    )
+    pred = surface_prediction(fit, ramp, levels)
+    y_adj = mean - fit.offset[:, None]
+    res = np.where((pred <= 0) & (y_adj <= 0), 0.0, y_adj - pred)
+    res = np.where(np.isfinite(mean), res, np.nan)
+    res = fill_voids(res, levels=levels)
+    u = np.arange(spec.actuation_max + 1, dtype=np.float64)
+    res_fine = np.stack([np.interp(u, levels, np.nan_to_num(r)) for r in res])
+    out = np.maximum(surface_prediction(fit, ramp, u) + res_fine, 0.0)
+    out = np.maximum.accumulate(out, axis=1)
+    return out
+
+
+#: The structured surface replaces the interpolation between measured curves where a phase's
+#: share changes by more than this between consecutive measured positions (the ramp is
+#: sampled fewer than 14 times): chosen on the family's seeds 0 to 19 (docs/linearize.md).
+SURFACE_SHARE_STEP = 1.0 / 14.0
+
+
+def ramp_share_step(ramp: NDArray[np.float64], anchors: NDArray[np.int64]) -> float:
+    """Largest change of any phase's share across a gap between measured positions.
+
+    Only gaps with unmeasured positions count (a collection with the ramp's transitions
+    measures every position where the ramp changes: nothing is bridged there).
+
+    Parameters
+    ----------
+    ramp
+        The ramping function, shape (P, m).
+    anchors
+        The measured positions, ascending, shape (k,).
+
+    Returns
+    -------
+    float
+        ``max |ramp[a_{i+1}] - ramp[a_i]|`` over consecutive anchors (cyclic) more than one
+        position apart, and over phases; 0 when no gap is bridged.
+
+    Examples
+    --------
+    >>> from torquemap.linearize.motor import ramp_function
+    >>> r = ramp_function("narrow", phases=3, positions_per_cycle=24)
+    >>> ramp_share_step(r, np.arange(0, 24, 4))
+    0.5
+    >>> ramp_share_step(r, np.arange(24))
+    0.0
+    """
+    n = ramp.shape[0]
+    if anchors.size < 2:
+        return 0.0
+    nxt = np.roll(anchors, -1)
+    bridged = (nxt - anchors) % n > 1
+    if not bridged.any():
+        return 0.0
+    return float(np.max(np.abs(ramp[nxt[bridged]] - ramp[anchors[bridged]])))
+
+
+def _snap(
+    fine: NDArray[np.float64], base: NDArray[np.float64], target: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """The integer pulse width, of the two around ``base``, whose torque is nearer the target."""
+    top = fine.shape[1] - 1
+    lo = np.clip(np.floor(base), 0, top).astype(np.int64)
+    hi = np.minimum(lo + 1, top)
+    t_lo = np.take_along_axis(fine, lo, axis=1)
+    t_hi = np.take_along_axis(fine, hi, axis=1)
+    e_lo = np.abs(np.where(np.isnan(t_lo), np.inf, t_lo - target[None, :]))
+    e_hi = np.abs(np.where(np.isnan(t_hi), np.inf, t_hi - target[None, :]))
+    return np.where(e_hi < e_lo, hi, lo).astype(np.float64)
+
+
 def _invert(
     forward: NDArray[np.float64], levels: NDArray[np.float64], target: NDArray[np.float64]
 ) -> NDArray[np.float64]:
@@ -766,6 +869,7 @@ def build_tables(
     onset: bool = True,
     handover: bool = True,
     detent: bool = True,
+    surface: bool = True,
     path: str | os.PathLike[str] | None = None,
 ) -> TableSet:
     """Build the per-phase torque-linearisation tables from characterisation data (paper §4.3).
@@ -900,6 +1004,7 @@ def build_tables(
         "scaling": command_scaling,
         "log_curvature": log_curvature,
     }
+    surface_used = False
     if method == "interp":
         target = torque_from_command(np.arange(cmax + 1), **law)  # type: ignore[arg-type]
         if onset:
@@ -923,6 +1028,17 @@ def build_tables(
                 actuation_max=spec.actuation_max,
             )
             base = _invert(fine, np.arange(spec.actuation_max + 1, dtype=np.float64), target)
+            onset_law = (fit.dead_zone, fit.exponent)
+            anchors = np.unique(pos[pw == 0])
+            if surface and ramp_share_step(ramp, anchors) > SURFACE_SHARE_STEP:
+                fine = np.where(
+                    np.isnan(fine),
+                    np.nan,
+                    _surface_forward(spec, pos, pw, tau, levels, onset_law, readable),
+                )
+                base = _invert(fine, np.arange(spec.actuation_max + 1, dtype=np.float64), target)
+                base = _snap(fine, base, target) if actuation_bits is None else base
+                surface_used = True
         else:
             base = _invert(forward, levels, target)
     else:
@@ -974,6 +1090,7 @@ def build_tables(
         denoise_rank=rank,
         handover_cells=handover_cells,
         detent_harmonics=harmonics,
+        surface=surface_used,
     )
 
 

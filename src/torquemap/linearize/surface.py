@@ -1,0 +1,300 @@
+"""A structured model of the whole torque surface, fitted to every reading at once.
+
+What the rig senses at table position ``p`` with base pulse width ``u`` is modelled as
+
+``sensed(p, u) = max(o(p) + sum_k S_k(p) phi(a_k), 0) + b(p)``,  ``a_k = rint(r_k(p) u)``,
+
+* ``phi`` the torque's rise with a phase's actuation (amplifier dead zone and curve, torque ~
+  current squared or ~ current, saturation): one curve shared by every phase and position,
+  ``phi(0) = 0``, ``phi(A) = 1``, non-decreasing, on knots every two pulse-width units with a
+  penalty on its curvature; below the actuations that read torque it follows the onset law
+  ``alpha max(a - d, 0)^n`` of :mod:`torquemap.linearize.onset` (the readings there are
+  zero, and a free ``phi`` would trade with ``o``);
+* ``S_k(p)`` phase ``k``'s torque at full actuation: smooth over the cycle (a penalty on its
+  second difference), so that between measured positions, and where a phase's ramp switches
+  on or off between them, it follows the neighbouring positions;
+* ``o(p)`` the torque at rest less the friction: free at every measured position; between the
+  measured positions a Fourier series of one or more harmonics (kept while their
+  leave-one-out error falls: cogging repeats many times per cycle) plus the linear
+  interpolation of what it misses;
+* ``b(p)`` the error of the bias subtracted from the position's block, read where the model is
+  below zero (the sensor's zero), weighed against the bias measurement;
+* ``r_k(p)`` the ramp (known), and ``max(., 0)`` the sensor's zero below the friction.
+
+It is fitted by alternating least squares (``S`` and ``o`` given ``phi``, then ``phi`` given
+them by non-negative least squares, then ``b``) until the residual sum of squares changes by
+less than a thousandth (at most 40 rounds). What the model misses at the measured cells
+(the phases' mutual saturation, the residual shape) is added back by the table builder,
+interpolated between the measured cells, so the surface passes through the data where it was
+measured and takes its shape between from the physics.
+
+This module never imports the simulator.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+from scipy.optimize import nnls
+from scipy.sparse.linalg import spsolve
+
+from torquemap.linearize.detent import loo_press
+
+#: Most alternating least-squares rounds.
+ROUNDS = 40
+#: The rounds stop when the residual sum of squares changes by less than this fraction.
+TOLERANCE = 1e-3
+#: Pulse-width units between the knots of ``phi``.
+PHI_KNOT_STEP = 2
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class SurfaceFit:
+    """The structured surface.
+
+    Attributes
+    ----------
+    phi
+        ``phi`` at every actuation ``0 .. A``, shape (A + 1,).
+    gain
+        ``S_k(p)`` [N m], shape (P, m).
+    rest
+        ``o(p)`` [N m], shape (P,).
+    rms
+        Root-mean-square residual of the fitted cells [N m].
+    offset
+        The sensor's offset left in each position's readings (the bias error of its block)
+        [N m], shape (P,): read where the model is below zero.
+    """
+
+    phi: NDArray[np.float64]
+    gain: NDArray[np.float64]
+    rest: NDArray[np.float64]
+    rms: float
+    offset: NDArray[np.float64]
+
+
+def _second_difference(n: int) -> sp.csr_matrix:
+    i = np.arange(n)
+    rows = np.concatenate([i, i, i])
+    cols = np.concatenate([(i - 1) % n, i, (i + 1) % n])
+    vals = np.concatenate([np.ones(n), -2 * np.ones(n), np.ones(n)])
+    return sp.csr_matrix((vals, (rows, cols)), shape=(n, n))
+
+
+def _interpolate_rest(
+    rest: NDArray[np.float64], anchors: NDArray[np.int64], n: int
+) -> NDArray[np.float64]:
+    """``o`` between the anchors: harmonics kept while their leave-one-out error falls (one
+    fundamental and its multiples first, as cogging repeats), the rest linear."""
+    x = anchors.astype(np.float64)
+    y = rest[anchors]
+    top = (anchors.size - 1) // 2
+    kept: list[int] = []
+    best, coef = loo_press(np.ones((x.size, 1)), y)
+    while 2 * len(kept) + 3 < anchors.size:
+        trials = []
+        for h in range(1, top + 1):
+            if h in kept:
+                continue
+            d = _fourier_set(x, [*kept, h], n)
+            sol, *_ = np.linalg.lstsq(d, y, rcond=None)
+            rr = y - d @ sol
+            trials.append((float(rr @ rr), h))
+        if not trials:
+            break
+        _, h = min(trials)
+        press, sol = loo_press(_fourier_set(x, [*kept, h], n), y)
+        if not press < best:
+            break
+        best, coef = press, sol
+        kept.append(h)
+    allp = np.arange(n, dtype=np.float64)
+    smooth = _fourier_set(allp, kept, n) @ coef
+    resid = y - _fourier_set(x, kept, n) @ coef
+    ext = np.concatenate([anchors - n, anchors, anchors + n])
+    out = smooth + np.interp(allp, ext, np.tile(resid, 3))
+    out[anchors] = y
+    return out
+
+
+def _fourier_set(p: NDArray[np.float64], harmonics: list[int], n: int) -> NDArray[np.float64]:
+    x = 2.0 * np.pi * p[:, None] / n
+    h = np.asarray(harmonics, dtype=np.float64)[None, :]
+    return np.concatenate([np.ones((p.size, 1)), np.cos(x * h), np.sin(x * h)], axis=1)
+
+
+def _lift(kx: NDArray[np.float64], d: float, n: float, join: float) -> NDArray[np.float64]:
+    """Knot values from non-negative parameters: ``alpha`` times the onset law up to the
+    join, then ``alpha`` plus the running sum of non-negative steps."""
+    low = kx <= join
+    out = np.zeros((kx.size, 1 + int((~low).sum())))
+    out[:, 0] = np.where(low, (np.maximum(kx - d, 0.0) / max(join - d, 1e-9)) ** n, 1.0)
+    free = np.flatnonzero(~low)
+    for i, j in enumerate(free):
+        out[j:, 1 + i] = 1.0
+    return out
+
+
+def _hat(
+    a: NDArray[np.float64], step: int, knots: int
+) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """Left knot index and weight of the right knot for piecewise-linear interpolation."""
+    x = np.clip(a / step, 0, knots - 1 - 1e-9)
+    j = np.floor(x).astype(np.int64)
+    return j, x - j
+
+
+def fit_surface(
+    grid: NDArray[np.float64],
+    levels: NDArray[np.float64],
+    ramp: NDArray[np.float64],
+    *,
+    actuation_max: int,
+    readable: float,
+    dead_zone: float,
+    exponent: float,
+    bias_weight: float = 10.0,
+    smoothness: float = 1.0,
+    anchors: NDArray[np.int64] | None = None,
+) -> SurfaceFit:
+    """Fit the structured surface to the measured cells of a (position, level) grid.
+
+    Parameters
+    ----------
+    grid
+        Sensed torque [N m], shape (P, J); NaN where not measured.
+    levels
+        Base pulse width of each column, shape (J,).
+    ramp
+        The ramping function, shape (P, m).
+    actuation_max
+        Full-scale pulse width ``A``.
+    readable
+        Smallest torque the rig reads reliably [N m].
+    dead_zone, exponent
+        The onset law ``max(a - d, 0)^n`` (:mod:`torquemap.linearize.onset`) that ``phi``
+        follows below the actuations that read torque.
+    bias_weight
+        Weight, in readings, of each block's bias measurement against the readings that
+        measure its error (where the model is below zero).
+    smoothness
+        Weight of the second-difference penalties, relative to one cell.
+    anchors
+        The measured positions (default: those with a reading at the first level).
+
+    Returns
+    -------
+    SurfaceFit
+        The fitted ``phi``, ``S`` and ``o``.
+    """
+    n, m = ramp.shape
+    cp, cj = np.nonzero(np.isfinite(grid))
+    y = grid[cp, cj]
+    u = levels[cj]
+    r = ramp[cp]
+    a = np.rint(r * u[:, None])  # (cells, m)
+    top = float(actuation_max)
+    knots = int(np.ceil(top / PHI_KNOT_STEP)) + 1
+    kx = np.minimum(np.arange(knots) * PHI_KNOT_STEP, top)
+    # start from the onset law over the whole range
+    phi_k = (np.maximum(kx - dead_zone, 0.0) / max(top - dead_zone, 1.0)) ** exponent
+    targets = np.unique(cp)
+    anchors = np.flatnonzero(np.isfinite(grid[:, 0])) if anchors is None else anchors
+    indicator = sp.csr_matrix((np.ones(cp.size), (np.arange(cp.size), cp)), shape=(cp.size, n))
+    nf = n
+    d2 = _second_difference(n)
+    # the penalty in units of the data: a cell weighs 1, S_k's curvature weighs smoothness
+    scale = float(np.median(np.bincount(cp)[targets]))
+    pen_s = sp.kron(d2, sp.identity(m), format="csr") * np.sqrt(smoothness * scale)
+    jj, ww = _hat(a, PHI_KNOT_STEP, knots)
+
+    def phi_at(values: NDArray[np.float64]) -> NDArray[np.float64]:
+        return values[jj] * (1 - ww) + values[np.minimum(jj + 1, knots - 1)] * ww
+
+    gain = np.zeros((n, m))
+    rest = np.zeros(n)
+    coef_o = np.zeros(nf)
+    pred = np.zeros_like(y)
+    offset = np.zeros(n)
+    last = np.inf
+    for _ in range(ROUNDS):
+        y_adj = y - offset[cp]
+        use = (y_adj > 0.0) | (pred > 0)
+        target = y_adj
+        f = phi_at(phi_k)  # (cells, m)
+        # S and o given phi: columns p * m + k, then o at every position
+        idx = np.flatnonzero(use)
+        rows = np.repeat(np.arange(idx.size), m)
+        cols = (cp[idx, None] * m + np.arange(m)[None, :]).ravel()
+        vals = f[idx].ravel()
+        design_s = sp.csr_matrix((vals, (rows, cols)), shape=(idx.size, n * m))
+        design = sp.hstack([design_s, indicator[idx]], format="csr")
+        pen = sp.hstack([pen_s, sp.csr_matrix((n * m, nf))], format="csr")
+        ridge = sp.hstack(
+            [sp.csr_matrix((nf, n * m)), sp.identity(nf, format="csr") * 1e-6], format="csr"
+        )
+        full = sp.vstack([design, pen, ridge], format="csc")
+        rhs = np.concatenate([target[idx], np.zeros(n * m + nf)])
+        lhs = (full.T @ full).tocsc()
+        lhs = lhs + sp.identity(lhs.shape[0], format="csc") * 1e-9
+        sol = spsolve(lhs, full.T @ rhs)
+        gain = sol[: n * m].reshape(n, m)
+        coef_o = sol[n * m :]
+        o_cells = indicator @ coef_o
+        # phi given S and o: each cell touches two knots per active phase
+        g = gain[cp]  # (cells, m)
+        dphi = np.zeros((idx.size, knots))
+        for k in range(m):
+            np.add.at(dphi, (np.arange(idx.size), jj[idx, k]), g[idx, k] * (1 - ww[idx, k]))
+            np.add.at(
+                dphi,
+                (np.arange(idx.size), np.minimum(jj[idx, k] + 1, knots - 1)),
+                g[idx, k] * ww[idx, k],
+            )
+        # phi below the join follows the onset law alpha max(a - d, 0)^n (the readings there
+        # are censored, and would trade with o); above it rises freely but never falls:
+        # phi = lift @ theta with theta >= 0 (non-negative least squares)
+        contribution = target[idx] - o_cells[idx]
+        held = contribution > readable
+        lowest = float(np.percentile(a[idx][held].max(axis=1), 2)) if held.any() else top / 2
+        lift = _lift(kx, dead_zone, exponent, max(dead_zone + 8.0, lowest))
+        dth = dphi @ lift
+        s2 = float(np.mean(g[idx] ** 2 * (a[idx] > 0))) * m  # phi's penalty in N m^2
+        d2p = (np.diff(np.eye(knots), 2, axis=0) @ lift) * np.sqrt(smoothness * scale * s2)
+        stacked = np.vstack([dth, d2p])
+        rhs_p = np.concatenate([target[idx] - o_cells[idx], np.zeros(d2p.shape[0])])
+        phi_k = lift @ nnls(stacked, rhs_p, maxiter=50 * stacked.shape[1])[0]
+        norm = phi_k[-1] if phi_k[-1] > 0 else 1.0
+        phi_k = phi_k / norm
+        pred = o_cells + np.sum(gain[cp] * norm * phi_at(phi_k), axis=1)
+        gain = gain * norm
+        # the offset outside the sensor's zero: the readings where the model is below zero
+        below = pred <= 0
+        weight = np.bincount(cp[below], minlength=n) + bias_weight
+        total = np.bincount(cp[below], weights=y[below], minlength=n)
+        offset = np.where(weight > 0, total / np.maximum(weight, 1e-300), 0.0)
+        fitted = pred[idx] - target[idx]
+        sse = float(fitted @ fitted)
+        if abs(last - sse) <= TOLERANCE * sse:
+            break
+        last = sse
+    rest = _interpolate_rest(coef_o, anchors, n)
+    res = np.maximum(pred, 0.0) - (y - offset[cp])
+    phi_all = np.interp(np.arange(actuation_max + 1, dtype=np.float64), kx, phi_k)
+    return SurfaceFit(
+        phi=phi_all, gain=gain, rest=rest, rms=float(np.sqrt(np.mean(res**2))), offset=offset
+    )
+
+
+def surface_prediction(
+    fit: SurfaceFit, ramp: NDArray[np.float64], u: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """The model's uncensored torque at base pulse widths ``u`` (shape (U,)), shape (P, U)."""
+    a = np.rint(ramp[:, None, :] * u[None, :, None]).astype(np.int64)
+    a = np.clip(a, 0, fit.phi.size - 1)
+    out: NDArray[np.float64] = fit.rest[:, None] + np.einsum("pum,pm->pu", fit.phi[a], fit.gain)
+    return out
