@@ -933,6 +933,8 @@ def identify_model(
                 f"without gaps longer than {2.5 * window:.3g} s",
                 path=log.path,
             )
+    # the pieces' motor-angle derivatives, once: the pass fit and the vertical-arm check
+    derivs = [_derivatives(piece, rb, window) for piece in pieces]
     base = _identify_passes(
         robot,
         pieces,
@@ -944,6 +946,7 @@ def identify_model(
         direction_significance=direction_significance,
         torque_lag=torque_lag,
         channel_delay=channel_delay,
+        derivatives=derivs,
     )
     quanta = {j.name: _motor_quantum(pieces, j.gear_ratio, k) for k, j in enumerate(rb.joints)}
     joint_notes = base.model.notes.get("joints", {})
@@ -976,7 +979,9 @@ def identify_model(
     from torquemap.vertical import checked_identification
 
     path = logs[0].path if len(logs) == 1 else None
-    return checked_identification(ident, pieces, window=window, vertical=vertical, path=path)
+    return checked_identification(
+        ident, pieces, window=window, vertical=vertical, path=path, derivatives=derivs
+    )
 
 
 def _identify_whole(
