@@ -75,8 +75,6 @@ RUN_WINDOWS = 4.0
 #: in units of the friction level: a Stribeck rise of half the level within a decade of
 #: speed below the slowest pass is about one sigma.
 FLAT_PRIOR = 0.25
-#: Rows accelerating less than this share of the 99th-percentile acceleration are steady.
-STEADY_SHARE = 0.1
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -435,11 +433,9 @@ def _prior(
     tau1 = np.where(below, FLAT_PRIOR, SLOPE_PRIOR) * lev
     if flat:
         tau1 = np.full(k - 1, 1e-3 * lev)
-    # below the observed speeds the curvature is free (so that the table levels off rather
-    # than carrying the slope of its lowest observed knots on)
-    tau2 = np.where(np.asarray(speeds[:-2]) < observed, SLOPE_PRIOR, CURVATURE_PRIOR) * lev
+    tau2 = CURVATURE_PRIOR * lev
     d1 = np.diff(np.eye(k), axis=0) / tau1[:, None]
-    d2 = np.diff(np.eye(k), n=2, axis=0) / tau2[:, None]
+    d2 = np.diff(np.eye(k), n=2, axis=0) / tau2
     block = d1.T @ d1 + d2.T @ d2
     out[:k, :k] = block
     out[k : 2 * k, k : 2 * k] = block
@@ -653,18 +649,6 @@ def fit_joint_whole(
         return out
 
     a = np.hstack((fixed, fric))
-    # accelerating rows (the ramps) are noisier than steady ones (an inertia or delay misfit,
-    # the velocity changing within the window): weighted by their own noise level, measured
-    # against a fit of the steady rows alone (a fit that included them would have bent to them
-    # wherever they alone hold the table: between the steady speeds)
-    acc = np.abs(rows.at(lambda p: p.acceleration))
-    steady = acc < STEADY_SHARE * float(np.percentile(acc, 99)) if acc.size else acc > 0
-    if (keep * steady).sum() > 10 and (keep * ~steady).sum() > 10:
-        base = _psolve(a, y0, keep * steady, embed(fixed.shape[1], (0.1 * level) ** 2))
-        quiet = robust_scale(base.residual[(keep > 0) & steady])
-        loud = robust_scale(base.residual[(keep > 0) & ~steady])
-        if quiet > 0 and loud > quiet:
-            keep = keep * np.where(steady, 1.0, (quiet / loud) ** 2)
     first = _psolve(a, y0, keep, embed(fixed.shape[1], (0.1 * level) ** 2))
     scale0 = robust_scale(first.residual[keep > 0])
     noise = scale0**2 * _inflation(first.residual * keep, rows.clusters)
