@@ -433,9 +433,11 @@ def _prior(
     tau1 = np.where(below, FLAT_PRIOR, SLOPE_PRIOR) * lev
     if flat:
         tau1 = np.full(k - 1, 1e-3 * lev)
-    tau2 = CURVATURE_PRIOR * lev
+    # below the observed speeds the curvature is free (so that the table levels off rather
+    # than carrying the slope of its lowest observed knots on)
+    tau2 = np.where(np.asarray(speeds[:-2]) < observed, SLOPE_PRIOR, CURVATURE_PRIOR) * lev
     d1 = np.diff(np.eye(k), axis=0) / tau1[:, None]
-    d2 = np.diff(np.eye(k), n=2, axis=0) / tau2
+    d2 = np.diff(np.eye(k), n=2, axis=0) / tau2[:, None]
     block = d1.T @ d1 + d2.T @ d2
     out[:k, :k] = block
     out[k : 2 * k, k : 2 * k] = block
