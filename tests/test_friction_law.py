@@ -12,6 +12,7 @@ from torquemap.errors import InputError
 from torquemap.friction_law import (
     FRICTION_LAWS,
     FrictionLaw,
+    SpeedTableFriction,
     StribeckFriction,
     friction_law_from_dict,
 )
@@ -101,3 +102,75 @@ def test_table_round_trip() -> None:
 def test_bad_tables(table: dict[str, object], message: str) -> None:
     with pytest.raises(InputError, match=message):
         friction_law_from_dict(table, where="[joints.a.friction]", path="m.toml")
+
+
+# -- the speed table (issue 12) ------------------------------------------------------------
+
+levels = st.lists(st.floats(0.0, 1.0), min_size=3, max_size=3)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    up=levels,
+    down=levels,
+    b=st.floats(0.0, 0.01),
+    bn=st.floats(0.0, 0.01),
+    w0=st.floats(1e-3, 1.0),
+)
+def test_speed_table_basis_reproduces_torque(
+    up: list[float], down: list[float], b: float, bn: float, w0: float
+) -> None:
+    law = SpeedTableFriction((0.1, 1.0, 10.0), tuple(up), tuple(down), b, bn, w0)
+    w = np.r_[np.linspace(-30.0, 30.0, 201), 1e-9, -1e-9]
+    # exact algebra: the two evaluations differ by rounding only
+    assert_allclose(law.basis(w) @ law.linear_parameters(), law.torque(w), atol=1e-12)
+    assert len(law.linear_parameter_names) == law.linear_parameters().size == 8
+    doubled = law.with_linear_parameters(2.0 * law.linear_parameters())
+    assert_allclose(doubled.torque(w), 2.0 * law.torque(w), atol=1e-12)
+    if up == down and b == bn:
+        assert_allclose(law.torque(-w), -law.torque(w), atol=1e-12)
+
+
+def test_speed_table_by_hand() -> None:
+    law = SpeedTableFriction((0.1, 10.0), (0.3, 0.1), (0.5, 0.2), 0.01, 0.02, 1e-3)
+    # halfway in log speed (1 rad/s) the level is halfway; beyond the knots it is constant,
+    # plus the viscous term; at rest the two branches share the transition
+    assert_allclose(law.torque([1.0, -1.0]), [0.2 + 0.01, -(0.35 + 0.02)], rtol=1e-12)
+    # at 0.01 rad/s the transition (width 1e-3) leaves (1 - tanh 10) / 2 = 2e-9 of the other branch
+    assert_allclose(law.torque([0.01, 100.0]), [0.3 + 1e-4, 0.1 + 1.0], rtol=1e-7)
+    assert_allclose(law.torque([0.0]), [0.5 * (0.3 - 0.5)], rtol=1e-12)
+    assert law.static_levels() == (0.3, 0.5)
+    up, down = law.levels(np.array([10.0]))
+    assert_allclose([up[0], down[0]], [0.2, 0.4])
+
+
+def test_speed_table_round_trip() -> None:
+    law = SpeedTableFriction((0.1, 1.0, 10.0), (0.3, 0.2, 0.25), (0.4, 0.3, 0.3), 1e-3, 2e-3, 0.02)
+    table = law.to_dict()
+    assert table["kind"] == "speed-table"
+    back = friction_law_from_dict(table)
+    assert isinstance(back, FrictionLaw)
+    w = np.linspace(-30, 30, 61)
+    assert_allclose(back.torque(w), law.torque(w), rtol=0, atol=0)
+
+
+@pytest.mark.parametrize(
+    ("table", "message"),
+    [
+        ({"speeds": [1.0, 2.0], "positive": [0.1, 0.1]}, "needs negative"),
+        ({"speeds": [1.0], "positive": [0.1], "negative": [0.1]}, "at least 2"),
+        ({"speeds": [2.0, 1.0], "positive": [0.1, 0.1], "negative": [0.1, 0.1]}, "increasing"),
+        ({"speeds": [1.0, 2.0], "positive": [0.1, "x"], "negative": [0.1, 0.1]}, "finite"),
+        (
+            {"speeds": [1.0, 2.0], "positive": [0.1, 0.1], "negative": [0.1, 0.1], "w": 1},
+            "unknown key 'w'",
+        ),
+        (
+            {"speeds": [1, 2], "positive": [1, 1], "negative": [1, 1], "zero_velocity": 0},
+            "zero_velocity must be > 0",
+        ),
+    ],
+)
+def test_speed_table_bad_tables(table: dict[str, object], message: str) -> None:
+    with pytest.raises(InputError, match=message):
+        friction_law_from_dict({"kind": "speed-table", **table}, path="m.toml")

@@ -31,7 +31,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -199,10 +199,17 @@ def estimation_signal(
 
 
 def _signal(
-    model: Model, log: Log, *, window: float, modulation: NDArray[np.float64] | None = None
+    model: Model,
+    log: Log,
+    *,
+    window: float,
+    modulation: NDArray[np.float64] | None = None,
+    rates: Sequence[Any] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """:func:`estimation_signal` plus the motor acceleration [rad/s^2] (``modulation``: the
-    arm's inertia modulation at ``log.q`` when the caller has it already)."""
+    arm's inertia modulation at ``log.q`` when the caller has it already; ``rates``: per
+    joint, the motor angle's velocity and acceleration when already differentiated, e.g.
+    identification's :class:`torquemap.filters.Derivatives`)."""
     robot = model.robot
     n = log.t.size
     nj = len(robot.joints)
@@ -221,7 +228,7 @@ def _signal(
     for k, joint in enumerate(robot.joints):
         theta = joint.gear_ratio * log.q[:, k]
         try:
-            d = differentiate_rates(log.t, theta, window=window)
+            d = differentiate_rates(log.t, theta, window=window) if rates is None else rates[k]
         except InputError as exc:
             raise InputError(exc.message, path=log.path) from None
         jm = model.joints[joint.name]
@@ -548,10 +555,12 @@ def estimate_forces(
     # the filters' support next to a gap holds data on one side only: flagged (a gap)
     support = win if method == "raw" else max(win, 1.0 / cutoff)
     for before, after in clean.gaps:
-        near = ((log.t >= before - support) & (log.t <= before)) | (
-            (log.t >= after) & (log.t <= after + support)
-        )
-        flag[near] |= FLAG_GAP
+        # the samples in [before - support, before] and [after, after + support]: slices of
+        # the (non-decreasing) time, not masks of the whole log per gap
+        for lo, hi in ((before - support, before), (after, after + support)):
+            a = int(np.searchsorted(log.t, lo, side="left"))
+            b = int(np.searchsorted(log.t, hi, side="right"))
+            flag[a:b] |= FLAG_GAP
     warnings: list[str] = list(clean.warnings)
     from torquemap.filters import MIN_WINDOW_SAMPLES
     from torquemap.vertical import model_gravity_warnings
@@ -673,23 +682,11 @@ def _planar_force(
     guard: float,
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]]:
     """Force ``F = A tau``, singular mask and the force's sigma from the planar arm's
-    ``A = J^-T`` (:meth:`torquemap.robots.planar2r.Planar2R.wrench_map`); NaN where
-    singular, and the sigma where a joint's sigma is not finite."""
-    n = q.shape[0]
-    force = np.empty((n, 2))
-    sigma = np.empty((n, 2))
-    singular = np.empty(n, dtype=bool)
-    step = 1 << 15  # a cache-sized stretch at a time: a third faster than whole blocks
-    for s in range(0, n, step):
-        sl = slice(s, s + step)
-        a, singular[sl] = arm.wrench_map(q[sl], singular_threshold=guard)
-        t0, t1 = np.nan_to_num(tau[sl, 0]), np.nan_to_num(tau[sl, 1])
-        force[sl, 0] = a[:, 0, 0] * t0 + a[:, 0, 1] * t1
-        force[sl, 1] = a[:, 1, 0] * t0 + a[:, 1, 1] * t1
-        v0, v1 = tau_sigma[sl, 0] ** 2, tau_sigma[sl, 1] ** 2
-        sigma[sl, 0] = np.sqrt(a[:, 0, 0] ** 2 * v0 + a[:, 0, 1] ** 2 * v1)
-        sigma[sl, 1] = np.sqrt(a[:, 1, 0] ** 2 * v0 + a[:, 1, 1] ** 2 * v1)
-    return force, singular, sigma
+    ``A = J^-T`` (:func:`torquemap.kinematics.force_and_sigma`, one compiled pass); NaN
+    where singular, and the sigma where a joint's sigma is not finite."""
+    from torquemap.kinematics import force_and_sigma
+
+    return force_and_sigma(q, tau, tau_sigma, arm.link_lengths, min_sin_elbow=guard)
 
 
 def _force_sigma(
@@ -890,7 +887,7 @@ def _estimate_piece(
                 )
     sigma = np.full((n, nj), np.nan)
     if method == "model":
-        from torquemap.uncertainty import joint_sigma
+        from torquemap.uncertainty import bridge_departure, joint_sigma
 
         for k, joint in enumerate(robot.joints):
             sigma[:, k] = joint_sigma(
@@ -902,7 +899,14 @@ def _estimate_piece(
                 acceleration=acceleration[:, k],
                 modulation=modulation[:, k],
                 cutoff=cutoff,
+                bridged=rests[k],
             )
+            if rests[k].any() and joint.name in whole:
+                # where the answer is a line carried over a bridged run: the load's departure
+                sigma[:, k] = np.hypot(
+                    sigma[:, k],
+                    bridge_departure(log.t, external[:, k], rests[k], cutoff=cutoff),
+                )
     arrays = {
         "rest": np.column_stack(rests).astype(np.float64) if nj else np.zeros((n, 0)),
         "angle": angle,
@@ -952,9 +956,13 @@ def _bands(model: Model, reversal_band: float | Mapping[str, float] | None) -> d
     if reversal_band is None:
         whole = whole_fit_joints(model)
         slowest = identified_slowest_speeds(model)
+        observed = observed_speeds(model)
         return {
             j.name: (
-                TRANSITION_SPAN * _law_width(model.joints[j.name].friction)
+                max(
+                    TRANSITION_SPAN * _law_width(model.joints[j.name].friction),
+                    observed.get(j.name, 0.0),
+                )
                 if j.name in whole
                 else max(_law_width(model.joints[j.name].friction), slowest.get(j.name, 0.0))
             )
@@ -1057,6 +1065,20 @@ def identified_slowest_speeds(model: Model) -> dict[str, float]:
                 values = [v for v in values if math.isfinite(v) and v > 0]
                 if values:
                     out[str(name)] = min(values)
+    return out
+
+
+def observed_speeds(model: Model) -> dict[str, float]:
+    """Per joint, the slowest motor speed [rad/s] a whole-log fit fitted its friction table at
+    (``[identification.joints.<j>] friction_observed_speed``); below it the table is held by
+    its prior."""
+    out: dict[str, float] = {}
+    joints = model.notes.get("joints", {})
+    if isinstance(joints, Mapping):
+        for name, entry in joints.items():
+            value = entry.get("friction_observed_speed") if isinstance(entry, Mapping) else None
+            if isinstance(value, int | float) and math.isfinite(value) and value > 0:
+                out[str(name)] = float(value)
     return out
 
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -181,7 +182,7 @@ def _differentiate_uniform(x: NDArray[np.float64], h: float, length: int) -> Der
     scipy's ``mode="interp"``), computed by convolution instead of per-sample normal equations
     (:func:`_savgol_uniform`).
     """
-    position, velocity, acceleration = _savgol_uniform(x, h, length, (0, 1, 2))
+    position, velocity, acceleration = _savgol_columns(x, h, length, with_position=True)
     return Derivatives(position=position, velocity=velocity, acceleration=acceleration)
 
 
@@ -249,8 +250,72 @@ def differentiate_rates(t: ArrayLike, x: ArrayLike, *, window: float) -> Rates:
 
 def _rates_uniform(x: NDArray[np.float64], h: float, length: int) -> Rates:
     """Savitzky-Golay velocity and acceleration of ``length`` samples (``mode="interp"``)."""
-    velocity, acceleration = _savgol_uniform(x, h, length, (1, 2))
+    _, velocity, acceleration = _savgol_columns(x, h, length, with_position=False)
     return Rates(velocity=velocity, acceleration=acceleration)
+
+
+def _savgol_columns(
+    x: NDArray[np.float64], h: float, length: int, *, with_position: bool
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Savitzky-Golay position (else an empty array), velocity and acceleration of each column.
+
+    The centred windows by the compiled kernel (:func:`torquemap._kernels.savgol_fit`: every
+    output in one pass, from the local differences of samples ``k`` either side, closed-form
+    weights :func:`_savgol_lags`); the first and last windows as :func:`_savgol_uniform` does
+    them (scipy's ``mode="interp"``).
+    """
+    from torquemap._kernels import savgol_fit
+
+    half = length // 2
+    smooth, odd, even = _savgol_lags(length, h)
+    heads = [_savgol_kernels(length, d, h)[1:] for d in (0, 1, 2)]
+    columns = x[:, None] if x.ndim == 1 else x
+    outputs: list[list[NDArray[np.float64]]] = [[], [], []]
+    for k in range(columns.shape[1]):
+        y = np.ascontiguousarray(columns[:, k], dtype=np.float64)
+        pk = np.empty(y.size if with_position else 0)
+        vk, ak = np.empty(y.size), np.empty(y.size)
+        savgol_fit(y, smooth, odd, even, pk, vk, ak, with_position)
+        head, tail = y[:length] - y[0], y[-length:] - y[0]
+        for d, out in enumerate((pk, vk, ak)):
+            if d == 0 and not with_position:
+                continue
+            out[:half] = heads[d][0] @ head + (y[0] if d == 0 else 0.0)
+            out[-half:] = heads[d][1] @ tail + (y[0] if d == 0 else 0.0)
+            outputs[d].append(out)
+    if x.ndim == 1:
+        empty = np.empty(0)
+        return (outputs[0][0] if with_position else empty), outputs[1][0], outputs[2][0]
+    stacked = [np.stack(o, axis=1) if o else np.empty((0, x.shape[1])) for o in outputs]
+    return stacked[0], stacked[1], stacked[2]
+
+
+@functools.lru_cache(maxsize=64)
+def _savgol_lags(
+    length: int, h: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The position's, velocity's and acceleration's Savitzky-Golay correlation weights by lag
+    ``k = 0..M`` (``length = 2 M + 1``), in closed form.
+
+    A quadratic fit's value is ``(3 (3 M^2 + 3 M - 1) - 15 k^2) / ((2 M - 1) (2 M + 1)
+    (2 M + 3))``, its velocity the linear fit's slope ``k / (h S2)``, and its acceleration
+    ``2 (k^2 - S2 / N) / (h^2 (S4 - S2^2 / N))`` with ``N = 2 M + 1``, ``S2 = sum k^2`` and
+    ``S4 = sum k^4`` over ``-M..M`` (integers, exact): exactly symmetric and antisymmetric
+    (scipy's least-squares design is so to rounding only, which lets a constant through the
+    acceleration at 1e-13 of its size).
+    """
+    half = length // 2
+    k = np.arange(half + 1, dtype=np.float64)
+    lags = np.arange(-half, half + 1, dtype=np.float64)
+    s2, s4 = float(np.sum(lags**2)), float(np.sum(lags**4))
+    n = float(length)
+    m = float(half)
+    smooth = (3.0 * (3.0 * m * m + 3.0 * m - 1.0) - 15.0 * k**2) / (
+        (2.0 * m - 1.0) * (2.0 * m + 1.0) * (2.0 * m + 3.0)
+    )
+    odd = k / (h * s2)
+    even = 2.0 * (k**2 - s2 / n) / (h * h * (s4 - s2 * s2 / n))
+    return smooth, odd, even
 
 
 def _savgol_uniform(
@@ -466,8 +531,6 @@ def lowpass(t: ArrayLike, x: ArrayLike, *, cutoff: float, order: int = 2) -> NDA
     >>> bool(np.allclose(y, 1.0))
     True
     """
-    from scipy import signal
-
     tt, xx = _time_and_values(t, x)
     if order < 1:
         raise InputError(f"filter order must be >= 1, got {order}")
@@ -488,13 +551,12 @@ def lowpass(t: ArrayLike, x: ArrayLike, *, cutoff: float, order: int = 2) -> NDA
         grid[-1] = min(grid[-1], tt[-1])
         values = _interp_rows(grid, tt, xx)
     design, padlen = _butter_lowpass(order, float(cutoff), 1.0 / h)
-    sos = design.copy()  # scipy's filter wants a writable array; the cached one is not
     if grid.size <= padlen:
         raise InputError(
             f"log of {grid.size} samples is shorter than the low-pass filter's padding "
             f"({padlen + 1} samples needed)"
         )
-    y = signal.sosfiltfilt(sos, values, axis=0)
+    y = _filtfilt(design, padlen, values)
     if regular:
         return np.asarray(y, dtype=np.float64)
     return _interp_rows(tt, grid, np.asarray(y, dtype=np.float64))
@@ -513,6 +575,32 @@ def _butter_lowpass(order: int, cutoff: float, fs: float) -> tuple[NDArray[np.fl
     sos.setflags(write=False)
     padlen = 3 * (2 * len(sos) + 1 - min(int((sos[:, 2] == 0).sum()), int((sos[:, 5] == 0).sum())))
     return sos, padlen
+
+
+@functools.lru_cache(maxsize=64)
+def _initial_state(sos: bytes) -> NDArray[np.float64]:
+    """``scipy.signal.sosfilt_zi`` of one section (given as its bytes: a cache key)."""
+    from scipy import signal
+
+    zi = np.ascontiguousarray(signal.sosfilt_zi(np.frombuffer(sos).reshape(1, 6)))
+    zi.setflags(write=False)
+    return np.asarray(zi, dtype=np.float64)
+
+
+def _filtfilt(sos: NDArray[np.float64], padlen: int, values: NDArray[np.float64]) -> NDArray[Any]:
+    """``scipy.signal.sosfiltfilt(sos, values, axis=0)`` (odd padding of ``padlen``), (n,) or
+    (n, m): a single section (the order-2 Butterworth) by the compiled kernel, bit for bit."""
+    if sos.shape[0] != 1:
+        from scipy import signal
+
+        return np.asarray(signal.sosfiltfilt(sos.copy(), values, axis=0))  # wants it writable
+    from torquemap._kernels import sosfiltfilt_odd
+
+    # one signal per row, contiguous in time (a column-major (n, m) is passed without a copy);
+    # writable float64 throughout, so that the kernel is compiled for one signature only
+    rows = np.ascontiguousarray(values.T if values.ndim == 2 else values[None, :])
+    y = sosfiltfilt_odd(sos.copy(), _initial_state(sos.tobytes()).copy(), rows, padlen)
+    return y.T if values.ndim == 2 else y[0]
 
 
 def _interp_rows(

@@ -11,6 +11,7 @@ here, registered with :func:`register_friction_law`, and nothing else changes.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 import os
 from collections.abc import Mapping
@@ -33,12 +34,15 @@ class FrictionLaw(Protocol):
     ----------
     kind
         The law's name, the ``kind`` key of ``[joints.<j>.friction]`` in a model file.
-    linear_parameter_names
-        Names of the parameters the law is linear in, in the order of :meth:`basis` columns.
     """
 
     kind: ClassVar[str]
-    linear_parameter_names: ClassVar[tuple[str, ...]]
+
+    @property
+    def linear_parameter_names(self) -> tuple[str, ...]:
+        """Names of the parameters the law is linear in, in the order of :meth:`basis` columns
+        (a class constant for laws of fixed form, per law for a table)."""
+        ...
 
     @property
     def zero_velocity(self) -> float:
@@ -401,3 +405,199 @@ def friction_law_from_dict(
         raise InputError(f"{where}: law {kind!r} cannot be read from a file", path=p)
     law: FrictionLaw = reader(body, where=where, path=p)
     return law
+
+
+def _float_tuple(values: Any, where: str, path: str | None) -> tuple[float, ...]:
+    if not isinstance(values, list | tuple) or not values:
+        raise InputError(f"{where} must be a non-empty list of numbers", path=path)
+    out = []
+    for x in values:
+        if isinstance(x, bool) or not isinstance(x, int | float) or not math.isfinite(x):
+            raise InputError(f"{where} must hold finite numbers, got {x!r}", path=path)
+        out.append(float(x))
+    return tuple(out)
+
+
+@register_friction_law
+@dataclass(frozen=True, slots=True, eq=False)
+class SpeedTableFriction:
+    """Dry friction tabulated against the logarithm of speed, per direction, plus viscous.
+
+    A law of no fixed form, for friction whose shape the Stribeck curve does not hold (another
+    exponent, a LuGre law's steady state, directions that differ in every term). For motor
+    velocity ``w`` [rad/s] and speed ``s = |w|``::
+
+        g+(s) = interp(log s, log speeds, positive) + viscous * s
+        g-(s) = interp(log s, log speeds, negative) + viscous_negative * s
+        f(w) = b(w) g+(s) - (1 - b(w)) g-(s),   b(w) = (1 + tanh(w / zero_velocity)) / 2
+
+    with ``interp`` linear between the knots and constant beyond them (the first knot's level
+    is the break-away level approached at rest). The law is linear in the knot levels and the
+    two viscous coefficients, so whole-log identification fits it by (penalised) least squares
+    with only the transition width searched (:mod:`torquemap.identify_whole`).
+
+    Attributes
+    ----------
+    speeds
+        Knot speeds [rad/s], strictly increasing, > 0, at least two.
+    positive, negative
+        Dry friction magnitude at each knot for positive and negative motion [N m].
+    viscous, viscous_negative
+        Viscous coefficient of each direction [N m s / rad].
+    zero_velocity
+        Half width of the smooth transition through zero [rad/s], > 0.
+
+    Examples
+    --------
+    >>> f = SpeedTableFriction(speeds=(1.0, 10.0), positive=(0.2, 0.1), negative=(0.3, 0.1),
+    ...                        viscous=0.01, viscous_negative=0.01)
+    >>> f.torque([10.0, -10.0, 100.0]).round(6)
+    array([ 0.2, -0.2,  1.1])
+    >>> round(float(f.torque([np.sqrt(10.0)])[0]), 6)  # halfway in log speed
+    0.181623
+    >>> bool(np.allclose(f.basis([2.0, -3.0]) @ f.linear_parameters(), f.torque([2.0, -3.0])))
+    True
+    """
+
+    kind: ClassVar[str] = "speed-table"
+
+    speeds: tuple[float, ...]
+    positive: tuple[float, ...]
+    negative: tuple[float, ...]
+    viscous: float = 0.0
+    viscous_negative: float = 0.0
+    zero_velocity: float = 1e-3
+
+    def __post_init__(self) -> None:
+        for name in ("speeds", "positive", "negative"):
+            values = getattr(self, name)
+            object.__setattr__(self, name, tuple(float(x) for x in values))
+            if not all(math.isfinite(x) for x in getattr(self, name)):
+                raise InputError(f"friction {name} must be finite numbers")
+        k = len(self.speeds)
+        if k < 2 or len(self.positive) != k or len(self.negative) != k:
+            raise InputError(
+                "friction speeds, positive and negative must be lists of one length, at least 2"
+            )
+        if self.speeds[0] <= 0 or any(b <= a for a, b in itertools.pairwise(self.speeds)):
+            raise InputError("friction speeds must be positive and strictly increasing")
+        for name in ("viscous", "viscous_negative", "zero_velocity"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise InputError(f"friction {name} must be a number, got {value!r}")
+            if not math.isfinite(value):
+                raise InputError(f"friction {name} must be finite, got {value!r}")
+        if self.zero_velocity <= 0:
+            raise InputError(f"friction zero_velocity must be > 0, got {self.zero_velocity!r}")
+
+    @property
+    def linear_parameter_names(self) -> tuple[str, ...]:
+        """``positive_0 .. positive_{k-1}, negative_0 .., viscous, viscous_negative``."""
+        k = len(self.speeds)
+        return (
+            *(f"positive_{i}" for i in range(k)),
+            *(f"negative_{i}" for i in range(k)),
+            "viscous",
+            "viscous_negative",
+        )
+
+    def _hats(self, speed: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Interpolation weights (n, k) of the knots at ``speed`` (linear in log speed)."""
+        logs = np.log(np.asarray(self.speeds))
+        x = np.log(np.maximum(speed, 1e-300))
+        k = logs.size
+        i = np.clip(np.searchsorted(logs, x, side="right") - 1, 0, k - 2)
+        u = np.clip((x - logs[i]) / (logs[i + 1] - logs[i]), 0.0, 1.0)
+        out = np.zeros((speed.size, k))
+        rows = np.arange(speed.size)
+        out[rows, i] = 1.0 - u
+        out[rows, i + 1] += u
+        return out
+
+    def basis(self, velocity: ArrayLike) -> NDArray[np.float64]:
+        """Columns (n, 2 k + 2) for the linear parameters, in ``linear_parameter_names`` order."""
+        w = np.atleast_1d(np.asarray(velocity, dtype=np.float64)).reshape(-1)
+        s = np.abs(w)
+        b = 0.5 * (1.0 + np.tanh(w / self.zero_velocity))
+        hats = self._hats(s)
+        return np.hstack(
+            (
+                b[:, None] * hats,
+                -(1.0 - b)[:, None] * hats,
+                (b * s)[:, None],
+                (-(1.0 - b) * s)[:, None],
+            )
+        )
+
+    def linear_parameters(self) -> NDArray[np.float64]:
+        """Knot levels [N m] of both directions, then the two viscous coefficients."""
+        return np.array([*self.positive, *self.negative, self.viscous, self.viscous_negative])
+
+    def with_linear_parameters(self, values: ArrayLike) -> SpeedTableFriction:
+        """A copy with the linear parameters replaced."""
+        v = np.asarray(values, dtype=np.float64).reshape(-1)
+        k = len(self.speeds)
+        if v.size != 2 * k + 2:
+            raise ValueError(f"expected {2 * k + 2} values, got {v.size}")
+        return dataclasses.replace(
+            self,
+            positive=tuple(float(x) for x in v[:k]),
+            negative=tuple(float(x) for x in v[k : 2 * k]),
+            viscous=float(v[-2]),
+            viscous_negative=float(v[-1]),
+        )
+
+    def torque(self, velocity: ArrayLike, *, t: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Friction torque [N m] at motor velocity [rad/s] (static: ``t`` is ignored)."""
+        w = np.asarray(velocity, dtype=np.float64)
+        s = np.abs(w)
+        logs = np.log(np.asarray(self.speeds))
+        x = np.log(np.maximum(s, 1e-300))
+        up = np.interp(x, logs, self.positive) + self.viscous * s
+        down = np.interp(x, logs, self.negative) + self.viscous_negative * s
+        b = 0.5 * (1.0 + np.tanh(w / self.zero_velocity))
+        out: NDArray[np.float64] = np.asarray(b * up - (1.0 - b) * down, dtype=np.float64)
+        return out
+
+    def static_levels(self) -> tuple[float, float]:
+        """The first knot's levels (break-away, approached at rest) [N m]."""
+        return self.positive[0], self.negative[0]
+
+    def levels(self, speed: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Friction magnitudes ``(g+(s), g-(s))`` [N m] at speeds ``speed`` [rad/s] (>= 0)."""
+        s = np.abs(np.asarray(speed, dtype=np.float64))
+        logs = np.log(np.asarray(self.speeds))
+        x = np.log(np.maximum(s, 1e-300))
+        return (
+            np.interp(x, logs, self.positive) + self.viscous * s,
+            np.interp(x, logs, self.negative) + self.viscous_negative * s,
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``[joints.<j>.friction]`` table."""
+        return {
+            "kind": self.kind,
+            "speeds": list(self.speeds),
+            "positive": list(self.positive),
+            "negative": list(self.negative),
+            "viscous": self.viscous,
+            "viscous_negative": self.viscous_negative,
+            "zero_velocity": self.zero_velocity,
+        }
+
+    @classmethod
+    def from_dict(
+        cls, table: Mapping[str, Any], *, where: str = "friction", path: str | None = None
+    ) -> SpeedTableFriction:
+        """Read the law from its table (``kind`` already removed); InputError on bad keys."""
+        body = dict(table)
+        lists = {}
+        for name in ("speeds", "positive", "negative"):
+            if name not in body:
+                raise InputError(f"{where} needs {name} (a list of numbers)", path=path)
+            lists[name] = _float_tuple(body.pop(name), f"{where} {name}", path)
+        nums = _finite_floats(body, {"viscous", "viscous_negative", "zero_velocity"}, where, path)
+        try:
+            return cls(**lists, **nums)  # type: ignore[arg-type]
+        except InputError as exc:
+            raise InputError(f"{where} {exc.message}", path=path) from None

@@ -933,6 +933,8 @@ def identify_model(
                 f"without gaps longer than {2.5 * window:.3g} s",
                 path=log.path,
             )
+    # the pieces' motor-angle derivatives, once: the pass fit and the vertical-arm check
+    derivs = [_derivatives(piece, rb, window) for piece in pieces]
     base = _identify_passes(
         robot,
         pieces,
@@ -944,6 +946,7 @@ def identify_model(
         direction_significance=direction_significance,
         torque_lag=torque_lag,
         channel_delay=channel_delay,
+        derivatives=derivs,
     )
     quanta = {j.name: _motor_quantum(pieces, j.gear_ratio, k) for k, j in enumerate(rb.joints)}
     joint_notes = base.model.notes.get("joints", {})
@@ -976,7 +979,9 @@ def identify_model(
     from torquemap.vertical import checked_identification
 
     path = logs[0].path if len(logs) == 1 else None
-    return checked_identification(ident, pieces, window=window, vertical=vertical, path=path)
+    return checked_identification(
+        ident, pieces, window=window, vertical=vertical, path=path, derivatives=derivs
+    )
 
 
 def _identify_whole(
@@ -1064,13 +1069,13 @@ def _identify_whole(
             max_order=float(res.max_order),
             planar=planar,
             direction_significance=direction_significance,
+            slowest_speed=min((abs(p.speed) for _, p in res.passes), default=0.0),
         )
         warnings.extend(fit.warnings)
-        coulomb = 0.5 * (
-            abs(fit.value("friction.coulomb_positive"))
-            + abs(fit.value("friction.coulomb_negative"))
-        )
-        if fit.gravity_significant and fit.gravity_torque > 0.1 * max(coulomb, 1e-300):
+        coulomb = 0.5 * float(np.sum(fit.law.levels(np.array([fit.observed_speed]))))
+        # a warning only: torquemap.vertical (every method, with nuisance columns for the
+        # friction a model may miss) decides whether to refuse
+        if fit.gravity_significant and fit.gravity_torque > 0.5 * max(coulomb, 1e-300):
             msg = (
                 f"joint {name}: the no-load torque holds {fit.gravity_torque:.3g} N m (motor "
                 "side, peak to peak) that depends on the joint angles, which PDTV of the motor "
@@ -1078,28 +1083,8 @@ def _identify_whole(
                 "record the sweeps with the arm horizontal, or use a robot file that models "
                 "gravity"
             )
-            if vertical == "refuse" and fit.gravity_torque > 0.5 * coulomb:
-                raise InputError(msg, path=logs[0].path if len(logs) == 1 else None)
             warnings.append(msg)
-        seen = (
-            any(p.direction == "positive" for _, p in res.passes),
-            any(p.direction == "negative" for _, p in res.passes),
-        )
-        if (
-            fit.value("friction.viscous") < 0
-            or fit.value("friction.viscous_negative") < 0
-            or (seen[0] and fit.value("friction.coulomb_positive") < 0)
-            or (seen[1] and fit.value("friction.coulomb_negative") < 0)
-        ):
-            warnings.append(
-                f"joint {name}: the whole-log fit gave a friction law that is not dissipative "
-                f"(viscous {fit.value('friction.viscous'):.3g} N m s/rad, Coulomb "
-                f"{fit.value('friction.coulomb_positive'):.3g} / "
-                f"{fit.value('friction.coulomb_negative'):.3g} N m): the pass method's model "
-                "is kept for this joint"
-            )
-            continue
-        new_joints[name] = _whole_joint_model(fit, jm, seen)
+        new_joints[name] = _whole_joint_model(fit)
         entry = joint_notes.get(name, {})
         entry.update(_whole_notes(fit, resolution))
         joint_notes[name] = entry
@@ -1112,40 +1097,11 @@ def _identify_whole(
     return Identification(model=model, joints=results, warnings=tuple(warnings))
 
 
-def _whole_joint_model(fit: Any, jm: JointModel, seen: tuple[bool, bool]) -> JointModel:
-    """The joint model of a whole-log fit (:class:`torquemap.identify_whole.WholeFit`); a
-    direction never moved in takes the other's Coulomb and Stribeck levels (the pass method's
-    warning says so)."""
-    from torquemap.friction_law import DirectionalViscousFriction, StribeckFriction
-
+def _whole_joint_model(fit: Any) -> JointModel:
+    """The joint model of a whole-log fit (:class:`torquemap.identify_whole.WholeFit`)."""
     inertia = InertiaModel(
         constant=fit.value("inertia.constant"), cos_elbow=fit.value("inertia.cos_elbow")
     )
-    law: StribeckFriction | DirectionalViscousFriction = StribeckFriction(
-        coulomb_positive=max(fit.value("friction.coulomb_positive"), 0.0),
-        coulomb_negative=max(fit.value("friction.coulomb_negative"), 0.0),
-        viscous=fit.value("friction.viscous"),
-        stribeck_positive=fit.value("friction.stribeck_positive"),
-        stribeck_negative=fit.value("friction.stribeck_negative"),
-        stribeck_velocity=fit.stribeck_velocity if fit.stribeck else 1.0,
-        zero_velocity=fit.zero_velocity,
-        stribeck_exponent=fit.stribeck_exponent if fit.stribeck else 2.0,
-        transition="smooth",
-    )
-    if "friction.viscous_negative" in fit.names:
-        fields = {f.name: getattr(law, f.name) for f in dataclasses.fields(law)}
-        law = DirectionalViscousFriction(
-            **fields, viscous_negative=fit.value("friction.viscous_negative")
-        )
-    if seen[0] != seen[1]:
-        side = "positive" if seen[0] else "negative"
-        law = dataclasses.replace(
-            law,
-            coulomb_positive=getattr(law, f"coulomb_{side}"),
-            coulomb_negative=getattr(law, f"coulomb_{side}"),
-            stribeck_positive=getattr(law, f"stribeck_{side}"),
-            stribeck_negative=getattr(law, f"stribeck_{side}"),
-        )
     lines: list[PdtvLine] = []
     for order, directional in fit.orders:
         for direction in ("positive", "negative") if directional else ("both",):
@@ -1159,7 +1115,7 @@ def _whole_joint_model(fit: Any, jm: JointModel, seen: tuple[bool, bool]) -> Joi
                     direction=direction,
                 )
             )
-    return JointModel(inertia=inertia, friction=law, pdtv=tuple(lines))
+    return JointModel(inertia=inertia, friction=fit.law, pdtv=tuple(lines))
 
 
 def _whole_notes(fit: Any, resolution: float) -> dict[str, Any]:
@@ -1170,6 +1126,7 @@ def _whole_notes(fit: Any, resolution: float) -> dict[str, Any]:
         "channel_delay_interval": [float(x) for x in fit.delay_interval],
         "stribeck": bool(fit.stribeck),
         "whole_samples": int(fit.samples),
+        "friction_observed_speed": float(fit.observed_speed),
         "velocity_resolution": float(resolution),
         "gravity_torque": float(fit.gravity_torque),
         "uncertainty": {
@@ -1177,6 +1134,7 @@ def _whole_notes(fit: Any, resolution: float) -> dict[str, Any]:
             "covariance": [[float(x) for x in row] for row in fit.covariance],
             "residual_scale": float(fit.residual_scale),
             "residual_psd": float(fit.residual_psd),
+            **({"residual": fit.residual} if fit.residual else {}),
         },
     }
 

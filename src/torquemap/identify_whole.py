@@ -5,47 +5,76 @@ enters one regression, motor side::
 
     tau(t + d) = J(q) acc + f(v) + sum_n [a_n cos(n theta) + b_n sin(n theta)] + noise
 
-with the friction law (:func:`friction_basis`) linear in Coulomb per direction, Stribeck
-break-away per direction and viscous once its nonlinear parameters are fixed: the Stribeck
-velocity ``vs``, the Stribeck exponent, the half width ``w0`` of the smooth transition through
-zero (``p = (1 + tanh(v / w0)) / 2``) and the torque channel's delay ``d``. Those are searched
-outside the linear fit (variable projection): a scan on a logarithmic grid then a bounded
-refinement, each trial a weighted linear least-squares fit.
+with the friction law a table of dry friction against log speed per direction plus a viscous
+slope per direction (:class:`torquemap.friction_law.SpeedTableFriction`): linear in all its
+levels, so no friction shape is assumed (a Stribeck curve of any exponent, a LuGre law's steady
+state and directions that differ in every term are all tables). Only two parameters are
+searched outside the linear fit: the half width ``w0`` of the smooth transition through zero
+(``b = (1 + tanh(v / w0)) / 2``) and the torque channel's delay ``d``.
+
+Where the logs hold little information about the table (speeds only crossed on a ramp), a
+Gaussian smoothness prior on its first and second differences in log speed holds it: the fit
+is a penalised (Bayesian) least squares and its covariance is the posterior one, large where
+the logs say little, so estimation's sigmas grow there.
 
 Both sides of the regression are seen through the same filter: the differentiated acceleration
-is the true one smoothed by the differentiator's kernel ``K``
-(:func:`torquemap.filters.smooth_as_acceleration`), so the torque and every other column are
-smoothed by ``K`` too. The fit is robust (Huber weights, :mod:`torquemap.robust`) and its
-covariance is clustered over blocks of about a second, so it stays honest although smoothed
-neighbours are correlated. Everything here is linear in the number of samples.
+is the true one smoothed by the differentiator's kernel ``K``, so the torque and every other
+column are smoothed by ``K`` too. Neighbouring smoothed samples carry nearly the same
+information, so the fit keeps ``ROWS_PER_WINDOW`` rows per differentiator window and smooths
+only there (:class:`torquemap.smooth_rows.RowSmoother`). The fit is robust (Huber weights) and
+its covariance clustered over blocks of about a second. Everything is linear in the number of
+samples.
 """
 
 from __future__ import annotations
 
-import functools
+import dataclasses
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import optimize, sparse, stats
+from scipy import optimize, stats
 
 from torquemap.errors import InputError
-from torquemap.filters import lowpass, smooth_as_acceleration
-from torquemap.robust import (
-    HUBER_K,
-    cluster_covariance,
-    huber_weights,
-    robust_scale,
-    weighted_solve,
-)
+from torquemap.filters import lowpass
+from torquemap.friction_law import SpeedTableFriction
+from torquemap.robust import cluster_covariance, huber_weights, robust_scale
+from torquemap.smooth_rows import RowSmoother
+from torquemap.uncertainty import LOWPASS_ENB, residual_table
+from torquemap.whole_delay import DelayProfile, delay_profile, huber_cost, judge_delay
 
-#: Equivalent noise bandwidth of the forward-backward 2nd-order Butterworth low-pass, in units of
-#: its cut-off: integral of 1 / (1 + x^4)^2 over x >= 0 = 3 pi / (8 sqrt 2).
-LOWPASS_ENB = 3.0 * math.pi / (8.0 * math.sqrt(2.0))
+__all__ = [
+    "LOWPASS_ENB",
+    "Piece",
+    "WholeFit",
+    "fit_joint_whole",
+    "gravity_basis",
+    "pdtv_basis",
+    "table_speeds",
+]
+
 REFERENCE_CUTOFF = 2.0  # [Hz] the cut-off at which the residual's low-frequency level is measured
-EXPONENTS = (0.5, 1.0, 2.0)
+#: Rows of the fit per differentiator window (the smoothed signals change little within it).
+ROWS_PER_WINDOW = 8
+#: Ratio of neighbouring knot speeds of the friction table.
+KNOT_RATIO = 1.8
+#: The table spans at most this ratio of speeds below the top speed.
+KNOT_SPAN = 1000.0
+#: Prior standard deviation of the table's second difference between neighbouring knots, in
+#: units of the joint's friction level: a Stribeck drop of the whole level within two knots
+#: (a factor 3.2 in speed) is one sigma.
+CURVATURE_PRIOR = 0.05
+#: Prior standard deviation of the table's first difference, in units of the friction level:
+#: weak, it only keeps the table level where the logs tell nothing (friction flattens at rest).
+SLOPE_PRIOR = 1.0
+#: Shortest run of one sign of motion whose samples enter the fit [differentiator windows].
+RUN_WINDOWS = 4.0
+#: Prior standard deviation of the table's first difference below the slowest observed speed,
+#: in units of the friction level: a Stribeck rise of half the level within a decade of
+#: speed below the slowest pass is about one sigma.
+FLAT_PRIOR = 0.25
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -68,6 +97,9 @@ class Piece:
         Samples that enter the fit (the other joints still, sound).
     joint_angles
         Joint angles [rad] of the whole robot, shape (n, nj) (for the gravity check).
+    friction_velocity
+        Velocity [rad/s] friction is evaluated at (default: :func:`friction_velocity` over an
+        eighth of the window, which does not smear a ramp's start).
     """
 
     t: NDArray[np.float64]
@@ -78,6 +110,7 @@ class Piece:
     elbow: NDArray[np.float64]
     use: NDArray[np.bool_]
     joint_angles: NDArray[np.float64]
+    friction_velocity: NDArray[np.float64] | None = None
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -87,15 +120,18 @@ class WholeFit:
     Attributes
     ----------
     names
-        Parameter names, in the order of ``coef`` and ``covariance``.
+        Parameter names, in the order of ``coef`` and ``covariance`` (``inertia.*``,
+        ``pdtv.<order>.<direction>.a|b``, ``friction.<law parameter>``).
     coef
         Linear parameters, shape (p,).
     covariance
-        Their cluster-robust covariance, shape (p, p).
-    stribeck_velocity, stribeck_exponent, zero_velocity
-        Nonlinear friction parameters [rad/s], [-], [rad/s].
+        Their covariance, shape (p, p): cluster-robust where the logs determine them, the
+        prior's where they do not.
+    law
+        The friction law.
     stribeck
-        Whether the Stribeck terms are in the model.
+        Whether the table may vary with speed (False: ``stribeck="never"``, one level per
+        direction).
     delay
         Torque channel delay [s] (0 when not significant).
     orders
@@ -107,15 +143,21 @@ class WholeFit:
         variance after a forward-backward 2nd-order low-pass at ``REFERENCE_CUTOFF`` divided by
         that filter's noise bandwidth.
     samples
-        Samples used.
+        Samples in the logs' rows that were used (before keeping ``ROWS_PER_WINDOW`` rows per
+        window).
     gravity_torque
         Peak-to-peak over the visited poses of the torque explained by the joint angles [N m]
         (a gravity-like term that PDTV of the motor angle cannot explain); 0 when not tested.
     gravity_significant
         Whether that term is statistically significant.
     delay_interval
-        95 % profile confidence interval of the delay [s] (spanning every candidate when the
-        logs do not tell the delay apart).
+        95 % profile confidence interval of the delay [s].
+    residual
+        What the model leaves on its own logs, low-passed, per speed
+        (:func:`torquemap.uncertainty.residual_table`), or None.
+    observed_speed
+        The slowest speed [rad/s] the table was fitted at (half the slowest pass); below it the
+        table holds its prior's extrapolation.
     warnings
         One line each.
     """
@@ -123,9 +165,7 @@ class WholeFit:
     names: tuple[str, ...]
     coef: NDArray[np.float64]
     covariance: NDArray[np.float64]
-    stribeck_velocity: float
-    stribeck_exponent: float
-    zero_velocity: float
+    law: SpeedTableFriction
     stribeck: bool
     delay: float
     orders: tuple[tuple[float, bool], ...]
@@ -135,58 +175,34 @@ class WholeFit:
     gravity_torque: float = 0.0
     gravity_significant: bool = False
     delay_interval: tuple[float, float] = (0.0, 0.0)
+    residual: dict[str, object] | None = None
+    observed_speed: float = 0.0
     warnings: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def zero_velocity(self) -> float:
+        """Half width of the transition through zero [rad/s]."""
+        return self.law.zero_velocity
 
     def value(self, name: str, default: float = 0.0) -> float:
         """The parameter called ``name`` (``default`` when not fitted)."""
         return float(self.coef[self.names.index(name)]) if name in self.names else default
 
 
-def transition(velocity: NDArray[np.float64], zero_velocity: float) -> NDArray[np.float64]:
-    """Share of the positive branch: ``(1 + tanh(v / w0)) / 2``.
+def table_speeds(top_speed: float, resolution: float) -> tuple[float, ...]:
+    """Knot speeds [rad/s] of the friction table: log-spaced by about ``KNOT_RATIO`` from
+    ``max(4 resolution, top_speed / KNOT_SPAN)`` up to ``top_speed``.
 
     Examples
     --------
-    >>> transition(np.array([-1.0, 0.0, 1.0]), 1e-3).tolist()
-    [0.0, 0.5, 1.0]
+    >>> s = table_speeds(10.0, 0.01)
+    >>> round(s[0], 3), round(s[-1], 3), len(s)
+    (0.04, 10.0, 11)
     """
-    return np.asarray(0.5 * (1.0 + np.tanh(velocity / zero_velocity)), dtype=np.float64)
-
-
-def friction_basis(
-    velocity: NDArray[np.float64],
-    *,
-    stribeck_velocity: float,
-    stribeck_exponent: float,
-    zero_velocity: float,
-    stribeck: bool = True,
-    split_viscous: bool = False,
-) -> NDArray[np.float64]:
-    """Columns of the friction law, linear parameters in this order: ``coulomb_positive,
-    coulomb_negative, viscous[, stribeck_positive, stribeck_negative][, viscous_negative]``.
-
-    ``f = p (c+ + s+ e) - (1 - p) (c- + s- e) + b v`` with ``p`` the smooth transition
-    (:func:`transition`) and ``e = exp(-(|v| / vs)^exponent)``; with ``split_viscous`` the
-    viscous term is ``(p b + (1 - p) b-) v`` (a slope per direction).
-    """
-    v = np.asarray(velocity, dtype=np.float64)
-    p = transition(v, zero_velocity)
-    cols = [p, -(1.0 - p), p * v if split_viscous else v]
-    if stribeck:
-        e = np.exp(-((np.abs(v) / stribeck_velocity) ** stribeck_exponent))
-        cols += [p * e, -(1.0 - p) * e]
-    if split_viscous:
-        cols.append((1.0 - p) * v)
-    return np.column_stack(cols)
-
-
-FRICTION_NAMES = (
-    "friction.coulomb_positive",
-    "friction.coulomb_negative",
-    "friction.viscous",
-    "friction.stribeck_positive",
-    "friction.stribeck_negative",
-)
+    hi = max(float(top_speed), 1e-12)
+    lo = min(max(4.0 * resolution, hi / KNOT_SPAN), hi / KNOT_RATIO)
+    count = max(2, math.ceil(math.log(hi / lo) / math.log(KNOT_RATIO) - 1e-9) + 1)
+    return tuple(float(x) for x in np.geomspace(lo, hi, count))
 
 
 def pdtv_basis(
@@ -226,191 +242,206 @@ def gravity_basis(q: NDArray[np.float64], k: int, planar: bool) -> NDArray[np.fl
 
 
 @dataclass(slots=True)
-class _Prepared:
-    """Smoothed fixed columns and torque of all pieces, rows that enter the fit."""
+class _Rows:
+    """The rows of the fit: a few per window of every piece, and their smoothers."""
 
-    fixed: NDArray[np.float64]  # (n, m) smoothed inertia + PDTV columns
-    fixed_names: list[str]
-    velocity: list[NDArray[np.float64]]  # per piece, raw velocity (friction is recomputed)
-    t: list[NDArray[np.float64]]
-    torque_smooth: list[NDArray[np.float64]]  # per piece K * torque
-    rows: list[NDArray[np.intp]]  # per piece, rows used
+    pieces: Sequence[Piece]
+    rows: list[NDArray[np.intp]]
+    smoothers: list[RowSmoother]
     clusters: NDArray[np.int64]
     window: float
-    search: list[NDArray[np.intp]]  # per piece, rows of the nonlinear search (a subset of rows)
-    search_pos: NDArray[np.intp]  # their positions in the stacked rows
-    smoothers: list[RowSmoother]  # per piece, the smoothing at the search rows
+
+    def at(self, get: Callable[[Piece], NDArray[np.float64]]) -> NDArray[np.float64]:
+        """A raw per-sample quantity at the rows, stacked over pieces."""
+        return np.concatenate([get(p)[r] for p, r in zip(self.pieces, self.rows, strict=True)])
+
+    def smooth(
+        self, make: Callable[[Piece, int, int], NDArray[np.float64]], width: int, chunk: int = 4
+    ) -> NDArray[np.float64]:
+        """Columns ``make(piece, j0, j1)`` (n, j1 - j0) of ``width`` columns, smoothed by the
+        differentiator's kernel at the rows, stacked over pieces; built ``chunk`` columns at a
+        time (memory)."""
+        out = []
+        for piece, sm in zip(self.pieces, self.smoothers, strict=True):
+            parts = [sm(make(piece, j, min(j + chunk, width))) for j in range(0, width, chunk)]
+            out.append(np.hstack(parts) if parts else np.zeros((sm.operator.shape[0], 0)))
+        return np.vstack(out)
 
 
-def _prepare(
-    pieces: Sequence[Piece],
-    orders: Sequence[tuple[float, bool]],
-    *,
-    window: float,
-    elbow_term: bool,
-    block: float,
-    inertia: bool = True,
-) -> _Prepared:
-    fixed, vel, ts, tq, rows, clusters, search, pos = [], [], [], [], [], [], [], []
-    names: list[str] = []
+def _unsteady(
+    t: NDArray[np.float64], velocity: NDArray[np.float64], rest: float, window: float
+) -> NDArray[np.bool_]:
+    """Samples not to fit friction on: those within a window of a sample slower than ``rest``
+    [rad/s], and those of a run of one sign of motion shorter than ``RUN_WINDOWS`` windows
+    (a servo hunting or creeping while it holds: its torque is static friction, anywhere in
+    its band, and its velocity is not the one friction answers to)."""
+    sign = np.where(velocity > rest, 1, np.where(velocity < -rest, -1, 0))
+    change = np.flatnonzero(np.diff(sign)) + 1
+    starts = np.r_[0, change]
+    stops = np.r_[change, sign.size]
+    short = np.zeros(sign.size, dtype=bool)
+    for a, b in zip(starts, stops, strict=True):
+        if sign[a] == 0 or t[b - 1] - t[a] < RUN_WINDOWS * window:
+            short[a:b] = True
+    return _dilate(t, short, window)
+
+
+def _dilate(t: NDArray[np.float64], mask: NDArray[np.bool_], reach: float) -> NDArray[np.bool_]:
+    """Samples within ``reach`` [s] of a sample of ``mask``."""
+    bad = np.flatnonzero(mask)
+    if bad.size == 0:
+        return mask.copy()
+    lo = np.searchsorted(t, t[bad] - reach, side="left")
+    hi = np.searchsorted(t, t[bad] + reach, side="right")
+    edges = np.zeros(t.size + 1, dtype=np.int64)
+    np.add.at(edges, lo, 1)
+    np.add.at(edges, hi, -1)
+    return np.cumsum(edges[:-1]) > 0
+
+
+def _prepare_rows(pieces: Sequence[Piece], window: float, block: float, rest: float) -> _Rows:
+    rows, smoothers, clusters = [], [], []
     offset = 0
-    stacked = 0
     for piece in pieces:
-        cols = [piece.acceleration[:, None]] if inertia else []
-        names = ["inertia.constant"] if inertia else []
-        if elbow_term and inertia:
-            cols.append((piece.acceleration * np.cos(piece.elbow))[:, None])
-            names.append("inertia.cos_elbow")
-        pd, pd_names = pdtv_basis(piece.theta, piece.velocity, orders)
-        if pd.shape[1]:
-            cols.append(smooth_as_acceleration(piece.t, pd, window=window))
-        names += pd_names
-        full = np.hstack(cols) if cols else np.zeros((piece.t.size, 0))
-        r = np.flatnonzero(piece.use)
-        fixed.append(full[r])
-        vel.append(piece.velocity)
-        ts.append(piece.t)
-        tq.append(smooth_as_acceleration(piece.t, piece.torque, window=window))
-        rows.append(r)
-        # the smoothed signals change little within a quarter window: one row per quarter
-        # window carries nearly all the information for the nonlinear search
+        # a row whose window reaches a start from rest sees friction at velocities the
+        # differentiator smears (the velocity's kink at the start lies inside its window, and
+        # friction is steepest there): such rows would teach the law a relation between the
+        # differentiated velocity and friction that holds only at such starts
+        near = _unsteady(piece.t, piece.velocity, rest, window)
+        r = np.flatnonzero(piece.use & ~near)
         h = float(np.median(np.diff(piece.t))) if piece.t.size > 1 else window
-        stride = max(1, int(window / (4.0 * h)))
-        k = np.arange(0, r.size, stride)
-        search.append(r[k])
-        pos.append(k + stacked)
-        stacked += r.size
-        block_id = np.floor((piece.t[r] - piece.t[0]) / block).astype(np.int64)
+        stride = max(1, int(window / (ROWS_PER_WINDOW * h)))
+        rf = r[::stride].astype(np.intp)
+        rows.append(rf)
+        smoothers.append(RowSmoother.build(piece.t, rf, window))
+        block_id = np.floor((piece.t[rf] - piece.t[0]) / block).astype(np.int64)
         clusters.append(block_id + offset)
         offset += int(block_id.max()) + 1 if block_id.size else 0
-    return _Prepared(
-        fixed=np.vstack(fixed),
-        fixed_names=names,
-        velocity=vel,
-        t=ts,
-        torque_smooth=tq,
+    return _Rows(
+        pieces=pieces,
         rows=rows,
-        clusters=np.concatenate(clusters),
+        smoothers=smoothers,
+        clusters=np.concatenate(clusters) if clusters else np.zeros(0, np.int64),
         window=window,
-        search=search,
-        search_pos=np.concatenate(pos).astype(np.intp),
-        smoothers=[RowSmoother.build(t, rs, window) for t, rs in zip(ts, search, strict=True)],
     )
 
 
-@dataclass(frozen=True, slots=True, eq=False)
-class RowSmoother:
-    """:func:`torquemap.filters.smooth_as_acceleration` evaluated at some rows only.
+def _fixed_columns(
+    rows: _Rows, orders: Sequence[tuple[float, bool]], *, elbow_term: bool, inertia: bool
+) -> tuple[NDArray[np.float64], list[str]]:
+    """Inertia (the differentiated acceleration is already smoothed) and PDTV columns."""
+    cols: list[NDArray[np.float64]] = []
+    names: list[str] = []
+    if inertia:
+        acc = rows.at(lambda p: p.acceleration)
+        cols.append(acc[:, None])
+        names.append("inertia.constant")
+        if elbow_term:
+            cols.append((acc * np.cos(rows.at(lambda p: p.elbow)))[:, None])
+            names.append("inertia.cos_elbow")
+    _, pd_names = pdtv_basis(np.zeros(1), np.zeros(1), orders)
+    if pd_names:
+        per = [4 if d else 2 for _, d in orders]
+        starts = np.concatenate(([0], np.cumsum(per)))
 
-    The smoothed signal at row ``i`` is the differentiator's acceleration (a local quadratic
-    least-squares fit over the window of ``i``, :func:`torquemap.filters.differentiate`) of the
-    signal's double integral; that fit is a fixed linear combination of the window's samples,
-    precomputed here once per time axis. Evaluating it at one row per quarter window costs
-    about four operations per sample, whatever the window holds, where smoothing every sample
-    costs the window's length per sample: the nonlinear search's trials use this.
+        def make(p: Piece, j0: int, j1: int) -> NDArray[np.float64]:
+            # whole orders only: the chunk boundaries are column indices
+            first = int(np.searchsorted(starts, j0, side="right") - 1)
+            last = int(np.searchsorted(starts, j1, side="left"))
+            block, _ = pdtv_basis(p.theta, p.velocity, orders[first:last])
+            return block[:, j0 - int(starts[first]) : j1 - int(starts[first])]
 
-    Attributes
-    ----------
-    t
-        Time [s] of the whole piece, shape (n,).
-    operator
-        The rows' weights on the double integral, sparse (rows, n).
-    """
-
-    t: NDArray[np.float64]
-    operator: sparse.csr_matrix
-
-    @classmethod
-    def build(cls, t: NDArray[np.float64], rows: NDArray[np.intp], window: float) -> RowSmoother:
-        """The smoother of time axis ``t`` [s] at ``rows`` for a window of ``window`` [s]."""
-        from torquemap.filters import MIN_WINDOW_SAMPLES, uniform_step
-
-        n = t.size
-        h = uniform_step(t)
-        half = math.floor(window / (2 * h) + 1e-9)
-        if half >= 2 and 2 * half + 1 <= n and np.allclose(np.diff(t), h, rtol=1e-9, atol=0.0):
-            length = 2 * half + 1
-            lo = np.clip(rows - half, 0, n - length)
-            hi = lo + length
-        else:
-            start = np.clip(t[rows] - window / 2, t[0], t[-1] - window)
-            lo = np.searchsorted(t, start, side="left")
-            hi = np.searchsorted(t, start + window * (1 + 1e-12), side="right")
-            short = (hi - lo) < MIN_WINDOW_SAMPLES
-            if short.any():
-                i = rows[short]
-                left = np.clip(i - MIN_WINDOW_SAMPLES // 2, 0, n - MIN_WINDOW_SAMPLES)
-                lo[short] = np.minimum(lo[short], left)
-                hi[short] = np.maximum(hi[short], left + MIN_WINDOW_SAMPLES)
-        width = int((hi - lo).max()) if rows.size else 1
-        offsets = np.arange(width)
-        index = np.minimum(lo[:, None] + offsets, n - 1)
-        inside = (lo[:, None] + offsets) < hi[:, None]
-        scale = np.maximum(0.5 * (t[hi - 1] - t[lo]), 1e-300)
-        sc = np.where(inside, (t[index] - t[rows][:, None]) / scale[:, None], 0.0)
-        m = inside.astype(np.float64)
-        basis = np.stack([m, m * sc, m * sc * sc], axis=-1)  # (rows, L, 3)
-        normal = np.einsum("rli,rlj->rij", basis, basis)
-        # the curvature's row of (S^T S)^-1 S^T, times 2 / scale^2 (acceleration)
-        unit = np.broadcast_to(np.array([0.0, 0.0, 1.0]), (rows.size, 3))[:, :, None]
-        e = np.linalg.solve(normal, unit)[:, :, 0]
-        weight = 2.0 * np.einsum("rlj,rj->rl", basis, e) / (scale**2)[:, None]
-        operator = sparse.csr_matrix(
-            (weight.ravel(), index.ravel(), np.arange(0, weight.size + 1, width)),
-            shape=(rows.size, n),
-        )
-        return cls(t=t, operator=operator)
-
-    def __call__(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The smoothed ``x`` (n, m) at the rows, shape (rows, m)."""
-        mean = np.mean(x, axis=0)
-        out = self.operator @ _double_integral(self.t, x - mean) + mean
-        return np.asarray(out, dtype=np.float64)
-
-
-def _double_integral(t: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Twice the cumulative trapezoidal integral of ``x`` (n, m) over ``t`` [s], from 0."""
-    dt = np.diff(t)[:, None]
-    out = np.zeros_like(x)
-    out[1:] = np.cumsum(0.5 * (x[1:] + x[:-1]) * dt, axis=0)
-    second = np.zeros_like(x)
-    second[1:] = np.cumsum(0.5 * (out[1:] + out[:-1]) * dt, axis=0)
-    return second
+        cols.append(rows.smooth(make, len(pd_names)))
+        names += pd_names
+    n = sum(r.size for r in rows.rows)
+    return (np.hstack(cols) if cols else np.zeros((n, 0))), names
 
 
 def _friction_columns(
-    prep: _Prepared,
-    vs: float,
-    exponent: float,
+    rows: _Rows,
+    speeds: tuple[float, ...],
     w0: float,
-    stribeck: bool,
-    *,
-    search: bool = False,
-    split: bool = False,
+    only: Sequence[int] | None = None,
 ) -> NDArray[np.float64]:
-    out = []
-    for i, (t, v, r) in enumerate(zip(prep.t, prep.velocity, prep.rows, strict=True)):
-        basis = friction_basis(
-            v,
-            stribeck_velocity=vs,
-            stribeck_exponent=exponent,
-            zero_velocity=w0,
-            stribeck=stribeck,
-            split_viscous=split,
-        )
-        if search:
-            out.append(prep.smoothers[i](basis))
-        else:
-            out.append(smooth_as_acceleration(t, basis, window=prep.window)[r])
-    return np.vstack(out)
+    """The table law's basis (:meth:`SpeedTableFriction.basis`) smoothed at the rows; with
+    ``only``, just those columns."""
+    k = len(speeds)
+    logs = np.log(np.asarray(speeds))
+    which = list(range(2 * k + 2)) if only is None else list(only)
+
+    def make(p: Piece, j0: int, j1: int) -> NDArray[np.float64]:
+        v = p.friction_velocity if p.friction_velocity is not None else p.velocity
+        s = np.abs(v)
+        b = 0.5 * (1.0 + np.tanh(v / w0))
+        x = np.log(np.maximum(s, 1e-300))
+        i = np.clip(np.searchsorted(logs, x, side="right") - 1, 0, k - 2)
+        u = np.clip((x - logs[i]) / (logs[i + 1] - logs[i]), 0.0, 1.0)
+        out = np.empty((v.size, j1 - j0))
+        for c, j in enumerate(which[j0:j1]):
+            if j >= 2 * k:
+                col = s * (b if j == 2 * k else -(1.0 - b))
+            else:
+                knot = j % k
+                hat = np.where(i == knot, 1.0 - u, 0.0) + np.where(i + 1 == knot, u, 0.0)
+                col = hat * (b if j < k else -(1.0 - b))
+            out[:, c] = col
+        return out
+
+    return rows.smooth(make, len(which))
 
 
-def _torque(prep: _Prepared, delay: float, *, search: bool = False) -> NDArray[np.float64]:
-    out = []
-    for t, y, r, rs in zip(prep.t, prep.torque_smooth, prep.rows, prep.search, strict=True):
-        rr = rs if search else r
-        out.append(y[rr] if delay == 0 else np.interp(t[rr] + delay, t, y))
-    return np.concatenate(out)
+def friction_velocity(
+    t: NDArray[np.float64], theta: NDArray[np.float64], span: float
+) -> NDArray[np.float64]:
+    """Velocity [rad/s] at each sample by a central difference over ``+-span`` [s] (the angle
+    interpolated linearly, one-sided at the ends): exact for a quadratic, so a ramp's start
+    and end are not smeared over a differentiator window.
+
+    Examples
+    --------
+    >>> t = np.linspace(0.0, 1.0, 101)
+    >>> friction_velocity(t, t**2, 0.05)[[10, 50, 90]].round(6).tolist()
+    [0.2, 1.0, 1.8]
+    """
+    lo = np.maximum(t - span, t[0])
+    hi = np.minimum(t + span, t[-1])
+    dt = np.maximum(hi - lo, 1e-300)
+    return np.asarray((np.interp(hi, t, theta) - np.interp(lo, t, theta)) / dt, dtype=np.float64)
+
+
+def _torque(rows: _Rows, delay: float) -> NDArray[np.float64]:
+    """The torque read ``delay`` [s] later, smoothed at the rows."""
+
+    def make(p: Piece, j0: int, j1: int) -> NDArray[np.float64]:
+        tau = p.torque if delay == 0 else np.interp(p.t + delay, p.t, p.torque)
+        return tau[:, None]
+
+    return rows.smooth(make, 1)[:, 0]
+
+
+def _prior(
+    speeds: Sequence[float], level: float, observed: float, *, flat: bool
+) -> NDArray[np.float64]:
+    """Precision (2k+2, 2k+2) [1/(N m)^2] of the table's smoothness prior, both directions;
+    the viscous slopes are free. Below ``observed`` [rad/s] (where the table is not fitted)
+    the first differences are held by ``FLAT_PRIOR``: friction levels off towards rest, and
+    the posterior's variance there grows with the distance from the observed speeds."""
+    k = len(speeds)
+    out = np.zeros((2 * k + 2, 2 * k + 2))
+    lev = max(level, 1e-12)
+    below = np.asarray(speeds[1:]) <= observed
+    tau1 = np.where(below, FLAT_PRIOR, SLOPE_PRIOR) * lev
+    if flat:
+        tau1 = np.full(k - 1, 1e-3 * lev)
+    # below the observed speeds the curvature is free (so that the table levels off rather
+    # than carrying the slope of its lowest observed knots on)
+    tau2 = np.where(np.asarray(speeds[:-2]) < observed, SLOPE_PRIOR, CURVATURE_PRIOR) * lev
+    d1 = np.diff(np.eye(k), axis=0) / tau1[:, None]
+    d2 = np.diff(np.eye(k), n=2, axis=0) / tau2[:, None]
+    block = d1.T @ d1 + d2.T @ d2
+    out[:k, :k] = block
+    out[k : 2 * k, k : 2 * k] = block
+    return out
 
 
 @dataclass(slots=True)
@@ -418,13 +449,80 @@ class _Trial:
     coef: NDArray[np.float64]
     bread: NDArray[np.float64]
     residual: NDArray[np.float64]
-    wrss: float
+    weights: NDArray[np.float64]
+    objective: float
 
 
-def _solve(a: NDArray[np.float64], y: NDArray[np.float64], w: NDArray[np.float64]) -> _Trial:
-    coef, bread = weighted_solve(a, y, w)
+def _psolve(
+    a: NDArray[np.float64],
+    y: NDArray[np.float64],
+    w: NDArray[np.float64],
+    prior: NDArray[np.float64],
+) -> _Trial:
+    """Weighted least squares with a quadratic penalty ``coef^T prior coef`` (normal equations,
+    columns scaled for conditioning; a tiny ridge keeps unexcited columns at 0)."""
+    aw = a * w[:, None]
+    normal = a.T @ aw + prior
+    d = np.sqrt(np.maximum(np.diag(normal), 0.0))
+    d = np.where(d > 0, d, 1.0)
+    scaled = normal / np.outer(d, d)
+    scaled[np.diag_indices_from(scaled)] += 1e-12
+    bread = np.linalg.pinv(scaled, rcond=1e-12, hermitian=True) / np.outer(d, d)
+    coef = bread @ (aw.T @ y)
     r = y - a @ coef
-    return _Trial(coef=coef, bread=bread, residual=r, wrss=float(np.sum(w * r * r)))
+    obj = float(np.sum(w * r * r) + coef @ prior @ coef)
+    return _Trial(coef=coef, bread=bread, residual=r, weights=w, objective=obj)
+
+
+def _irls(
+    a: NDArray[np.float64],
+    y: NDArray[np.float64],
+    w: NDArray[np.float64],
+    prior: NDArray[np.float64],
+    iterations: int = 8,
+    *,
+    keep: NDArray[np.float64],
+) -> _Trial:
+    """Huber reweighting of :func:`_psolve` on the rows with ``keep`` 1 (the others 0)."""
+    trial = _psolve(a, y, w * keep, prior)
+    inside = keep > 0
+    for _ in range(iterations):
+        scale = robust_scale(trial.residual[inside])
+        new = _psolve(a, y, huber_weights(trial.residual, scale) * keep, prior)
+        moved = float(np.max(np.abs(new.residual - trial.residual)[inside], initial=0.0))
+        trial = new
+        if moved < 1e-3 * robust_scale(trial.residual[inside]):
+            break
+    return trial
+
+
+def _inflation(residual: NDArray[np.float64], clusters: NDArray[np.int64]) -> float:
+    """How much correlation between neighbouring rows inflates the variance of sums over a
+    cluster: ``sum_c (sum r)^2 / sum r^2`` over clusters, over the mean cluster size... i.e.
+    the long-run to short-run variance ratio (>= 1)."""
+    _, g = np.unique(clusters, return_inverse=True)
+    sums = np.bincount(g.ravel(), weights=residual)
+    total = float(np.sum(residual**2))
+    return max(1.0, float(np.sum(sums**2)) / max(total, 1e-300)) if total > 0 else 1.0
+
+
+def _scan_log(fun: Callable[[float], float], lo: float, hi: float, count: int) -> float:
+    """Minimise ``fun`` over ``[lo, hi]``: a logarithmic grid, then a bounded search between
+    the best point's neighbours."""
+    grid = np.geomspace(lo, hi, count)
+    vals = [fun(float(x)) for x in grid]
+    i = int(np.argmin(vals))
+    a_, b_ = grid[max(i - 1, 0)], grid[min(i + 1, count - 1)]
+    if b_ > a_:
+        res = optimize.minimize_scalar(
+            lambda x: fun(math.exp(x)),
+            bounds=(math.log(a_), math.log(b_)),
+            method="bounded",
+            options={"xatol": 0.03},
+        )
+        if float(res.fun) <= vals[i]:
+            return math.exp(float(res.x))
+    return float(grid[i])
 
 
 def fit_joint_whole(
@@ -447,8 +545,9 @@ def fit_joint_whole(
     inertia: bool = True,
     directional: bool = True,
     max_order: float = 0.0,
+    slowest_speed: float = 0.0,
 ) -> WholeFit:
-    """Fit one joint's friction, inertia, PDTV and torque delay to whole logs.
+    """Fit one joint's friction table, inertia, PDTV and torque delay to whole logs.
 
     Parameters
     ----------
@@ -461,11 +560,12 @@ def fit_joint_whole(
     resolution
         Velocity resolution [rad/s] (one encoder count per window): the narrowest transition.
     top_speed
-        Highest motor speed in the logs [rad/s]: the widest Stribeck velocity searched.
+        Highest motor speed in the logs [rad/s]: the table's last knot.
     elbow_term
         Fit ``inertia.cos_elbow`` too.
     stribeck
-        ``"auto"`` (kept when an F test at ``significance`` says so), ``"never"``, ``"always"``.
+        ``"never"``: one friction level per direction (Coulomb and viscous only); otherwise
+        (``"auto"``, ``"always"``) the table varies with speed.
     delay
         ``"auto"``: searched in ``[-max_delay, max_delay]`` and kept when significant; or a
         fixed delay [s].
@@ -484,442 +584,358 @@ def fit_joint_whole(
     direction_significance
         Level of the test that a PDTV line differs between directions (Bonferroni over lines).
     significance
-        Level of the Stribeck and delay tests.
+        Level of the delay test.
+    inertia
+        Fit the inertia; False holds it at 0. A fitted inertia that comes out non-positive is
+        dropped the same way, with a warning.
     directional
         Test PDTV lines for a difference between directions (only sensible when both
         directions were swept).
     max_order
         Highest PDTV order [CPR] to search in the residual for lines the given ``orders``
         miss (0: no search).
-    inertia
-        Fit the inertia; False holds it at 0 (no ramp stands out of the speed ripple, so the
-        acceleration is ripple correlated with the PDTV and would bias it). A fitted inertia
-        that comes out non-positive is dropped the same way, with a warning.
+    slowest_speed
+        Slowest steady motor speed of the logs [rad/s] (the pass method's slowest pass); the
+        table is fitted on rows faster than half of it, and held by its prior below (0: every
+        row).
 
     Returns
     -------
     WholeFit
+
+    Raises
+    ------
+    InputError
+        When no piece holds a row to fit.
     """
     name = f"joint {joint}: " if joint else ""
     warnings: list[str] = []
     block = max(1.0, 20.0 * window)
+    pieces = [
+        dataclasses.replace(p, friction_velocity=friction_velocity(p.t, p.theta, window / 8.0))
+        if p.friction_velocity is None
+        else p
+        for p in pieces
+    ]
+    rows = _prepare_rows(pieces, window, block, 3.0 * max(resolution, 1e-9))
+    n = int(rows.clusters.size)
+    if n == 0:
+        raise InputError(f"{name}no sample to fit")
     both = [(float(o), False) for o in orders]
-    prep = _prepare(
-        pieces, both, window=window, elbow_term=elbow_term, block=block, inertia=inertia
-    )
-    n = prep.fixed.shape[0]
-    sub = prep.search_pos
-    fixed_sub = prep.fixed[sub]
+    fixed, fixed_names = _fixed_columns(rows, both, elbow_term=elbow_term, inertia=inertia)
     w0_lo = max(resolution, 1e-9)
-    vs_lo, vs_hi = 2.0 * w0_lo, max(top_speed, 4.0 * w0_lo)
-    cache: dict[tuple[float, float, float, bool], NDArray[np.float64]] = {}
-
-    def design_sub(vs: float, ex: float, w0: float, st: bool) -> NDArray[np.float64]:
-        key = (vs, ex, w0, st)
-        if key not in cache:
-            if len(cache) > 64:
-                cache.clear()
-            cache[key] = np.hstack(
-                (
-                    fixed_sub,
-                    _friction_columns(prep, vs, ex, w0, st, search=True, split=directional),
-                )
-            )
-        return cache[key]
-
-    def design(vs: float, ex: float, w0: float, st: bool) -> NDArray[np.float64]:
-        return np.hstack((prep.fixed, _friction_columns(prep, vs, ex, w0, st, split=directional)))
-
-    # starting point: no Stribeck, transition at twice the resolution, no delay; Huber weights
-    # from it, held fixed through the search
-    w0 = 2.0 * w0_lo
-    first = _solve(
-        design_sub(1.0, 2.0, w0, False), _torque(prep, 0.0, search=True), np.ones(sub.size)
+    speeds = table_speeds(top_speed, w0_lo)
+    k = len(speeds)
+    # the table is fitted from half the slowest pass up: slower rows (creep while holding,
+    # the transition through zero) only tell the transition's width, searched below
+    observed = max(0.5 * slowest_speed, speeds[0]) if slowest_speed else speeds[0]
+    # a row whose window reaches a slower sample sees the table there through the smoothing
+    near = np.concatenate(
+        [
+            _dilate(p.t, np.abs(p.velocity) < observed, window)[r]
+            for p, r in zip(rows.pieces, rows.rows, strict=True)
+        ]
     )
-    ws = huber_weights(first.residual, robust_scale(first.residual))
+    keep = (~near).astype(np.float64)
+    w0 = min(2.0 * w0_lo, 0.25 * observed)
+    fric = _friction_columns(rows, speeds, w0)
+    y0 = _torque(rows, 0.0)
+    level = float(np.median(np.abs(y0[keep > 0]))) if keep.any() else 0.0
+    level = level or 1e-12
+    flat = stribeck == "never"
+    precision = _prior(speeds, level, observed, flat=flat)
 
-    def cost(vs: float, ex: float, w0: float, st: bool, d: float) -> float:
-        return _solve(design_sub(vs, ex, w0, st), _torque(prep, d, search=True), ws).wrss
+    def embed(m: int, noise: float) -> NDArray[np.float64]:
+        out = np.zeros((m + 2 * k + 2, m + 2 * k + 2))
+        out[m:, m:] = noise * precision
+        return out
 
-    # the delay moves which rows are outliers (a misaligned ramp is one): each delay is scored
-    # by Huber's loss at one common scale after its own reweighting, not with the weights of
-    # the start, which down-weight exactly the ramps that tell the delay
-    scale0 = robust_scale(first.residual)
+    a = np.hstack((fixed, fric))
+    first = _psolve(a, y0, keep, embed(fixed.shape[1], (0.1 * level) ** 2))
+    scale0 = robust_scale(first.residual[keep > 0])
+    noise = scale0**2 * _inflation(first.residual * keep, rows.clusters)
+    prior = embed(fixed.shape[1], noise)
 
-    def delay_cost(vs: float, ex: float, w0: float, st: bool, d: float) -> float:
-        a_ = design_sub(vs, ex, w0, st)
-        y_ = _torque(prep, d, search=True)
-        trial = _solve(a_, y_, ws)
-        trial = _solve(a_, y_, huber_weights(trial.residual, scale0))
+    # the delay: each trial reweighted on its own and scored by Huber's loss at one scale (the
+    # start's weights down-weight exactly the misaligned ramps that tell the delay)
+    # every row, the ramps' starts from rest included: they are where the torque's timing
+    # shows most (the table's slow knots take up their friction for the purpose)
+    def delay_cost(d: float) -> float:
+        y_ = _torque(rows, d)
+        trial = _psolve(a, y_, np.ones(n), prior)
+        trial = _psolve(a, y_, huber_weights(trial.residual, scale0), prior)
         return huber_cost(trial.residual, scale0)
 
-    # about four search rows per differentiator window: neighbours share most of their data
-    delay_dof = max(sub.size / 4.0, 1.0)
-    profile: DelayProfile | None = None
-
-    def scan_log(f: object, lo: float, hi: float, count: int) -> float:
-        fun = f
-        grid = np.geomspace(lo, hi, count)
-        vals = [fun(float(x)) for x in grid]  # type: ignore[operator]
-        i = int(np.argmin(vals))
-        a_, b_ = grid[max(i - 1, 0)], grid[min(i + 1, count - 1)]
-        if b_ > a_:
-            res = optimize.minimize_scalar(
-                lambda x: fun(math.exp(x)),  # type: ignore[operator]
-                bounds=(math.log(a_), math.log(b_)),
-                method="bounded",
-                options={"xatol": 0.03},
-            )
-            if float(res.fun) <= vals[i]:
-                return math.exp(float(res.x))
-        return float(grid[i])
-
+    dof = max(n / ROWS_PER_WINDOW, 1.0)  # a window's rows count as one
     d = 0.0 if delay == "auto" else float(delay)
-    use_st = stribeck != "never"
-    vs, ex = math.sqrt(vs_lo * vs_hi), 2.0
-    for rnd in range(2):
-        if use_st:
-            best = (math.inf, vs, ex)
-            scanned: dict[float, tuple[float, float]] = {}
-            for e in EXPONENTS if rnd == 0 else (ex,):
-                # a Stribeck dip narrower than the transition through zero trades off with it
-                # (huge opposite terms that cancel): the Stribeck velocity stays above 2 w0
-                v_best = scan_log(
-                    lambda x, e=e, w0=w0, d=d: cost(x, e, w0, True, d),
-                    min(max(vs_lo, 2.0 * w0), 0.5 * vs_hi),
-                    vs_hi,
-                    8,
-                )
-                c = cost(v_best, e, w0, True, d)
-                scanned[e] = (c, v_best)
-                if c < best[0]:
-                    best = (c, v_best, e)
-            # the Gaussian form (exponent 2) stays unless another exponent fits significantly
-            # better (F test at 5 %, four search rows per window counted as one)
-            if 2.0 in scanned and best[2] != 2.0:
-                c2, v2 = scanned[2.0]
-                if c2 - best[0] < stats.f.ppf(0.95, 1, delay_dof) * best[0] / delay_dof:
-                    best = (c2, v2, 2.0)
-            _, vs, ex = best
-        w0 = scan_log(
-            lambda x, vs=vs, ex=ex, d=d: cost(vs, ex, x, use_st, d),
-            w0_lo / 4.0,
-            max(0.5 * vs, w0_lo / 2.0) if use_st else max(vs_hi, w0_lo),
-            8,
-        )
-        if delay != "auto":
-            break
-        profile = delay_profile(
-            functools.partial(delay_cost, vs, ex, w0, use_st), max_delay, dof=delay_dof
-        )
-        d_new = profile.best
-        moved = abs(d_new - d)
-        d = d_new
-        if moved < 0.1 * window:
-            break
     delay_interval = (d, d)
-    if profile is not None:
-        d, delay_interval, note = _judge_delay(profile, reference_delay, max_delay)
+    if delay == "auto":
+        profile: DelayProfile = delay_profile(delay_cost, max_delay, dof=dof)
+        d, delay_interval, note = judge_delay(profile, reference_delay, max_delay)
         warnings += note
-    # the Stribeck test (nested F test on the search rows, about independent after smoothing)
-    st_used = use_st
-    ysub = _torque(prep, d, search=True)
-    if stribeck == "auto":
-        with_st = _solve(design_sub(vs, ex, w0, True), ysub, ws)
-        without = _solve(design_sub(vs, ex, w0, False), ysub, ws)
-        dof = max(sub.size - with_st.coef.size, 1)
-        f = ((without.wrss - with_st.wrss) / 2.0) / max(with_st.wrss / dof, 1e-300)
-        i_st = fixed_sub.shape[1] + 3  # after the Coulomb pair and the (positive) viscous
-        st_used = bool(
-            f > stats.f.ppf(1.0 - significance, 2, dof)
-            and with_st.coef[i_st] > 0
-            and with_st.coef[i_st + 1] > 0
-        )
-    if use_st and not st_used:
-        # the width was bounded by a Stribeck velocity that is not kept
-        w0 = scan_log(
-            lambda x, vs=vs, ex=ex, d=d: cost(vs, ex, x, False, d),
-            w0_lo / 4.0,
-            max(vs_hi, w0_lo),
-            8,
-        )
-    if delay == "auto" and d != 0.0:
-        zero = _solve(design_sub(vs, ex, w0, st_used), _torque(prep, 0.0, search=True), ws)
-        best_d = _solve(design_sub(vs, ex, w0, st_used), ysub, ws)
-        dof = max(sub.size - best_d.coef.size - 1, 1)
-        f = (zero.wrss - best_d.wrss) / max(best_d.wrss / dof, 1e-300)
-        if not f > stats.f.ppf(1.0 - 1e-6, 1, dof):
+        c0, cd = delay_cost(0.0), delay_cost(d)
+        f = (c0 - cd) / max(cd / dof, 1e-300)
+        if d != 0.0 and not f > stats.f.ppf(1.0 - 1e-6, 1, dof):
             d = 0.0
             delay_interval = (min(delay_interval[0], 0.0), max(delay_interval[1], 0.0))
-    y = _torque(prep, d)
-    first_full = _solve(design(vs, ex, w0, st_used), y, np.ones(n))
-    weights = huber_weights(first_full.residual, robust_scale(first_full.residual))
+    y = _torque(rows, d)
+    fit = _irls(a, y, keep, prior, keep=keep)
+
+    # the transition's width, from every row (the slow ones included) with the fit held:
+    # only the knots whose hats reach below a few widths change
+    def with_width(x: float) -> NDArray[np.float64]:
+        reach = 6.0 * max(x, w0)
+        near = [j for j in range(k) if j == 0 or speeds[j - 1] < reach]
+        cols = [*near, *(j + k for j in near), 2 * k, 2 * k + 1]
+        out = fric.copy()
+        out[:, cols] = _friction_columns(rows, speeds, x, only=cols)
+        return out
+
+    m0 = fixed.shape[1]
+    rest_of_model = fixed @ fit.coef[:m0]
+    scale1 = robust_scale(fit.residual[keep > 0])
+
+    def width_cost(x: float) -> float:
+        return huber_cost(y - rest_of_model - with_width(x) @ fit.coef[m0:], scale1)
+
+    if float(np.mean(keep)) < 0.99:
+        w0 = _scan_log(width_cost, w0_lo / 4.0, max(0.25 * observed, w0_lo / 2.0), 8)
+        fric = with_width(w0)
+        a = np.hstack((fixed, fric))
+        fit = _irls(a, y, fit.weights, prior, keep=keep)
+
     # lines the pass method missed: the spectrum of the whole fit's residual over the motor
-    # angle (every sample, not only the passes)
+    # angle (every row, not only the passes)
     if max_order >= 1:
-        theta = np.concatenate([p.theta[r] for p, r in zip(pieces, prep.rows, strict=True)])
-        missed = _missed_orders(theta, first_full.residual, [o for o, _ in both], max_order)
+        theta = rows.at(lambda p: p.theta)
+        inside = keep > 0
+        # the rows sample the angle more coarsely than the log: search only the orders they
+        # resolve (twice the motor angle's step between neighbouring rows per period)
+        step = np.abs(np.diff(theta))
+        step = step[step > 0]
+        resolved = math.pi / (2.0 * float(np.percentile(step, 90))) if step.size else 0.0
+        missed = _missed_orders(
+            theta[inside], fit.residual[inside], [o for o, _ in both], min(max_order, resolved)
+        )
         if missed:
             both = sorted([*both, *((o, False) for o in missed)])
-            prep = _prepare(
-                pieces, both, window=window, elbow_term=elbow_term, block=block, inertia=inertia
-            )
-            first_full = _solve(design(vs, ex, w0, st_used), y, np.ones(n))
-            weights = huber_weights(first_full.residual, robust_scale(first_full.residual))
-    # directional PDTV lines: fit both directions separately and test their difference
+            fixed, fixed_names = _fixed_columns(rows, both, elbow_term=elbow_term, inertia=inertia)
+            a = np.hstack((fixed, fric))
+            prior = embed(fixed.shape[1], noise)
+            fit = _irls(a, y, fit.weights, prior, keep=keep)
     final_orders = both
     if both and directional:
-        split = [(o, True) for o, _ in both]
-        prep_d = _prepare(
-            pieces, split, window=window, elbow_term=elbow_term, block=block, inertia=inertia
+        final_orders = _directional_orders(
+            rows,
+            both,
+            fit,
+            fric,
+            y,
+            noise,
+            embed,
+            elbow_term,
+            inertia,
+            direction_significance,
+            keep,
         )
-        a_d = np.hstack((prep_d.fixed, _friction_columns(prep_d, vs, ex, w0, st_used)))
-        fit_d = _irls(a_d, y, weights)
-        cov_d = cluster_covariance(a_d, fit_d.residual, weights, fit_d.bread, prep_d.clusters)
-        crit = stats.chi2.ppf(1.0 - direction_significance / len(both), 2)
-        chosen = []
-        for o, _ in both:
-            ip = prep_d.fixed_names.index(f"pdtv.{o:g}.positive.a")
-            ineg = prep_d.fixed_names.index(f"pdtv.{o:g}.negative.a")
-            diff = fit_d.coef[ip : ip + 2] - fit_d.coef[ineg : ineg + 2]
-            sel = np.r_[ip, ip + 1, ineg, ineg + 1]
-            c = cov_d[np.ix_(sel, sel)]
-            cdiff = c[:2, :2] + c[2:, 2:] - c[:2, 2:] - c[2:, :2]
-            chi = float(diff @ np.linalg.pinv(cdiff) @ diff)
-            amp = max(np.hypot(*fit_d.coef[ip : ip + 2]), np.hypot(*fit_d.coef[ineg : ineg + 2]))
-            excited = np.all(np.isfinite(cdiff)) and float(np.trace(cdiff)) > 0
-            chosen.append((o, bool(excited and chi > crit and np.hypot(*diff) > 0.1 * amp)))
-        final_orders = chosen
-        if any(dd for _, dd in chosen):
-            prep = _prepare(
-                pieces, chosen, window=window, elbow_term=elbow_term, block=block, inertia=inertia
+        if any(dd for _, dd in final_orders):
+            fixed, fixed_names = _fixed_columns(
+                rows, final_orders, elbow_term=elbow_term, inertia=inertia
             )
-    # a viscous slope per direction (only when both directions were swept): kept when the
-    # difference of the two slopes is significant (Wald test, cluster covariance)
-    split_visc = False
-    if directional:
-        a_v = np.hstack((prep.fixed, _friction_columns(prep, vs, ex, w0, st_used, split=True)))
-        fit_v = _irls(a_v, y, weights)
-        cov_v = cluster_covariance(a_v, fit_v.residual, fit_v.weights, fit_v.bread, prep.clusters)
-        iv, ivn = prep.fixed.shape[1] + 2, a_v.shape[1] - 1
-        dv = float(fit_v.coef[iv] - fit_v.coef[ivn])
-        var = float(cov_v[iv, iv] + cov_v[ivn, ivn] - 2.0 * cov_v[iv, ivn])
-        split_visc = bool(
-            var > 0
-            and dv * dv / var > stats.chi2.ppf(1.0 - significance, 1)
-            and min(fit_v.coef[iv], fit_v.coef[ivn]) > 0
-            # and, like a directional PDTV line, by more than 10 %
-            and abs(dv) > 0.1 * max(fit_v.coef[iv], fit_v.coef[ivn])
-        )
-    a = np.hstack((prep.fixed, _friction_columns(prep, vs, ex, w0, st_used, split=split_visc)))
-    fit = _irls(a, y, weights)
+            a = np.hstack((fixed, fric))
+            prior = embed(fixed.shape[1], noise)
+            fit = _irls(a, y, fit.weights, prior, keep=keep)
     if inertia and fit.coef[0] <= 0:
         warnings.append(
             f"the fitted inertia is not positive ({fit.coef[0]:.3g} kg m^2): no ramp stands "
             "out of the speed ripple; inertia set to 0 (record sweeps with clear accelerations)"
         )
-        prep = _prepare(
-            pieces, final_orders, window=window, elbow_term=False, block=block, inertia=False
-        )
-        a = np.hstack((prep.fixed, _friction_columns(prep, vs, ex, w0, st_used, split=split_visc)))
-        fit = _irls(a, y, weights)
-    cov = cluster_covariance(a, fit.residual, fit.weights, fit.bread, prep.clusters)
-    names = [*prep.fixed_names, *FRICTION_NAMES[: 5 if st_used else 3]]
-    if split_visc:
-        names.append("friction.viscous_negative")
-    scale = robust_scale(fit.residual)
-    psd = _residual_psd(prep, fit.residual, scale)
+        fixed, fixed_names = _fixed_columns(rows, final_orders, elbow_term=False, inertia=False)
+        a = np.hstack((fixed, fric))
+        prior = embed(fixed.shape[1], noise)
+        fit = _irls(a, y, fit.weights, prior, keep=keep)
+    m = fixed.shape[1]
+    fit, bound_note = _dissipative(a, y, fit, prior, m, k, noise=noise)
+    if bound_note:
+        warnings.append(bound_note)
+    scale = robust_scale(fit.residual[keep > 0])
+    # covariance: the sandwich where the data speak, plus what the prior adds (the posterior
+    # (N + L)^-1 = B N B + B L B with B = (N + L)^-1; B N B -> the cluster sandwich)
+    cov = cluster_covariance(a, fit.residual, fit.weights, fit.bread, rows.clusters)
+    cov = cov + noise * (fit.bread @ prior @ fit.bread)
+    law, copy_note = _law(fit.coef[m:], speeds, w0, rows)
+    if copy_note:
+        warnings.append(copy_note)
+    names = [*fixed_names, *(f"friction.{x}" for x in law.linear_parameter_names)]
+    psd = _residual_psd(rows, fit.residual, scale)
+    table = residual_table(
+        [p.t[r] for p, r in zip(rows.pieces, rows.rows, strict=True)],
+        [p.velocity[r] for p, r in zip(rows.pieces, rows.rows, strict=True)],
+        [p.acceleration[r] for p, r in zip(rows.pieces, rows.rows, strict=True)],
+        _split(fit.residual, rows),
+        band=4.0 * w0,
+    )
     grav, grav_sig = 0.0, False
     if gravity_check is not None:
-        grav, grav_sig = _gravity_test(pieces, prep, a, y, fit.weights, gravity_check, planar)
+        grav, grav_sig = _gravity_test(rows, a, y, fit, prior, gravity_check, planar)
     return WholeFit(
         names=tuple(names),
-        coef=fit.coef,
+        coef=np.r_[fit.coef[:m], law.linear_parameters()],
         covariance=cov,
-        stribeck_velocity=float(vs),
-        stribeck_exponent=float(ex),
-        zero_velocity=float(w0),
-        stribeck=st_used,
+        law=law,
+        stribeck=not flat,
         delay=float(d),
         orders=tuple(final_orders),
         residual_scale=scale,
         residual_psd=psd,
-        samples=n,
+        samples=int(sum(int(p.use.sum()) for p in pieces)),
         gravity_torque=grav,
         gravity_significant=grav_sig,
         delay_interval=(float(delay_interval[0]), float(delay_interval[1])),
+        residual=table,
+        observed_speed=float(observed),
         warnings=tuple(name + w for w in warnings),
     )
 
 
-def _judge_delay(
-    profile: DelayProfile, reference: float | None, max_delay: float
-) -> tuple[float, tuple[float, float], list[str]]:
-    """The delay to keep, its interval and warnings: an ambiguous profile takes the candidate
-    nearest the pass method's delay ``reference`` (when given) and says so; a minimum at the
-    search's bound is reported; a pass method's delay outside the interval is reported."""
-    notes: list[str] = []
-    d = profile.best
-    interval = (profile.low, profile.high)
-    step = float(profile.grid[1] - profile.grid[0])
-    if len(profile.candidates) > 1:
-        listed = ", ".join(f"{1000 * c:.0f}" for c in profile.candidates)
-        if reference is not None:
-            d = min(profile.candidates, key=lambda c: abs(c - reference))
-        notes.append(
-            f"the torque channel's delay is not identifiable from these logs (the fit is "
-            f"about as good at {listed} ms); {1000 * d:.0f} ms kept"
-            + (" (nearest the pass method's)" if reference is not None else "")
-            + "; record sweeps with clear accelerations (ramps) so that the delay shows"
-        )
-        lo = min(profile.candidates) - 0.5 * step
-        hi = max(profile.candidates) + 0.5 * step
-        interval = (max(min(lo, profile.low), -max_delay), min(max(hi, profile.high), max_delay))
-    elif abs(d) > max_delay - step:
-        notes.append(
-            f"the torque channel's delay found ({1000 * d:.0f} ms) lies at the bound of the "
-            f"search ({1000 * max_delay:.0f} ms): the logs may be misaligned by more"
-        )
-    elif reference is not None and not interval[0] - step <= reference <= interval[1] + step:
-        notes.append(
-            f"the pass method's delay ({1000 * reference:.0f} ms) lies outside the whole-log "
-            f"fit's 95 % interval ({1000 * interval[0]:.0f} to {1000 * interval[1]:.0f} ms); "
-            f"the whole-log delay ({1000 * d:.0f} ms) is kept"
-        )
-    return d, interval, notes
+def _split(values: NDArray[np.float64], rows: _Rows) -> list[NDArray[np.float64]]:
+    """Stacked row values cut back into pieces."""
+    edges = np.cumsum([r.size for r in rows.rows])[:-1]
+    return list(np.split(values, edges))
 
 
-@dataclass(slots=True)
-class _Irls:
-    coef: NDArray[np.float64]
-    bread: NDArray[np.float64]
-    residual: NDArray[np.float64]
-    weights: NDArray[np.float64]
+def _directional_orders(
+    rows: _Rows,
+    both: Sequence[tuple[float, bool]],
+    fit: _Trial,
+    fric: NDArray[np.float64],
+    y: NDArray[np.float64],
+    noise: float,
+    embed: Callable[[int, float], NDArray[np.float64]],
+    elbow_term: bool,
+    inertia: bool,
+    level: float,
+    keep: NDArray[np.float64],
+) -> list[tuple[float, bool]]:
+    """Orders whose line differs between directions (chi-square of the difference on the
+    cluster covariance, Bonferroni over lines, and by more than 10 %)."""
+    split = [(o, True) for o, _ in both]
+    fixed_d, names_d = _fixed_columns(rows, split, elbow_term=elbow_term, inertia=inertia)
+    a_d = np.hstack((fixed_d, fric))
+    prior_d = embed(fixed_d.shape[1], noise)
+    fit_d = _irls(a_d, y, fit.weights, prior_d, keep=keep)
+    cov_d = cluster_covariance(a_d, fit_d.residual, fit_d.weights, fit_d.bread, rows.clusters)
+    crit = stats.chi2.ppf(1.0 - level / len(both), 2)
+    chosen = []
+    for o, _ in both:
+        ip = names_d.index(f"pdtv.{o:g}.positive.a")
+        ineg = names_d.index(f"pdtv.{o:g}.negative.a")
+        diff = fit_d.coef[ip : ip + 2] - fit_d.coef[ineg : ineg + 2]
+        sel = np.r_[ip, ip + 1, ineg, ineg + 1]
+        c = cov_d[np.ix_(sel, sel)]
+        cdiff = c[:2, :2] + c[2:, 2:] - c[:2, 2:] - c[2:, :2]
+        chi = float(diff @ np.linalg.pinv(cdiff) @ diff)
+        amp = max(np.hypot(*fit_d.coef[ip : ip + 2]), np.hypot(*fit_d.coef[ineg : ineg + 2]))
+        excited = np.all(np.isfinite(cdiff)) and float(np.trace(cdiff)) > 0
+        chosen.append((o, bool(excited and chi > crit and np.hypot(*diff) > 0.1 * amp)))
+    return chosen
 
 
-def _irls(
-    a: NDArray[np.float64], y: NDArray[np.float64], w: NDArray[np.float64], iterations: int = 8
-) -> _Irls:
-    trial = _solve(a, y, w)
-    for _ in range(iterations):
-        w_new = huber_weights(trial.residual, robust_scale(trial.residual))
-        new = _solve(a, y, w_new)
-        moved = float(np.max(np.abs(new.residual - trial.residual)))
-        trial, w = new, w_new
-        if moved < 1e-3 * robust_scale(trial.residual):
-            break
-    return _Irls(coef=trial.coef, bread=trial.bread, residual=trial.residual, weights=w)
+def _dissipative(
+    a: NDArray[np.float64],
+    y: NDArray[np.float64],
+    fit: _Trial,
+    prior: NDArray[np.float64],
+    m: int,
+    k: int,
+    *,
+    noise: float | None = None,
+) -> tuple[_Trial, str]:
+    """The fit with every table level and viscous slope >= 0 (friction opposes motion).
 
-
-@dataclass(frozen=True, slots=True, eq=False)
-class DelayProfile:
-    """The whole-log fit's cost against the torque channel's delay.
-
-    Attributes
-    ----------
-    grid, cost
-        Delays tried [s] and the robust cost of the fit at each.
-    best
-        The cost-minimising delay (grid, refined by a parabola) [s].
-    low, high
-        The 95 % profile confidence interval [s] (the delays whose cost is not significantly
-        worse than at ``best``; correlated neighbours counted once per window).
-    candidates
-        Separate local minima of the cost within that threshold (``best`` first) [s]: more than
-        one means the logs do not tell the delay apart.
+    An unconstrained fit that breaks this is refitted by bounded least squares on the same
+    (penalised, weighted) normal equations; the note says so when the bound moved a value by
+    more than twice its standard deviation (the logs then hold something the law cannot be).
     """
-
-    grid: NDArray[np.float64]
-    cost: NDArray[np.float64]
-    best: float
-    low: float
-    high: float
-    candidates: tuple[float, ...]
-
-
-def delay_profile(
-    cost: Callable[[float], float], max_delay: float, *, dof: float, steps: int = 25
-) -> DelayProfile:
-    """Scan ``cost`` over delays in ``[-max_delay, max_delay]`` (grid, then a parabola through
-    the best three) and bound the delay by a profile F test at 95 % with ``dof`` degrees of
-    freedom.
-
-    Examples
-    --------
-    >>> p = delay_profile(lambda d: 100.0 + 1e6 * (d - 0.05) ** 2, 0.25, dof=100.0)
-    >>> round(p.best, 4), p.low < 0.05 < p.high, p.candidates == (p.best,)
-    (0.05, True, True)
-    """
-    grid = np.linspace(-max_delay, max_delay, steps)
-    vals = np.array([cost(float(x)) for x in grid])
-    k = int(np.argmin(vals))
-    best, c_best = float(grid[k]), float(vals[k])
-    if 0 < k < grid.size - 1:
-        y0, y1, y2 = vals[k - 1], vals[k], vals[k + 1]
-        den = y0 - 2 * y1 + y2
-        if den > 0:
-            step = float(grid[1] - grid[0])
-            trial = float(grid[k] + 0.5 * step * (y0 - y2) / den)
-            c_trial = cost(trial)
-            if c_trial <= y1:
-                best, c_best = trial, c_trial
-    dof = max(dof, 1.0)
-    limit = c_best * (1.0 + float(stats.f.ppf(0.95, 1, dof)) / dof)
-    inside = vals <= limit
-    # the interval: the grid points around the best within the limit, half a step beyond
-    half = 0.5 * float(grid[1] - grid[0])
-    lo_k = hi_k = k
-    while lo_k > 0 and inside[lo_k - 1]:
-        lo_k -= 1
-    while hi_k < grid.size - 1 and inside[hi_k + 1]:
-        hi_k += 1
-    low = max(float(grid[lo_k]) - half, -max_delay)
-    high = min(float(grid[hi_k]) + half, max_delay)
-    # other local minima within the limit, outside that interval
-    others = [
-        float(grid[i])
-        for i in range(grid.size)
-        if inside[i]
-        and (i < lo_k or i > hi_k)
-        and (i == 0 or vals[i] <= vals[i - 1])
-        and (i == grid.size - 1 or vals[i] <= vals[i + 1])
-    ]
-    return DelayProfile(
-        grid=grid,
-        cost=vals,
-        best=best,
-        low=low,
-        high=high,
-        candidates=(best, *others),
+    p = a.shape[1]
+    lower = np.full(p, -np.inf)
+    lower[m:] = 0.0
+    if np.all(fit.coef >= lower - 1e-15):
+        return fit, ""
+    w = fit.weights
+    normal = a.T @ (a * w[:, None]) + prior
+    rhs = a.T @ (w * y)
+    d = np.sqrt(np.maximum(np.diag(normal), 1e-300))
+    scaled = normal / np.outer(d, d) + 1e-12 * np.eye(p)
+    chol = np.linalg.cholesky(scaled)
+    target = np.linalg.solve(chol, rhs / d)
+    res = optimize.lsq_linear(chol.T, target, bounds=(lower * d, np.full(p, np.inf)))
+    coef = res.x / d
+    r = y - a @ coef
+    bounded = _Trial(
+        coef=coef,
+        bread=fit.bread,
+        residual=r,
+        weights=w,
+        objective=float(np.sum(w * r * r) + coef @ prior @ coef),
     )
+    # the posterior standard deviation (``noise``: the residual's variance with the rows'
+    # correlation, as in the prior's scale)
+    var = robust_scale(fit.residual) ** 2 if noise is None else noise
+    sd = np.sqrt(np.maximum(np.diag(fit.bread), 0.0) * var)
+    moved = (fit.coef < 0) & (np.arange(p) >= m) & (-fit.coef > 2.0 * sd)
+    note = ""
+    if moved.any():
+        note = (
+            "the unconstrained friction fit was not dissipative (a level or viscous slope "
+            f"below 0 by more than 2 sigma, as low as {float(fit.coef[moved].min()):.3g}): "
+            "friction was held at >= 0 there; the logs may hold a load the model lacks "
+            "(gravity, a spring) or be misaligned"
+        )
+    return bounded, note
 
 
-def huber_cost(residual: NDArray[np.float64], scale: float) -> float:
-    """Sum of Huber's loss of ``residual`` at ``scale`` (k = 1.345), in squared units.
+def _law(
+    coef: NDArray[np.float64], speeds: tuple[float, ...], w0: float, rows: _Rows
+) -> tuple[SpeedTableFriction, str]:
+    """The table law of the fitted friction coefficients; a direction the logs never moved
+    in takes the other's levels."""
+    k = len(speeds)
+    v = rows.at(lambda p: p.velocity)
+    pos = int(np.sum(v > speeds[0]))
+    neg = int(np.sum(v < -speeds[0]))
+    up, down = list(coef[:k]), list(coef[k : 2 * k])
+    vu, vd = float(coef[2 * k]), float(coef[2 * k + 1])
+    note = ""
+    if min(pos, neg) < 0.01 * max(pos, neg, 1):
+        if pos >= neg:
+            down, vd = up, vu
+            note = (
+                "never moved in the negative direction: it takes the positive direction's friction"
+            )
+        else:
+            up, vu = down, vd
+            note = (
+                "never moved in the positive direction: it takes the negative direction's friction"
+            )
+    law = SpeedTableFriction(
+        speeds=speeds,
+        positive=tuple(up),
+        negative=tuple(down),
+        viscous=vu,
+        viscous_negative=vd,
+        zero_velocity=w0,
+    )
+    return law, note
 
-    Examples
-    --------
-    >>> huber_cost(np.array([0.0, 1.0, 10.0]), 1.0) == 0.5 + 1.345 * 10 - 0.5 * 1.345**2
-    True
-    """
-    if scale <= 0:
-        return float(0.5 * np.sum(residual**2))
-    k = HUBER_K * scale
-    a = np.abs(residual)
-    return float(np.sum(np.where(a <= k, 0.5 * a * a, k * a - 0.5 * k * k)))
 
-
-def _residual_psd(prep: _Prepared, residual: NDArray[np.float64], scale: float) -> float:
+def _residual_psd(rows: _Rows, residual: NDArray[np.float64], scale: float) -> float:
     """Low-frequency PSD of the residual [N^2 m^2/Hz] (see :class:`WholeFit`)."""
     values = []
-    start = 0
-    for t, r in zip(prep.t, prep.rows, strict=True):
-        m = r.size
-        res = residual[start : start + m]
-        start += m
-        if m < 50:
+    for p, r, res in zip(rows.pieces, rows.rows, _split(residual, rows), strict=True):
+        if r.size < 50:
             continue
-        tt = t[r]
+        tt = p.t[r]
         keep = np.concatenate(([True], np.diff(tt) > 0))
         try:
             values.append(lowpass(tt[keep], res[keep], cutoff=REFERENCE_CUTOFF))
@@ -933,23 +949,22 @@ def _residual_psd(prep: _Prepared, residual: NDArray[np.float64], scale: float) 
 
 
 def _gravity_test(
-    pieces: Sequence[Piece],
-    prep: _Prepared,
+    rows: _Rows,
     a: NDArray[np.float64],
     y: NDArray[np.float64],
-    w: NDArray[np.float64],
+    fit: _Trial,
+    prior: NDArray[np.float64],
     k: int,
     planar: bool,
 ) -> tuple[float, bool]:
     """Peak-to-peak torque explained by joint-angle harmonics, and whether it is significant."""
-    cols = []
-    for piece, r in zip(pieces, prep.rows, strict=True):
-        g = gravity_basis(piece.joint_angles, k, planar)
-        cols.append(smooth_as_acceleration(piece.t, g, window=prep.window)[r])
-    g = np.vstack(cols)
+    width = gravity_basis(rows.pieces[0].joint_angles[:1], k, planar).shape[1]
+    g = rows.smooth(lambda p, j0, j1: gravity_basis(p.joint_angles, k, planar)[:, j0:j1], width)
     full = np.hstack((a, g))
-    trial = _solve(full, y, w)
-    cov = cluster_covariance(full, trial.residual, w, trial.bread, prep.clusters)
+    pr = np.zeros((full.shape[1], full.shape[1]))
+    pr[: a.shape[1], : a.shape[1]] = prior
+    trial = _psolve(full, y, fit.weights, pr)
+    cov = cluster_covariance(full, trial.residual, fit.weights, trial.bread, rows.clusters)
     m = g.shape[1]
     c = trial.coef[-m:]
     cg = cov[-m:, -m:]

@@ -246,6 +246,59 @@ def force_map(
     return out, singular
 
 
+def force_and_sigma(
+    joint_angles: ArrayLike,
+    joint_torque: ArrayLike,
+    torque_sigma: ArrayLike,
+    link_lengths: tuple[float, float],
+    *,
+    min_sin_elbow: float = 0.05,
+) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]]:
+    """The force ``F = J(q)^-T tau``, the singular mask and the force's standard deviation.
+
+    :func:`force_map`'s ``A`` applied to the torques (NaN taken as 0) and to their standard
+    deviations (``sigma F_i = sqrt(sum_j A_ij^2 sigma_j^2)``, independent joints), in one
+    compiled pass (:func:`torquemap._kernels.planar_force`, five sines and cosines per
+    sample and no temporary of the log's size).
+
+    Parameters
+    ----------
+    joint_angles
+        Joint angles [rad], shape (n, 2).
+    joint_torque
+        Joint-side torques [N m], shape (n, 2).
+    torque_sigma
+        Their standard deviations [N m], shape (n, 2).
+    link_lengths
+        ``(l1, l2)`` [m].
+    min_sin_elbow
+        Poses with ``|sin q2|`` below this are singular (force and sigma NaN).
+
+    Returns
+    -------
+    (force, singular, sigma)
+        Force [N], shape (n, 2); singular mask, shape (n,); sigma [N], shape (n, 2).
+
+    Examples
+    --------
+    >>> f, singular, s = force_and_sigma([[0.0, 1.0]], [[0.5, 0.2]], [[0.1, 0.1]], (0.3, 0.2))
+    >>> a, _ = force_map([[0.0, 1.0]], (0.3, 0.2))
+    >>> bool(np.allclose(f[0], a[0] @ [0.5, 0.2]) and np.allclose(s[0], np.sqrt(a[0]**2 @ [0.01, 0.01])))
+    True
+    """
+    from torquemap._kernels import planar_force
+
+    q = np.ascontiguousarray(np.atleast_2d(_q2(joint_angles)), dtype=np.float64)
+    tau = np.ascontiguousarray(np.atleast_2d(np.asarray(joint_torque)), dtype=np.float64)
+    sig = np.ascontiguousarray(np.atleast_2d(np.asarray(torque_sigma)), dtype=np.float64)
+    n = q.shape[0]
+    force, sigma = np.empty((n, 2)), np.empty((n, 2))
+    singular = np.empty(n, dtype=np.bool_)
+    l1, l2 = (float(v) for v in link_lengths)
+    planar_force(q, tau, sig, l1, l2, float(min_sin_elbow), force, sigma, singular)
+    return force, singular, sigma
+
+
 def inverse_kinematics(
     position: ArrayLike, link_lengths: tuple[float, float], *, elbow: int = 1
 ) -> NDArray[np.float64]:

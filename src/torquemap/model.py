@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from torquemap.errors import InputError
 from torquemap.friction_law import FrictionLaw, StribeckFriction, friction_law_from_dict
+from torquemap.pdtv import POWER_ORDERS
 from torquemap.robot import Robot, robot_from_dict, robot_to_dict
 from torquemap.tomlfile import read_toml
 
@@ -132,6 +133,27 @@ def pdtv_torque(
     w = None if velocity is None else np.asarray(velocity, dtype=np.float64)
     flat_theta, flat_out = theta.reshape(-1), out.reshape(-1)
     flat_w = None if w is None else np.broadcast_to(w, theta.shape).reshape(-1)
+    used = [line for line in lines if line.direction == "both" or flat_w is not None]
+    # integer orders (a motor-angle PDTV's) as powers of exp(i theta), by the compiled kernel:
+    # one sine and one cosine per sample instead of one cosine per line
+    powers = [line for line in used if _power_order(line.order)]
+    if len(powers) > 1 and flat_theta.size:
+        from torquemap._kernels import phasor_lines
+
+        directions = {"both": 0, "positive": 1, "negative": -1}
+        phase = np.array([line.phase for line in powers])
+        amplitude = np.array([line.amplitude for line in powers])
+        phasor_lines(
+            np.cos(flat_theta),
+            np.sin(flat_theta),
+            np.zeros(1) if flat_w is None else np.ascontiguousarray(flat_w),
+            np.array([int(line.order) for line in powers], dtype=np.int64),
+            amplitude * np.cos(phase),
+            amplitude * np.sin(phase),
+            np.array([directions[line.direction] for line in powers], dtype=np.int64),
+            flat_out,
+        )
+        used = [line for line in used if line not in powers]
     # in place, a cache-sized stretch at a time: the same operations as
     # ``out += amplitude * cos(order * theta + phase)``, without a temporary of the log's size
     step = 1 << 15
@@ -139,9 +161,7 @@ def pdtv_torque(
     for a in range(0, flat_theta.size, step):
         th, acc = flat_theta[a : a + step], flat_out[a : a + step]
         b = buf[: th.size]
-        for line in lines:
-            if line.direction != "both" and flat_w is None:
-                continue
+        for line in used:
             np.multiply(line.order, th, out=b)
             b += line.phase
             np.cos(b, out=b)
@@ -153,6 +173,12 @@ def pdtv_torque(
                 wv = flat_w[a : a + step]
                 np.add(acc, b, out=acc, where=wv > 0 if line.direction == "positive" else wv < 0)
     return out
+
+
+def _power_order(order: float) -> bool:
+    """Whether a line's order is a positive integer taken as a power of ``exp(i theta)``
+    (:data:`torquemap.pdtv.POWER_ORDERS`, as :func:`torquemap.pdtv.phasors` does)."""
+    return order == round(order) and 1 <= order <= POWER_ORDERS
 
 
 def inertia_at(joint: JointModel, elbow_angle: ArrayLike) -> NDArray[np.float64]:

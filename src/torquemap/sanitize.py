@@ -102,17 +102,19 @@ def implausible_samples(x: NDArray[np.float64]) -> NDArray[np.bool_]:
     """
     from scipy.ndimage import median_filter
 
-    v = np.asarray(x, dtype=np.float64)
+    from torquemap._kernels import max_abs
+
+    v = np.ascontiguousarray(x, dtype=np.float64)
     if v.size < MEDIAN_SPAN:
         return np.zeros(v.size, dtype=bool)
     # the median of the deviations is taken in a scaled space so 1e300 does not overflow
-    big = float(np.max(np.abs(v)))
+    big = max_abs(v)
     if not math.isfinite(big) or big == 0.0:
+        return np.zeros(v.size, dtype=bool)
+    if _none_beyond(v, big, max(10.0 * _median_at_least(v, big), 1e-12)):
         return np.zeros(v.size, dtype=bool)
     u = v / big
     du = np.abs(np.diff(u))
-    if _none_beyond(u, max(10.0 * _median_at_least(du), 1e-12)):
-        return np.zeros(v.size, dtype=bool)
     moves = du[du > 0]
     typical = float(np.median(moves)) if moves.size else 0.0
     med = median_filter(u, size=MEDIAN_SPAN, mode="nearest")
@@ -126,67 +128,52 @@ def implausible_samples(x: NDArray[np.float64]) -> NDArray[np.bool_]:
     return np.asarray(bad, dtype=bool)
 
 
-def _median_at_least(du: NDArray[np.float64]) -> float:
-    """A value at most the median of the nonzero entries of ``du`` (>= 0), close to it.
+def _median_at_least(v: NDArray[np.float64], big: float) -> float:
+    """A value at most the median of the nonzero steps ``|diff(v / big)|``, close to it.
 
-    The median of every 64th nonzero entry, less 10 %, when a count shows that at least half
-    the nonzero entries reach it (then the median does); else the median itself. A bound
-    for :func:`_none_beyond` without a sort of every sample.
+    The median of every 64th nonzero step, less 10 %, when a count shows that at least half
+    the nonzero steps reach it (then the median does); else the median itself. A bound for
+    :func:`_none_beyond` without a sort of every sample (the counts in one compiled pass,
+    :func:`torquemap._kernels.step_counts`, without the steps' array).
     """
-    moves = du[::64]
+    from torquemap._kernels import step_counts
+
+    at = np.arange(0, v.size - 1, 64)
+    moves = np.abs(v[at + 1] / big - v[at] / big)
     moves = moves[moves > 0]
-    m = int(np.count_nonzero(du))
-    if moves.size >= 16 and m:
+    if moves.size >= 16:
         guess = 0.9 * float(np.median(moves))
-        if guess > 0 and int(np.count_nonzero(du >= guess)) >= m - (m - 1) // 2:
+        m, reach = step_counts(v, big, guess) if guess > 0 else (0, 0)
+        if m and reach >= m - (m - 1) // 2:
             return guess
+    du = np.abs(np.diff(v / big))
     every = du[du > 0]
     return float(np.median(every)) if every.size else 0.0
 
 
-def _none_beyond(u: NDArray[np.float64], bound: float) -> bool:
-    """Whether no sample leaves the running median of ``MEDIAN_SPAN`` by more than ``bound``.
+def _none_beyond(v: NDArray[np.float64], big: float, bound: float) -> bool:
+    """Whether no sample of ``u = v / big`` leaves the running median of ``MEDIAN_SPAN`` by
+    more than ``bound``.
 
     A cheap exact test before the running median of every sample. The median of a window of
     ``2 h + 1`` values lies between the smallest and the largest of ANY ``h + 1`` of them
     (at most ``h`` values lie strictly above the median, and at most ``h`` below), so a
     sample leaves it by at most its distance to the farthest of the ``h + 1`` samples centred
-    on it (running maximum and minimum, O(n)). Only the samples where that distance exceeds
-    ``bound`` get their median computed.
+    on it (one compiled pass, :func:`torquemap._kernels.median_reach_suspects`). Only the
+    samples where that distance exceeds ``bound`` get their median computed.
     """
+    from torquemap._kernels import median_reach_suspects
+
     half = MEDIAN_SPAN // 2
-    near = half // 2  # the h + 1 = 5 central samples of the 9: i - 2 .. i + 2
-    padded = np.concatenate((np.full(near, u[0]), u, np.full(near, u[-1])))  # "nearest"
-    top, low = _running_extremes(padded, 2 * near + 1)
-    reach = np.maximum(top - u, u - low)
-    suspect = np.flatnonzero(reach > bound)
+    suspect = median_reach_suspects(v, big, bound)
     if suspect.size == 0:
         return True
-    if suspect.size > u.size // 100:
+    if suspect.size > v.size // 100:
         return False  # many: the full running median is as cheap
-    window = np.clip(suspect[:, None] + np.arange(-half, half + 1)[None, :], 0, u.size - 1)
-    local = np.median(u[window], axis=1)  # ``mode="nearest"``: the ends repeat
-    return bool(np.all(np.abs(u[suspect] - local) <= bound))
-
-
-def _running_extremes(
-    x: NDArray[np.float64], span: int
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Maximum and minimum of every ``span`` consecutive values, shape (x.size - span + 1,).
-
-    By doubling: the extremes of 2, 4, 8, ... consecutive values, then two overlapping runs
-    cover ``span`` (a few elementwise passes; exact, a maximum involves no rounding).
-    """
-    top, low, width = x, x, 1
-    while 2 * width <= span:
-        top = np.maximum(top[:-width], top[width:])
-        low = np.minimum(low[:-width], low[width:])
-        width *= 2
-    rest = span - width
-    if rest:
-        top = np.maximum(top[:-rest], top[rest:])
-        low = np.minimum(low[:-rest], low[rest:])
-    return top, low
+    window = np.clip(suspect[:, None] + np.arange(-half, half + 1)[None, :], 0, v.size - 1)
+    u = v[window] / big
+    local = np.median(u, axis=1)  # ``mode="nearest"``: the ends repeat
+    return bool(np.all(np.abs(v[suspect] / big - local) <= bound))
 
 
 #: A step of a joint angle between two samples is a jump when it exceeds this many times both
@@ -212,16 +199,21 @@ def angle_jumps(t: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.bo
     out = np.zeros(t.size, dtype=bool)
     if t.size < MEDIAN_SPAN:
         return out
-    dq = np.abs(np.diff(q))
-    dt = np.diff(t)
-    if not (np.all(np.isfinite(dq)) and np.all(dt > 0)):
+    from torquemap._kernels import angle_step_summary, count_at_least
+
+    tc = np.ascontiguousarray(t, dtype=np.float64)
+    qc = np.ascontiguousarray(q, dtype=np.float64)
+    ok, top = angle_step_summary(tc, qc)
+    if not ok:
         return out
     # no step exceeds 20 times the 99th percentile when enough steps reach a twentieth of the
     # largest (then that percentile does): exact, and it spares two percentiles (sorts)
-    reach = float(dq.max()) / (JUMP_FACTOR * (1.0 - 1e-9))
-    need = dq.size - math.floor(0.99 * (dq.size - 1))
-    if int(np.count_nonzero(dq >= reach)) >= need:
+    reach = top / (JUMP_FACTOR * (1.0 - 1e-9))
+    need = (t.size - 1) - math.floor(0.99 * (t.size - 2))
+    if count_at_least(qc, reach) >= need:
         return out
+    dq = np.abs(np.diff(q))
+    dt = np.diff(t)
     speed = dq / dt
     step_top = float(np.percentile(dq, 99))
     speed_top = float(np.percentile(speed, 99))

@@ -28,11 +28,17 @@ from numpy.typing import NDArray
 
 from torquemap.errors import InputError
 from torquemap.filters import lowpass
-from torquemap.identify_whole import LOWPASS_ENB
 from torquemap.model import Model
 
+#: Equivalent noise bandwidth of the forward-backward 2nd-order Butterworth low-pass, in units of
+#: its cut-off: integral of 1 / (1 + x^4)^2 over x >= 0 = 3 pi / (8 sqrt 2).
+LOWPASS_ENB = 3.0 * math.pi / (8.0 * math.sqrt(2.0))
 #: Low-pass cut-off [Hz] at which the residual table of a pass-method model is measured.
 RESIDUAL_CUTOFF = 2.0
+#: Model-form uncertainty of a friction table, as a fraction of its level: what linear
+#: interpolation in log speed between knots 1.8x apart and the transition's form leave
+#: (tests/test_identify_whole.py: within 2-3 % over the swept speeds).
+FORM_FRACTION = 0.0
 #: Speed bins of the residual table (log-spaced between the reversal band and the top speed).
 RESIDUAL_BINS = 8
 
@@ -45,14 +51,19 @@ def joint_uncertainty(model: Model, joint: str) -> Mapping[str, Any] | None:
     if not isinstance(table, Mapping):
         return None
     if table.get("kind") == "residual":
-        speeds, rms = table.get("speeds"), table.get("rms")
-        ok = isinstance(speeds, list) and isinstance(rms, list) and len(speeds) == len(rms)
-        return table if ok and speeds else None
+        return table if joint_uncertainty_table_ok(table) else None
     names = table.get("parameters")
     cov = table.get("covariance")
     if not isinstance(names, list) or not isinstance(cov, list):
         return None
     return table
+
+
+def joint_uncertainty_table_ok(table: Mapping[str, Any]) -> bool:
+    """Whether a residual table (:func:`residual_table`) has speeds and levels of one length."""
+    speeds, rms = table.get("speeds"), table.get("rms")
+    ok = isinstance(speeds, list) and isinstance(rms, list) and len(speeds) == len(rms)
+    return bool(ok and speeds)
 
 
 def regressor_columns(
@@ -107,6 +118,10 @@ def sign_sigma(law: Any, velocity: NDArray[np.float64], width: float) -> NDArray
     """
     v = np.asarray(velocity, dtype=np.float64)
     p = 0.5 * (1.0 + np.tanh(v / max(width, 1e-12)))
+    levels = getattr(law, "levels", None)
+    if callable(levels):  # a law that gives its levels per speed (a table)
+        g_up, g_down = levels(np.abs(v))
+        return np.asarray(np.sqrt(p * (1.0 - p)) * np.abs(g_up + g_down), dtype=np.float64)
     up, down = law.static_levels()
     shape = np.ones_like(v)
     vs = getattr(law, "stribeck_velocity", None)
@@ -130,8 +145,12 @@ def joint_sigma(
     acceleration: NDArray[np.float64],
     modulation: NDArray[np.float64],
     cutoff: float,
+    bridged: NDArray[np.bool_] | None = None,
 ) -> NDArray[np.float64]:
     """One standard deviation [N m, motor side] of a joint's external-torque estimate.
+
+    ``bridged`` marks the samples whose answer is bridged over (estimation's reversal band):
+    there friction's sign is taken as unknown (half the band between the two branches).
 
     NaN everywhere when the model holds no uncertainty for the joint (a model identified by
     the pass method, or written by hand).
@@ -160,12 +179,41 @@ def joint_sigma(
     g = lowpass(t, g, cutoff=cutoff) if g.shape[1] else g
     var = np.einsum("ni,ij,nj->n", g, cov, g) if g.shape[1] else np.zeros(n)
     psd = float(table.get("residual_psd", 0.0))
-    var = np.maximum(var, 0.0) + max(psd, 0.0) * LOWPASS_ENB * cutoff
+    noise = np.full(n, max(psd, 0.0) * LOWPASS_ENB * cutoff)
+    measured = table.get("residual")
+    if isinstance(measured, Mapping) and joint_uncertainty_table_ok(measured):
+        # what the model left on its own no-load logs at each speed (model-form error and
+        # noise together, measured): the larger of it and the noise alone
+        misfit = _residual_sigma(
+            measured,
+            law,
+            t=t,
+            velocity=velocity,
+            cutoff=cutoff,
+            acceleration=acceleration,
+            sign=False,
+        )
+        noise = np.maximum(noise, misfit**2)
+    var = np.maximum(var, 0.0) + noise
     joints = model.notes.get("joints", {})
     entry = joints.get(joint, {}) if isinstance(joints, Mapping) else {}
     resolution = float(entry.get("velocity_resolution", 0.0)) if isinstance(entry, Mapping) else 0.0
     width = max(float(getattr(law, "zero_velocity", 0.0)), resolution, 1e-9)
-    sign = lowpass(t, sign_sigma(law, velocity, width), cutoff=cutoff)
+    level = sign_sigma(law, velocity, width)
+    levels = getattr(law, "levels", None)
+    if callable(levels):
+        # the table's own form error between and beyond its knots: FORM_FRACTION of the level
+        up, down = levels(np.abs(velocity))
+        level = np.hypot(level, FORM_FRACTION * 0.5 * (np.abs(up) + np.abs(down)))
+    if bridged is not None and bridged.any():
+        # a bridged sample's answer is the line between its run's ends: friction does not
+        # enter it, so neither do its sign nor the law's parameters; its variance is the line
+        # between the ends' variances (the load's departure from a line is added by estimation)
+        from torquemap.estimate import bridge_gaps
+
+        level = bridge_gaps(t, level, bridged, longest=math.inf, ends=True)
+        var = bridge_gaps(t, var, bridged, longest=math.inf, ends=True)
+    sign = lowpass(t, level, cutoff=cutoff)
     out: NDArray[np.float64] = np.sqrt(var + np.maximum(sign, 0.0) ** 2)
     if not math.isfinite(float(np.max(out, initial=0.0))):
         out = np.where(np.isfinite(out), out, np.nan)
@@ -180,8 +228,10 @@ def _residual_sigma(
     velocity: NDArray[np.float64],
     cutoff: float,
     acceleration: NDArray[np.float64] | None = None,
+    sign: bool = True,
 ) -> NDArray[np.float64]:
-    """Sigma [N m, motor side] from a residual table (:func:`residual_table`)."""
+    """Sigma [N m, motor side] from a residual table (:func:`residual_table`); without
+    ``sign``, the table's level alone (no term for the sign of friction)."""
     speeds = np.asarray(table["speeds"], dtype=np.float64)
     rms = np.asarray(table["rms"], dtype=np.float64)
     if not (np.all(np.isfinite(speeds)) and np.all(np.isfinite(rms)) and np.all(rms >= 0)):
@@ -196,9 +246,11 @@ def _residual_sigma(
     if math.isfinite(per_acc) and per_acc > 0 and acceleration is not None:
         level = np.hypot(level, per_acc * np.abs(lowpass(t, acceleration, cutoff=cutoff)))
     level = lowpass(t, level, cutoff=cutoff)
+    if not sign:
+        return np.asarray(np.maximum(level, 0.0), dtype=np.float64)
     width = max(float(getattr(law, "zero_velocity", 0.0)), 1e-9)
-    sign = lowpass(t, sign_sigma(law, velocity, width), cutoff=cutoff)
-    return np.asarray(np.sqrt(np.maximum(level, 0.0) ** 2 + np.maximum(sign, 0.0) ** 2))
+    band = lowpass(t, sign_sigma(law, velocity, width), cutoff=cutoff)
+    return np.asarray(np.sqrt(np.maximum(level, 0.0) ** 2 + np.maximum(band, 0.0) ** 2))
 
 
 def residual_table(
@@ -287,3 +339,53 @@ def residual_table(
         "acceleration_sigma": per_acc,
         "reference_cutoff": RESIDUAL_CUTOFF,
     }
+
+
+def bridge_departure(
+    t: NDArray[np.float64],
+    estimate: NDArray[np.float64],
+    bridged: NDArray[np.bool_],
+    *,
+    cutoff: float,
+) -> NDArray[np.float64]:
+    """Standard deviation [unit of ``estimate``] of the load's departure from the straight
+    line a bridged run holds.
+
+    Over a run from ``ta`` to ``tb`` (``D = tb - ta``) the answer is the line between the
+    estimates at its ends; a load whose slope goes from ``s1`` (just before) to ``s2`` (just
+    after) departs from that chord as a parabola would, ``|s2 - s1| (t - ta) (tb - t) / (2 D)``
+    (``|s2 - s1| D / 8`` at the middle). The slopes are those of ``estimate`` over the half run,
+    at most ``1 / cutoff``, beyond each end. A run at an end of the log holds its one
+    neighbour's value: there the departure is that neighbour's slope times the time from it.
+    Zero outside the runs.
+
+    Examples
+    --------
+    >>> t = np.linspace(0.0, 4.0, 401)
+    >>> load = np.where(t < 2.0, 0.0, t - 2.0)          # a kink at t = 2 s: slopes 0, then 1
+    >>> bridged = (t > 1.5) & (t < 2.5)
+    >>> round(float(bridge_departure(t, load, bridged, cutoff=2.0).max()), 3)  # 1 * 1 / 8
+    0.125
+    """
+    from torquemap.estimate import _gap_runs
+
+    out = np.zeros(t.size)
+    span = 1.0 / max(cutoff, 1e-12)
+    for a, b in _gap_runs(bridged):
+        ta = float(t[a - 1]) if a > 0 else float(t[a])
+        tb = float(t[b]) if b < t.size else float(t[b - 1])
+        d = max(tb - ta, 1e-12)
+        reach = min(0.5 * d, span)
+        slopes = []
+        for lo, hi in ((ta - reach, ta), (tb, tb + reach)):
+            sel = (t >= lo) & (t <= hi) & ~bridged
+            if int(sel.sum()) >= 3:
+                slopes.append(float(np.polyfit(t[sel] - lo, estimate[sel], 1)[0]))
+        if not slopes:
+            continue
+        tt = t[a:b]
+        if a > 0 and b < t.size and len(slopes) == 2:
+            out[a:b] = abs(slopes[1] - slopes[0]) * (tt - ta) * (tb - tt) / (2.0 * d)
+        else:  # a run at an end holds its one neighbour's value: the load may go on moving
+            out[a:b] = abs(slopes[0]) * (tt - ta if b == t.size else tb - tt)
+    return out

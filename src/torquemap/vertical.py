@@ -44,6 +44,7 @@ from torquemap.model import Model, pdtv_torque
 from torquemap.robust import cluster_covariance, weighted_solve
 
 if TYPE_CHECKING:
+    from torquemap.filters import Derivatives
     from torquemap.identify import Identification
 
 #: A gravity-like torque above this share of the joint's Coulomb friction is warned about.
@@ -166,10 +167,20 @@ class ResidualPiece:
 
 
 def no_load_residuals(
-    model: Model, logs: Sequence[Log], *, window: float, shortest: float = 1.5
+    model: Model,
+    logs: Sequence[Log],
+    *,
+    window: float,
+    shortest: float = 1.5,
+    derivatives: Sequence[Sequence[Derivatives]] | None = None,
 ) -> dict[str, list[ResidualPiece]]:
     """Per joint, the Eq 7 signal of ``model`` over the (sanitised) no-load ``logs``, the torque
-    channel's identified delay undone; pieces shorter than ``shortest`` [s] left out."""
+    channel's identified delay undone; pieces shorter than ``shortest`` [s] left out.
+
+    ``derivatives``: when ``logs`` are pieces already sanitised (identification's), per piece
+    and joint their motor angle's derivatives (:func:`torquemap.filters.differentiate`); the
+    pieces are then neither sanitised nor differentiated again.
+    """
     from torquemap.delay import shift_channel
     from torquemap.estimate import _signal, identified_delays
     from torquemap.sanitize import sanitize_log
@@ -177,32 +188,37 @@ def no_load_residuals(
     delays = identified_delays(model)
     robot = model.robot
     out: dict[str, list[ResidualPiece]] = {n: [] for n in robot.joint_names}
-    for log in logs:
-        for piece in sanitize_log(log, window=window).pieces:
-            plog = piece.log
-            if float(plog.t[-1] - plog.t[0]) < shortest:
-                continue
-            if any(delays.get(name, 0.0) for name in robot.joint_names):
-                tau = plog.motor_torque.copy()
-                for k, name in enumerate(robot.joint_names):
-                    if delays.get(name, 0.0):
-                        tau[:, k] = shift_channel(plog.t, tau[:, k], delays[name])
-                plog = dataclasses.replace(plog, motor_torque=tau)
-            try:
-                t_est, angle, velocity, acceleration = _signal(model, plog, window=window)
-            except InputError:
-                continue
+    given: list[tuple[Log, Sequence[Derivatives] | None]]
+    if derivatives is None:
+        given = [
+            (piece.log, None) for log in logs for piece in sanitize_log(log, window=window).pieces
+        ]
+    else:
+        given = list(zip(logs, derivatives, strict=True))
+    for plog, rates in given:
+        if float(plog.t[-1] - plog.t[0]) < shortest:
+            continue
+        if any(delays.get(name, 0.0) for name in robot.joint_names):
+            tau = plog.motor_torque.copy()
             for k, name in enumerate(robot.joint_names):
-                out[name].append(
-                    ResidualPiece(
-                        t=plog.t,
-                        q=plog.q,
-                        velocity=velocity[:, k],
-                        angle=angle[:, k],
-                        eq7=t_est[:, k],
-                        acceleration=acceleration[:, k],
-                    )
+                if delays.get(name, 0.0):
+                    tau[:, k] = shift_channel(plog.t, tau[:, k], delays[name])
+            plog = dataclasses.replace(plog, motor_torque=tau)
+        try:
+            t_est, angle, velocity, acceleration = _signal(model, plog, window=window, rates=rates)
+        except InputError:
+            continue
+        for k, name in enumerate(robot.joint_names):
+            out[name].append(
+                ResidualPiece(
+                    t=plog.t,
+                    q=plog.q,
+                    velocity=velocity[:, k],
+                    angle=angle[:, k],
+                    eq7=t_est[:, k],
+                    acceleration=acceleration[:, k],
                 )
+            )
     return out
 
 
@@ -331,14 +347,17 @@ def checked_identification(
     window: float,
     vertical: Literal["refuse", "warn"] = "refuse",
     path: str | None = None,
+    derivatives: Sequence[Sequence[Derivatives]] | None = None,
 ) -> Identification:
     """Run :func:`check_no_load` on an identification's model and its (sanitised) logs:
     refuse (``vertical="refuse"``, InputError naming ``path``) or warn, and record the result
     in the model's notes; for joints without a parameter covariance, also record the no-load
     residual's level per speed (:func:`torquemap.uncertainty.residual_table`), estimation's
-    sigma. Used by :func:`torquemap.identify.identify_model` for every friction method."""
+    sigma. Used by :func:`torquemap.identify.identify_model` for every friction method.
+    ``derivatives``: those of the pieces' motor angles, when ``logs`` are sanitised pieces
+    (:func:`no_load_residuals`)."""
     model = ident.model
-    residuals = no_load_residuals(model, logs, window=window)
+    residuals = no_load_residuals(model, logs, window=window, derivatives=derivatives)
     checks = check_no_load(
         model, logs, window=window, joints=tuple(ident.joints), residuals=residuals
     )

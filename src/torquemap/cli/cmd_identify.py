@@ -226,10 +226,20 @@ def _identify(args: argparse.Namespace) -> int:
         f = jm.friction.to_dict()
         top = sorted(jm.pdtv, key=lambda ln: -ln.amplitude)[:3]
         lines = ", ".join(f"{ln.order:g} CPR {ln.amplitude:.3g} N m" for ln in top) or "none"
+        if "speeds" in f:  # a friction table (identify --friction whole)
+            up, down = jm.friction.static_levels()
+            law = (
+                f"friction at rest +{up:.4g}/-{down:.4g} N m (table of {len(f['speeds'])} "
+                f"speeds to {f['speeds'][-1]:.3g} rad/s)"
+            )
+        else:
+            law = (
+                f"coulomb +{f.get('coulomb_positive', nan):.4g}/"
+                f"-{f.get('coulomb_negative', nan):.4g} N m"
+            )
         print(
-            f"{name}: {len(jr.passes)} passes, J={jm.inertia.constant:.4g} kg m^2, "
-            f"coulomb +{f.get('coulomb_positive', nan):.4g}/-{f.get('coulomb_negative', nan):.4g}"
-            f" N m, viscous {f.get('viscous', nan):.4g} N m s/rad, {len(jm.pdtv)} PDTV lines "
+            f"{name}: {len(jr.passes)} passes, J={jm.inertia.constant:.4g} kg m^2, {law}, "
+            f"viscous {f.get('viscous', nan):.4g} N m s/rad, {len(jm.pdtv)} PDTV lines "
             f"(top: {lines})"
         )
     print(f"wrote {args.output}")

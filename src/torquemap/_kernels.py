@@ -1,0 +1,428 @@
+"""Compiled per-sample kernels of the estimate's and identification's hot paths.
+
+Each kernel fuses what numpy does in several passes over a log (a temporary of the log's size
+per operation) into one compiled loop over cache-sized stretches. They are plain functions on
+C-contiguous float64 arrays, called by the module that owns the concept (:mod:`filters`,
+:mod:`model`, :mod:`kinematics`, :mod:`sanitize`); each is tested against the numpy/scipy
+code it replaces (tests/test_kernels.py). Compiled once per signature and cached on disk
+(:func:`torquemap._jit.jit`): the callers always pass the same dtypes and layouts.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from torquemap._jit import jit
+
+#: Samples per stretch of the tiled kernels: a few arrays of it stay in the L1/L2 cache.
+TILE = 512
+
+
+@jit
+def sosfiltfilt_odd(
+    sos: NDArray[np.float64], zi: NDArray[np.float64], x: NDArray[np.float64], pad: int
+) -> NDArray[np.float64]:
+    """``scipy.signal.sosfiltfilt(sos, x, axis=1, padtype="odd", padlen=pad)`` of (m, n):
+    ``m`` signals of ``n`` samples each, one per row (contiguous in time).
+
+    One second-order section ``sos`` (1, 6) (an order-2 Butterworth); ``zi`` is
+    ``scipy.signal.sosfilt_zi(sos)``, shape (1, 2); ``n > pad``. Each signal's recurrence is
+    that of scipy's ``_sosfilt`` in the same order of operations (bit for bit); four signals
+    run side by side in registers, so that their recurrences overlap instead of each waiting
+    on its own previous sample, and the odd extensions at the ends are read on the fly.
+    """
+    m, n = x.shape
+    out = np.empty((m, n))
+    work = np.empty((n + 2 * pad, 4))
+    for c0 in range(0, m, 4):
+        _filtfilt_four(sos, zi, x, pad, c0, work, out)
+    return out
+
+
+@jit
+def _filtfilt_four(
+    sos: NDArray[np.float64],
+    zi: NDArray[np.float64],
+    x: NDArray[np.float64],
+    pad: int,
+    c0: int,
+    work: NDArray[np.float64],
+    out: NDArray[np.float64],
+) -> None:
+    """:func:`sosfiltfilt_odd` of one section on rows ``c0:c0 + 4`` of ``x`` into ``out`` (a
+    row past the last repeats the last: its result is dropped)."""
+    m, n = x.shape
+    total = n + 2 * pad
+    ca = c0
+    cb = min(c0 + 1, m - 1)
+    cc = min(c0 + 2, m - 1)
+    cd = min(c0 + 3, m - 1)
+    b0, b1, b2, a1, a2 = sos[0, 0], sos[0, 1], sos[0, 2], sos[0, 4], sos[0, 5]
+    za, zb = zi[0, 0], zi[0, 1]
+    # forward, over the odd extension: ext[j] = 2 x[0] - x[pad - j] (j < pad), x[j - pad],
+    # 2 x[n - 1] - x[2 n + pad - 2 - j] (j >= pad + n)
+    ea = 2.0 * x[ca, 0] - x[ca, pad]
+    eb = 2.0 * x[cb, 0] - x[cb, pad]
+    ec = 2.0 * x[cc, 0] - x[cc, pad]
+    ed = 2.0 * x[cd, 0] - x[cd, pad]
+    z0a, z1a = za * ea, zb * ea
+    z0b, z1b = za * eb, zb * eb
+    z0c, z1c = za * ec, zb * ec
+    z0d, z1d = za * ed, zb * ed
+    for j in range(total):
+        if j < pad:
+            xa = 2.0 * x[ca, 0] - x[ca, pad - j]
+            xb = 2.0 * x[cb, 0] - x[cb, pad - j]
+            xc = 2.0 * x[cc, 0] - x[cc, pad - j]
+            xd = 2.0 * x[cd, 0] - x[cd, pad - j]
+        elif j < pad + n:
+            xa, xb, xc, xd = x[ca, j - pad], x[cb, j - pad], x[cc, j - pad], x[cd, j - pad]
+        else:
+            k = 2 * n + pad - 2 - j
+            xa = 2.0 * x[ca, n - 1] - x[ca, k]
+            xb = 2.0 * x[cb, n - 1] - x[cb, k]
+            xc = 2.0 * x[cc, n - 1] - x[cc, k]
+            xd = 2.0 * x[cd, n - 1] - x[cd, k]
+        ya = b0 * xa + z0a
+        yb = b0 * xb + z0b
+        yc = b0 * xc + z0c
+        yd = b0 * xd + z0d
+        z0a = b1 * xa - a1 * ya + z1a
+        z0b = b1 * xb - a1 * yb + z1b
+        z0c = b1 * xc - a1 * yc + z1c
+        z0d = b1 * xd - a1 * yd + z1d
+        z1a = b2 * xa - a2 * ya
+        z1b = b2 * xb - a2 * yb
+        z1c = b2 * xc - a2 * yc
+        z1d = b2 * xd - a2 * yd
+        work[j, 0], work[j, 1], work[j, 2], work[j, 3] = ya, yb, yc, yd
+    last = total - 1
+    z0a, z1a = za * work[last, 0], zb * work[last, 0]
+    z0b, z1b = za * work[last, 1], zb * work[last, 1]
+    z0c, z1c = za * work[last, 2], zb * work[last, 2]
+    z0d, z1d = za * work[last, 3], zb * work[last, 3]
+    count = min(4, m - c0)
+    for step in range(total):
+        j = last - step
+        xa, xb, xc, xd = work[j, 0], work[j, 1], work[j, 2], work[j, 3]
+        ya = b0 * xa + z0a
+        yb = b0 * xb + z0b
+        yc = b0 * xc + z0c
+        yd = b0 * xd + z0d
+        z0a = b1 * xa - a1 * ya + z1a
+        z0b = b1 * xb - a1 * yb + z1b
+        z0c = b1 * xc - a1 * yc + z1c
+        z0d = b1 * xd - a1 * yd + z1d
+        z1a = b2 * xa - a2 * ya
+        z1b = b2 * xb - a2 * yb
+        z1c = b2 * xc - a2 * yc
+        z1d = b2 * xd - a2 * yd
+        if pad <= j < pad + n:
+            i = j - pad
+            out[ca, i] = ya
+            if count > 1:
+                out[cb, i] = yb
+            if count > 2:
+                out[cc, i] = yc
+            if count > 3:
+                out[cd, i] = yd
+
+
+@jit
+def savgol_fit(
+    y: NDArray[np.float64],
+    smooth: NDArray[np.float64],
+    odd: NDArray[np.float64],
+    even: NDArray[np.float64],
+    position: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    acceleration: NDArray[np.float64],
+    with_position: bool,
+) -> None:
+    """The centred Savitzky-Golay fit of ``y`` (n,): position (if ``with_position``), velocity
+    and acceleration, in place.
+
+    ``smooth[k]``, ``odd[k]`` and ``even[k]`` (k = 0..half) are the position's symmetric, the
+    velocity's antisymmetric and the acceleration's symmetric correlation weights at lag ``k``.
+    For ``half <= i < n - half`` and ``d[k] = (y[i + k] - y[i]) + (y[i - k] - y[i])``:
+    ``position[i] = y[i] + sum_k smooth[k] d[k]`` (the weights sum to one),
+    ``velocity[i] = sum_k odd[k] (y[i + k] - y[i - k])`` and ``acceleration[i] = sum_k
+    even[k] d[k]`` (they sum to zero: the centre's own weight is implied). All in one pass
+    over a stretch of outputs at a time, four lags at a time outside (so the compiler
+    vectorises across samples); the sums are of local differences, exact to the rounding of
+    the signal's change over the window, not of its value.
+    """
+    n = y.size
+    half = odd.size - 1
+    acc_p = np.empty(TILE)
+    acc_v = np.empty(TILE)
+    acc_a = np.empty(TILE)
+    for start in range(half, n - half, TILE):
+        m = min(TILE, n - half - start)
+        centre = y[start : start + m]
+        for j in range(m):
+            acc_p[j] = 0.0
+            acc_v[j] = 0.0
+            acc_a[j] = 0.0
+        k = 1
+        while k + 3 <= half:  # four lags per pass over the stretch: fewer loads and stores
+            c1, c2, c3, c4 = odd[k], odd[k + 1], odd[k + 2], odd[k + 3]
+            e1, e2, e3, e4 = even[k], even[k + 1], even[k + 2], even[k + 3]
+            s1, s2, s3, s4 = smooth[k], smooth[k + 1], smooth[k + 2], smooth[k + 3]
+            a1 = y[start + k : start + k + m]
+            a2 = y[start + k + 1 : start + k + 1 + m]
+            a3 = y[start + k + 2 : start + k + 2 + m]
+            a4 = y[start + k + 3 : start + k + 3 + m]
+            b1 = y[start - k : start - k + m]
+            b2 = y[start - k - 1 : start - k - 1 + m]
+            b3 = y[start - k - 2 : start - k - 2 + m]
+            b4 = y[start - k - 3 : start - k - 3 + m]
+            for j in range(m):
+                c = centre[j]
+                d1 = (a1[j] - c) + (b1[j] - c)
+                d2 = (a2[j] - c) + (b2[j] - c)
+                d3 = (a3[j] - c) + (b3[j] - c)
+                d4 = (a4[j] - c) + (b4[j] - c)
+                acc_v[j] += (c1 * (a1[j] - b1[j]) + c2 * (a2[j] - b2[j])) + (
+                    c3 * (a3[j] - b3[j]) + c4 * (a4[j] - b4[j])
+                )
+                acc_a[j] += (e1 * d1 + e2 * d2) + (e3 * d3 + e4 * d4)
+                if with_position:
+                    acc_p[j] += (s1 * d1 + s2 * d2) + (s3 * d3 + s4 * d4)
+            k += 4
+        while k <= half:
+            ck = odd[k]
+            ek = even[k]
+            sk = smooth[k]
+            ahead = y[start + k : start + k + m]
+            behind = y[start - k : start - k + m]
+            for j in range(m):
+                p = ahead[j]
+                q = behind[j]
+                c = centre[j]
+                d = (p - c) + (q - c)
+                acc_v[j] += ck * (p - q)
+                acc_a[j] += ek * d
+                if with_position:
+                    acc_p[j] += sk * d
+            k += 1
+        for j in range(m):
+            velocity[start + j] = acc_v[j]
+            acceleration[start + j] = acc_a[j]
+            if with_position:
+                position[start + j] = centre[j] + acc_p[j]
+
+
+@jit
+def phasor_lines(
+    cos_theta: NDArray[np.float64],
+    sin_theta: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    orders: NDArray[np.int64],
+    real: NDArray[np.float64],
+    imag: NDArray[np.float64],
+    direction: NDArray[np.int64],
+    out: NDArray[np.float64],
+) -> None:
+    """``out += sum_j Re((real[j] + i imag[j]) z^orders[j])``, ``z = cos + i sin``, in place.
+
+    For a line ``a cos(k theta + phi)``: ``real = a cos(phi)``, ``imag = a sin(phi)`` (then
+    ``Re(...) = a (cos phi cos k theta - sin phi sin k theta)``). ``direction[j]`` is 0 for a
+    line that always applies, +1 (-1) for one that applies where ``velocity`` is positive
+    (negative). The powers by repeated squaring and one product per further set bit of the
+    order (48: five squarings and a product), a stretch of samples at a time.
+    """
+    n = cos_theta.size
+    top = 1
+    for k in orders:
+        while (1 << top) <= k:
+            top += 1
+    sq_re = np.empty((top, TILE))
+    sq_im = np.empty((top, TILE))
+    pr = np.empty(TILE)
+    pi = np.empty(TILE)
+    for start in range(0, n, TILE):
+        stop = min(start + TILE, n)
+        m = stop - start
+        for i in range(m):
+            sq_re[0, i] = cos_theta[start + i]
+            sq_im[0, i] = sin_theta[start + i]
+        for b in range(1, top):
+            for i in range(m):
+                re = sq_re[b - 1, i]
+                im = sq_im[b - 1, i]
+                sq_re[b, i] = re * re - im * im
+                sq_im[b, i] = 2.0 * re * im
+        for j in range(orders.size):
+            k = orders[j]
+            first = True
+            for b in range(top):
+                if (k >> b) & 1:
+                    if first:
+                        for i in range(m):
+                            pr[i] = sq_re[b, i]
+                            pi[i] = sq_im[b, i]
+                        first = False
+                    else:
+                        for i in range(m):
+                            re = pr[i] * sq_re[b, i] - pi[i] * sq_im[b, i]
+                            pi[i] = pr[i] * sq_im[b, i] + pi[i] * sq_re[b, i]
+                            pr[i] = re
+            ar = real[j]
+            ai = imag[j]
+            d = direction[j]
+            if d == 0:
+                for i in range(m):
+                    out[start + i] += ar * pr[i] - ai * pi[i]
+            else:
+                for i in range(m):
+                    v = velocity[start + i]
+                    if (d > 0 and v > 0) or (d < 0 and v < 0):
+                        out[start + i] += ar * pr[i] - ai * pi[i]
+
+
+@jit
+def max_abs(x: NDArray[np.float64]) -> float:
+    """``max(|x|)`` (NaN if any is NaN), without the temporary of ``numpy.abs``."""
+    top = 0.0
+    for v in x:
+        a = abs(v)
+        if a != a:
+            return float(a)
+        if a > top:
+            top = float(a)
+    return top
+
+
+@jit
+def step_counts(x: NDArray[np.float64], scale: float, guess: float) -> tuple[int, int]:
+    """For ``d = |diff(x / scale)|``: the number of nonzero ``d`` and of ``d >= guess``."""
+    nonzero = 0
+    reach = 0
+    previous = x[0] / scale
+    for i in range(1, x.size):
+        u = x[i] / scale
+        d = abs(u - previous)
+        previous = u
+        if d > 0:
+            nonzero += 1
+        if d >= guess:
+            reach += 1
+    return nonzero, reach
+
+
+@jit
+def median_reach_suspects(x: NDArray[np.float64], scale: float, bound: float) -> NDArray[np.int64]:
+    """Samples ``i`` of ``u = x / scale`` farther than ``bound`` from one of ``u[i - 2..i + 2]``
+    (the ends repeated, ``mode="nearest"``): those that may leave the running median of 9 by
+    more than ``bound`` (:func:`torquemap.sanitize._none_beyond`). Sorted indices.
+
+    A stretch at a time: ``u`` with two samples either side, then the test of every sample
+    (vectorised), then the rare suspects collected.
+    """
+    n = x.size
+    out = np.empty(16, dtype=np.int64)
+    count = 0
+    u = np.empty(TILE + 4)
+    far = np.empty(TILE, dtype=np.bool_)
+    for start in range(0, n, TILE):
+        m = min(TILE, n - start)
+        for j in range(m + 4):
+            u[j] = x[min(max(start + j - 2, 0), n - 1)] / scale
+        hits = 0
+        for j in range(m):
+            c = u[j + 2]
+            top = max(max(max(u[j], u[j + 1]), max(u[j + 3], u[j + 4])), c)
+            low = min(min(min(u[j], u[j + 1]), min(u[j + 3], u[j + 4])), c)
+            f = (top - c > bound) | (c - low > bound)
+            far[j] = f
+            hits += f
+        if hits == 0:
+            continue
+        for j in range(m):
+            if far[j]:
+                if count == out.size:
+                    grown = np.empty(2 * out.size, dtype=np.int64)
+                    grown[:count] = out[:count]
+                    out = grown
+                out[count] = start + j
+                count += 1
+    return out[:count].copy()
+
+
+@jit
+def angle_step_summary(t: NDArray[np.float64], q: NDArray[np.float64]) -> tuple[bool, float]:
+    """Whether every ``|diff(q)|`` is finite and every ``diff(t)`` positive, and the largest
+    ``|diff(q)|`` (:func:`torquemap.sanitize.angle_jumps`)."""
+    ok = True
+    top = 0.0
+    for i in range(1, q.size):
+        d = abs(q[i] - q[i - 1])
+        if not (math.isfinite(d) and t[i] - t[i - 1] > 0):
+            ok = False
+        if d > top:
+            top = d
+    return ok, top
+
+
+@jit
+def count_at_least(x: NDArray[np.float64], reach: float) -> int:
+    """The number of ``|diff(x)| >= reach``."""
+    count = 0
+    for i in range(1, x.size):
+        if abs(x[i] - x[i - 1]) >= reach:
+            count += 1
+    return count
+
+
+@jit
+def planar_force(
+    q: NDArray[np.float64],
+    tau: NDArray[np.float64],
+    tau_sigma: NDArray[np.float64],
+    l1: float,
+    l2: float,
+    guard: float,
+    force: NDArray[np.float64],
+    sigma: NDArray[np.float64],
+    singular: NDArray[np.bool_],
+) -> None:
+    """The planar two-link arm's ``F = J^-T tau`` and its sigma, per sample, in place.
+
+    ``J = [[a, b], [c, d]]`` with ``a = -l1 sin q1 - l2 sin q12``, ``b = -l2 sin q12``,
+    ``c = l1 cos q1 + l2 cos q12``, ``d = l2 cos q12``; ``A = J^-T = [[d, -c], [-b, a]] /
+    det`` (:func:`torquemap.kinematics.force_map`), NaN where ``|sin q2| < guard``. ``F = A
+    tau`` with NaN torques taken as 0 (``numpy.nan_to_num``) and ``sigma_i = sqrt(sum_j
+    A_ij^2 sigma_j^2)``. Shapes (n, 2), ``singular`` (n,).
+    """
+    big = np.finfo(np.float64).max
+    for i in range(q.shape[0]):
+        q1 = q[i, 0]
+        q2 = q[i, 1]
+        bad = abs(math.sin(q2)) < guard
+        q12 = q1 + q2
+        s12 = math.sin(q12)
+        c12 = math.cos(q12)
+        a = -l1 * math.sin(q1) - l2 * s12
+        c = l1 * math.cos(q1) + l2 * c12
+        b = -l2 * s12
+        d = l2 * c12
+        inv = math.nan if bad else 1.0 / (a * d - b * c)
+        m00 = d * inv
+        m01 = -c * inv
+        m10 = -b * inv
+        m11 = a * inv
+        t0 = tau[i, 0]
+        t1 = tau[i, 1]
+        t0 = 0.0 if t0 != t0 else (big if t0 > big else (-big if t0 < -big else t0))
+        t1 = 0.0 if t1 != t1 else (big if t1 > big else (-big if t1 < -big else t1))
+        force[i, 0] = m00 * t0 + m01 * t1
+        force[i, 1] = m10 * t0 + m11 * t1
+        v0 = tau_sigma[i, 0] ** 2
+        v1 = tau_sigma[i, 1] ** 2
+        sigma[i, 0] = math.sqrt(m00**2 * v0 + m01**2 * v1)
+        sigma[i, 1] = math.sqrt(m10**2 * v0 + m11**2 * v1)
+        singular[i] = bad

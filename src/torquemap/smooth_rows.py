@@ -1,0 +1,114 @@
+"""The differentiator's smoothing evaluated at a subset of a log's rows.
+
+Whole-log identification (:mod:`torquemap.identify_whole`) regresses signals smoothed by the
+kernel through which :func:`torquemap.filters.differentiate` sees acceleration. Neighbouring
+smoothed rows carry nearly the same information, so the fit keeps a few rows per window and
+needs the smoothing only there: :class:`RowSmoother` gives it at a cost of a few operations per
+sample, whatever the window holds.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import sparse
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class RowSmoother:
+    """:func:`torquemap.filters.smooth_as_acceleration` evaluated at some rows only.
+
+    The smoothed signal at row ``i`` is the differentiator's acceleration (a local quadratic
+    least-squares fit over the window of ``i``, :func:`torquemap.filters.differentiate`) of the
+    signal's double integral; that fit is a fixed linear combination of the window's samples,
+    precomputed here once per time axis. Evaluating it at one row per quarter window costs
+    about four operations per sample, whatever the window holds, where smoothing every sample
+    costs the window's length per sample: the nonlinear search's trials use this.
+
+    Attributes
+    ----------
+    t
+        Time [s] of the whole piece, shape (n,).
+    operator
+        The rows' weights on the double integral, sparse (rows, n).
+    """
+
+    t: NDArray[np.float64]
+    operator: sparse.csr_matrix
+
+    @classmethod
+    def build(cls, t: NDArray[np.float64], rows: NDArray[np.intp], window: float) -> RowSmoother:
+        """The smoother of time axis ``t`` [s] at ``rows`` for a window of ``window`` [s]."""
+        from torquemap.filters import MIN_WINDOW_SAMPLES, uniform_step
+
+        n = t.size
+        h = uniform_step(t)
+        half = math.floor(window / (2 * h) + 1e-9)
+        if half >= 2 and 2 * half + 1 <= n and np.allclose(np.diff(t), h, rtol=1e-9, atol=0.0):
+            length = 2 * half + 1
+            lo = np.clip(rows - half, 0, n - length)
+            hi = lo + length
+        else:
+            start = np.clip(t[rows] - window / 2, t[0], t[-1] - window)
+            lo = np.searchsorted(t, start, side="left")
+            hi = np.searchsorted(t, start + window * (1 + 1e-12), side="right")
+            short = (hi - lo) < MIN_WINDOW_SAMPLES
+            if short.any():
+                i = rows[short]
+                left = np.clip(i - MIN_WINDOW_SAMPLES // 2, 0, n - MIN_WINDOW_SAMPLES)
+                lo[short] = np.minimum(lo[short], left)
+                hi[short] = np.maximum(hi[short], left + MIN_WINDOW_SAMPLES)
+        parts = [
+            _curvature_weights(t, rows[a : a + _CHUNK], lo[a : a + _CHUNK], hi[a : a + _CHUNK])
+            for a in range(0, rows.size, _CHUNK)
+        ]
+        operator = sparse.vstack(parts, format="csr") if parts else sparse.csr_matrix((0, n))
+        return cls(t=t, operator=operator)
+
+    def __call__(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The smoothed ``x`` (n, m) at the rows, shape (rows, m)."""
+        mean = np.mean(x, axis=0)
+        out = self.operator @ _double_integral(self.t, x - mean) + mean
+        return np.asarray(out, dtype=np.float64)
+
+
+#: Rows whose weights are built at once (bounds the memory of :meth:`RowSmoother.build`).
+_CHUNK = 4096
+
+
+def _curvature_weights(
+    t: NDArray[np.float64], rows: NDArray[np.intp], lo: NDArray[np.intp], hi: NDArray[np.intp]
+) -> sparse.csr_matrix:
+    """The rows' weights on the double integral (sparse (rows, n)): the curvature of a local
+    quadratic least-squares fit over samples ``lo:hi``, times 2 (an acceleration)."""
+    n = t.size
+    width = int((hi - lo).max()) if rows.size else 1
+    offsets = np.arange(width)
+    index = np.minimum(lo[:, None] + offsets, n - 1)
+    inside = (lo[:, None] + offsets) < hi[:, None]
+    scale = np.maximum(0.5 * (t[hi - 1] - t[lo]), 1e-300)
+    sc = np.where(inside, (t[index] - t[rows][:, None]) / scale[:, None], 0.0)
+    m = inside.astype(np.float64)
+    basis = np.stack([m, m * sc, m * sc * sc], axis=-1)  # (rows, L, 3)
+    normal = np.einsum("rli,rlj->rij", basis, basis)
+    # the curvature's row of (S^T S)^-1 S^T, times 2 / scale^2 (acceleration)
+    unit = np.broadcast_to(np.array([0.0, 0.0, 1.0]), (rows.size, 3))[:, :, None]
+    e = np.linalg.solve(normal, unit)[:, :, 0]
+    weight = 2.0 * np.einsum("rlj,rj->rl", basis, e) / (scale**2)[:, None]
+    return sparse.csr_matrix(
+        (weight.ravel(), index.ravel(), np.arange(0, weight.size + 1, width)),
+        shape=(rows.size, n),
+    )
+
+
+def _double_integral(t: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Twice the cumulative trapezoidal integral of ``x`` (n, m) over ``t`` [s], from 0."""
+    dt = np.diff(t)[:, None]
+    out = np.zeros_like(x)
+    out[1:] = np.cumsum(0.5 * (x[1:] + x[:-1]) * dt, axis=0)
+    second = np.zeros_like(x)
+    second[1:] = np.cumsum(0.5 * (out[1:] + out[:-1]) * dt, axis=0)
+    return second

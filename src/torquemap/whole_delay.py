@@ -1,0 +1,152 @@
+"""The torque channel's delay as whole-log identification sees it: a profile of the fit's cost.
+
+:func:`delay_profile` scans a cost over trial delays and bounds the delay by a profile F test;
+:func:`judge_delay` picks the delay to keep and words what the profile says (an ambiguous
+delay, a minimum at the search's bound, a disagreement with the pass method's delay).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import stats
+
+from torquemap.robust import HUBER_K
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class DelayProfile:
+    """The whole-log fit's cost against the torque channel's delay.
+
+    Attributes
+    ----------
+    grid, cost
+        Delays tried [s] and the robust cost of the fit at each.
+    best
+        The cost-minimising delay (grid, refined by a parabola) [s].
+    low, high
+        The 95 % profile confidence interval [s] (the delays whose cost is not significantly
+        worse than at ``best``; correlated neighbours counted once per window).
+    candidates
+        Separate local minima of the cost within that threshold (``best`` first) [s]: more than
+        one means the logs do not tell the delay apart.
+    """
+
+    grid: NDArray[np.float64]
+    cost: NDArray[np.float64]
+    best: float
+    low: float
+    high: float
+    candidates: tuple[float, ...]
+
+
+def delay_profile(
+    cost: Callable[[float], float], max_delay: float, *, dof: float, steps: int = 25
+) -> DelayProfile:
+    """Scan ``cost`` over delays in ``[-max_delay, max_delay]`` (grid, then a parabola through
+    the best three) and bound the delay by a profile F test at 95 % with ``dof`` degrees of
+    freedom.
+
+    Examples
+    --------
+    >>> p = delay_profile(lambda d: 100.0 + 1e6 * (d - 0.05) ** 2, 0.25, dof=100.0)
+    >>> round(p.best, 4), p.low < 0.05 < p.high, p.candidates == (p.best,)
+    (0.05, True, True)
+    """
+    grid = np.linspace(-max_delay, max_delay, steps)
+    vals = np.array([cost(float(x)) for x in grid])
+    k = int(np.argmin(vals))
+    best, c_best = float(grid[k]), float(vals[k])
+    if 0 < k < grid.size - 1:
+        y0, y1, y2 = vals[k - 1], vals[k], vals[k + 1]
+        den = y0 - 2 * y1 + y2
+        if den > 0:
+            step = float(grid[1] - grid[0])
+            trial = float(grid[k] + 0.5 * step * (y0 - y2) / den)
+            c_trial = cost(trial)
+            if c_trial <= y1:
+                best, c_best = trial, c_trial
+    dof = max(dof, 1.0)
+    limit = c_best * (1.0 + float(stats.f.ppf(0.95, 1, dof)) / dof)
+    inside = vals <= limit
+    # the interval: the grid points around the best within the limit, half a step beyond
+    half = 0.5 * float(grid[1] - grid[0])
+    lo_k = hi_k = k
+    while lo_k > 0 and inside[lo_k - 1]:
+        lo_k -= 1
+    while hi_k < grid.size - 1 and inside[hi_k + 1]:
+        hi_k += 1
+    low = max(float(grid[lo_k]) - half, -max_delay)
+    high = min(float(grid[hi_k]) + half, max_delay)
+    # other local minima within the limit, outside that interval
+    others = [
+        float(grid[i])
+        for i in range(grid.size)
+        if inside[i]
+        and (i < lo_k or i > hi_k)
+        and (i == 0 or vals[i] <= vals[i - 1])
+        and (i == grid.size - 1 or vals[i] <= vals[i + 1])
+    ]
+    return DelayProfile(
+        grid=grid,
+        cost=vals,
+        best=best,
+        low=low,
+        high=high,
+        candidates=(best, *others),
+    )
+
+
+def huber_cost(residual: NDArray[np.float64], scale: float) -> float:
+    """Sum of Huber's loss of ``residual`` at ``scale`` (k = 1.345), in squared units.
+
+    Examples
+    --------
+    >>> huber_cost(np.array([0.0, 1.0, 10.0]), 1.0) == 0.5 + 1.345 * 10 - 0.5 * 1.345**2
+    True
+    """
+    if scale <= 0:
+        return float(0.5 * np.sum(residual**2))
+    k = HUBER_K * scale
+    a = np.abs(residual)
+    return float(np.sum(np.where(a <= k, 0.5 * a * a, k * a - 0.5 * k * k)))
+
+
+def judge_delay(
+    profile: DelayProfile, reference: float | None, max_delay: float
+) -> tuple[float, tuple[float, float], list[str]]:
+    """The delay to keep, its interval and warnings: an ambiguous profile takes the candidate
+    nearest the pass method's delay ``reference`` (when given) and says so; a minimum at the
+    search's bound is reported; a pass method's delay outside the interval is reported."""
+    notes: list[str] = []
+    d = profile.best
+    interval = (profile.low, profile.high)
+    step = float(profile.grid[1] - profile.grid[0])
+    if len(profile.candidates) > 1:
+        listed = ", ".join(f"{1000 * c:.0f}" for c in profile.candidates)
+        if reference is not None:
+            d = min(profile.candidates, key=lambda c: abs(c - reference))
+        notes.append(
+            f"the torque channel's delay is not identifiable from these logs (the fit is "
+            f"about as good at {listed} ms); {1000 * d:.0f} ms kept"
+            + (" (nearest the pass method's)" if reference is not None else "")
+            + "; record sweeps with clear accelerations (ramps) so that the delay shows"
+        )
+        lo = min(profile.candidates) - 0.5 * step
+        hi = max(profile.candidates) + 0.5 * step
+        interval = (max(min(lo, profile.low), -max_delay), min(max(hi, profile.high), max_delay))
+    elif abs(d) > max_delay - step:
+        notes.append(
+            f"the torque channel's delay found ({1000 * d:.0f} ms) lies at the bound of the "
+            f"search ({1000 * max_delay:.0f} ms): the logs may be misaligned by more"
+        )
+    elif reference is not None and not interval[0] - step <= reference <= interval[1] + step:
+        notes.append(
+            f"the pass method's delay ({1000 * reference:.0f} ms) lies outside the whole-log "
+            f"fit's 95 % interval ({1000 * interval[0]:.0f} to {1000 * interval[1]:.0f} ms); "
+            f"the whole-log delay ({1000 * d:.0f} ms) is kept"
+        )
+    return d, interval, notes
