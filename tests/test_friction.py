@@ -47,6 +47,39 @@ def test_stribeck_found_when_present_and_refused_when_absent() -> None:
         fit_friction([], [])
 
 
+def _rising_law(w: np.ndarray, top: float, power: float, rise: float) -> np.ndarray:
+    """Friction of another form than Stribeck's: a Stribeck dip below the passes, then a
+    torque that rises faster than linearly towards the top speed (``rise`` N m at ``top``)."""
+    a = np.abs(w)
+    level = np.where(w > 0, 0.0437, 0.0362) + np.where(w > 0, 0.0235, 0.0102) * np.exp(
+        -((a / 4.6) ** 2)
+    )
+    return np.sign(w) * (level + 0.001 * a + rise * (a / top) ** power)
+
+
+def test_stribeck_refused_where_it_is_not_physical_or_not_testable() -> None:
+    # random robot 16 of the family: a Stribeck term fitted to three speeds per direction of a
+    # law of another form dropped 3.9 N m over a Coulomb level of -3.8 N m, clipped to 0: a
+    # law 90x too strong below the slowest pass, exit 0 (9000 % of the spring force)
+    rng = np.random.default_rng(3)
+    for speeds, power, rise in (
+        ((7.0, 18.8, 47.9), 3.0, 0.007),
+        ((5.0, 11.3, 38.5, 43.3), 6.2, 0.0168),
+    ):
+        s = np.asarray(speeds)
+        w = np.concatenate([s, -s, s, -s])
+        tau = _rising_law(w, s[-1], power, rise) + rng.normal(0.0, 3e-4, w.size)
+        fit = fit_friction(w, tau)
+        f = fit.friction
+        assert not fit.stribeck_used
+        assert f.coulomb_positive >= 0 and f.coulomb_negative >= 0
+        # below the slowest pass the law stays within the torques the passes measured
+        rest = friction_torque(np.array([0.5, -0.5]), f)
+        assert np.all(np.abs(rest) <= np.max(np.abs(tau)))
+        if s.size == 4:  # testable, but it needs a negative Coulomb level: said so
+            assert any("negative Coulomb level" in m for m in fit.warnings)
+
+
 @pytest.mark.parametrize("vs", [0.37, 1.5, 2.9])
 def test_stribeck_velocity_between_grid_points_is_recovered(vs: float) -> None:
     # exact pass means at the five speeds of a typical sweep: the grid over Stribeck velocities

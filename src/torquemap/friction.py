@@ -385,7 +385,12 @@ def fit_friction(
         zero_velocity=zero_velocity,
     )
     used, fstat = False, math.nan
-    enough = _distinct(np.abs(w[pos])) >= 3 and _distinct(np.abs(w[neg])) >= 3
+    # "auto" wants four distinct speeds per direction: with three, the Stribeck law (a level
+    # and a drop per direction, a viscous slope and a Stribeck speed) passes through the six
+    # mean torques exactly, whatever the friction's true shape, and its F test sees only the
+    # passes' scatter
+    need = 3 if stribeck == "always" else 4
+    enough = _distinct(np.abs(w[pos])) >= need and _distinct(np.abs(w[neg])) >= need
     if stribeck != "never" and enough and w.size >= 8:
         from scipy import optimize
 
@@ -414,7 +419,18 @@ def fit_friction(
         dof = w.size - 6
         fstat = ((rss - rss2) / 3.0) / max(rss2 / dof, np.finfo(float).tiny) if dof > 0 else 0.0
         passes_test = dof > 0 and fstat > stats.f.ppf(1.0 - significance, 3, dof)
-        if (stribeck == "always" or passes_test) and c2[3] > 0 and c2[4] > 0:
+        # a Stribeck term is physical only with Coulomb levels >= 0 (the level it decays to):
+        # a law of another form (friction rising faster than linearly, say) can be matched at a
+        # few speeds by a huge Stribeck term over a negative Coulomb level, which clipping the
+        # latter at 0 would turn into a wildly wrong law below the slowest pass
+        unphysical = c2[0] < 0 or c2[1] < 0
+        if (stribeck == "always" or passes_test) and c2[3] > 0 and c2[4] > 0 and unphysical:
+            warnings.append(
+                f"{name}a Stribeck term would need a negative Coulomb level "
+                f"({min(float(c2[0]), float(c2[1])):.3g} N m): not physical, not used "
+                "(friction of another form than Stribeck's; --friction whole fits any shape)"
+            )
+        elif (stribeck == "always" or passes_test) and c2[3] > 0 and c2[4] > 0:
             used = True
             model = FrictionModel(
                 coulomb_positive=max(float(c2[0]), 0.0),
