@@ -745,11 +745,25 @@ def fit_joint_whole(
             a = np.hstack((fixed, fric))
             prior = embed(fixed.shape[1], noise)
             fit = _irls(a, y, fit.weights, prior, keep=keep)
+    undetermined = False
+    if inertia and fit.coef[0] > 0:
+        # an inertia the logs do not determine (speed steps with no ramp, say) may come out
+        # at any size, 1e6 kg m^2 included: kept only when it stands 2 standard errors above 0
+        spread = cluster_covariance(a, fit.residual, fit.weights, fit.bread, rows.clusters)
+        se = math.sqrt(max(float(spread[0, 0]), 0.0))
+        undetermined = not fit.coef[0] > 2.0 * se
+        if undetermined:
+            warnings.append(
+                f"the fitted inertia ({fit.coef[0]:.3g} +- {se:.2g} kg m^2) is not determined "
+                "by the logs: no ramp stands out of the speed ripple; inertia set to 0 (record "
+                "sweeps with clear accelerations)"
+            )
     if inertia and fit.coef[0] <= 0:
         warnings.append(
             f"the fitted inertia is not positive ({fit.coef[0]:.3g} kg m^2): no ramp stands "
             "out of the speed ripple; inertia set to 0 (record sweeps with clear accelerations)"
         )
+    if inertia and (fit.coef[0] <= 0 or undetermined):
         fixed, fixed_names = _fixed_columns(rows, final_orders, elbow_term=False, inertia=False)
         a = np.hstack((fixed, fric))
         prior = embed(fixed.shape[1], noise)
