@@ -213,3 +213,39 @@ def test_a_fit_that_is_not_dissipative_is_held_and_reported() -> None:
     assert 0.0 <= held.coef[1] < 1e-9 and "not dissipative" in note
     # with the level held at 0 the free column takes the mean: 0.3 - 0.05 / 2
     assert_allclose(held.coef[0], 0.275, atol=2e-3)
+
+
+def test_speed_steps_with_no_ramp_are_not_a_vertical_arm_nor_an_inertia() -> None:
+    # a horizontal two-link arm logged one joint at a time at speeds that jump (no ramp, no
+    # inertia in the torque): 1 s per speed gives 4 blocks of steady motion per joint, too few
+    # to test 7 gravity and friction columns (a singular cluster covariance once called it a
+    # vertical arm, 7e7 N m); and no acceleration stands out, so no inertia is determined
+    # (it once came out at 1e6 kg m^2)
+    bot = robot_from_dict(
+        {
+            "robot": {"name": "steps", "kinematics": "planar2r", "link_lengths": [0.3, 0.25]},
+            "joints": {
+                "a": {"gear_ratio": 100.0, "torque_constant": 0.11, "encoder_counts_per_rev": 0},
+                "b": {"gear_ratio": 80.0, "torque_constant": 0.08, "encoder_counts_per_rev": 0},
+            },
+        }
+    )
+    rng = np.random.default_rng(0)
+    fs, parts = 250.0, []
+    for joint in (0, 1):
+        for speed in (0.5, -0.5, 1.5, -1.5):
+            w = np.zeros((int(fs), 2))
+            w[:, joint] = speed
+            parts.append(w)
+    w = np.concatenate(parts)
+    t = np.arange(w.shape[0]) / fs
+    q = np.cumsum(w, axis=0) / fs + [0.0, 0.8]
+    vm = w * np.array([100.0, 80.0])
+    tau = 0.04 * np.sign(vm) + 3e-4 * vm + 0.005 * np.cos(2 * q * np.array([100.0, 80.0]))
+    tau += rng.normal(0.0, 1e-3, tau.shape)
+    log = Log(t=t, q=q, motor_torque=tau, joint_names=("a", "b"), path="steps.csv")
+    res = identify_model(bot, [log], friction="whole")  # type: ignore[arg-type]
+    assert not any("vertical" in m for m in res.warnings)
+    for name in ("a", "b"):
+        assert res.model.joints[name].inertia.constant == 0.0
+    assert sum("not determined" in m or "not positive" in m for m in res.warnings) >= 2
