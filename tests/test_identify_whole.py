@@ -249,3 +249,13 @@ def test_speed_steps_with_no_ramp_are_not_a_vertical_arm_nor_an_inertia() -> Non
     for name in ("a", "b"):
         assert res.model.joints[name].inertia.constant == 0.0
     assert sum("not determined" in m or "not positive" in m for m in res.warnings) >= 2
+
+
+def test_lines_found_in_the_residual_are_kept_only_if_the_fit_holds_them() -> None:
+    # seed 5: the residual's spectrum shows a 5 CPR line of 0.05 mN m (no such line was
+    # simulated; the truth is 2 and 7 CPR); the joint fit's Wald test with the rows' cluster
+    # covariance does not hold it, while the true lines (10-20 mN m) stand far out
+    res = identify_model(robot(), [simulate(seed=5)], max_order=20, friction="whole")  # type: ignore[arg-type]
+    lines = res.model.joints["m"].pdtv
+    assert [line.order for line in lines] == [2.0, 7.0]
+    assert_allclose([line.amplitude for line in lines], [0.02, 0.01], rtol=0.01)

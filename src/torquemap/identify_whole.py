@@ -718,11 +718,26 @@ def fit_joint_whole(
             theta[inside], fit.residual[inside], [o for o, _ in both], min(max_order, resolved)
         )
         if missed:
-            both = sorted([*both, *((o, False) for o in missed)])
-            fixed, fixed_names = _fixed_columns(rows, both, elbow_term=elbow_term, inertia=inertia)
-            a = np.hstack((fixed, fric))
-            prior = embed(fixed.shape[1], noise)
-            fit = _irls(a, y, fit.weights, prior, keep=keep)
+            trial = sorted([*both, *((o, False) for o in missed)])
+            fixed_t, names_t = _fixed_columns(rows, trial, elbow_term=elbow_term, inertia=inertia)
+            a_t = np.hstack((fixed_t, fric))
+            fit_t = _irls(a_t, y, fit.weights, embed(fixed_t.shape[1], noise), keep=keep)
+            # a candidate found in the residual's spectrum stays only if the joint fit holds
+            # it: a Wald test on its two columns with the rows' cluster covariance (the
+            # residual of a whole fit is not white: misfit of the law, of the delay), at the
+            # line picking's false-alarm level shared among the candidates
+            cov_t = cluster_covariance(
+                a_t, fit_t.residual, fit_t.weights, fit_t.bread, rows.clusters
+            )
+            held = _held_lines(trial, missed, names_t, fit_t.coef, cov_t)
+            if held:
+                both = sorted([*both, *((o, False) for o in held)])
+                fixed, fixed_names = _fixed_columns(
+                    rows, both, elbow_term=elbow_term, inertia=inertia
+                )
+                a = np.hstack((fixed, fric))
+                prior = embed(fixed.shape[1], noise)
+                fit = _irls(a, y, fit.weights, prior, keep=keep)
     final_orders = both
     if both and directional:
         final_orders = _directional_orders(
@@ -986,6 +1001,36 @@ def _gravity_test(
     torque = g @ c
     ptp = float(np.percentile(torque, 99.5) - np.percentile(torque, 0.5))
     return ptp, bool(chi > stats.chi2.ppf(1.0 - 1e-6, m))
+
+
+def _held_lines(
+    orders: Sequence[tuple[float, bool]],
+    candidates: Sequence[float],
+    names: Sequence[str],
+    coef: NDArray[np.float64],
+    cov: NDArray[np.float64],
+    false_alarm: float = 0.01,
+) -> list[float]:
+    """The ``candidates`` [CPR] whose cosine and sine coefficients in a fit over ``orders``
+    differ from zero (Wald test, chi-square with 2 degrees of freedom, at ``false_alarm``
+    divided among the candidates); ``names`` are the fit's fixed columns (inertia, then two
+    PDTV columns per order, four per directional one)."""
+    from scipy import stats
+
+    first = sum(1 for n in names if n.startswith("inertia."))
+    per = [4 if d else 2 for _, d in orders]
+    starts = first + np.concatenate(([0], np.cumsum(per)))
+    limit = float(stats.chi2.ppf(1.0 - false_alarm / max(len(candidates), 1), 2))
+    held: list[float] = []
+    for i, (order, directional) in enumerate(orders):
+        if directional or order not in candidates:
+            continue
+        j = int(starts[i])
+        c = coef[j : j + 2]
+        chi = float(c @ np.linalg.pinv(cov[j : j + 2, j : j + 2]) @ c)
+        if chi > limit:
+            held.append(order)
+    return held
 
 
 def _missed_orders(
