@@ -259,3 +259,20 @@ def test_lines_found_in_the_residual_are_kept_only_if_the_fit_holds_them() -> No
     lines = res.model.joints["m"].pdtv
     assert [line.order for line in lines] == [2.0, 7.0]
     assert_allclose([line.amplitude for line in lines], [0.02, 0.01], rtol=0.01)
+
+
+def test_one_steady_speed_tells_a_level_not_a_slope() -> None:
+    # one direction at one speed (3 rad/s): the viscous column equals a level column there;
+    # without a prior on the slope the fit once gave 0.25 N m for the true 0.02 N m
+    rb = robot()
+    t = np.arange(0.0, 8.0, 2e-3)
+    theta = 3.0 * t
+    tau = 0.02 + 0.004 * np.cos(2.0 * theta + 0.3)
+    tau = tau + np.random.default_rng(0).normal(0.0, 1e-4, t.size)
+    log = Log(t=t, q=theta[:, None], motor_torque=tau[:, None], joint_names=("m",), path="m.csv")
+    res = identify_model(rb, [log], friction="whole")  # type: ignore[arg-type]
+    f = res.model.joints["m"].friction
+    # the level at the logged speed is the mean torque (noise 0.1 mN m over 4000 samples)
+    assert_allclose(f.torque(np.array([3.0])), 0.02, atol=2e-4)
+    est = estimate_forces(res.model, log)
+    assert np.max(np.abs(est.tau_ext[est.flag == 0])) < 2e-3

@@ -75,6 +75,10 @@ RUN_WINDOWS = 4.0
 #: in units of the friction level: a Stribeck rise of half the level within a decade of
 #: speed below the slowest pass is about one sigma.
 FLAT_PRIOR = 0.25
+#: Viscous torque at the top speed, in units of the friction level, that is one sigma of the
+#: viscous slopes' prior: loose (real viscous torques reach about the Coulomb level), it only
+#: separates a slope from a level where the logs hold a single speed.
+VISCOUS_PRIOR = 10.0
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -422,8 +426,8 @@ def _torque(rows: _Rows, delay: float) -> NDArray[np.float64]:
 def _prior(
     speeds: Sequence[float], level: float, observed: float, *, flat: bool
 ) -> NDArray[np.float64]:
-    """Precision (2k+2, 2k+2) [1/(N m)^2] of the table's smoothness prior, both directions;
-    the viscous slopes are free. Below ``observed`` [rad/s] (where the table is not fitted)
+    """Precision (2k+2, 2k+2) [1/(N m)^2] of the table's smoothness prior, both directions,
+    and a loose one of the viscous slopes [1/(N m s/rad)^2]. Below ``observed`` [rad/s] (where the table is not fitted)
     the first differences are held by ``FLAT_PRIOR``: friction levels off towards rest, and
     the posterior's variance there grows with the distance from the observed speeds."""
     k = len(speeds)
@@ -441,6 +445,11 @@ def _prior(
     block = d1.T @ d1 + d2.T @ d2
     out[:k, :k] = block
     out[k : 2 * k, k : 2 * k] = block
+    # the viscous slopes: a loose prior (their torque at the top speed within VISCOUS_PRIOR
+    # times the level, one sigma) that only matters where the logs cannot tell a slope from a
+    # level: logs at one steady speed, where the two columns are the same
+    sigma_b = VISCOUS_PRIOR * lev / max(float(speeds[-1]), 1e-12)
+    out[2 * k, 2 * k] = out[2 * k + 1, 2 * k + 1] = 1.0 / sigma_b**2
     return out
 
 
