@@ -138,6 +138,18 @@ def scara_model(scara_bench: Path, tmp_path_factory: pytest.TempPathFactory) -> 
 
 
 @pytest.fixture(scope="session")
+def scara_passes(scara_bench: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The model ``torquemap identify --friction passes`` (the paper's pass method) writes from
+    the bench's sweeps: for the tests of what a pass-method model does."""
+    from torquemap.cli.main import main
+
+    out = tmp_path_factory.mktemp("scara_passes") / "model.toml"
+    argv = ["identify", str(scara_bench / "robot.toml"), str(scara_bench / "sweep.csv")]
+    assert main([*argv, "-o", str(out), "--friction", "passes"]) == 0
+    return out
+
+
+@pytest.fixture(scope="session")
 def vr_rig(tmp_path_factory: pytest.TempPathFactory) -> Ran:
     """The tutorial's ``simulate rig --motor vr`` run once: folder/rig/motor.toml and data.csv."""
     return _run_in(tmp_path_factory.mktemp("vr_rig"), [RIG_VR])

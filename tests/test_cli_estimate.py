@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import WHOLE_MODEL, Ran
+from conftest import WHOLE_MODEL
 
 from torquemap.cli.main import main
 from torquemap.io import read_table, write_table
@@ -15,9 +15,9 @@ from torquemap.sim.score import common_mask, force_error
 
 
 @pytest.fixture(scope="module")
-def identified(scara_identified: Ran) -> Path:
-    """The model ``torquemap identify`` writes from the bench's sweeps (shared by the session)."""
-    return scara_identified.folder / "bench" / "model.toml"
+def identified(scara_passes: Path) -> Path:
+    """The pass-method model of the bench (shared by the session)."""
+    return scara_passes
 
 
 def _run(model: Path, log: Path, out: Path, *extra: str) -> dict[str, np.ndarray]:

@@ -6,7 +6,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import Ran
 
 from torquemap.cli import cmd_estimate
 from torquemap.cli.main import main
@@ -14,8 +13,9 @@ from torquemap.io import read_table
 
 
 @pytest.fixture(scope="module")
-def identified(scara_identified: Ran) -> Path:
-    return scara_identified.folder / "bench" / "model.toml"
+def identified(scara_passes: Path) -> Path:
+    """The pass-method model of the bench (shared by the session)."""
+    return scara_passes
 
 
 @pytest.fixture(scope="module")

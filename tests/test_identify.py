@@ -66,7 +66,9 @@ def as_log(t: np.ndarray, q: np.ndarray, tau: np.ndarray) -> Log:
 @pytest.fixture(scope="module")
 def result():  # type: ignore[no-untyped-def]
     t, q, tau = simulate(np.random.default_rng(7))
-    return identify_model(robot_from_dict(ROBOT), [as_log(t, q, tau)], max_order=100)
+    return identify_model(
+        robot_from_dict(ROBOT), [as_log(t, q, tau)], max_order=100, friction="passes"
+    )
 
 
 def test_recovers_friction(result) -> None:  # type: ignore[no-untyped-def]
@@ -99,7 +101,9 @@ def test_recovers_pdtv_lines(result) -> None:  # type: ignore[no-untyped-def]
 
 def test_one_direction_and_one_speed_warn_not_fail() -> None:
     t, q, tau = simulate(np.random.default_rng(8), speeds=(2.0,), directions=(1,))
-    res = identify_model(robot_from_dict(ROBOT), [as_log(t, q, tau)], max_order=50)
+    res = identify_model(
+        robot_from_dict(ROBOT), [as_log(t, q, tau)], max_order=50, friction="passes"
+    )
     f = res.model.joints["m"].friction
     assert f.coulomb_negative == f.coulomb_positive
     assert any("never moves in the negative direction" in w for w in res.warnings)

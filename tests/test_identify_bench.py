@@ -15,16 +15,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import WHOLE_MODEL, Ran
+from conftest import WHOLE_MODEL
 from numpy.testing import assert_allclose
 
 from torquemap.model import Model, load_model
 
 
 @pytest.fixture(scope="module")
-def identified(scara_identified: Ran, scara_bench: Path) -> tuple[Model, Model]:
-    """The model ``torquemap identify`` wrote from sweep.csv (shared by the session), the truth."""
-    model = load_model(scara_identified.folder / "bench" / "model.toml")
+def identified(scara_passes: Path, scara_bench: Path) -> tuple[Model, Model]:
+    """The model ``torquemap identify --friction passes`` wrote from sweep.csv (shared by the
+    session), the truth."""
+    model = load_model(scara_passes)
     return model, load_model(scara_bench / "truth.toml")
 
 

@@ -90,9 +90,10 @@ def test_channel_delay_found_and_recorded(odrive: dict[str, object]) -> None:
 def test_one_direction_warning_recorded(odrive: dict[str, object]) -> None:
     model = load_model(Path(str(odrive["dir"])) / "model.toml")
     warnings = model.notes["warnings"]
-    assert any("never moves in the negative direction" in w for w in warnings)
-    f = model.joints["m"].friction
-    assert f.coulomb_negative == f.coulomb_positive
+    # the pass method says "never moves", the whole fit "never moved"
+    assert any("never mov" in w and "negative direction" in w for w in warnings)
+    up, down = model.joints["m"].friction.static_levels()
+    assert up == down
 
 
 def test_thinned_polled_sweep_still_gives_the_map(tmp_path: Path) -> None:

@@ -212,7 +212,7 @@ def test_pass_method_sigmas_cover_the_true_error(logs: dict[str, Log]) -> None:
     # once (not what it was identified from) the true external torque is zero, so tau_ext IS
     # the error: within 2 sigma on 90 to 99 % of the sound samples (issue 12's target)
     robot = truth_model().robot  # type: ignore[attr-defined]
-    model = identify_model(robot, [logs["horizontal"]]).model
+    model = identify_model(robot, [logs["horizontal"]], friction="passes").model
     table = model.notes["joints"]["a"]["uncertainty"]
     assert table["kind"] == "residual" and table["acceleration_sigma"] > 0
     inside = []

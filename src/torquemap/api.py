@@ -34,6 +34,7 @@ def identify(
     *,
     joints: Sequence[str] | None = None,
     max_order: float | None = None,
+    friction: Literal["whole", "passes"] = "whole",
 ) -> Identification:
     """Identify friction, inertia and PDTV of a robot's joints from no-load logs.
 
@@ -47,6 +48,9 @@ def identify(
         Joint names to identify; default all.
     max_order
         Highest PDTV order [CPR]; default the limit the data resolve.
+    friction
+        ``"whole"`` (default): friction through zero speed, inertia, PDTV and delay fitted to
+        every sample; ``"passes"``: the paper's method, friction from constant-speed passes.
 
     Returns
     -------
@@ -61,7 +65,7 @@ def identify(
         On no log, an unknown joint, or logs that do not move the way identification needs.
     """
     seq = [logs] if isinstance(logs, Log) else list(logs)
-    return identify_model(robot, seq, joints=joints, max_order=max_order)
+    return identify_model(robot, seq, joints=joints, max_order=max_order, friction=friction)
 
 
 def estimate(

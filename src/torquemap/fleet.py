@@ -227,7 +227,9 @@ def identify_day(day: RobotDay, out_dir: str, window: float | None = None) -> Da
         robot = load_robot(day.robot_file)
         logs = [read_log(p, robot) for p in day.logs]
         kwargs: dict[str, Any] = {} if window is None else {"window": window}
-        result = identify_model(robot, logs, **kwargs)
+        # the pass method's law (Coulomb per direction, viscous, Stribeck): a fixed form whose
+        # fields and standard errors the drift trends compare from day to day
+        result = identify_model(robot, logs, friction="passes", **kwargs)
         notes = {**result.model.notes, "robot": day.robot, "date": day.date.isoformat()}
         joints_notes = dict(notes.get("joints", {}))
         for name, errors in standard_errors(result).items():

@@ -842,7 +842,7 @@ def identify_model(
     direction_significance: float = 0.001,
     torque_lag: float | Literal["auto"] = 0.0,
     channel_delay: float | Literal["auto"] = "auto",
-    friction: FrictionMethod = "passes",
+    friction: FrictionMethod = "whole",
     vertical: Literal["refuse", "warn"] = "refuse",
 ) -> Identification:
     """Identify inertia, friction and PDTV of a robot's joints from no-load logs.

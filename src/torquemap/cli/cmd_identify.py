@@ -88,9 +88,9 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     p.add_argument(
         "--friction",
         choices=FRICTION_CHOICES,
-        default="passes",
-        help="passes (default): friction from the constant-speed pass means, the paper's Eq 5; "
-        "whole: friction through zero speed, inertia, PDTV and delay fitted to every sample "
+        default="whole",
+        help="whole (default): friction through zero speed, inertia, PDTV and delay fitted to "
+        "every sample; passes: friction from the constant-speed pass means, the paper's Eq 5 "
         "(docs/identification.md)",
     )
     add_window_argument(p, default=0.05)

@@ -76,7 +76,7 @@ def paper_figures(bench_dir: str | os.PathLike[str], *, model: Model | None = No
     robot_model = load_model(d / "robot.toml")
     robot = robot_model.robot
     sweep = read_log(d / "sweep.csv", robot)
-    ident = identify_model(robot if model is None else model, [sweep])
+    ident = identify_model(robot if model is None else model, [sweep], friction="passes")
     used = ident.model if model is None else model
     circle = read_log(d / "circle.csv", robot)
     truth = read_table(d / "truth.csv")
