@@ -3,8 +3,8 @@
 The simulated SCARA bench (``simulate scara``, seed 0) is identified once; its 31 s circle
 (62 k samples at 2 kHz) is tiled, forwards (a position jump at each seam, cut there), into
 Parquet logs of 0.25, 1, 4 and 16 M samples, and its sweep likewise for ``identify`` (the
-default ``--friction passes`` and ``--friction whole``). A tiled sweep repeats the same
-revolutions, so it does not show what a truly longer sweep does to the PDTV line search:
+pass method, ``--friction passes``, and the default whole-log fit, ``--friction whole``). A
+tiled sweep repeats the same revolutions, so it does not show what a truly longer sweep does to the PDTV line search:
 ``--long`` also simulates the bench with every sweep pass ``F`` times as many revolutions
 (``Sweep.revolutions``) and identifies that, reporting the PDTV lines found against the
 simulator's truth. Each command runs in its own process with one BLAS thread; the process
@@ -185,7 +185,7 @@ def main() -> None:
         sweep = _read_csv(bench / "sweep.csv")
         for kind, sizes, source in (
             ("estimate", args.sizes, circle),
-            ("identify", args.identify_sizes, sweep),
+            ("identify --friction passes", args.identify_sizes, sweep),
             ("identify --friction whole", args.whole_sizes, sweep),
         ):
             for size in sizes:
@@ -208,9 +208,18 @@ def main() -> None:
             log = root / "long.parquet"
             _write_parquet(log, columns, n)
             floor = _floor(log)
-            run = _run("identify", str(folder / "robot.toml"), str(log), "-o", str(root / "m.toml"))
+            run = _run(
+                "identify",
+                str(folder / "robot.toml"),
+                str(log),
+                "-o",
+                str(root / "m.toml"),
+                "--friction",
+                "passes",
+            )
             found, truth = _lines(root / "m.toml"), _lines(folder / "truth.toml")
-            rows.append(("identify", f"sweep x{factor:g} ({n / 1e6:.2f} M)", n, run, floor))
+            label = "identify --friction passes"
+            rows.append((label, f"sweep x{factor:g} ({n / 1e6:.2f} M)", n, run, floor))
             notes.append(
                 f"sweep x{factor:g}: PDTV orders found "
                 + "; ".join(f"{j} {found.get(j)} (truth {truth[j]})" for j in truth)
