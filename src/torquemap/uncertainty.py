@@ -77,7 +77,7 @@ def regressor_columns(
 ) -> NDArray[np.float64]:
     """The columns (n, p) of the named linear parameters at each sample (motor side)."""
     n = theta.size
-    out = np.zeros((n, len(names)))
+    out = np.zeros((n, len(names)), order="F")  # filled and filtered a column at a time
     basis = law.basis(velocity) if any(s.startswith("friction.") for s in names) else None
     law_names = tuple(getattr(law, "linear_parameter_names", ()))
     pos, neg = velocity > 0, velocity < 0
@@ -177,7 +177,9 @@ def joint_sigma(
         modulation=modulation,
     )
     g = lowpass(t, g, cutoff=cutoff) if g.shape[1] else g
-    var = np.einsum("ni,ij,nj->n", g, cov, g) if g.shape[1] else np.zeros(n)
+    # g^T C g per sample, through one matrix product (einsum's three-operand loop was 8x the
+    # rest of the estimate on a whole-log model)
+    var = np.sum((g @ cov) * g, axis=1) if g.shape[1] else np.zeros(n)
     psd = float(table.get("residual_psd", 0.0))
     noise = np.full(n, max(psd, 0.0) * LOWPASS_ENB * cutoff)
     measured = table.get("residual")
