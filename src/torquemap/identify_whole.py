@@ -713,6 +713,18 @@ def fit_joint_whole(
         a = np.hstack((fixed, fric))
         fit = _irls(a, y, fit.weights, prior, keep=keep)
 
+    def refit(
+        orders: Sequence[tuple[float, bool]],
+        *,
+        with_inertia: bool = inertia,
+        elbow: bool = elbow_term,
+    ) -> tuple[NDArray[np.float64], list[str], NDArray[np.float64], NDArray[np.float64], _Trial]:
+        """The fixed columns, their names, the design, the prior and the fit over ``orders``."""
+        f, names = _fixed_columns(rows, orders, elbow_term=elbow, inertia=with_inertia)
+        design = np.hstack((f, fric))
+        precision = embed(f.shape[1], noise)
+        return f, names, design, precision, _irls(design, y, fit.weights, precision, keep=keep)
+
     # lines the pass method missed: the spectrum of the whole fit's residual over the motor
     # angle (every row, not only the passes)
     if max_order >= 1:
@@ -728,9 +740,7 @@ def fit_joint_whole(
         )
         if missed:
             trial = sorted([*both, *((o, False) for o in missed)])
-            fixed_t, names_t = _fixed_columns(rows, trial, elbow_term=elbow_term, inertia=inertia)
-            a_t = np.hstack((fixed_t, fric))
-            fit_t = _irls(a_t, y, fit.weights, embed(fixed_t.shape[1], noise), keep=keep)
+            fixed_t, names_t, a_t, prior_t, fit_t = refit(trial)
             # a candidate found in the residual's spectrum stays only if the joint fit holds
             # it: a Wald test on its two columns with the rows' cluster covariance (the
             # residual of a whole fit is not white: misfit of the law, of the delay), at the
@@ -739,14 +749,12 @@ def fit_joint_whole(
                 a_t, fit_t.residual, fit_t.weights, fit_t.bread, rows.clusters
             )
             held = _held_lines(trial, missed, names_t, fit_t.coef, cov_t)
-            if held:
+            if len(held) == len(missed):  # every candidate held: the trial is the fit
+                both = trial
+                fixed, fixed_names, a, prior, fit = fixed_t, names_t, a_t, prior_t, fit_t
+            elif held:
                 both = sorted([*both, *((o, False) for o in held)])
-                fixed, fixed_names = _fixed_columns(
-                    rows, both, elbow_term=elbow_term, inertia=inertia
-                )
-                a = np.hstack((fixed, fric))
-                prior = embed(fixed.shape[1], noise)
-                fit = _irls(a, y, fit.weights, prior, keep=keep)
+                fixed, fixed_names, a, prior, fit = refit(both)
     final_orders = both
     if both and directional:
         final_orders = _directional_orders(
@@ -763,12 +771,7 @@ def fit_joint_whole(
             keep,
         )
         if any(dd for _, dd in final_orders):
-            fixed, fixed_names = _fixed_columns(
-                rows, final_orders, elbow_term=elbow_term, inertia=inertia
-            )
-            a = np.hstack((fixed, fric))
-            prior = embed(fixed.shape[1], noise)
-            fit = _irls(a, y, fit.weights, prior, keep=keep)
+            fixed, fixed_names, a, prior, fit = refit(final_orders)
     undetermined = False
     if inertia and fit.coef[0] > 0:
         # an inertia the logs do not determine (speed steps with no ramp, say) may come out
@@ -788,10 +791,7 @@ def fit_joint_whole(
             "out of the speed ripple; inertia set to 0 (record sweeps with clear accelerations)"
         )
     if inertia and (fit.coef[0] <= 0 or undetermined):
-        fixed, fixed_names = _fixed_columns(rows, final_orders, elbow_term=False, inertia=False)
-        a = np.hstack((fixed, fric))
-        prior = embed(fixed.shape[1], noise)
-        fit = _irls(a, y, fit.weights, prior, keep=keep)
+        fixed, fixed_names, a, prior, fit = refit(final_orders, with_inertia=False, elbow=False)
     m = fixed.shape[1]
     fit, bound_note = _dissipative(a, y, fit, prior, m, k, noise=noise)
     if bound_note:
