@@ -123,23 +123,10 @@ def differentiate(t: ArrayLike, x: ArrayLike, *, window: float) -> Derivatives:
     lo, hi = _windows(tt, w)
     two_d = xx.ndim == 2
     x2 = xx if two_d else xx[:, None]
-    idx = np.arange(n)
     scale = np.maximum(0.5 * (tt[hi - 1] - tt[lo]), 1e-300)
-    s_sum = np.zeros((5, n))
-    sx_sum = np.zeros((3, n, x2.shape[1]))
-    for k in range(int((lo - idx).min()), int((hi - 1 - idx).max()) + 1):
-        j = idx + k
-        inside = (j >= lo) & (j < hi)
-        jj = np.clip(j, 0, n - 1)
-        s = np.where(inside, (tt[jj] - tt) / scale, 0.0)
-        m = inside.astype(np.float64)
-        xs = np.where(inside[:, None], x2[jj] - x2, 0.0)
-        p = m.copy()
-        for power in range(5):
-            s_sum[power] += p
-            if power < 3:
-                sx_sum[power] += p[:, None] * xs
-            p = p * s
+    from torquemap._fit_kernels import window_sums
+
+    s_sum, sx_sum = window_sums(tt, np.ascontiguousarray(x2, dtype=np.float64), lo, hi, scale)
     # Normal equations (3x3 per sample), solved in scaled time for conditioning.
     a = np.stack(
         [

@@ -974,6 +974,7 @@ def identify_model(
             channel_delay=channel_delay,
             cleaning=cleaning,
             vertical=vertical,
+            derivatives=derivs,
         )
     # a vertical arm (gravity), for every friction method: torquemap.vertical
     from torquemap.vertical import checked_identification
@@ -997,10 +998,11 @@ def _identify_whole(
     channel_delay: float | Literal["auto"],
     cleaning: Sequence[str],
     vertical: Literal["refuse", "warn"],
+    derivatives: Sequence[Sequence[Derivatives]],
 ) -> Identification:
     from torquemap import identify_whole as iw
 
-    derivs = [_derivatives(log, rb, window) for log in pieces]
+    derivs = derivatives
     nj = len(rb.joints)
     p99 = [
         float(np.percentile(np.concatenate([np.abs(d[k].velocity) for d in derivs]), 99))

@@ -16,8 +16,6 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import sparse
 
-from torquemap._jit import jit
-
 
 @dataclass(frozen=True, slots=True, eq=False)
 class RowSmoother:
@@ -72,12 +70,14 @@ class RowSmoother:
 
     def __call__(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """The smoothed ``x`` (n, m) at the rows, shape (rows, m)."""
+        from torquemap._fit_kernels import smooth_at_rows
+
         mean = np.mean(x, axis=0)
         op = self.operator
-        out = _smooth_at_rows(
+        out = smooth_at_rows(
             self.t, np.ascontiguousarray(x, dtype=np.float64), mean, op.indptr, op.indices, op.data
         )
-        return out + mean
+        return np.asarray(out + mean, dtype=np.float64)
 
 
 #: Rows whose weights are built at once (bounds the memory of :meth:`RowSmoother.build`).
@@ -107,57 +107,3 @@ def _curvature_weights(
         (weight.ravel(), index.ravel(), np.arange(0, weight.size + 1, width)),
         shape=(rows.size, n),
     )
-
-
-def _double_integral(t: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Twice the cumulative trapezoidal integral of ``x`` (n, m) over ``t`` [s], from 0."""
-    dt = np.diff(t)[:, None]
-    out = np.zeros_like(x)
-    out[1:] = np.cumsum(0.5 * (x[1:] + x[:-1]) * dt, axis=0)
-    second = np.zeros_like(x)
-    second[1:] = np.cumsum(0.5 * (out[1:] + out[:-1]) * dt, axis=0)
-    return second
-
-
-@jit
-def _smooth_at_rows(
-    t: NDArray[np.float64],
-    x: NDArray[np.float64],
-    mean: NDArray[np.float64],
-    indptr: NDArray[np.int32],
-    indices: NDArray[np.int32],
-    data: NDArray[np.float64],
-) -> NDArray[np.float64]:
-    """``operator @ _double_integral(t, x - mean)`` (``operator`` in CSR arrays), one column
-    at a time through a buffer of the log's length instead of the (n, m) temporaries.
-
-    The same floating-point operations in the same order as the numpy code (the trapezoids'
-    running sums, then each row's weighted sum from zero in the operator's order): the
-    numbers are that code's bit for bit.
-    """
-    n, m = x.shape
-    rows = indptr.size - 1
-    out = np.zeros((rows, m))
-    second = np.zeros((n, m))
-    prev = np.empty(m)
-    first = np.zeros(m)
-    for c in range(m):
-        prev[c] = x[0, c] - mean[c]
-    # the columns side by side: their running sums' dependency chains overlap
-    for i in range(1, n):
-        dt = t[i] - t[i - 1]
-        for c in range(m):
-            cur = x[i, c] - mean[c]
-            step = 0.5 * (cur + prev[c]) * dt
-            new_first = step if i == 1 else first[c] + step
-            step2 = 0.5 * (new_first + first[c]) * dt
-            second[i, c] = step2 if i == 1 else second[i - 1, c] + step2
-            first[c] = new_first
-            prev[c] = cur
-    for r in range(rows):
-        for jj in range(indptr[r], indptr[r + 1]):
-            w = data[jj]
-            j = indices[jj]
-            for c in range(m):
-                out[r, c] += w * second[j, c]
-    return out

@@ -1,0 +1,82 @@
+"""Identification's compiled kernels against the numpy code they replaced (a second algorithm
+each, run here as written before): equal, not close, since they perform the same operations in
+the same order."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from torquemap._fit_kernels import smooth_at_rows, window_sums
+from torquemap.filters import _windows
+from torquemap.smooth_rows import RowSmoother
+
+pytestmark = pytest.mark.xdist_group("kernels")
+
+
+def _window_sums_numpy(
+    tt: np.ndarray, x: np.ndarray, lo: np.ndarray, hi: np.ndarray, scale: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The loop over lags that :func:`torquemap.filters.differentiate` ran on irregular time."""
+    n = tt.size
+    idx = np.arange(n)
+    s_sum = np.zeros((5, n))
+    sx_sum = np.zeros((3, n, x.shape[1]))
+    for k in range(int((lo - idx).min()), int((hi - 1 - idx).max()) + 1):
+        j = idx + k
+        inside = (j >= lo) & (j < hi)
+        jj = np.clip(j, 0, n - 1)
+        s = np.where(inside, (tt[jj] - tt) / scale, 0.0)
+        m = inside.astype(np.float64)
+        xs = np.where(inside[:, None], x[jj] - x, 0.0)
+        p = m.copy()
+        for power in range(5):
+            s_sum[power] += p
+            if power < 3:
+                sx_sum[power] += p[:, None] * xs
+            p = p * s
+    return s_sum, sx_sum
+
+
+@pytest.mark.parametrize("m", [1, 3])
+def test_window_sums_equal_the_loop_over_lags(m: int) -> None:
+    # jittered time with a gap (windows widened by samples there) and a slow stretch
+    rng = np.random.default_rng(m)
+    step = rng.uniform(2e-4, 8e-4, 3000)
+    step[1500] = 0.2
+    step[2000:2100] = 5e-3
+    tt = 7.0 + np.cumsum(step)
+    x = np.ascontiguousarray(rng.standard_normal((tt.size, m)).cumsum(axis=0))
+    lo, hi = _windows(tt, 0.05)
+    scale = np.maximum(0.5 * (tt[hi - 1] - tt[lo]), 1e-300)
+    got = window_sums(tt, x, lo, hi, scale)
+    ref = _window_sums_numpy(tt, x, lo, hi, scale)
+    np.testing.assert_array_equal(got[0], ref[0])
+    np.testing.assert_array_equal(got[1], ref[1])
+
+
+def _double_integral_numpy(t: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Twice the cumulative trapezoidal integral, as :mod:`torquemap.smooth_rows` computed it."""
+    dt = np.diff(t)[:, None]
+    out = np.zeros_like(x)
+    out[1:] = np.cumsum(0.5 * (x[1:] + x[:-1]) * dt, axis=0)
+    second = np.zeros_like(x)
+    second[1:] = np.cumsum(0.5 * (out[1:] + out[:-1]) * dt, axis=0)
+    return second
+
+
+@pytest.mark.parametrize("m", [1, 2, 4])
+@pytest.mark.parametrize("uniform", [True, False])
+def test_smooth_at_rows_equals_sparse_product(m: int, uniform: bool) -> None:
+    rng = np.random.default_rng(10 * m + uniform)
+    n = 4001
+    t = 3.0 + (np.arange(n) * 5e-4 if uniform else np.cumsum(rng.uniform(2e-4, 8e-4, n)))
+    rows = np.sort(rng.choice(n, n // 12, replace=False)).astype(np.intp)
+    smoother = RowSmoother.build(t, rows, 0.05)
+    x = np.ascontiguousarray(rng.standard_normal((n, m)).cumsum(axis=0) + 7.0)
+    mean = np.mean(x, axis=0)
+    op = smoother.operator
+    ref = np.asarray(op @ _double_integral_numpy(t, x - mean))
+    got = smooth_at_rows(t, x, mean, op.indptr, op.indices, op.data)
+    np.testing.assert_array_equal(got, ref)
+    np.testing.assert_array_equal(smoother(x), ref + mean)
