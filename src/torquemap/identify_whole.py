@@ -29,6 +29,7 @@ samples.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -254,10 +255,28 @@ class _Rows:
     smoothers: list[RowSmoother]
     clusters: NDArray[np.int64]
     window: float
+    #: Smoothed columns that do not change between the fit's trials and refits: the torque
+    #: per delay [s], the PDTV columns per ``(order, directional)`` (read-only arrays).
+    cache: dict[object, NDArray[np.float64]] = field(default_factory=dict)
 
     def at(self, get: Callable[[Piece], NDArray[np.float64]]) -> NDArray[np.float64]:
         """A raw per-sample quantity at the rows, stacked over pieces."""
         return np.concatenate([get(p)[r] for p, r in zip(self.pieces, self.rows, strict=True)])
+
+    def smooth_once(
+        self, key: object, make: Callable[[Piece, int, int], NDArray[np.float64]], width: int
+    ) -> NDArray[np.float64]:
+        """:meth:`smooth` of ``width`` <= 4 columns (one chunk), kept under ``key``.
+
+        A column smoothed in one chunk equals that column smoothed in any other chunk of two
+        columns or more (the chunk's mean is then a running sum down each column), and a
+        one-column chunk is only ever cached as such: the numbers do not depend on the cache.
+        """
+        if key not in self.cache:
+            out = self.smooth(make, width)
+            out.setflags(write=False)
+            self.cache[key] = out
+        return self.cache[key]
 
     def smooth(
         self, make: Callable[[Piece, int, int], NDArray[np.float64]], width: int, chunk: int = 4
@@ -344,21 +363,20 @@ def _fixed_columns(
             cols.append((acc * np.cos(rows.at(lambda p: p.elbow)))[:, None])
             names.append("inertia.cos_elbow")
     _, pd_names = pdtv_basis(np.zeros(1), np.zeros(1), orders)
-    if pd_names:
-        per = [4 if d else 2 for _, d in orders]
-        starts = np.concatenate(([0], np.cumsum(per)))
-
-        def make(p: Piece, j0: int, j1: int) -> NDArray[np.float64]:
-            # whole orders only: the chunk boundaries are column indices
-            first = int(np.searchsorted(starts, j0, side="right") - 1)
-            last = int(np.searchsorted(starts, j1, side="left"))
-            block, _ = pdtv_basis(p.theta, p.velocity, orders[first:last])
-            return block[:, j0 - int(starts[first]) : j1 - int(starts[first])]
-
-        cols.append(rows.smooth(make, len(pd_names)))
-        names += pd_names
+    for line in orders:  # one order's two (four) columns at a time, each smoothed once
+        cols.append(rows.smooth_once(("pdtv", *line), _pdtv_columns(line), 4 if line[1] else 2))
+    names += pd_names
     n = sum(r.size for r in rows.rows)
     return (np.hstack(cols) if cols else np.zeros((n, 0))), names
+
+
+def _pdtv_columns(line: tuple[float, bool]) -> Callable[[Piece, int, int], NDArray[np.float64]]:
+    """The columns of one PDTV line ``(order, directional)`` (:func:`pdtv_basis`)."""
+
+    def make(p: Piece, j0: int, j1: int) -> NDArray[np.float64]:
+        return pdtv_basis(p.theta, p.velocity, [line])[0][:, j0:j1]
+
+    return make
 
 
 def _friction_columns(
@@ -414,13 +432,13 @@ def friction_velocity(
 
 
 def _torque(rows: _Rows, delay: float) -> NDArray[np.float64]:
-    """The torque read ``delay`` [s] later, smoothed at the rows."""
+    """The torque read ``delay`` [s] later, smoothed at the rows (once per delay)."""
 
     def make(p: Piece, j0: int, j1: int) -> NDArray[np.float64]:
         tau = p.torque if delay == 0 else np.interp(p.t + delay, p.t, p.torque)
         return tau[:, None]
 
-    return rows.smooth(make, 1)[:, 0]
+    return rows.smooth_once(("torque", delay), make, 1)[:, 0]
 
 
 def _prior(
@@ -470,17 +488,30 @@ def _psolve(
 ) -> _Trial:
     """Weighted least squares with a quadratic penalty ``coef^T prior coef`` (normal equations,
     columns scaled for conditioning; a tiny ridge keeps unexcited columns at 0)."""
-    aw = a * w[:, None]
-    normal = a.T @ aw + prior
-    d = np.sqrt(np.maximum(np.diag(normal), 0.0))
-    d = np.where(d > 0, d, 1.0)
-    scaled = normal / np.outer(d, d)
-    scaled[np.diag_indices_from(scaled)] += 1e-12
-    bread = np.linalg.pinv(scaled, rcond=1e-12, hermitian=True) / np.outer(d, d)
-    coef = bread @ (aw.T @ y)
-    r = y - a @ coef
-    obj = float(np.sum(w * r * r) + coef @ prior @ coef)
-    return _Trial(coef=coef, bread=bread, residual=r, weights=w, objective=obj)
+    return _Solver(a, w, prior)(y)
+
+
+class _Solver:
+    """:func:`_psolve` of one design, weights and prior for any right-hand side ``y``: the
+    normal equations are formed and inverted once."""
+
+    def __init__(
+        self, a: NDArray[np.float64], w: NDArray[np.float64], prior: NDArray[np.float64]
+    ) -> None:
+        aw = a * w[:, None]
+        normal = a.T @ aw + prior
+        d = np.sqrt(np.maximum(np.diag(normal), 0.0))
+        d = np.where(d > 0, d, 1.0)
+        scaled = normal / np.outer(d, d)
+        scaled[np.diag_indices_from(scaled)] += 1e-12
+        self.a, self.aw, self.w, self.prior = a, aw, w, prior
+        self.bread = np.linalg.pinv(scaled, rcond=1e-12, hermitian=True) / np.outer(d, d)
+
+    def __call__(self, y: NDArray[np.float64]) -> _Trial:
+        coef = self.bread @ (self.aw.T @ y)
+        r = y - self.a @ coef
+        obj = float(np.sum(self.w * r * r) + coef @ self.prior @ coef)
+        return _Trial(coef=coef, bread=self.bread, residual=r, weights=self.w, objective=obj)
 
 
 def _irls(
@@ -669,9 +700,12 @@ def fit_joint_whole(
     # start's weights down-weight exactly the misaligned ramps that tell the delay)
     # every row, the ramps' starts from rest included: they are where the torque's timing
     # shows most (the table's slow knots take up their friction for the purpose)
+    plain = _Solver(a, np.ones(n), prior)  # every trial's first solve: one normal matrix
+
+    @functools.cache
     def delay_cost(d: float) -> float:
         y_ = _torque(rows, d)
-        trial = _psolve(a, y_, np.ones(n), prior)
+        trial = plain(y_)
         trial = _psolve(a, y_, huber_weights(trial.residual, scale0), prior)
         return huber_cost(trial.residual, scale0)
 
