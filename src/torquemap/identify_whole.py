@@ -33,6 +33,7 @@ import functools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -391,21 +392,30 @@ def _friction_columns(
     logs = np.log(np.asarray(speeds))
     which = list(range(2 * k + 2)) if only is None else list(only)
 
+    prepared: dict[int, tuple[NDArray[Any], ...]] = {}
+
+    def per_sample(p: Piece) -> tuple[NDArray[Any], ...]:
+        """What every column of piece ``p`` is made of (once per piece, not per chunk)."""
+        if id(p) not in prepared:
+            v = p.friction_velocity if p.friction_velocity is not None else p.velocity
+            s = np.abs(v)
+            b = 0.5 * (1.0 + np.tanh(v / w0))
+            x = np.log(np.maximum(s, 1e-300))
+            i = np.clip(np.searchsorted(logs, x, side="right") - 1, 0, k - 2)
+            u = np.clip((x - logs[i]) / (logs[i + 1] - logs[i]), 0.0, 1.0)
+            prepared[id(p)] = (s, b, -(1.0 - b), i, i + 1, u, 1.0 - u)
+        return prepared[id(p)]
+
     def make(p: Piece, j0: int, j1: int) -> NDArray[np.float64]:
-        v = p.friction_velocity if p.friction_velocity is not None else p.velocity
-        s = np.abs(v)
-        b = 0.5 * (1.0 + np.tanh(v / w0))
-        x = np.log(np.maximum(s, 1e-300))
-        i = np.clip(np.searchsorted(logs, x, side="right") - 1, 0, k - 2)
-        u = np.clip((x - logs[i]) / (logs[i + 1] - logs[i]), 0.0, 1.0)
-        out = np.empty((v.size, j1 - j0))
+        s, b, nb, i, i1, u, um = per_sample(p)
+        out = np.empty((s.size, j1 - j0))
         for c, j in enumerate(which[j0:j1]):
             if j >= 2 * k:
-                col = s * (b if j == 2 * k else -(1.0 - b))
+                col = s * (b if j == 2 * k else nb)
             else:
                 knot = j % k
-                hat = np.where(i == knot, 1.0 - u, 0.0) + np.where(i + 1 == knot, u, 0.0)
-                col = hat * (b if j < k else -(1.0 - b))
+                hat = np.where(i == knot, um, 0.0) + np.where(i1 == knot, u, 0.0)
+                col = hat * (b if j < k else nb)
             out[:, c] = col
         return out
 
