@@ -7,7 +7,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from torquemap._fit_kernels import smooth_at_rows, window_sums
+from torquemap._fit_kernels import (
+    interp_increasing,
+    smooth_at_rows,
+    speed_table_block,
+    window_sums,
+)
 from torquemap.filters import _windows
 from torquemap.smooth_rows import RowSmoother
 
@@ -80,3 +85,39 @@ def test_smooth_at_rows_equals_sparse_product(m: int, uniform: bool) -> None:
     got = smooth_at_rows(t, x, mean, op.indptr, op.indices, op.data)
     np.testing.assert_array_equal(got, ref)
     np.testing.assert_array_equal(smoother(x), ref + mean)
+
+
+@pytest.mark.parametrize("uniform", [True, False])
+def test_interp_increasing_is_numpy_interp(uniform: bool) -> None:
+    # numpy's own formula per sample: equal, not close, for delays on and between samples and
+    # beyond both ends
+    rng = np.random.default_rng(uniform)
+    n = 20001
+    t = 3.0 + (np.arange(n) * 5e-4 if uniform else np.cumsum(rng.uniform(1e-4, 1e-3, n)))
+    y = rng.standard_normal(n).cumsum()
+    for delay in (-0.25, -0.0104, 0.0, 1e-3 / 3, 5e-4, 0.02, 20.0):
+        np.testing.assert_array_equal(
+            interp_increasing(t + delay, t, y), np.interp(t + delay, t, y)
+        )
+
+
+def test_speed_table_block_equals_numpy_columns() -> None:
+    # the friction table's basis as identify_whole built it with numpy, column by column
+    rng = np.random.default_rng(5)
+    k = 6
+    logs = np.log(np.geomspace(0.05, 20.0, k))
+    v = np.concatenate([rng.normal(0.0, 3.0, 5000), [0.0, -0.0, 20.0, -25.0, 0.05, 1e-9]])
+    s = np.abs(v)
+    b = 0.5 * (1.0 + np.tanh(v / 0.01))
+    x = np.log(np.maximum(s, 1e-300))
+    i = np.clip(np.searchsorted(logs, x, side="right") - 1, 0, k - 2)
+    u = np.clip((x - logs[i]) / (logs[i + 1] - logs[i]), 0.0, 1.0)
+    which = np.array([0, 3, 5, 6, 8, 11, 12, 13], dtype=np.int64)
+    got = speed_table_block(s, b, -(1.0 - b), i.astype(np.int64), u, which, k)
+    for c, j in enumerate(which):
+        if j >= 2 * k:
+            ref = s * (b if j == 2 * k else -(1.0 - b))
+        else:
+            hat = np.where(i == j % k, 1.0 - u, 0.0) + np.where(i + 1 == j % k, u, 0.0)
+            ref = hat * (b if j < k else -(1.0 - b))
+        np.testing.assert_array_equal(got[:, c], ref)

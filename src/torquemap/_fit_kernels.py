@@ -158,3 +158,79 @@ def _smooth_one(
             s0 += data[jj] * second[indices[jj]]
         out[r, 0] = s0
     return out
+
+
+@jit
+def interp_increasing(
+    x: NDArray[np.float64], xp: NDArray[np.float64], fp: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """``numpy.interp(x, xp, fp)`` for non-decreasing ``x`` and increasing ``xp``: the same
+    formula per sample (numpy's ``slope * (x - xp[j]) + fp[j]``, the ends held, a sample on
+    a knot taking its value) with the knot found by walking forward instead of by bisection.
+    """
+    n = xp.size
+    out = np.empty(x.size)
+    j = 0
+    for i in range(x.size):
+        xv = x[i]
+        if xv != xv:
+            out[i] = xv
+        elif xv < xp[0]:
+            out[i] = fp[0]
+        elif xv > xp[n - 1]:
+            out[i] = fp[n - 1]
+        else:
+            while j + 1 < n and xp[j + 1] <= xv:
+                j += 1
+            while j > 0 and xp[j] > xv:
+                j -= 1
+            if j == n - 1 or xp[j] == xv:
+                out[i] = fp[j]
+            else:
+                slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
+                v = slope * (xv - xp[j]) + fp[j]
+                if v != v:
+                    v = slope * (xv - xp[j + 1]) + fp[j + 1]
+                    if v != v and fp[j] == fp[j + 1]:
+                        v = fp[j]
+                out[i] = v
+    return out
+
+
+@jit
+def speed_table_block(
+    speed: NDArray[np.float64],
+    up: NDArray[np.float64],
+    down: NDArray[np.float64],
+    knot: NDArray[np.int64],
+    fraction: NDArray[np.float64],
+    columns: NDArray[np.int64],
+    k: int,
+) -> NDArray[np.float64]:
+    """Columns ``columns`` of the speed-table friction basis of
+    :func:`torquemap.identify_whole._friction_columns` (shape (n, len(columns))).
+
+    Per sample: ``speed`` |v| [rad/s], the direction weights ``up`` = b and ``down`` =
+    -(1 - b), the knot ``knot`` (i) below the sample's log speed and the ``fraction`` (u)
+    of the way to the next. Column ``j < 2 k`` is the hat of knot ``j mod k`` times ``up``
+    (``j < k``) or ``down``; ``2 k`` and ``2 k + 1`` are ``speed`` times ``up``, ``down``.
+    The hat is ``(1 - u if i == knot else 0) + (u if i + 1 == knot else 0)``: numpy's
+    sums of two ``where`` (bit for bit).
+    """
+    n = speed.size
+    out = np.empty((n, columns.size))
+    for c in range(columns.size):
+        j = columns[c]
+        if j >= 2 * k:
+            w = up if j == 2 * k else down
+            for t in range(n):
+                out[t, c] = speed[t] * w[t]
+        else:
+            at = j % k
+            w = up if j < k else down
+            for t in range(n):
+                i = knot[t]
+                u = fraction[t]
+                hat = ((1.0 - u) if i == at else 0.0) + (u if i + 1 == at else 0.0)
+                out[t, c] = hat * w[t]
+    return out

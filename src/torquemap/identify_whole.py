@@ -388,10 +388,11 @@ def _friction_columns(
 ) -> NDArray[np.float64]:
     """The table law's basis (:meth:`SpeedTableFriction.basis`) smoothed at the rows; with
     ``only``, just those columns."""
+    from torquemap._fit_kernels import speed_table_block
+
     k = len(speeds)
     logs = np.log(np.asarray(speeds))
     which = list(range(2 * k + 2)) if only is None else list(only)
-
     prepared: dict[int, tuple[NDArray[Any], ...]] = {}
 
     def per_sample(p: Piece) -> tuple[NDArray[Any], ...]:
@@ -403,21 +404,12 @@ def _friction_columns(
             x = np.log(np.maximum(s, 1e-300))
             i = np.clip(np.searchsorted(logs, x, side="right") - 1, 0, k - 2)
             u = np.clip((x - logs[i]) / (logs[i + 1] - logs[i]), 0.0, 1.0)
-            prepared[id(p)] = (s, b, -(1.0 - b), i, i + 1, u, 1.0 - u)
+            prepared[id(p)] = (s, b, -(1.0 - b), i.astype(np.int64), u)
         return prepared[id(p)]
 
     def make(p: Piece, j0: int, j1: int) -> NDArray[np.float64]:
-        s, b, nb, i, i1, u, um = per_sample(p)
-        out = np.empty((s.size, j1 - j0))
-        for c, j in enumerate(which[j0:j1]):
-            if j >= 2 * k:
-                col = s * (b if j == 2 * k else nb)
-            else:
-                knot = j % k
-                hat = np.where(i == knot, um, 0.0) + np.where(i1 == knot, u, 0.0)
-                col = hat * (b if j < k else nb)
-            out[:, c] = col
-        return out
+        s, b, nb, i, u = per_sample(p)
+        return speed_table_block(s, b, nb, i, u, np.array(which[j0:j1], dtype=np.int64), k)
 
     return rows.smooth(make, len(which))
 
@@ -443,9 +435,10 @@ def friction_velocity(
 
 def _torque(rows: _Rows, delay: float) -> NDArray[np.float64]:
     """The torque read ``delay`` [s] later, smoothed at the rows (once per delay)."""
+    from torquemap._fit_kernels import interp_increasing
 
     def make(p: Piece, j0: int, j1: int) -> NDArray[np.float64]:
-        tau = p.torque if delay == 0 else np.interp(p.t + delay, p.t, p.torque)
+        tau = p.torque if delay == 0 else interp_increasing(p.t + delay, p.t, p.torque)
         return tau[:, None]
 
     return rows.smooth_once(("torque", delay), make, 1)[:, 0]
