@@ -1,5 +1,6 @@
-"""Undersampled cogging (torquemap.linearize.sampling): closed-form spectra, and a simulated rig
-measured at the paper's every 4th position whose cogging repeats every 8 positions."""
+"""Undersampled cogging (torquemap.linearize.sampling): closed-form spectra, a simulated rig
+measured at the paper's every 4th position whose cogging repeats every 8 positions, and the
+motor file's optional ``cogging_periods``."""
 
 from __future__ import annotations
 
@@ -9,9 +10,11 @@ import numpy as np
 import pytest
 
 from torquemap.cli.main import main
-from torquemap.io import write_toml
+from torquemap.errors import InputError
+from torquemap.io import write_table, write_toml
 from torquemap.linearize.collect import CollectionSettings, collect_characterisation
-from torquemap.linearize.sampling import check_position_sampling
+from torquemap.linearize.motor import motor_from_dict, motor_spec, motor_to_dict, ramped_actuation
+from torquemap.linearize.sampling import check_position_sampling, check_stated_cogging
 from torquemap.linearize.tables import build_tables, read_data
 from torquemap.sim.motors import VariableReluctanceMotor
 from torquemap.sim.rig import SimRig, variable_reluctance_rig
@@ -117,3 +120,72 @@ def test_build_warns_in_one_line(
     assert len(err) == 1
     assert err[0].startswith(f"torquemap: warning: {data}: ")
     assert "measuring every 2nd position" in err[0]
+
+
+def test_stated_cogging_closed_form() -> None:
+    """The motor file's cogging periods against the position step: 128 / (4 x 16) = 2 samples a
+    period warns and names step 2 (4 samples); 8 periods (4 samples) do not; 64 periods (2
+    positions a period) cannot be held by any step."""
+    every_4th = np.arange(0, N, 4)
+    line = check_stated_cogging(16, every_4th, N)
+    assert "2 measured positions a period" in line and "position step 2)" in line
+    assert check_stated_cogging(8, every_4th, N) == ""
+    assert check_stated_cogging(16, np.arange(0, N, 2), N) == ""
+    assert "no table can hold" in check_stated_cogging(64, every_4th, N)
+    assert check_stated_cogging(16, np.array([0, 4, 8, 20]), N) == ""  # uneven: not checked
+
+
+def _closed_form_case(tmp_path: Path, cogging_periods: object | None) -> tuple[Path, Path]:
+    """motor.toml (optionally stating the cogging) and noise-free data without cogging, every
+    4th position and pulse width: only the file's statement can warn."""
+    spec = _rig(16).motor_spec(ramping="wide")
+    motor: dict[str, object] = {
+        "name": "vr-128",
+        "phases": PHASES,
+        "positions_per_cycle": N,
+        "equilibrium_positions": list(spec.equilibrium_positions),
+        "ramping": "wide",
+    }
+    if cogging_periods is not None:
+        motor["cogging_periods"] = cogging_periods
+    write_toml(tmp_path / "motor.toml", {"motor": motor})
+    p, w = np.meshgrid(np.arange(0, N, 4), np.arange(0, 256, 4), indexing="ij")
+    act = ramped_actuation(w, p, spec.ramp)  # (targets, levels, m)
+    torque = np.sum((1.0 + 0.2 * np.arange(PHASES)) * (act / 255.0) ** 2, axis=-1)
+    write_table(
+        tmp_path / "data.csv",
+        {"position": p.ravel(), "pulse_width": w.ravel(), "torque": torque.ravel()},
+    )
+    return tmp_path / "motor.toml", tmp_path / "data.csv"
+
+
+@pytest.mark.parametrize(("periods", "warns"), [(16, True), (8, False), (None, False)])
+def test_build_warns_from_the_motor_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], periods: int | None, warns: bool
+) -> None:
+    motor, data = _closed_form_case(tmp_path, periods)
+    status = main(["linearize", "build", str(motor), str(data), "-o", f"{tmp_path}/t.npz"])
+    assert status == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == int(warns)
+    if warns:
+        assert err[0].startswith(f"torquemap: warning: {data}: the motor file states 16 cogging")
+        assert "position step 2" in err[0]
+
+
+def test_stated_cogging_key() -> None:
+    """The optional key round-trips and is checked like the others."""
+    spec = motor_spec(
+        "m", phases=3, positions_per_cycle=96, equilibrium_positions=(1, 33, 65), cogging_periods=9
+    )
+    assert spec.cogging_periods == 9
+    assert motor_from_dict(motor_to_dict(spec)).cogging_periods == 9
+    plain = motor_to_dict(
+        motor_spec("m", phases=3, positions_per_cycle=96, equilibrium_positions=(1, 33, 65))
+    )
+    assert "cogging_periods" not in plain["motor"]
+    for bad in (0, 97, 2.5, "6"):
+        document = motor_to_dict(spec)
+        document["motor"]["cogging_periods"] = bad
+        with pytest.raises(InputError, match="cogging_periods"):
+            motor_from_dict(document)

@@ -150,3 +150,54 @@ def check_position_sampling(
     noise = float(np.median(other_bins)) if other_bins.size else np.inf
     undersampled = top >= SIGNIFICANT * noise and top >= MATTERS * torque_per_count and top > 0
     return SamplingCheck(int(steps[0]), top, noise, bool(undersampled))
+
+
+def check_stated_cogging(cogging_periods: int, anchors: ArrayLike, positions_per_cycle: int) -> str:
+    """What to collect when the motor file's cogging is sampled at most twice a period.
+
+    Parameters
+    ----------
+    cogging_periods
+        Cogging periods per actuation cycle (the motor file's ``cogging_periods``).
+    anchors
+        The measured positions, ascending, shape (K,).
+    positions_per_cycle
+        ``P``.
+
+    Returns
+    -------
+    str
+        One line naming the largest position step that samples the cogging more than twice a
+        period (a divisor of ``P``, so the targets stay evenly spaced); empty when the measured
+        positions do so already, or are not evenly spaced.
+
+    Examples
+    --------
+    >>> check_stated_cogging(16, np.arange(0, 128, 4), 128)[:38]
+    'the motor file states 16 cogging perio'
+    >>> check_stated_cogging(8, np.arange(0, 128, 4), 128)
+    ''
+    """
+    a = np.asarray(anchors, dtype=np.int64)
+    n = int(positions_per_cycle)
+    if a.size < 2:
+        return ""
+    steps = np.diff(np.concatenate([a, a[:1] + n]))
+    if np.any(steps != steps[0]):
+        return ""
+    s = int(steps[0])
+    if n / (s * cogging_periods) > 2.0:
+        return ""
+    good = [d for d in range(1, s) if n % d == 0 and n / (d * cogging_periods) > 2.0]
+    if not good:
+        return (
+            f"the motor file states {cogging_periods} cogging periods per cycle of {n} "
+            "positions: under two table positions a period, which no table can hold"
+        )
+    d = max(good)
+    return (
+        f"the motor file states {cogging_periods} cogging periods per cycle of {n} positions, "
+        f"{n / (s * cogging_periods):.3g} measured positions a period: data measured every "
+        f"{_nth(s)} position cannot hold it; collect again measuring every {_nth(d)} position "
+        f"(position step {d})"
+    )

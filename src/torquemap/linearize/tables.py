@@ -46,7 +46,7 @@ from torquemap.linearize.detent import detent_correction, fit_detent
 from torquemap.linearize.handover import check_handover, fill_handover
 from torquemap.linearize.motor import MotorSpec
 from torquemap.linearize.onset import extend_below, fit_onset
-from torquemap.linearize.sampling import check_position_sampling
+from torquemap.linearize.sampling import check_position_sampling, check_stated_cogging
 from torquemap.linearize.surface import SurfaceFit, fit_surface, surface_prediction
 
 CommandScaling = Literal["linear", "log"]
@@ -1053,6 +1053,10 @@ def build_tables(
     else:
         index = command_from_torque(tau, **law)  # type: ignore[arg-type]
         base, voids, averaged = _paper_inverse(spec, pos, pw, tau, index, cmax, gap)
+    if spec.cogging_periods is not None and not warnings:
+        stated = check_stated_cogging(spec.cogging_periods, np.unique(pos[pw == 0]), n)
+        if stated:
+            warnings.append(stated)
     base[:, 0] = 0.0
     base = np.clip(base, 0.0, float(spec.actuation_max))
 
