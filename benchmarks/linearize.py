@@ -13,8 +13,9 @@ the joints); each evaluated noise-free over every cell of the sensed-torque surf
 through one verification run per table set with the same sensor-noise seed on a rig with fresh
 noise (every command at about 16 positions, every (P/16 + 1)-th: between the
 characterisation's targets as often as on them; 40 readings a row). Reported: the APMD ratio to the floor,
-its median and worst over the motors, the comparison with the paper's method on every motor, and
-the CAPMD at commands 1 to 3.
+its median and worst over the motors, the comparison with the paper's method on every motor, the
+CAPMD at commands 1 to 3, and the motors on which ``build_tables`` warned (cogging the collection
+sampled at most twice a period, :mod:`torquemap.linearize.sampling`).
 
 The four joints:
 
@@ -203,6 +204,7 @@ def family_row(seed: int, tmp: Path, *, verify: bool) -> dict[str, float | str]:
         for method in ("interp", "paper")
     }
     tables["floor"] = floor_tables(rig, spec, tables["interp"])
+    row["warnings"] = " | ".join(tables["interp"].warnings)
     for name, t in tables.items():
         report = noise_free(rig, t)
         row[f"{name}_nf"] = report.apmd
@@ -248,6 +250,10 @@ def family_tables(rows: list[dict[str, float | str]], *, verify: bool) -> None:
             f"paper method / floor: median {np.median(paper):.2f}, worst {paper.max():.2f}; "
             f"interp better than the paper's method on {better} of {len(rows)} motors"
         )
+    warned = [r for r in rows if r["warnings"]]
+    print(f"\nlinearize build warned on {len(warned)} of {len(rows)} motors")
+    for r in warned:
+        print(f"  {r['motor']!s:.40}: {r['warnings']}")
     print("\nCAPMD at commands 1-3, noise-free, median over motors [%]")
     for name in ("interp", "paper", "floor"):
         values = [

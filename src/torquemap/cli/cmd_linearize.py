@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from typing import Any
 
 from torquemap.cli.argtypes import float_in, int_in
@@ -209,6 +210,8 @@ def _build(args: argparse.Namespace) -> int:
             "between measured positions: the structured torque surface (the ramp hands over there)"
         )
     print("wrote " + ", ".join(written))
+    for warning in tables.warnings:
+        print(f"torquemap: warning: {args.data}: {warning}", file=sys.stderr)
     return 0
 
 

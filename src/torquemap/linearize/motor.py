@@ -62,6 +62,7 @@ _MOTOR_KEYS = (
     "actuation_max",
     "equilibrium_positions",
     "ramping",
+    "cogging_periods",
 )
 _REQUIRED = ("name", "phases", "positions_per_cycle", "equilibrium_positions", "ramping")
 
@@ -100,6 +101,9 @@ class MotorSpec:
         base actuation phase ``k + 1`` receives at table position ``p``.
     path
         The file the spec was read from, or None.
+    cogging_periods
+        Periods of the cogging (detent) torque per actuation cycle, when the file states them
+        (optional key; from the motor's slot and pole counts); None when unknown.
     """
 
     name: str
@@ -111,6 +115,7 @@ class MotorSpec:
     ramping: str
     ramp: NDArray[np.float64]
     path: str | None
+    cogging_periods: int | None = None
 
 
 def ramp_function(kind: RampKind, *, phases: int, positions_per_cycle: int) -> NDArray[np.float64]:
@@ -359,6 +364,8 @@ def motor_from_dict(
         if not csv.exists():
             raise InputError(f"[motor] ramping file {ramping!r} not found (at {csv})", path=p)
         ramp = read_ramp_csv(csv, phases=m, positions_per_cycle=n)
+    cogging = table.get("cogging_periods")
+    periods = None if cogging is None else _int(cogging, "cogging_periods", p, low=1, high=n)
     return MotorSpec(
         name=name,
         phases=m,
@@ -369,6 +376,7 @@ def motor_from_dict(
         ramping=ramping,
         ramp=ramp,
         path=p,
+        cogging_periods=periods,
     )
 
 
@@ -405,17 +413,18 @@ def motor_to_dict(spec: MotorSpec) -> dict[str, Any]:
     >>> motor_to_dict(spec)["motor"]["ramping"]
     'wide'
     """
-    return {
-        "motor": {
-            "name": spec.name,
-            "phases": spec.phases,
-            "positions_per_cycle": spec.positions_per_cycle,
-            "command_bits": spec.command_bits,
-            "actuation_max": spec.actuation_max,
-            "equilibrium_positions": list(spec.equilibrium_positions),
-            "ramping": spec.ramping,
-        }
+    table: dict[str, Any] = {
+        "name": spec.name,
+        "phases": spec.phases,
+        "positions_per_cycle": spec.positions_per_cycle,
+        "command_bits": spec.command_bits,
+        "actuation_max": spec.actuation_max,
+        "equilibrium_positions": list(spec.equilibrium_positions),
+        "ramping": spec.ramping,
     }
+    if spec.cogging_periods is not None:
+        table["cogging_periods"] = spec.cogging_periods
+    return {"motor": table}
 
 
 def motor_spec(
@@ -427,6 +436,7 @@ def motor_spec(
     ramping: RampKind = "wide",
     command_bits: int = 8,
     actuation_max: int = 255,
+    cogging_periods: int | None = None,
 ) -> MotorSpec:
     """A :class:`MotorSpec` with a narrow or wide ramp, built in code (no file).
 
@@ -448,6 +458,8 @@ def motor_spec(
             "ramping": ramping,
         }
     }
+    if cogging_periods is not None:
+        document["motor"]["cogging_periods"] = cogging_periods
     return motor_from_dict(document)
 
 

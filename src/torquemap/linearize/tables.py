@@ -46,7 +46,8 @@ from torquemap.linearize.detent import detent_correction, fit_detent
 from torquemap.linearize.handover import check_handover, fill_handover
 from torquemap.linearize.motor import MotorSpec
 from torquemap.linearize.onset import extend_below, fit_onset
-from torquemap.linearize.surface import fit_surface, surface_prediction
+from torquemap.linearize.sampling import check_position_sampling, check_stated_cogging
+from torquemap.linearize.surface import SurfaceFit, fit_surface, surface_prediction
 
 CommandScaling = Literal["linear", "log"]
 Method = Literal["interp", "paper"]
@@ -135,6 +136,10 @@ class TableSet:
     surface
         Whether the forward model between measured positions came from the structured
         surface (:mod:`torquemap.linearize.surface`).
+    warnings
+        What the data cannot hold and what to collect instead, one line each (for example
+        cogging sampled at most twice a period: :mod:`torquemap.linearize.sampling`); not
+        saved with the tables.
     """
 
     phases: NDArray[np.int64]
@@ -160,6 +165,7 @@ class TableSet:
     handover_cells: int = 0
     detent_harmonics: tuple[int, ...] = ()
     surface: bool = False
+    warnings: tuple[str, ...] = ()
 
     @property
     def command_max(self) -> int:
@@ -714,10 +720,10 @@ def _surface_forward(
     levels: NDArray[np.float64],
     onset_law: tuple[float, float],
     readable: float,
-) -> NDArray[np.float64]:
+) -> tuple[NDArray[np.float64], SurfaceFit]:
     """Sensed torque on every base pulse width from the structured surface
     (:mod:`torquemap.linearize.surface`) plus what it misses at the measured cells,
-    interpolated between them; shape (P, A + 1)."""
+    interpolated between them, shape (P, A + 1); and the surface."""
     n = spec.positions_per_cycle
     col = np.searchsorted(levels, pw)
     mean, count = _cells(pos, col.astype(np.int64), tau, (n, levels.size))
@@ -743,7 +749,7 @@ def _surface_forward(
     res_fine = np.stack([np.interp(u, levels, np.nan_to_num(r)) for r in res])
     out = np.maximum(surface_prediction(fit, ramp, u) + res_fine, 0.0)
     out = np.maximum.accumulate(out, axis=1)
-    return out
+    return out, fit
 
 
 #: The structured surface replaces the interpolation between measured curves where a phase's
@@ -1005,6 +1011,7 @@ def build_tables(
         "log_curvature": log_curvature,
     }
     surface_used = False
+    warnings: list[str] = []
     if method == "interp":
         target = torque_from_command(np.arange(cmax + 1), **law)  # type: ignore[arg-type]
         if onset:
@@ -1031,11 +1038,13 @@ def build_tables(
             onset_law = (fit.dead_zone, fit.exponent)
             anchors = np.unique(pos[pw == 0])
             if surface and ramp_share_step(ramp, anchors) > SURFACE_SHARE_STEP:
-                fine = np.where(
-                    np.isnan(fine),
-                    np.nan,
-                    _surface_forward(spec, pos, pw, tau, levels, onset_law, readable),
+                modelled, fitted = _surface_forward(spec, pos, pw, tau, levels, onset_law, readable)
+                fine = np.where(np.isnan(fine), np.nan, modelled)
+                check = check_position_sampling(
+                    fitted.rest, anchors, n, torque_per_count=torque_max / cmax
                 )
+                if check.undersampled:
+                    warnings.append(check.advice())
                 base = _invert(fine, np.arange(spec.actuation_max + 1, dtype=np.float64), target)
                 base = _snap(fine, base, target) if actuation_bits is None else base
                 surface_used = True
@@ -1044,6 +1053,10 @@ def build_tables(
     else:
         index = command_from_torque(tau, **law)  # type: ignore[arg-type]
         base, voids, averaged = _paper_inverse(spec, pos, pw, tau, index, cmax, gap)
+    if spec.cogging_periods is not None and not warnings:
+        stated = check_stated_cogging(spec.cogging_periods, np.unique(pos[pw == 0]), n)
+        if stated:
+            warnings.append(stated)
     base[:, 0] = 0.0
     base = np.clip(base, 0.0, float(spec.actuation_max))
 
@@ -1091,6 +1104,7 @@ def build_tables(
         handover_cells=handover_cells,
         detent_harmonics=harmonics,
         surface=surface_used,
+        warnings=tuple(warnings),
     )
 
 
