@@ -103,6 +103,226 @@ def regressor_columns(
     return out
 
 
+def parameter_variance(
+    names: list[str],
+    covariance: NDArray[np.float64],
+    *,
+    law: Any,
+    t: NDArray[np.float64],
+    theta: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    acceleration: NDArray[np.float64],
+    modulation: NDArray[np.float64],
+    cutoff: float,
+) -> NDArray[np.float64]:
+    """Variance [N^2 m^2] of the low-passed model torque from the parameters' covariance.
+
+    ``g_i^T C g_i`` per sample, ``g_i`` the low-passed regressor row
+    (:func:`regressor_columns` through :func:`torquemap.filters.lowpass`) and ``C``
+    (p, p) the covariance of the parameters ``names``. Shape (n,).
+
+    Notes
+    -----
+    The low-pass ``L`` acts along time and ``C`` along the parameters, so with
+    ``C = U diag(s) U^T`` (an eigendecomposition)::
+
+        g_i^T C g_i = sum_k s_k ((L G u_k)_i)^2
+
+    exactly: each direction ``u_k`` is a combination of the regressor's columns formed per
+    sample before the low-pass (a regressor row is sparse: two knots of a friction table),
+    and the forward-backward passes run over all directions of a sample side by side, keeping
+    only the weighted sum of squares (:func:`torquemap._kernels.regressor_directions`,
+    :func:`torquemap._kernels.lowpassed_weighted_squares`). Neither the (n, p) regressor, its
+    low-passed copy nor the (n, p) product with ``C`` is formed. Equal to
+    :func:`parameter_variance_direct` to rounding (tests/test_uncertainty.py). On irregular
+    time stamps, or a filter other than the order-2 Butterworth, that direct formula is used.
+    """
+    fast = _parameter_variance_by_directions(
+        names,
+        covariance,
+        law=law,
+        t=t,
+        theta=theta,
+        velocity=velocity,
+        acceleration=acceleration,
+        modulation=modulation,
+        cutoff=cutoff,
+    )
+    if fast is not None:
+        return fast
+    return parameter_variance_direct(
+        names,
+        covariance,
+        law=law,
+        t=t,
+        theta=theta,
+        velocity=velocity,
+        acceleration=acceleration,
+        modulation=modulation,
+        cutoff=cutoff,
+    )
+
+
+def parameter_variance_direct(
+    names: list[str],
+    covariance: NDArray[np.float64],
+    *,
+    law: Any,
+    t: NDArray[np.float64],
+    theta: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    acceleration: NDArray[np.float64],
+    modulation: NDArray[np.float64],
+    cutoff: float,
+) -> NDArray[np.float64]:
+    """:func:`parameter_variance` by its definition: the (n, p) regressor, low-passed column
+    by column, and ``g^T C g`` per sample through one matrix product."""
+    g = regressor_columns(
+        names,
+        law=law,
+        theta=theta,
+        velocity=velocity,
+        acceleration=acceleration,
+        modulation=modulation,
+    )
+    if not g.shape[1]:
+        return np.zeros(t.size)
+    g = lowpass(t, g, cutoff=cutoff)
+    return np.asarray(np.sum((g @ covariance) * g, axis=1), dtype=np.float64)
+
+
+def _parameter_variance_by_directions(
+    names: list[str],
+    covariance: NDArray[np.float64],
+    *,
+    law: Any,
+    t: NDArray[np.float64],
+    theta: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    acceleration: NDArray[np.float64],
+    modulation: NDArray[np.float64],
+    cutoff: float,
+) -> NDArray[np.float64] | None:
+    """:func:`parameter_variance` by the covariance's eigen-directions (compiled kernels), or
+    None where that does not apply (irregular time, an invalid cut-off: the direct formula
+    handles or refuses those)."""
+    from torquemap._kernels import lowpassed_variance
+    from torquemap.filters import _butter_lowpass, _initial_state, regular_step
+    from torquemap.friction_law import SpeedTableFriction
+
+    n, p = t.size, len(names)
+    if p == 0:
+        return np.zeros(n)
+    step = regular_step(t, rtol=1e-6) if n >= 2 else None
+    if step is None or not (0 < cutoff < 0.5 / step):
+        return None
+    sos, pad = _butter_lowpass(2, float(cutoff), 1.0 / step)
+    if sos.shape[0] != 1 or n <= pad:
+        return None
+    directions, reach = _triangular_factor(covariance, names)
+    index = {name: i for i, name in enumerate(names)}
+    table = isinstance(law, SpeedTableFriction)
+    law_names = tuple(getattr(law, "linear_parameter_names", ()))
+    dense: list[NDArray[np.float64]] = []
+    dense_index: list[int] = []
+    if "inertia.constant" in index:
+        dense.append(acceleration)
+        dense_index.append(index["inertia.constant"])
+    if "inertia.cos_elbow" in index:
+        dense.append(acceleration * modulation)
+        dense_index.append(index["inertia.cos_elbow"])
+    friction = [
+        (i, name.split(".", 1)[1]) for i, name in enumerate(names) if name.startswith("friction.")
+    ]
+    friction = [(i, key) for i, key in friction if key in law_names]
+    if friction and not table:
+        basis = law.basis(velocity)
+        for i, key in friction:
+            dense.append(basis[:, law_names.index(key)])
+            dense_index.append(i)
+    knots = np.log(np.asarray(law.speeds, dtype=np.float64)) if table and friction else np.empty(0)
+    knot_positive = np.full(knots.size, -1, dtype=np.int64)
+    knot_negative = np.full(knots.size, -1, dtype=np.int64)
+    viscous = viscous_negative = -1
+    if table and friction:
+        for i, key in friction:
+            if key.startswith("positive_"):
+                knot_positive[int(key[len("positive_") :])] = i
+            elif key.startswith("negative_"):
+                knot_negative[int(key[len("negative_") :])] = i
+            elif key == "viscous":
+                viscous = i
+            elif key == "viscous_negative":
+                viscous_negative = i
+    lines: dict[tuple[float, int], list[int]] = {}
+    for i, name in enumerate(names):
+        if not name.startswith("pdtv."):
+            continue
+        body, part = name.rsplit(".", 1)
+        order_text, direction = body[len("pdtv.") :].rsplit(".", 1)
+        sign = {"positive": 1, "negative": -1}.get(direction, 0)
+        slot = lines.setdefault((float(order_text), sign), [-1, -1])
+        slot[0 if part == "a" else 1] = i
+    orders = np.array([order for order, _ in lines], dtype=np.float64)
+    powers = np.array(
+        [int(o) if o == math.floor(o) and 0 <= o <= 1 << 20 else -1 for o in orders],
+        dtype=np.int64,
+    )
+    spec = (
+        np.ascontiguousarray(np.array(dense, dtype=np.float64).reshape(len(dense), n)),
+        np.array(dense_index, dtype=np.int64),
+        np.ascontiguousarray(theta, dtype=np.float64),
+        np.ascontiguousarray(velocity, dtype=np.float64),
+        orders,
+        powers,
+        np.array([slot[0] for slot in lines.values()], dtype=np.int64),
+        np.array([slot[1] for slot in lines.values()], dtype=np.int64),
+        np.array([sign for _, sign in lines], dtype=np.int64),
+        knots,
+        knot_positive,
+        knot_negative,
+        viscous,
+        viscous_negative,
+        float(getattr(law, "zero_velocity", 1.0)),
+        directions,
+        reach,
+    )
+    zi = _initial_state(sos.tobytes())
+    var = lowpassed_variance(*spec, np.ones(p), sos.copy(), zi.copy(), pad)
+    return np.asarray(var, dtype=np.float64)
+
+
+def _triangular_factor(
+    covariance: NDArray[np.float64], names: list[str]
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """``W`` (p, p) with ``W W^T = C`` (the covariance's negative eigenvalues, rounding,
+    taken as 0), lower triangular in an order of the parameters with the friction's last, and
+    per row the number of its leading nonzero columns.
+
+    A regressor row is dense in the inertia and PDTV columns and sparse in a friction
+    table's (two knots per direction): with those first, a dense column touches only the
+    first few columns of ``W`` and ``g^T W`` costs a fraction of a full product.
+    """
+    p = len(names)
+    order = sorted(range(p), key=lambda i: names[i].startswith("friction."))
+    cov = covariance[np.ix_(order, order)]
+    cov = 0.5 * (cov + cov.T)
+    scale = np.sqrt(np.abs(np.diag(cov)))
+    scale[scale == 0] = 1.0
+    # C = D R D with R the correlation: R = B B^T, B = V sqrt(s), then B^T = Q T (QR) gives
+    # R = T^T T with T upper triangular
+    values, vectors = np.linalg.eigh(cov / np.outer(scale, scale))
+    root = vectors * np.sqrt(np.maximum(values, 0.0))
+    upper = np.linalg.qr(root.T).R
+    factor = scale[:, None] * upper.T
+    directions = np.empty((p, p))
+    reach = np.empty(p, dtype=np.int64)
+    for position, i in enumerate(order):
+        directions[i] = factor[position]
+        reach[i] = position + 1
+    return directions, reach
+
+
 def sign_sigma(law: Any, velocity: NDArray[np.float64], width: float) -> NDArray[np.float64]:
     """Standard deviation [N m] of friction from not knowing the sign of motion.
 
@@ -168,18 +388,17 @@ def joint_sigma(
     cov = np.asarray(table["covariance"], dtype=np.float64)
     if cov.shape != (len(names), len(names)) or not np.all(np.isfinite(cov)):
         raise InputError(f"[identification.joints.{joint}.uncertainty] covariance is malformed")
-    g = regressor_columns(
+    var = parameter_variance(
         names,
+        cov,
         law=law,
+        t=t,
         theta=theta,
         velocity=velocity,
         acceleration=acceleration,
         modulation=modulation,
+        cutoff=cutoff,
     )
-    g = lowpass(t, g, cutoff=cutoff) if g.shape[1] else g
-    # g^T C g per sample, through one matrix product (einsum's three-operand loop was 8x the
-    # rest of the estimate on a whole-log model)
-    var = np.sum((g @ cov) * g, axis=1) if g.shape[1] else np.zeros(n)
     psd = float(table.get("residual_psd", 0.0))
     noise = np.full(n, max(psd, 0.0) * LOWPASS_ENB * cutoff)
     measured = table.get("residual")
