@@ -123,19 +123,22 @@ def parameter_variance(
 
     Notes
     -----
-    The low-pass ``L`` acts along time and ``C`` along the parameters, so with
-    ``C = U diag(s) U^T`` (an eigendecomposition)::
+    The low-pass ``L`` acts along time and ``C`` along the parameters, so with a factor
+    ``C = W W^T`` (columns ``w_k``)::
 
-        g_i^T C g_i = sum_k s_k ((L G u_k)_i)^2
+        g_i^T C g_i = || W^T g_i ||^2 = sum_k ((L G w_k)_i)^2
 
-    exactly: each direction ``u_k`` is a combination of the regressor's columns formed per
-    sample before the low-pass (a regressor row is sparse: two knots of a friction table),
-    and the forward-backward passes run over all directions of a sample side by side, keeping
-    only the weighted sum of squares (:func:`torquemap._kernels.regressor_directions`,
-    :func:`torquemap._kernels.lowpassed_weighted_squares`). Neither the (n, p) regressor, its
-    low-passed copy nor the (n, p) product with ``C`` is formed. Equal to
-    :func:`parameter_variance_direct` to rounding (tests/test_uncertainty.py). On irregular
-    time stamps, or a filter other than the order-2 Butterworth, that direct formula is used.
+    exactly: each combination ``G w_k`` is formed per sample before the low-pass, and the
+    forward-backward passes run over all combinations of a sample side by side, keeping only
+    the sum of squares (:func:`torquemap._kernels.lowpassed_variance`). ``W`` is lower
+    triangular with the dense columns (inertia, PDTV) first and a friction table's (two
+    knots per direction and sample) last (:func:`_triangular_factor`), so that a row costs
+    a fraction of ``p^2``. Neither the (n, p) regressor, its low-passed copy nor its product
+    with ``C`` is formed: one (n, p) array instead of four. Equal to
+    :func:`parameter_variance_direct` to rounding (1e-10 relative on the SCARA bench's
+    model; tests/test_uncertainty.py); the covariance's negative eigenvalues (rounding) are
+    taken as zero. On irregular time stamps, a filter other than the order-2 Butterworth or
+    non-finite inputs, the direct formula is used.
     """
     fast = _parameter_variance_by_directions(
         names,
@@ -203,10 +206,10 @@ def _parameter_variance_by_directions(
     modulation: NDArray[np.float64],
     cutoff: float,
 ) -> NDArray[np.float64] | None:
-    """:func:`parameter_variance` by the covariance's eigen-directions (compiled kernels), or
-    None where that does not apply (irregular time, an invalid cut-off: the direct formula
+    """:func:`parameter_variance` by a triangular factor of the covariance (compiled
+    kernels), or None where that does not apply (irregular time, an invalid cut-off: the direct formula
     handles or refuses those)."""
-    from torquemap._kernels import lowpassed_variance
+    from torquemap._kernels import lowpassed_variance, max_abs
     from torquemap.filters import _butter_lowpass, _initial_state, regular_step
     from torquemap.friction_law import SpeedTableFriction
 
@@ -216,6 +219,11 @@ def _parameter_variance_by_directions(
     step = regular_step(t, rtol=1e-6) if n >= 2 else None
     if step is None or not (0 < cutoff < 0.5 / step):
         return None
+    if not all(
+        math.isfinite(max_abs(np.ascontiguousarray(x, dtype=np.float64)))
+        for x in (theta, velocity, acceleration, modulation)
+    ):
+        return None  # the direct formula's low-pass refuses them
     sos, pad = _butter_lowpass(2, float(cutoff), 1.0 / step)
     if sos.shape[0] != 1 or n <= pad:
         return None
