@@ -430,7 +430,7 @@ def joint_sigma(
     width = max(float(getattr(law, "zero_velocity", 0.0)), resolution, 1e-9)
     level = sign_sigma(law, velocity, width)
     levels = getattr(law, "levels", None)
-    if callable(levels):
+    if callable(levels) and FORM_FRACTION > 0:  # hypot(level, 0) is level: skip the pass
         # the table's own form error between and beyond its knots: FORM_FRACTION of the level
         up, down = levels(np.abs(velocity))
         level = np.hypot(level, FORM_FRACTION * 0.5 * (np.abs(up) + np.abs(down)))
