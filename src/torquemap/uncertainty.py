@@ -586,7 +586,7 @@ def bridge_departure(
     (``|s2 - s1| D / 8`` at the middle). The slopes are those of ``estimate`` over the half run,
     at most ``1 / cutoff``, beyond each end. A run at an end of the log holds its one
     neighbour's value: there the departure is that neighbour's slope times the time from it.
-    Zero outside the runs.
+    Zero outside the runs. ``t`` [s] increases (a piece of a log).
 
     Examples
     --------
@@ -607,9 +607,13 @@ def bridge_departure(
         reach = min(0.5 * d, span)
         slopes = []
         for lo, hi in ((ta - reach, ta), (tb, tb + reach)):
-            sel = (t >= lo) & (t <= hi) & ~bridged
+            # the samples in [lo, hi] (time increases: a slice, not a mask of the whole log)
+            i0 = int(np.searchsorted(t, lo, side="left"))
+            i1 = int(np.searchsorted(t, hi, side="right"))
+            sel = ~bridged[i0:i1]
             if int(sel.sum()) >= 3:
-                slopes.append(float(np.polyfit(t[sel] - lo, estimate[sel], 1)[0]))
+                times = t[i0:i1][sel]
+                slopes.append(float(np.polyfit(times - lo, estimate[i0:i1][sel], 1)[0]))
         if not slopes:
             continue
         tt = t[a:b]
