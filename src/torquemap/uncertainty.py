@@ -410,20 +410,14 @@ def joint_sigma(
     psd = float(table.get("residual_psd", 0.0))
     noise = np.full(n, max(psd, 0.0) * LOWPASS_ENB * cutoff)
     measured = table.get("residual")
+    misfit_level = None
     if isinstance(measured, Mapping) and joint_uncertainty_table_ok(measured):
         # what the model left on its own no-load logs at each speed (model-form error and
-        # noise together, measured): the larger of it and the noise alone
-        misfit = _residual_sigma(
-            measured,
-            law,
-            t=t,
-            velocity=velocity,
-            cutoff=cutoff,
-            acceleration=acceleration,
-            sign=False,
+        # noise together, measured): the larger of it and the noise alone (low-passed below,
+        # with the sign's level)
+        misfit_level = _residual_level(
+            measured, t=t, velocity=velocity, cutoff=cutoff, acceleration=acceleration
         )
-        noise = np.maximum(noise, misfit**2)
-    var = np.maximum(var, 0.0) + noise
     joints = model.notes.get("joints", {})
     entry = joints.get(joint, {}) if isinstance(joints, Mapping) else {}
     resolution = float(entry.get("velocity_resolution", 0.0)) if isinstance(entry, Mapping) else 0.0
@@ -434,15 +428,25 @@ def joint_sigma(
         # the table's own form error between and beyond its knots: FORM_FRACTION of the level
         up, down = levels(np.abs(velocity))
         level = np.hypot(level, FORM_FRACTION * 0.5 * (np.abs(up) + np.abs(down)))
-    if bridged is not None and bridged.any():
+    runs = bridged if bridged is not None and bridged.any() else None
+    if runs is not None:
         # a bridged sample's answer is the line between its run's ends: friction does not
         # enter it, so neither do its sign nor the law's parameters; its variance is the line
         # between the ends' variances (the load's departure from a line is added by estimation)
         from torquemap.estimate import bridge_gaps
 
-        level = bridge_gaps(t, level, bridged, longest=math.inf, ends=True)
-        var = bridge_gaps(t, var, bridged, longest=math.inf, ends=True)
-    sign = lowpass(t, level, cutoff=cutoff)
+        level = bridge_gaps(t, level, runs, longest=math.inf, ends=True)
+    if misfit_level is None:
+        sign = lowpass(t, level, cutoff=cutoff)
+    else:  # one call: the filter runs four signals side by side, one costs as much as two
+        both = lowpass(t, np.column_stack((misfit_level, level)), cutoff=cutoff)
+        noise = np.maximum(noise, np.maximum(both[:, 0], 0.0) ** 2)
+        sign = both[:, 1]
+    var = np.maximum(var, 0.0) + noise
+    if runs is not None:
+        from torquemap.estimate import bridge_gaps
+
+        var = bridge_gaps(t, var, runs, longest=math.inf, ends=True)
     out: NDArray[np.float64] = np.sqrt(var + np.maximum(sign, 0.0) ** 2)
     if not math.isfinite(float(np.max(out, initial=0.0))):
         out = np.where(np.isfinite(out), out, np.nan)
@@ -461,6 +465,25 @@ def _residual_sigma(
 ) -> NDArray[np.float64]:
     """Sigma [N m, motor side] from a residual table (:func:`residual_table`); without
     ``sign``, the table's level alone (no term for the sign of friction)."""
+    level = _residual_level(table, t=t, velocity=velocity, cutoff=cutoff, acceleration=acceleration)
+    if not sign:
+        return np.asarray(np.maximum(lowpass(t, level, cutoff=cutoff), 0.0), dtype=np.float64)
+    width = max(float(getattr(law, "zero_velocity", 0.0)), 1e-9)
+    # both levels in one low-pass call (the filter runs four signals side by side)
+    both = lowpass(t, np.column_stack((level, sign_sigma(law, velocity, width))), cutoff=cutoff)
+    level, band = both[:, 0], both[:, 1]
+    return np.asarray(np.sqrt(np.maximum(level, 0.0) ** 2 + np.maximum(band, 0.0) ** 2))
+
+
+def _residual_level(
+    table: Mapping[str, Any],
+    *,
+    t: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    cutoff: float,
+    acceleration: NDArray[np.float64] | None,
+) -> NDArray[np.float64]:
+    """The residual table's level [N m, motor side] at each sample, before the low-pass."""
     speeds = np.asarray(table["speeds"], dtype=np.float64)
     rms = np.asarray(table["rms"], dtype=np.float64)
     if not (np.all(np.isfinite(speeds)) and np.all(np.isfinite(rms)) and np.all(rms >= 0)):
@@ -474,12 +497,7 @@ def _residual_sigma(
     per_acc = float(table.get("acceleration_sigma", 0.0))
     if math.isfinite(per_acc) and per_acc > 0 and acceleration is not None:
         level = np.hypot(level, per_acc * np.abs(lowpass(t, acceleration, cutoff=cutoff)))
-    level = lowpass(t, level, cutoff=cutoff)
-    if not sign:
-        return np.asarray(np.maximum(level, 0.0), dtype=np.float64)
-    width = max(float(getattr(law, "zero_velocity", 0.0)), 1e-9)
-    band = lowpass(t, sign_sigma(law, velocity, width), cutoff=cutoff)
-    return np.asarray(np.sqrt(np.maximum(level, 0.0) ** 2 + np.maximum(band, 0.0) ** 2))
+    return np.asarray(level, dtype=np.float64)
 
 
 def residual_table(
