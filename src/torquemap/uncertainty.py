@@ -19,6 +19,7 @@ low-pass, so its error has three parts, taken as independent:
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from typing import Any
@@ -227,7 +228,9 @@ def _parameter_variance_by_directions(
     sos, pad = _butter_lowpass(2, float(cutoff), 1.0 / step)
     if sos.shape[0] != 1 or n <= pad:
         return None
-    directions, reach = _triangular_factor(covariance, names)
+    directions, reach = _triangular_factor_cached(
+        np.ascontiguousarray(covariance, dtype=np.float64).tobytes(), tuple(names)
+    )
     index = {name: i for i, name in enumerate(names)}
     table = isinstance(law, SpeedTableFriction)
     law_names = tuple(getattr(law, "linear_parameter_names", ()))
@@ -292,12 +295,25 @@ def _parameter_variance_by_directions(
         viscous,
         viscous_negative,
         float(getattr(law, "zero_velocity", 1.0)),
-        directions,
-        reach,
+        directions.copy(),  # writable: the kernels are compiled for one signature
+        reach.copy(),
     )
     zi = _initial_state(sos.tobytes())
     var = lowpassed_variance(*spec, np.ones(p), sos.copy(), zi.copy(), pad)
     return np.asarray(var, dtype=np.float64)
+
+
+@functools.lru_cache(maxsize=16)
+def _triangular_factor_cached(
+    covariance: bytes, names: tuple[str, ...]
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """:func:`_triangular_factor` once per joint's covariance (every piece of every block
+    asks for the same one); the arrays are read-only."""
+    p = len(names)
+    directions, reach = _triangular_factor(np.frombuffer(covariance).reshape(p, p), list(names))
+    directions.setflags(write=False)
+    reach.setflags(write=False)
+    return directions, reach
 
 
 def _triangular_factor(
