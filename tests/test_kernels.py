@@ -193,7 +193,7 @@ def test_regressor_directions_match_regressor_columns() -> None:
     spec, columns, _ = _regressor_case(3000, 0)
     directions = spec[15]
     assert isinstance(directions, np.ndarray)
-    got = K.regressor_directions(*spec)
+    got = K.regressor_directions(spec)
     want = columns @ directions
     scale = np.abs(columns).max() * np.abs(directions).sum(axis=0)
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-13 * scale.max())
@@ -208,7 +208,7 @@ def test_lowpassed_variance_matches_sosfiltfilt() -> None:
     sos = signal.butter(2, 2.0, fs=1000.0, output="sos")
     weights = np.random.default_rng(5).random(directions.shape[1])
     zi = np.ascontiguousarray(signal.sosfilt_zi(sos))
-    got = K.lowpassed_variance(*spec, weights, sos, zi, 9)
+    got = K.lowpassed_variance(spec, weights, sos, zi, 9)
     y = signal.sosfiltfilt(sos, columns @ directions, axis=0)
     want = (y**2) @ weights
     np.testing.assert_allclose(got, want, rtol=1e-12)

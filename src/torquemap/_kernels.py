@@ -11,6 +11,7 @@ code it replaces (tests/test_kernels.py). Compiled once per signature and cached
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -19,6 +20,13 @@ from torquemap._jit import jit
 
 #: Samples per stretch of the tiled kernels: a few arrays of it stay in the L1/L2 cache.
 TILE = 512
+
+#: The regressor of :func:`regressor_directions`, a tuple: ``(dense, dense_index, theta,
+#: velocity, line_order, line_power, line_cos, line_sin, line_direction, knot_logs,
+#: knot_positive, knot_negative, viscous, viscous_negative, zero_velocity, directions,
+#: reach)`` (the arrays float64 or int64, C-contiguous; ``viscous``, ``viscous_negative``
+#: int, ``zero_velocity`` float).
+RegressorSpec = tuple[Any, ...]
 
 
 @jit
@@ -439,30 +447,12 @@ def _powers_top(line_power: NDArray[np.int64]) -> int:
 
 
 @jit
-def _regressor_rows(
-    start: int,
-    stop: int,
-    dense: NDArray[np.float64],
-    dense_index: NDArray[np.int64],
-    theta: NDArray[np.float64],
-    velocity: NDArray[np.float64],
-    line_order: NDArray[np.float64],
-    line_power: NDArray[np.int64],
-    line_cos: NDArray[np.int64],
-    line_sin: NDArray[np.int64],
-    line_direction: NDArray[np.int64],
-    knot_logs: NDArray[np.float64],
-    knot_positive: NDArray[np.int64],
-    knot_negative: NDArray[np.int64],
-    viscous: int,
-    viscous_negative: int,
-    zero_velocity: float,
-    directions: NDArray[np.float64],
-    reach: NDArray[np.int64],
-    out: NDArray[np.float64],
-) -> None:
+def _regressor_rows(start: int, stop: int, spec: RegressorSpec, out: NDArray[np.float64]) -> None:
     """Samples ``start:stop``'s regressor rows times ``directions`` into ``out[0:stop -
     start]`` (:func:`regressor_directions`); a stretch per call (a call passes every array)."""
+    (dense, dense_index, theta, velocity, line_order, line_power, line_cos, line_sin,
+     line_direction, knot_logs, knot_positive, knot_negative, viscous, viscous_negative,
+     zero_velocity, directions, reach) = spec  # fmt: skip
     p, r = directions.shape
     top = _powers_top(line_power)
     sq_re = np.empty(top)
@@ -545,28 +535,11 @@ def _regressor_rows(
 
 
 @jit
-def regressor_directions(
-    dense: NDArray[np.float64],
-    dense_index: NDArray[np.int64],
-    theta: NDArray[np.float64],
-    velocity: NDArray[np.float64],
-    line_order: NDArray[np.float64],
-    line_power: NDArray[np.int64],
-    line_cos: NDArray[np.int64],
-    line_sin: NDArray[np.int64],
-    line_direction: NDArray[np.int64],
-    knot_logs: NDArray[np.float64],
-    knot_positive: NDArray[np.int64],
-    knot_negative: NDArray[np.int64],
-    viscous: int,
-    viscous_negative: int,
-    zero_velocity: float,
-    directions: NDArray[np.float64],
-    reach: NDArray[np.int64],
-) -> NDArray[np.float64]:
+def regressor_directions(spec: RegressorSpec) -> NDArray[np.float64]:
     """Each sample's regressor row ``g`` (p,) times ``directions`` (p, r): shape (n, r),
     without forming the (n, p) regressor. Row ``j`` of ``directions`` is read up to
-    ``reach[j]`` (the rest taken as zero: a triangular factor).
+    ``reach[j]`` (the rest taken as zero: a triangular factor); ``spec`` is
+    :data:`RegressorSpec`.
 
     The row (:func:`torquemap.uncertainty.regressor_columns`): ``dense[d]`` (n,) at parameter
     ``dense_index[d]``; PDTV line ``l`` as ``cos`` and ``sin`` of ``line_order[l] theta`` at
@@ -579,15 +552,11 @@ def regressor_directions(
     at ``viscous`` and ``viscous_negative`` (-1: absent; no table when ``knot_logs`` is
     empty).
     """
-    n = theta.size
-    out = np.empty((n, directions.shape[1]))
+    n = spec[2].size
+    out = np.empty((n, spec[15].shape[1]))
     for start in range(0, n, TILE):
         stop = min(start + TILE, n)
-        _regressor_rows(
-            start, stop, dense, dense_index, theta, velocity, line_order, line_power, line_cos,
-            line_sin, line_direction, knot_logs, knot_positive, knot_negative, viscous,
-            viscous_negative, zero_velocity, directions, reach, out[start:stop],
-        )  # fmt: skip
+        _regressor_rows(start, stop, spec, out[start:stop])
     return out
 
 
@@ -614,23 +583,7 @@ def _forward_step(
 
 @jit
 def lowpassed_variance(
-    dense: NDArray[np.float64],
-    dense_index: NDArray[np.int64],
-    theta: NDArray[np.float64],
-    velocity: NDArray[np.float64],
-    line_order: NDArray[np.float64],
-    line_power: NDArray[np.int64],
-    line_cos: NDArray[np.int64],
-    line_sin: NDArray[np.int64],
-    line_direction: NDArray[np.int64],
-    knot_logs: NDArray[np.float64],
-    knot_positive: NDArray[np.int64],
-    knot_negative: NDArray[np.int64],
-    viscous: int,
-    viscous_negative: int,
-    zero_velocity: float,
-    directions: NDArray[np.float64],
-    reach: NDArray[np.int64],
+    spec: RegressorSpec,
     weights: NDArray[np.float64],
     sos: NDArray[np.float64],
     zi: NDArray[np.float64],
@@ -638,7 +591,7 @@ def lowpassed_variance(
 ) -> NDArray[np.float64]:
     """``sum_k weights[k] y_k^2`` per sample (n,), ``y = scipy.signal.sosfiltfilt(sos, x,
     axis=0, padtype="odd", padlen=pad)`` of the ``r`` signals ``x`` (n, r) that
-    :func:`regressor_directions` gives (same arguments up to ``reach``).
+    :func:`regressor_directions` gives for ``spec``.
 
     The rows of ``x`` are formed a stretch at a time into the rows the forward pass then
     overwrites with its output (the odd extension's few rows beforehand): one (n + 2 pad, r)
@@ -646,18 +599,14 @@ def lowpassed_variance(
     of :func:`sosfiltfilt_odd` (scipy's ``_sosfilt``, the same operations in the same order),
     all ``r`` of a sample side by side (contiguous: the loop over signals vectorises).
     """
-    n = theta.size
-    r = directions.shape[1]
+    n = spec[2].size
+    r = spec[15].shape[1]
     total = n + 2 * pad
     # the rows the odd extensions read: x[0 .. pad] and x[n - 1 - pad .. n - 1]
     head = np.empty((pad + 1, r))
     tail = np.empty((pad + 1, r))
     for first, rows in ((0, head), (n - 1 - pad, tail)):
-        _regressor_rows(
-            first, first + pad + 1, dense, dense_index, theta, velocity, line_order, line_power,
-            line_cos, line_sin, line_direction, knot_logs, knot_positive, knot_negative, viscous,
-            viscous_negative, zero_velocity, directions, reach, rows,
-        )  # fmt: skip
+        _regressor_rows(first, first + pad + 1, spec, rows)
     b0, b1, b2, a1, a2 = sos[0, 0], sos[0, 1], sos[0, 2], sos[0, 4], sos[0, 5]
     za, zb = zi[0, 0], zi[0, 1]
     work = np.empty((total, r))
@@ -675,11 +624,7 @@ def lowpassed_variance(
     # the log's own rows, a stretch at a time, formed into the work rows they are filtered in
     for start in range(0, n, TILE):
         stop = min(start + TILE, n)
-        _regressor_rows(
-            start, stop, dense, dense_index, theta, velocity, line_order, line_power, line_cos,
-            line_sin, line_direction, knot_logs, knot_positive, knot_negative, viscous,
-            viscous_negative, zero_velocity, directions, reach, work[pad + start : pad + stop],
-        )  # fmt: skip
+        _regressor_rows(start, stop, spec, work[pad + start : pad + stop])
         for i in range(pad + start, pad + stop):
             for k in range(r):
                 xk = work[i, k]

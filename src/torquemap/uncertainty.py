@@ -141,30 +141,17 @@ def parameter_variance(
     taken as zero. On irregular time stamps, a filter other than the order-2 Butterworth or
     non-finite inputs, the direct formula is used.
     """
-    fast = _parameter_variance_by_directions(
-        names,
-        covariance,
-        law=law,
-        t=t,
-        theta=theta,
-        velocity=velocity,
-        acceleration=acceleration,
-        modulation=modulation,
-        cutoff=cutoff,
-    )
+    signals = {
+        "t": t,
+        "theta": theta,
+        "velocity": velocity,
+        "acceleration": acceleration,
+        "modulation": modulation,
+    }
+    fast = _parameter_variance_by_directions(names, covariance, law=law, cutoff=cutoff, **signals)
     if fast is not None:
         return fast
-    return parameter_variance_direct(
-        names,
-        covariance,
-        law=law,
-        t=t,
-        theta=theta,
-        velocity=velocity,
-        acceleration=acceleration,
-        modulation=modulation,
-        cutoff=cutoff,
-    )
+    return parameter_variance_direct(names, covariance, law=law, cutoff=cutoff, **signals)
 
 
 def parameter_variance_direct(
@@ -299,7 +286,7 @@ def _parameter_variance_by_directions(
         reach.copy(),
     )
     zi = _initial_state(sos.tobytes())
-    var = lowpassed_variance(*spec, np.ones(p), sos.copy(), zi.copy(), pad)
+    var = lowpassed_variance(spec, np.ones(p), sos.copy(), zi.copy(), pad)
     return np.asarray(var, dtype=np.float64)
 
 
