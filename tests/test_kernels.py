@@ -156,3 +156,59 @@ def test_planar_force_matches_force_map() -> None:
     )
     np.testing.assert_allclose(sigma, np.sqrt(np.einsum("nij,nj->ni", a**2, sig**2)), rtol=1e-12)
     assert np.isnan(force[:5]).all() and np.isnan(sigma[9]).all()
+
+
+def _regressor_case(n: int, seed: int) -> tuple[tuple[object, ...], np.ndarray, list[str]]:
+    """A regressor spec for :func:`K.regressor_directions` and the columns it stands for."""
+    from torquemap.friction_law import SpeedTableFriction
+    from torquemap.uncertainty import regressor_columns
+
+    rng = np.random.default_rng(seed)
+    h = 1e-3
+    velocity = 20.0 * np.sin(np.arange(n) * h * 3.0) + 0.05 * rng.standard_normal(n)
+    theta = np.cumsum(velocity) * h
+    acceleration = rng.standard_normal(n)
+    law = SpeedTableFriction(speeds=(0.1, 1.0, 10.0), positive=(0.1, 0.08, 0.09),
+                             negative=(0.1, 0.07, 0.1), viscous=1e-3, zero_velocity=0.05)  # fmt: skip
+    names = ["inertia.constant", "pdtv.3.both.a", "pdtv.3.both.b", "pdtv.0.5.positive.a",
+             "pdtv.7.negative.b", *(f"friction.{k}" for k in law.linear_parameter_names)]  # fmt: skip
+    columns = regressor_columns(names, law=law, theta=theta, velocity=velocity,
+                                acceleration=acceleration, modulation=np.ones(n))  # fmt: skip
+    p = len(names)
+    i64 = np.int64
+    spec = (
+        np.ascontiguousarray(acceleration[None, :]), np.array([0], dtype=i64), theta, velocity,
+        np.array([3.0, 0.5, 7.0]), np.array([3, -1, 7], dtype=i64), np.array([1, 3, -1], dtype=i64),
+        np.array([2, -1, 4], dtype=i64), np.array([0, 1, -1], dtype=i64),
+        np.log(np.array(law.speeds)), np.array([5, 6, 7], dtype=i64), np.array([8, 9, 10], dtype=i64),
+        11, 12, law.zero_velocity, np.ascontiguousarray(rng.standard_normal((p, p))),
+        np.full(p, p, dtype=i64),
+    )  # fmt: skip
+    return spec, columns, names
+
+
+def test_regressor_directions_match_regressor_columns() -> None:
+    # second algorithm: the (n, p) regressor by numpy, times the directions; the kernel's
+    # powers of exp(i theta) and sums in another order: rounding of the largest column
+    spec, columns, _ = _regressor_case(3000, 0)
+    directions = spec[15]
+    assert isinstance(directions, np.ndarray)
+    got = K.regressor_directions(spec)
+    want = columns @ directions
+    scale = np.abs(columns).max() * np.abs(directions).sum(axis=0)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-13 * scale.max())
+
+
+def test_lowpassed_variance_matches_sosfiltfilt() -> None:
+    # second algorithm: scipy's sosfiltfilt of each combination, weighted squares summed; the
+    # filter's recurrences are the same operations (exact), the weighted sum in another order
+    spec, columns, _ = _regressor_case(2500, 1)
+    directions = spec[15]
+    assert isinstance(directions, np.ndarray)
+    sos = signal.butter(2, 2.0, fs=1000.0, output="sos")
+    weights = np.random.default_rng(5).random(directions.shape[1])
+    zi = np.ascontiguousarray(signal.sosfilt_zi(sos))
+    got = K.lowpassed_variance(spec, weights, sos, zi, 9)
+    y = signal.sosfiltfilt(sos, columns @ directions, axis=0)
+    want = (y**2) @ weights
+    np.testing.assert_allclose(got, want, rtol=1e-12)

@@ -11,6 +11,7 @@ code it replaces (tests/test_kernels.py). Compiled once per signature and cached
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -19,6 +20,13 @@ from torquemap._jit import jit
 
 #: Samples per stretch of the tiled kernels: a few arrays of it stay in the L1/L2 cache.
 TILE = 512
+
+#: The regressor of :func:`regressor_directions`, a tuple: ``(dense, dense_index, theta,
+#: velocity, line_order, line_power, line_cos, line_sin, line_direction, knot_logs,
+#: knot_positive, knot_negative, viscous, viscous_negative, zero_velocity, directions,
+#: reach)`` (the arrays float64 or int64, C-contiguous; ``viscous``, ``viscous_negative``
+#: int, ``zero_velocity`` float).
+RegressorSpec = tuple[Any, ...]
 
 
 @jit
@@ -426,3 +434,234 @@ def planar_force(
         sigma[i, 0] = math.sqrt(m00**2 * v0 + m01**2 * v1)
         sigma[i, 1] = math.sqrt(m10**2 * v0 + m11**2 * v1)
         singular[i] = bad
+
+
+@jit
+def _powers_top(line_power: NDArray[np.int64]) -> int:
+    """The number of squarings of ``exp(i theta)`` the largest integer order needs, plus one."""
+    top = 1
+    for k in line_power:
+        while (1 << top) <= k:
+            top += 1
+    return top
+
+
+@jit
+def _regressor_rows(start: int, stop: int, spec: RegressorSpec, out: NDArray[np.float64]) -> None:
+    """Samples ``start:stop``'s regressor rows times ``directions`` into ``out[0:stop -
+    start]`` (:func:`regressor_directions`); a stretch per call (a call passes every array)."""
+    (dense, dense_index, theta, velocity, line_order, line_power, line_cos, line_sin,
+     line_direction, knot_logs, knot_positive, knot_negative, viscous, viscous_negative,
+     zero_velocity, directions, reach) = spec  # fmt: skip
+    p, r = directions.shape
+    top = _powers_top(line_power)
+    sq_re = np.empty(top)
+    sq_im = np.empty(top)
+    row = np.empty(p)
+    k_knots = knot_logs.size
+    for i in range(start, stop):
+        for j in range(p):
+            row[j] = 0.0
+        for d in range(dense_index.size):
+            row[dense_index[d]] = dense[d, i]
+        w = velocity[i]
+        if line_order.size:
+            sq_re[0] = math.cos(theta[i])
+            sq_im[0] = math.sin(theta[i])
+            for b in range(1, top):
+                re = sq_re[b - 1]
+                im = sq_im[b - 1]
+                sq_re[b] = re * re - im * im
+                sq_im[b] = 2.0 * re * im
+        for line in range(line_order.size):
+            direction = line_direction[line]
+            if (direction > 0 and not w > 0) or (direction < 0 and not w < 0):
+                continue
+            k = line_power[line]
+            if k >= 0:
+                pr = 1.0
+                pi = 0.0
+                for b in range(top):
+                    if (k >> b) & 1:
+                        re = pr * sq_re[b] - pi * sq_im[b]
+                        pi = pr * sq_im[b] + pi * sq_re[b]
+                        pr = re
+            else:
+                angle = line_order[line] * theta[i]
+                pr = math.cos(angle)
+                pi = math.sin(angle)
+            if line_cos[line] >= 0:
+                row[line_cos[line]] = pr
+            if line_sin[line] >= 0:
+                row[line_sin[line]] = pi
+        if k_knots >= 2 or viscous >= 0 or viscous_negative >= 0:
+            s = abs(w)
+            blend = 0.5 * (1.0 + math.tanh(w / zero_velocity))
+            other = -(1.0 - blend)
+            if k_knots >= 2:
+                x = math.log(max(s, 1e-300))
+                lo = 0
+                hi = k_knots
+                while lo < hi:  # numpy.searchsorted(knot_logs, x, side="right")
+                    mid = (lo + hi) // 2
+                    if knot_logs[mid] <= x:
+                        lo = mid + 1
+                    else:
+                        hi = mid
+                at = min(max(lo - 1, 0), k_knots - 2)
+                u = (x - knot_logs[at]) / (knot_logs[at + 1] - knot_logs[at])
+                u = min(max(u, 0.0), 1.0)
+                if knot_positive[at] >= 0:
+                    row[knot_positive[at]] = blend * (1.0 - u)
+                if knot_negative[at] >= 0:
+                    row[knot_negative[at]] = other * (1.0 - u)
+                if knot_positive[at + 1] >= 0:
+                    row[knot_positive[at + 1]] = blend * u
+                if knot_negative[at + 1] >= 0:
+                    row[knot_negative[at + 1]] = other * u
+            if viscous >= 0:
+                row[viscous] = blend * s
+            if viscous_negative >= 0:
+                row[viscous_negative] = other * s
+        # the row times the directions, skipping its zeros and the factor's
+        at_row = i - start  # indexed, not a view per sample (each would touch a refcount)
+        for k in range(r):
+            out[at_row, k] = 0.0
+        for j in range(p):
+            g = row[j]
+            if g != 0.0:
+                for k in range(reach[j]):
+                    out[at_row, k] += g * directions[j, k]
+
+
+@jit
+def regressor_directions(spec: RegressorSpec) -> NDArray[np.float64]:
+    """Each sample's regressor row ``g`` (p,) times ``directions`` (p, r): shape (n, r),
+    without forming the (n, p) regressor. Row ``j`` of ``directions`` is read up to
+    ``reach[j]`` (the rest taken as zero: a triangular factor); ``spec`` is
+    :data:`RegressorSpec`.
+
+    The row (:func:`torquemap.uncertainty.regressor_columns`): ``dense[d]`` (n,) at parameter
+    ``dense_index[d]``; PDTV line ``l`` as ``cos`` and ``sin`` of ``line_order[l] theta`` at
+    parameters ``line_cos[l]``, ``line_sin[l]`` (-1: absent), by powers of ``exp(i theta)``
+    where ``line_power[l] >= 0`` (an integer order), applying only while the velocity is
+    positive (negative) where ``line_direction[l]`` is +1 (-1); a speed table's knot weights
+    (linear in log speed, :class:`torquemap.friction_law.SpeedTableFriction`) times the
+    branch blend ``b = (1 + tanh(w / zero_velocity)) / 2`` at the positive knots
+    ``knot_positive`` and ``-(1 - b)`` at the negative ones, ``b |w|`` and ``-(1 - b) |w|``
+    at ``viscous`` and ``viscous_negative`` (-1: absent; no table when ``knot_logs`` is
+    empty).
+    """
+    n = spec[2].size
+    out = np.empty((n, spec[15].shape[1]))
+    for start in range(0, n, TILE):
+        stop = min(start + TILE, n)
+        _regressor_rows(start, stop, spec, out[start:stop])
+    return out
+
+
+@jit
+def _forward_step(
+    x: NDArray[np.float64],
+    y: NDArray[np.float64],
+    z0: NDArray[np.float64],
+    z1: NDArray[np.float64],
+    b0: float,
+    b1: float,
+    b2: float,
+    a1: float,
+    a2: float,
+) -> None:
+    """One sample of the order-2 section (scipy's ``_sosfilt``) for every signal, in place."""
+    for k in range(x.size):
+        xk = x[k]
+        yk = b0 * xk + z0[k]
+        z0[k] = b1 * xk - a1 * yk + z1[k]
+        z1[k] = b2 * xk - a2 * yk
+        y[k] = yk
+
+
+@jit
+def lowpassed_variance(
+    spec: RegressorSpec,
+    weights: NDArray[np.float64],
+    sos: NDArray[np.float64],
+    zi: NDArray[np.float64],
+    pad: int,
+) -> NDArray[np.float64]:
+    """``sum_k weights[k] y_k^2`` per sample (n,), ``y = scipy.signal.sosfiltfilt(sos, x,
+    axis=0, padtype="odd", padlen=pad)`` of the ``r`` signals ``x`` (n, r) that
+    :func:`regressor_directions` gives for ``spec``.
+
+    The rows of ``x`` are formed a stretch at a time into the rows the forward pass then
+    overwrites with its output (the odd extension's few rows beforehand): one (n + 2 pad, r)
+    array in all; the backward pass keeps only the weighted sum of its squares. Each signal's recurrence is that
+    of :func:`sosfiltfilt_odd` (scipy's ``_sosfilt``, the same operations in the same order),
+    all ``r`` of a sample side by side (contiguous: the loop over signals vectorises).
+    """
+    n = spec[2].size
+    r = spec[15].shape[1]
+    total = n + 2 * pad
+    # the rows the odd extensions read: x[0 .. pad] and x[n - 1 - pad .. n - 1]
+    head = np.empty((pad + 1, r))
+    tail = np.empty((pad + 1, r))
+    for first, rows in ((0, head), (n - 1 - pad, tail)):
+        _regressor_rows(first, first + pad + 1, spec, rows)
+    b0, b1, b2, a1, a2 = sos[0, 0], sos[0, 1], sos[0, 2], sos[0, 4], sos[0, 5]
+    za, zb = zi[0, 0], zi[0, 1]
+    work = np.empty((total, r))
+    ext = np.empty(r)
+    z0 = np.empty(r)
+    z1 = np.empty(r)
+    for k in range(r):
+        e = 2.0 * head[0, k] - head[pad, k]
+        z0[k] = za * e
+        z1[k] = zb * e
+    for j in range(pad):
+        for k in range(r):
+            ext[k] = 2.0 * head[0, k] - head[pad - j, k]
+        _forward_step(ext, work[j], z0, z1, b0, b1, b2, a1, a2)
+    # the log's own rows, a stretch at a time, formed into the work rows they are filtered in
+    for start in range(0, n, TILE):
+        stop = min(start + TILE, n)
+        _regressor_rows(start, stop, spec, work[pad + start : pad + stop])
+        for i in range(pad + start, pad + stop):
+            for k in range(r):
+                xk = work[i, k]
+                yk = b0 * xk + z0[k]
+                z0[k] = b1 * xk - a1 * yk + z1[k]
+                z1[k] = b2 * xk - a2 * yk
+                work[i, k] = yk
+    for j in range(pad + n, total):
+        mirrored = (2 * n + pad - 2 - j) - (n - 1 - pad)
+        for k in range(r):
+            ext[k] = 2.0 * tail[pad, k] - tail[mirrored, k]
+        _forward_step(ext, work[j], z0, z1, b0, b1, b2, a1, a2)
+    out = np.empty(n)
+    for k in range(r):
+        z0[k] = za * work[total - 1, k]
+        z1[k] = zb * work[total - 1, k]
+    squares = np.empty(r)
+    for step in range(total):
+        j = total - 1 - step
+        for k in range(r):
+            xk = work[j, k]
+            yk = b0 * xk + z0[k]
+            z0[k] = b1 * xk - a1 * yk + z1[k]
+            z1[k] = b2 * xk - a2 * yk
+            squares[k] = weights[k] * (yk * yk)
+        if pad <= j < pad + n:
+            # four partial sums: the sum's chain of dependent additions a quarter as long
+            s0 = s1 = s2 = s3 = 0.0
+            k = 0
+            while k + 4 <= r:
+                s0 += squares[k]
+                s1 += squares[k + 1]
+                s2 += squares[k + 2]
+                s3 += squares[k + 3]
+                k += 4
+            while k < r:
+                s0 += squares[k]
+                k += 1
+            out[j - pad] = (s0 + s1) + (s2 + s3)
+    return out

@@ -19,6 +19,7 @@ low-pass, so its error has three parts, taken as independent:
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from typing import Any
@@ -103,6 +104,236 @@ def regressor_columns(
     return out
 
 
+def parameter_variance(
+    names: list[str],
+    covariance: NDArray[np.float64],
+    *,
+    law: Any,
+    t: NDArray[np.float64],
+    theta: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    acceleration: NDArray[np.float64],
+    modulation: NDArray[np.float64],
+    cutoff: float,
+) -> NDArray[np.float64]:
+    """Variance [N^2 m^2] of the low-passed model torque from the parameters' covariance.
+
+    ``g_i^T C g_i`` per sample, ``g_i`` the low-passed regressor row
+    (:func:`regressor_columns` through :func:`torquemap.filters.lowpass`) and ``C``
+    (p, p) the covariance of the parameters ``names``. Shape (n,).
+
+    Notes
+    -----
+    The low-pass ``L`` acts along time and ``C`` along the parameters, so with a factor
+    ``C = W W^T`` (columns ``w_k``)::
+
+        g_i^T C g_i = || W^T g_i ||^2 = sum_k ((L G w_k)_i)^2
+
+    exactly: each combination ``G w_k`` is formed per sample before the low-pass, and the
+    forward-backward passes run over all combinations of a sample side by side, keeping only
+    the sum of squares (:func:`torquemap._kernels.lowpassed_variance`). ``W`` is lower
+    triangular with the dense columns (inertia, PDTV) first and a friction table's (two
+    knots per direction and sample) last (:func:`_triangular_factor`), so that a row costs
+    a fraction of ``p^2``. Neither the (n, p) regressor, its low-passed copy nor its product
+    with ``C`` is formed: one (n, p) array instead of four. Equal to
+    :func:`parameter_variance_direct` to rounding (1e-10 relative on the SCARA bench's
+    model; tests/test_uncertainty.py); the covariance's negative eigenvalues (rounding) are
+    taken as zero. On irregular time stamps, a filter other than the order-2 Butterworth or
+    non-finite inputs, the direct formula is used.
+    """
+    signals = {
+        "t": t,
+        "theta": theta,
+        "velocity": velocity,
+        "acceleration": acceleration,
+        "modulation": modulation,
+    }
+    fast = _parameter_variance_by_directions(names, covariance, law=law, cutoff=cutoff, **signals)
+    if fast is not None:
+        return fast
+    return parameter_variance_direct(names, covariance, law=law, cutoff=cutoff, **signals)
+
+
+def parameter_variance_direct(
+    names: list[str],
+    covariance: NDArray[np.float64],
+    *,
+    law: Any,
+    t: NDArray[np.float64],
+    theta: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    acceleration: NDArray[np.float64],
+    modulation: NDArray[np.float64],
+    cutoff: float,
+) -> NDArray[np.float64]:
+    """:func:`parameter_variance` by its definition: the (n, p) regressor, low-passed column
+    by column, and ``g^T C g`` per sample through one matrix product."""
+    g = regressor_columns(
+        names,
+        law=law,
+        theta=theta,
+        velocity=velocity,
+        acceleration=acceleration,
+        modulation=modulation,
+    )
+    if not g.shape[1]:
+        return np.zeros(t.size)
+    g = lowpass(t, g, cutoff=cutoff)
+    return np.asarray(np.sum((g @ covariance) * g, axis=1), dtype=np.float64)
+
+
+def _parameter_variance_by_directions(
+    names: list[str],
+    covariance: NDArray[np.float64],
+    *,
+    law: Any,
+    t: NDArray[np.float64],
+    theta: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    acceleration: NDArray[np.float64],
+    modulation: NDArray[np.float64],
+    cutoff: float,
+) -> NDArray[np.float64] | None:
+    """:func:`parameter_variance` by a triangular factor of the covariance (compiled
+    kernels), or None where that does not apply (irregular time, an invalid cut-off: the direct formula
+    handles or refuses those)."""
+    from torquemap._kernels import lowpassed_variance, max_abs
+    from torquemap.filters import _butter_lowpass, _initial_state, regular_step
+    from torquemap.friction_law import SpeedTableFriction
+
+    n, p = t.size, len(names)
+    if p == 0:
+        return np.zeros(n)
+    step = regular_step(t, rtol=1e-6) if n >= 2 else None
+    if step is None or not (0 < cutoff < 0.5 / step):
+        return None
+    if not all(
+        math.isfinite(max_abs(np.ascontiguousarray(x, dtype=np.float64)))
+        for x in (theta, velocity, acceleration, modulation)
+    ):
+        return None  # the direct formula's low-pass refuses them
+    sos, pad = _butter_lowpass(2, float(cutoff), 1.0 / step)
+    if sos.shape[0] != 1 or n <= pad:
+        return None
+    directions, reach = _triangular_factor_cached(
+        np.ascontiguousarray(covariance, dtype=np.float64).tobytes(), tuple(names)
+    )
+    index = {name: i for i, name in enumerate(names)}
+    table = isinstance(law, SpeedTableFriction)
+    law_names = tuple(getattr(law, "linear_parameter_names", ()))
+    dense: list[NDArray[np.float64]] = []
+    dense_index: list[int] = []
+    if "inertia.constant" in index:
+        dense.append(acceleration)
+        dense_index.append(index["inertia.constant"])
+    if "inertia.cos_elbow" in index:
+        dense.append(acceleration * modulation)
+        dense_index.append(index["inertia.cos_elbow"])
+    friction = [
+        (i, name.split(".", 1)[1]) for i, name in enumerate(names) if name.startswith("friction.")
+    ]
+    friction = [(i, key) for i, key in friction if key in law_names]
+    if friction and not table:
+        basis = law.basis(velocity)
+        for i, key in friction:
+            dense.append(basis[:, law_names.index(key)])
+            dense_index.append(i)
+    knots = np.log(np.asarray(law.speeds, dtype=np.float64)) if table and friction else np.empty(0)
+    knot_positive = np.full(knots.size, -1, dtype=np.int64)
+    knot_negative = np.full(knots.size, -1, dtype=np.int64)
+    viscous = viscous_negative = -1
+    if table and friction:
+        for i, key in friction:
+            if key.startswith("positive_"):
+                knot_positive[int(key[len("positive_") :])] = i
+            elif key.startswith("negative_"):
+                knot_negative[int(key[len("negative_") :])] = i
+            elif key == "viscous":
+                viscous = i
+            elif key == "viscous_negative":
+                viscous_negative = i
+    lines: dict[tuple[float, int], list[int]] = {}
+    for i, name in enumerate(names):
+        if not name.startswith("pdtv."):
+            continue
+        body, part = name.rsplit(".", 1)
+        order_text, direction = body[len("pdtv.") :].rsplit(".", 1)
+        sign = {"positive": 1, "negative": -1}.get(direction, 0)
+        slot = lines.setdefault((float(order_text), sign), [-1, -1])
+        slot[0 if part == "a" else 1] = i
+    orders = np.array([order for order, _ in lines], dtype=np.float64)
+    powers = np.array(
+        [int(o) if o == math.floor(o) and 0 <= o <= 1 << 20 else -1 for o in orders],
+        dtype=np.int64,
+    )
+    spec = (
+        np.ascontiguousarray(np.array(dense, dtype=np.float64).reshape(len(dense), n)),
+        np.array(dense_index, dtype=np.int64),
+        np.ascontiguousarray(theta, dtype=np.float64),
+        np.ascontiguousarray(velocity, dtype=np.float64),
+        orders,
+        powers,
+        np.array([slot[0] for slot in lines.values()], dtype=np.int64),
+        np.array([slot[1] for slot in lines.values()], dtype=np.int64),
+        np.array([sign for _, sign in lines], dtype=np.int64),
+        knots,
+        knot_positive,
+        knot_negative,
+        viscous,
+        viscous_negative,
+        float(getattr(law, "zero_velocity", 1.0)),
+        directions.copy(),  # writable: the kernels are compiled for one signature
+        reach.copy(),
+    )
+    zi = _initial_state(sos.tobytes())
+    var = lowpassed_variance(spec, np.ones(p), sos.copy(), zi.copy(), pad)
+    return np.asarray(var, dtype=np.float64)
+
+
+@functools.lru_cache(maxsize=16)
+def _triangular_factor_cached(
+    covariance: bytes, names: tuple[str, ...]
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """:func:`_triangular_factor` once per joint's covariance (every piece of every block
+    asks for the same one); the arrays are read-only."""
+    p = len(names)
+    directions, reach = _triangular_factor(np.frombuffer(covariance).reshape(p, p), list(names))
+    directions.setflags(write=False)
+    reach.setflags(write=False)
+    return directions, reach
+
+
+def _triangular_factor(
+    covariance: NDArray[np.float64], names: list[str]
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """``W`` (p, p) with ``W W^T = C`` (the covariance's negative eigenvalues, rounding,
+    taken as 0), lower triangular in an order of the parameters with the friction's last, and
+    per row the number of its leading nonzero columns.
+
+    A regressor row is dense in the inertia and PDTV columns and sparse in a friction
+    table's (two knots per direction): with those first, a dense column touches only the
+    first few columns of ``W`` and ``g^T W`` costs a fraction of a full product.
+    """
+    p = len(names)
+    order = sorted(range(p), key=lambda i: names[i].startswith("friction."))
+    cov = covariance[np.ix_(order, order)]
+    cov = 0.5 * (cov + cov.T)
+    scale = np.sqrt(np.abs(np.diag(cov)))
+    scale[scale == 0] = 1.0
+    # C = D R D with R the correlation: R = B B^T, B = V sqrt(s), then B^T = Q T (QR) gives
+    # R = T^T T with T upper triangular
+    values, vectors = np.linalg.eigh(cov / np.outer(scale, scale))
+    root = vectors * np.sqrt(np.maximum(values, 0.0))
+    upper = np.linalg.qr(root.T).R
+    factor = scale[:, None] * upper.T
+    directions = np.empty((p, p))
+    reach = np.empty(p, dtype=np.int64)
+    for position, i in enumerate(order):
+        directions[i] = factor[position]
+        reach[i] = position + 1
+    return directions, reach
+
+
 def sign_sigma(law: Any, velocity: NDArray[np.float64], width: float) -> NDArray[np.float64]:
     """Standard deviation [N m] of friction from not knowing the sign of motion.
 
@@ -168,54 +399,57 @@ def joint_sigma(
     cov = np.asarray(table["covariance"], dtype=np.float64)
     if cov.shape != (len(names), len(names)) or not np.all(np.isfinite(cov)):
         raise InputError(f"[identification.joints.{joint}.uncertainty] covariance is malformed")
-    g = regressor_columns(
+    var = parameter_variance(
         names,
+        cov,
         law=law,
+        t=t,
         theta=theta,
         velocity=velocity,
         acceleration=acceleration,
         modulation=modulation,
+        cutoff=cutoff,
     )
-    g = lowpass(t, g, cutoff=cutoff) if g.shape[1] else g
-    # g^T C g per sample, through one matrix product (einsum's three-operand loop was 8x the
-    # rest of the estimate on a whole-log model)
-    var = np.sum((g @ cov) * g, axis=1) if g.shape[1] else np.zeros(n)
     psd = float(table.get("residual_psd", 0.0))
     noise = np.full(n, max(psd, 0.0) * LOWPASS_ENB * cutoff)
     measured = table.get("residual")
+    misfit_level = None
     if isinstance(measured, Mapping) and joint_uncertainty_table_ok(measured):
         # what the model left on its own no-load logs at each speed (model-form error and
-        # noise together, measured): the larger of it and the noise alone
-        misfit = _residual_sigma(
-            measured,
-            law,
-            t=t,
-            velocity=velocity,
-            cutoff=cutoff,
-            acceleration=acceleration,
-            sign=False,
+        # noise together, measured): the larger of it and the noise alone (low-passed below,
+        # with the sign's level)
+        misfit_level = _residual_level(
+            measured, t=t, velocity=velocity, cutoff=cutoff, acceleration=acceleration
         )
-        noise = np.maximum(noise, misfit**2)
-    var = np.maximum(var, 0.0) + noise
     joints = model.notes.get("joints", {})
     entry = joints.get(joint, {}) if isinstance(joints, Mapping) else {}
     resolution = float(entry.get("velocity_resolution", 0.0)) if isinstance(entry, Mapping) else 0.0
     width = max(float(getattr(law, "zero_velocity", 0.0)), resolution, 1e-9)
     level = sign_sigma(law, velocity, width)
     levels = getattr(law, "levels", None)
-    if callable(levels):
+    if callable(levels) and FORM_FRACTION > 0:  # hypot(level, 0) is level: skip the pass
         # the table's own form error between and beyond its knots: FORM_FRACTION of the level
         up, down = levels(np.abs(velocity))
         level = np.hypot(level, FORM_FRACTION * 0.5 * (np.abs(up) + np.abs(down)))
-    if bridged is not None and bridged.any():
+    runs = bridged if bridged is not None and bridged.any() else None
+    if runs is not None:
         # a bridged sample's answer is the line between its run's ends: friction does not
         # enter it, so neither do its sign nor the law's parameters; its variance is the line
         # between the ends' variances (the load's departure from a line is added by estimation)
         from torquemap.estimate import bridge_gaps
 
-        level = bridge_gaps(t, level, bridged, longest=math.inf, ends=True)
-        var = bridge_gaps(t, var, bridged, longest=math.inf, ends=True)
-    sign = lowpass(t, level, cutoff=cutoff)
+        level = bridge_gaps(t, level, runs, longest=math.inf, ends=True)
+    if misfit_level is None:
+        sign = lowpass(t, level, cutoff=cutoff)
+    else:  # one call: the filter runs four signals side by side, one costs as much as two
+        both = lowpass(t, np.column_stack((misfit_level, level)), cutoff=cutoff)
+        noise = np.maximum(noise, np.maximum(both[:, 0], 0.0) ** 2)
+        sign = both[:, 1]
+    var = np.maximum(var, 0.0) + noise
+    if runs is not None:
+        from torquemap.estimate import bridge_gaps
+
+        var = bridge_gaps(t, var, runs, longest=math.inf, ends=True)
     out: NDArray[np.float64] = np.sqrt(var + np.maximum(sign, 0.0) ** 2)
     if not math.isfinite(float(np.max(out, initial=0.0))):
         out = np.where(np.isfinite(out), out, np.nan)
@@ -234,6 +468,25 @@ def _residual_sigma(
 ) -> NDArray[np.float64]:
     """Sigma [N m, motor side] from a residual table (:func:`residual_table`); without
     ``sign``, the table's level alone (no term for the sign of friction)."""
+    level = _residual_level(table, t=t, velocity=velocity, cutoff=cutoff, acceleration=acceleration)
+    if not sign:
+        return np.asarray(np.maximum(lowpass(t, level, cutoff=cutoff), 0.0), dtype=np.float64)
+    width = max(float(getattr(law, "zero_velocity", 0.0)), 1e-9)
+    # both levels in one low-pass call (the filter runs four signals side by side)
+    both = lowpass(t, np.column_stack((level, sign_sigma(law, velocity, width))), cutoff=cutoff)
+    level, band = both[:, 0], both[:, 1]
+    return np.asarray(np.sqrt(np.maximum(level, 0.0) ** 2 + np.maximum(band, 0.0) ** 2))
+
+
+def _residual_level(
+    table: Mapping[str, Any],
+    *,
+    t: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    cutoff: float,
+    acceleration: NDArray[np.float64] | None,
+) -> NDArray[np.float64]:
+    """The residual table's level [N m, motor side] at each sample, before the low-pass."""
     speeds = np.asarray(table["speeds"], dtype=np.float64)
     rms = np.asarray(table["rms"], dtype=np.float64)
     if not (np.all(np.isfinite(speeds)) and np.all(np.isfinite(rms)) and np.all(rms >= 0)):
@@ -247,12 +500,7 @@ def _residual_sigma(
     per_acc = float(table.get("acceleration_sigma", 0.0))
     if math.isfinite(per_acc) and per_acc > 0 and acceleration is not None:
         level = np.hypot(level, per_acc * np.abs(lowpass(t, acceleration, cutoff=cutoff)))
-    level = lowpass(t, level, cutoff=cutoff)
-    if not sign:
-        return np.asarray(np.maximum(level, 0.0), dtype=np.float64)
-    width = max(float(getattr(law, "zero_velocity", 0.0)), 1e-9)
-    band = lowpass(t, sign_sigma(law, velocity, width), cutoff=cutoff)
-    return np.asarray(np.sqrt(np.maximum(level, 0.0) ** 2 + np.maximum(band, 0.0) ** 2))
+    return np.asarray(level, dtype=np.float64)
 
 
 def residual_table(
@@ -359,7 +607,7 @@ def bridge_departure(
     (``|s2 - s1| D / 8`` at the middle). The slopes are those of ``estimate`` over the half run,
     at most ``1 / cutoff``, beyond each end. A run at an end of the log holds its one
     neighbour's value: there the departure is that neighbour's slope times the time from it.
-    Zero outside the runs.
+    Zero outside the runs. ``t`` [s] increases (a piece of a log).
 
     Examples
     --------
@@ -380,9 +628,13 @@ def bridge_departure(
         reach = min(0.5 * d, span)
         slopes = []
         for lo, hi in ((ta - reach, ta), (tb, tb + reach)):
-            sel = (t >= lo) & (t <= hi) & ~bridged
+            # the samples in [lo, hi] (time increases: a slice, not a mask of the whole log)
+            i0 = int(np.searchsorted(t, lo, side="left"))
+            i1 = int(np.searchsorted(t, hi, side="right"))
+            sel = ~bridged[i0:i1]
             if int(sel.sum()) >= 3:
-                slopes.append(float(np.polyfit(t[sel] - lo, estimate[sel], 1)[0]))
+                times = t[i0:i1][sel]
+                slopes.append(float(np.polyfit(times - lo, estimate[i0:i1][sel], 1)[0]))
         if not slopes:
             continue
         tt = t[a:b]
