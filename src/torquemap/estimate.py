@@ -626,6 +626,7 @@ def estimate_forces(
                 f"velocity (motor slower than {bands[joint.name]:.3g} rad/s, the reversal band), "
                 "where friction is undetermined (flagged)"
             )
+    warnings += slow_task_warnings(model, out["velocity"])
     gear = np.array([j.gear_ratio for j in robot.joints])
     tau_ext = -out["external"] * gear
     tau_sigma = out["sigma"] * gear
@@ -1065,6 +1066,54 @@ def identified_slowest_speeds(model: Model) -> dict[str, float]:
                 values = [v for v in values if math.isfinite(v) and v > 0]
                 if values:
                     out[str(name)] = min(values)
+    return out
+
+
+#: Share of a log's samples below the slowest steady speed of identification (and above the
+#: reversal band) from which estimation says so.
+SLOW_TASK_SHARE = 0.05
+
+
+def slow_task_warnings(model: Model, velocity: NDArray[np.float64]) -> list[str]:
+    """One line per whole-fit joint whose log runs, on at least ``SLOW_TASK_SHARE`` of its
+    samples, between its law's transition through zero (``TRANSITION_SPAN`` widths) and 80 %
+    of the slowest steady speed identification measured friction at (``[identification.joints.<j>]
+    speeds``): there friction comes from ramps and the table's prior, not from a steady pass,
+    and the answer is bridged below the table's fitted speeds. ``velocity`` is the motor
+    velocity [rad/s], shape (n, n_joints).
+
+    Examples
+    --------
+    >>> from torquemap.robot import robot_from_dict
+    >>> rb = robot_from_dict({"robot": {"name": "m", "kinematics": "none"}, "joints": {"a": {
+    ...     "gear_ratio": 1.0, "torque_constant": 0.1, "encoder_counts_per_rev": 4096}}})
+    >>> notes = {"joints": {"a": {"friction_fit": "whole", "speeds": [2.0, -2.2]}}}
+    >>> m = Model(robot=rb, joints={}, notes=notes)
+    >>> slow_task_warnings(m, np.linspace(0.5, 1.0, 100)[:, None])[0][:60]
+    'joint a: 100% of the samples run at motor speeds below the s'
+    """
+    slowest = identified_slowest_speeds(model)
+    whole = whole_fit_joints(model)
+    out: list[str] = []
+    for k, name in enumerate(model.robot.joint_names):
+        top = slowest.get(name)
+        if name not in whole or top is None:
+            continue
+        law = model.joints[name].friction if name in model.joints else None
+        lower = TRANSITION_SPAN * _law_width(law)
+        speed = np.abs(velocity[:, k])
+        speed = speed[np.isfinite(speed)]
+        # a pass's own speed ripple reaches below its mean: 80 % of it, as segmentation's
+        slow = speed[(speed < 0.8 * top) & (speed >= lower)]
+        if speed.size == 0 or slow.size < SLOW_TASK_SHARE * speed.size:
+            continue
+        low, typical = (float(x) for x in np.percentile(slow, [10, 50]))
+        out.append(
+            f"joint {name}: {slow.size / speed.size:.0%} of the samples run at motor speeds "
+            f"below the slowest steady sweep pass {top:.3g} rad/s (median {typical:.3g}, 10 % "
+            f"below {low:.3g} rad/s), where friction is extrapolated from ramps and the "
+            f"identification's prior; record sweep passes down to about {low:.2g} rad/s"
+        )
     return out
 
 

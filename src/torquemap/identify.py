@@ -1072,6 +1072,7 @@ def _identify_whole(
             planar=planar,
             direction_significance=direction_significance,
             slowest_speed=min((abs(p.speed) for _, p in res.passes), default=0.0),
+            steady_speeds=[abs(p.speed) for _, p in res.passes],
         )
         warnings.extend(fit.warnings)
         coulomb = 0.5 * float(np.sum(fit.law.levels(np.array([fit.observed_speed]))))

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import itertools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -64,6 +65,9 @@ ROWS_PER_WINDOW = 8
 KNOT_RATIO = 1.8
 #: The table spans at most this ratio of speeds below the top speed.
 KNOT_SPAN = 1000.0
+#: Smallest ratio between a knot put at a steady speed and its neighbours (closer steady
+#: speeds share a knot).
+ANCHOR_GAP = 1.25
 #: Prior standard deviation of the table's second difference between neighbouring knots, in
 #: units of the joint's friction level: a Stribeck drop of the whole level within two knots
 #: (a factor 3.2 in speed) is one sigma.
@@ -195,20 +199,40 @@ class WholeFit:
         return float(self.coef[self.names.index(name)]) if name in self.names else default
 
 
-def table_speeds(top_speed: float, resolution: float) -> tuple[float, ...]:
-    """Knot speeds [rad/s] of the friction table: log-spaced by about ``KNOT_RATIO`` from
-    ``max(4 resolution, top_speed / KNOT_SPAN)`` up to ``top_speed``.
+def table_speeds(
+    top_speed: float, resolution: float, anchors: Sequence[float] = ()
+) -> tuple[float, ...]:
+    """Knot speeds [rad/s] of the friction table: log-spaced by at most ``KNOT_RATIO`` from
+    ``max(4 resolution, top_speed / KNOT_SPAN)`` up to ``top_speed``, with a knot at each of
+    ``anchors`` (the steady speeds the logs hold, [rad/s]) that lies inside that span and at
+    least ``ANCHOR_GAP`` from its neighbours.
+
+    A knot at a steady speed takes that speed's friction straight from the data; between
+    knots the table is linear in log speed, so a steady speed between two knots would set
+    only a combination of them, and the curvature of the true law between them would leak
+    into the knot below the slowest steady speed, which nothing else holds.
 
     Examples
     --------
     >>> s = table_speeds(10.0, 0.01)
     >>> round(s[0], 3), round(s[-1], 3), len(s)
     (0.04, 10.0, 11)
+    >>> s = table_speeds(10.0, 0.01, anchors=(2.25, 3.5))
+    >>> 2.25 in s and 3.5 in s, max(b / a for a, b in zip(s, s[1:])) <= KNOT_RATIO
+    (True, True)
     """
     hi = max(float(top_speed), 1e-12)
     lo = min(max(4.0 * resolution, hi / KNOT_SPAN), hi / KNOT_RATIO)
-    count = max(2, math.ceil(math.log(hi / lo) / math.log(KNOT_RATIO) - 1e-9) + 1)
-    return tuple(float(x) for x in np.geomspace(lo, hi, count))
+    points = [lo]
+    for x in sorted(float(a) for a in anchors if math.isfinite(a)):
+        if x >= points[-1] * ANCHOR_GAP and x * ANCHOR_GAP <= hi:
+            points.append(x)
+    points.append(hi)
+    out = [lo]
+    for a, b in itertools.pairwise(points):
+        count = max(1, math.ceil(math.log(b / a) / math.log(KNOT_RATIO) - 1e-9))
+        out += [float(x) for x in np.geomspace(a, b, count + 1)[1:]]
+    return tuple(out)
 
 
 def pdtv_basis(
@@ -461,8 +485,12 @@ def _prior(
     # below the observed speeds the curvature is free (so that the table levels off rather
     # than carrying the slope of its lowest observed knots on)
     tau2 = np.where(np.asarray(speeds[:-2]) < observed, SLOPE_PRIOR, CURVATURE_PRIOR) * lev
-    d1 = np.diff(np.eye(k), axis=0) / tau1[:, None]
-    d2 = np.diff(np.eye(k), n=2, axis=0) / tau2[:, None]
+    # knots need not be evenly spaced (a knot at each steady speed): the level is a random
+    # walk in log speed and so is its slope, per nominal step log(KNOT_RATIO) ``h``
+    h = np.diff(np.log(np.asarray(speeds, dtype=np.float64))) / math.log(KNOT_RATIO)
+    d1 = np.diff(np.eye(k), axis=0) / (tau1 * np.sqrt(h))[:, None]
+    slopes = np.diff(np.eye(k), axis=0) / h[:, None]
+    d2 = np.diff(slopes, axis=0) / (tau2 * np.sqrt(0.5 * (h[:-1] + h[1:])))[:, None]
     block = d1.T @ d1 + d2.T @ d2
     out[:k, :k] = block
     out[k : 2 * k, k : 2 * k] = block
@@ -589,6 +617,7 @@ def fit_joint_whole(
     directional: bool = True,
     max_order: float = 0.0,
     slowest_speed: float = 0.0,
+    steady_speeds: Sequence[float] = (),
 ) -> WholeFit:
     """Fit one joint's friction table, inertia, PDTV and torque delay to whole logs.
 
@@ -641,6 +670,9 @@ def fit_joint_whole(
         Slowest steady motor speed of the logs [rad/s] (the pass method's slowest pass); the
         table is fitted on rows faster than half of it, and held by its prior below (0: every
         row).
+    steady_speeds
+        Motor speeds [rad/s] the logs hold steadily (the passes'): the table has a knot at
+        each (:func:`table_speeds`).
 
     Returns
     -------
@@ -667,7 +699,7 @@ def fit_joint_whole(
     both = [(float(o), False) for o in orders]
     fixed, fixed_names = _fixed_columns(rows, both, elbow_term=elbow_term, inertia=inertia)
     w0_lo = max(resolution, 1e-9)
-    speeds = table_speeds(top_speed, w0_lo)
+    speeds = table_speeds(top_speed, w0_lo, anchors=[abs(x) for x in steady_speeds])
     k = len(speeds)
     # the table is fitted from half the slowest pass up: slower rows (creep while holding,
     # the transition through zero) only tell the transition's width, searched below

@@ -427,10 +427,12 @@ def joint_sigma(
     width = max(float(getattr(law, "zero_velocity", 0.0)), resolution, 1e-9)
     level = sign_sigma(law, velocity, width)
     levels = getattr(law, "levels", None)
-    if callable(levels) and FORM_FRACTION > 0:  # hypot(level, 0) is level: skip the pass
-        # the table's own form error between and beyond its knots: FORM_FRACTION of the level
-        up, down = levels(np.abs(velocity))
-        level = np.hypot(level, FORM_FRACTION * 0.5 * (np.abs(up) + np.abs(down)))
+    if callable(levels):
+        if FORM_FRACTION > 0:  # hypot(level, 0) is level: skip the pass
+            # the table's own form error between and beyond its knots: FORM_FRACTION of the level
+            up, down = levels(np.abs(velocity))
+            level = np.hypot(level, FORM_FRACTION * 0.5 * (np.abs(up) + np.abs(down)))
+        level = np.hypot(level, extrapolation_spread(law, velocity, width, _slowest(entry)))
     runs = bridged if bridged is not None and bridged.any() else None
     if runs is not None:
         # a bridged sample's answer is the line between its run's ends: friction does not
@@ -454,6 +456,50 @@ def joint_sigma(
     if not math.isfinite(float(np.max(out, initial=0.0))):
         out = np.where(np.isfinite(out), out, np.nan)
     return out
+
+
+def _slowest(entry: Any) -> float:
+    """The slowest steady speed [rad/s] of a joint's identification notes (0 when none)."""
+    speeds = entry.get("speeds") if isinstance(entry, Mapping) else None
+    if not isinstance(speeds, list | tuple):
+        return 0.0
+    values = [abs(float(x)) for x in speeds if isinstance(x, int | float) and math.isfinite(x)]
+    return min((x for x in values if x > 0), default=0.0)
+
+
+def extrapolation_spread(
+    law: Any, velocity: NDArray[np.float64], width: float, slowest: float
+) -> NDArray[np.float64]:
+    """How far a speed table's dry friction below the slowest steady speed departs from its
+    value there [N m]: ``|g(s) - g(S)|`` with ``g`` the level less the viscous term, ``s`` the
+    speed and ``S = slowest`` [rad/s], each direction weighted by its share at ``velocity``.
+
+    Below the slowest steady pass only ramps, speed ripple and the table's prior set the
+    table; a flat continuation of the slowest pass's level fits the same steady data, so the
+    spread between the two extrapolations is uncertain by its own size. Zero at and above
+    ``S``, and for laws without ``levels``.
+
+    Examples
+    --------
+    >>> from torquemap.friction_law import SpeedTableFriction
+    >>> f = SpeedTableFriction(speeds=(0.1, 1.0, 10.0), positive=(0.3, 0.2, 0.2),
+    ...                        negative=(0.2, 0.2, 0.2), zero_velocity=0.01)
+    >>> extrapolation_spread(f, np.array([0.1, -0.1, 2.0]), 0.01, 1.0).round(6).tolist()
+    [0.1, 0.0, 0.0]
+    """
+    levels = getattr(law, "levels", None)
+    v = np.asarray(velocity, dtype=np.float64)
+    if not callable(levels) or not slowest > 0:
+        return np.zeros(v.shape)
+    s = np.minimum(np.abs(v), slowest)
+    up, down = levels(s)
+    up0, down0 = levels(np.array([slowest]))
+    vu = float(getattr(law, "viscous", 0.0))
+    vd = float(getattr(law, "viscous_negative", vu))
+    spread_up = np.abs(up - vu * s - (up0[0] - vu * slowest))
+    spread_down = np.abs(down - vd * s - (down0[0] - vd * slowest))
+    p = 0.5 * (1.0 + np.tanh(v / max(width, 1e-12)))
+    return np.asarray(p * spread_up + (1.0 - p) * spread_down, dtype=np.float64)
 
 
 def _residual_sigma(
