@@ -3,7 +3,10 @@
 The paper's collection measures every 4th position and pulse width. Most of that surface is
 flat in position (a phase's plateau) or straight in pulse width (above the onset), where
 linear interpolation between far fewer rows is as good. :func:`collect_adaptive` spends a budget
-of sensor readings (by default a third of the paper grid's, bias readings included) in passes:
+of sensor readings (by default a third of the paper grid's, bias readings included) in passes,
+with the readings per row chosen so that the first pass takes at most half the budget
+(:func:`coarse_readings`; the table builder pools the noise over every row, so more rows with
+fewer readings each beat fewer rows):
 
 1. A coarse pass: every ``2 position_step``-th position (at most ``P / 4 m`` apart, the gap the
    table builder interpolates across), every ``2 level_step``-th pulse width.
@@ -71,6 +74,8 @@ class AdaptiveResult:
         Pulse widths of the position passes, shape (k,).
     resumed_blocks
         Blocks found done in the file and kept.
+    row_readings
+        Sensor readings averaged per row (:func:`coarse_readings` unless given).
     elapsed
         Wall time of this call [s].
     """
@@ -84,6 +89,7 @@ class AdaptiveResult:
     positions: int
     levels: NDArray[np.int64]
     resumed_blocks: int
+    row_readings: int
     elapsed: float
 
 
@@ -512,6 +518,7 @@ def collect_adaptive(
         positions=int(targets.size),
         levels=np.array(kept, dtype=np.int64),
         resumed_blocks=resumed,
+        row_readings=s.readings,
         elapsed=time.perf_counter() - start,
     )
 
