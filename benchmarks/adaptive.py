@@ -1,7 +1,9 @@
 """Adaptive collection against the paper's grid on random motors of the family.
 
-Run: ``.venv/bin/python benchmarks/adaptive.py [N]`` (N random motors, default 6; about 1.5
-minutes each on 2 cores).
+Run: ``.venv/bin/python benchmarks/adaptive.py [--count N] [--first-seed S] [--draws D]``
+(N random motors from seed S, default 6 from 0; the adaptive collection is repeated over D
+sensor-noise draws, default 4, and its APMD averaged: one draw's ratio to the grid varies by up
+to 2x on the same motor; about 20 s of CPU a motor).
 
 For each random bench (:func:`torquemap.sim.family.random_bench`, seeds 0 .. N-1) with the
 paper's collection settings (10 readings a row, every 4th position and pulse width, the bias over
@@ -10,7 +12,8 @@ every cell of the torque the sensor would see, motor minus the rig's friction):
 
 * the paper's grid (all its readings);
 * the adaptive collection (:func:`torquemap.linearize.adaptive.collect_adaptive`) within a third
-  of the grid's readings, on a rig with other sensor noise;
+  of the grid's readings, on rigs with other sensor noise (noise seeds ``seed + 1000 k``,
+  ``k = 1 .. D``; the mean APMD over the draws);
 * a uniform grid of about the same readings (every 8th position and pulse width, 29 %), the
   non-adaptive way to spend a third.
 
@@ -19,6 +22,7 @@ Printed: APMD of each, the ratios to the grid, readings spent; median and worst.
 
 from __future__ import annotations
 
+import argparse
 import statistics
 import sys
 import tempfile
@@ -49,13 +53,20 @@ def apmd(rig: SimRig, tables: TableSet) -> tuple[float, float]:
 
 
 def main() -> int:
-    count = int(sys.argv[1]) if len(sys.argv) > 1 else 6
+    parser = argparse.ArgumentParser(description=__doc__.split("\n", 1)[0])
+    parser.add_argument("--count", type=int, default=6, help="random motors (default 6)")
+    parser.add_argument("--first-seed", type=int, default=0, help="first seed (default 0)")
+    parser.add_argument(
+        "--draws", type=int, default=4, help="noise draws of the adaptive run (default 4)"
+    )
+    args = parser.parse_args()
+    seeds = range(args.first_seed, args.first_seed + args.count)
     paper = CollectionSettings.paper(progress=False)
     third = CollectionSettings(readings=10, position_step=8, level_step=8, progress=False)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
-        for seed in range(count):
+        for seed in seeds:
             bench = random_bench(seed)
             spec = bench.rig.motor_spec(ramping=bench.ramping)
             scores = {}
@@ -65,13 +76,19 @@ def main() -> int:
                 data = read_data(out, spec, kind="characterisation")
                 tables = build_tables(spec, data.position, data.level, data.torque)
                 scores[label] = apmd(bench.rig, tables)
-            out = d / f"{seed}-adaptive.csv"
-            result = collect_adaptive(
-                random_bench(seed, noise_seed=seed + 1000).rig, spec, out, paper
+            draws = []
+            for k in range(1, args.draws + 1):
+                out = d / f"{seed}-adaptive-{k}.csv"
+                result = collect_adaptive(
+                    random_bench(seed, noise_seed=seed + 1000 * k).rig, spec, out, paper
+                )
+                data = read_data(out, spec, kind="characterisation")
+                tables = build_tables(spec, data.position, data.level, data.torque)
+                draws.append(apmd(bench.rig, tables))
+            scores["adaptive"] = (
+                float(np.mean([a for a, _ in draws])),
+                float(np.mean([b for _, b in draws])),
             )
-            data = read_data(out, spec, kind="characterisation")
-            tables = build_tables(spec, data.position, data.level, data.torque)
-            scores["adaptive"] = apmd(bench.rig, tables)
             rows.append(
                 (
                     bench.describe(),
@@ -89,7 +106,7 @@ def main() -> int:
         f"{'seed':<5}{'grid':>7}{'adaptive':>9}{'uniform':>8}{'ad/grid':>8}{'un/grid':>8}"
         f"{'ad reads':>9}{'un reads':>9}{'positions':>10}{'levels':>7}  motor"
     )
-    for seed, (text, both, frac, ufrac, npos, nlev) in enumerate(rows):
+    for seed, (text, both, frac, ufrac, npos, nlev) in zip(seeds, rows, strict=True):
         sc = {k: v[0] for k, v in both.items()}
         print(
             f"{seed:<5}{100 * sc['grid']:>6.2f}%{100 * sc['adaptive']:>8.2f}%"
@@ -105,7 +122,7 @@ def main() -> int:
         + "; ".join(
             f"{s}: grid {100 * r[1]['grid'][1]:.2f} adaptive {100 * r[1]['adaptive'][1]:.2f} "
             f"uniform {100 * r[1]['uniform'][1]:.2f}"
-            for s, r in enumerate(rows)
+            for s, r in zip(seeds, rows, strict=True)
         )
     )
     print(f"ratio above 10 %: adaptive median {statistics.median(ad10):.2f} worst {max(ad10):.2f}")

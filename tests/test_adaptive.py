@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 from pathlib import Path
 
 import numpy as np
@@ -11,9 +12,11 @@ import pytest
 from torquemap.errors import InputError
 from torquemap.linearize.adaptive import (
     choose_levels,
+    coarse_readings,
     collect_adaptive,
     grid_readings,
     position_scores,
+    refine_levels,
 )
 from torquemap.linearize.collect import CollectionSettings
 from torquemap.sim.rig import SimRig, sim_rig
@@ -39,6 +42,60 @@ def test_position_scores_peak_at_the_kink() -> None:
     assert top == {3, 4, 11, 12}  # the gaps either side of 64 and of 192
 
 
+def test_refine_levels_bounds_the_interpolation_error() -> None:
+    # f(x) = 10 + (x / 16)^2 on levels 32 apart: linear interpolation misses by h^2 f'' / 8 =
+    # 32^2 (2 / 256) / 8 = 1 N m, 10 % of the smallest torque; the refined levels must bring
+    # the error of every gap within tolerance of the torque at its ends (closed form, checked
+    # on the true curve sampled at every integer level)
+    def f(x: np.ndarray) -> np.ndarray:
+        return 10.0 + (x / 16.0) ** 2
+
+    lv = np.arange(0, 129, 32)
+    tol = 0.01
+
+    def worst(levels: np.ndarray) -> float:
+        x = np.arange(0, 129, dtype=np.float64)
+        err = np.abs(f(x) - np.interp(x, levels, f(levels.astype(np.float64))))
+        gap = np.searchsorted(levels, x, side="right").clip(1, levels.size - 1)
+        return float(np.max(err / f(levels[gap - 1].astype(np.float64))))
+
+    assert worst(lv) > tol  # the coarse grid misses (so the test can fail)
+    refined = refine_levels(f(lv.astype(np.float64))[None, :], lv, tolerance=tol, finest=2)
+    assert set(lv.tolist()) <= set(refined.tolist())
+    assert worst(refined) <= tol
+    # a straight curve needs nothing more
+    line = refine_levels((5.0 + lv)[None, :].astype(np.float64), lv, tolerance=tol, finest=2)
+    assert line.tolist() == lv.tolist()
+
+
+def test_coarse_readings_spends_at_most_half_the_budget() -> None:
+    # closed form: 20 positions x (9 rows + the bias of 10 rows' worth) = 380 readings per
+    # reading a row; half of 4000 is 2000 -> 5 readings a row (1900), 6 would be 2280
+    s = CollectionSettings(readings=10, position_step=4, level_step=4, progress=False)
+    assert coarse_readings(20, 9, s, 4000) == 5
+    assert coarse_readings(20, 9, s, 100_000) == 10  # never more than the settings'
+    assert coarse_readings(20, 9, s, 10) == 1
+
+
+def test_default_rows_leave_half_the_budget_to_the_passes(tmp_path: Path) -> None:
+    rig = _rig()
+    spec = rig.motor_spec()
+    out = tmp_path / "d.csv"
+    result = collect_adaptive(rig, spec, out, SETTINGS, fraction=0.9)
+    record = json.loads(out.with_name("d.csv.adaptive.json").read_text())["blocks"]
+    # the coarse pass visits its positions in increasing order; the passes then start over
+    starts = [b[0] for b in record]
+    count = next(i for i in range(1, len(starts)) if starts[i] < starts[i - 1])
+    coarse = record[:count]
+    first = coarse[0][1]
+    per_row = coarse_readings(len(coarse), len(first), SETTINGS, result.budget)
+    assert per_row < SETTINGS.readings  # the rule is active here
+    bias = max(1, round(SETTINGS.bias_count * per_row / SETTINGS.readings))
+    assert sum(c * per_row + bias for _, _, c in coarse) <= result.budget / 2
+    assert result.readings <= result.budget and result.row_readings == per_row
+    assert len(record) > len(coarse)  # the passes got blocks
+
+
 def _rig(seed: int = 0) -> SimRig:
     rig = sim_rig("bldc", rng=seed)
     return SimRig(rig.motor, rig.amplifier, dataclasses.replace(rig.settings, noise=0.0), rng=seed)
@@ -47,7 +104,9 @@ def _rig(seed: int = 0) -> SimRig:
 def test_budget_is_respected_and_resume_loses_nothing(tmp_path: Path) -> None:
     rig = _rig()
     spec = rig.motor_spec()
-    whole = collect_adaptive(rig, spec, tmp_path / "whole.csv", SETTINGS, fraction=0.9)
+    whole = collect_adaptive(
+        rig, spec, tmp_path / "whole.csv", SETTINGS, fraction=0.9, row_readings=4
+    )
     assert whole.readings <= whole.budget == int(grid_readings(spec, SETTINGS) * 0.9)
     assert whole.positions > 13  # the coarse pass's 13, then refined
 
@@ -67,8 +126,8 @@ def test_budget_is_respected_and_resume_loses_nothing(tmp_path: Path) -> None:
     flaky = Flaky(base.motor, base.amplifier, base.settings, rng=0)
     out = tmp_path / "cut.csv"
     with pytest.raises(Interrupted):
-        collect_adaptive(flaky, spec, out, SETTINGS, fraction=0.9)
-    resumed = collect_adaptive(flaky, spec, out, SETTINGS, fraction=0.9)
+        collect_adaptive(flaky, spec, out, SETTINGS, fraction=0.9, row_readings=4)
+    resumed = collect_adaptive(flaky, spec, out, SETTINGS, fraction=0.9, row_readings=4)
     assert resumed.resumed_blocks > 0
     assert resumed.blocks == whole.blocks and resumed.rows == whole.rows
     a = np.loadtxt(tmp_path / "whole.csv", delimiter=",", skiprows=1)

@@ -199,7 +199,8 @@ def collect_adaptive_command(args: argparse.Namespace, spec: Any, settings: Any)
     resumed = f", resumed after {result.resumed_blocks} blocks" if result.resumed_blocks else ""
     print(
         f"wrote {result.rows} rows ({result.blocks} blocks at {result.positions} positions, "
-        f"{result.levels.size} pulse widths{resumed}) to {args.out}: {result.readings} readings "
+        f"{result.levels.size} pulse widths, {result.row_readings} readings a row{resumed}) to "
+        f"{args.out}: {result.readings} readings "
         f"of a budget of {result.budget} ({100 * result.readings / result.grid_readings:.0f} % "
         "of the grid's)"
     )

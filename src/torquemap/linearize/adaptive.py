@@ -3,7 +3,10 @@
 The paper's collection measures every 4th position and pulse width. Most of that surface is
 flat in position (a phase's plateau) or straight in pulse width (above the onset), where
 linear interpolation between far fewer rows is as good. :func:`collect_adaptive` spends a budget
-of sensor readings (by default a third of the paper grid's, bias readings included) in passes:
+of sensor readings (by default a third of the paper grid's, bias readings included) in passes,
+with the readings per row chosen so that the first pass takes at most half the budget
+(:func:`coarse_readings`; the table builder pools the noise over every row, so more rows with
+fewer readings each beat fewer rows):
 
 1. A coarse pass: every ``2 position_step``-th position (at most ``P / 4 m`` apart, the gap the
    table builder interpolates across), every ``2 level_step``-th pulse width.
@@ -71,6 +74,8 @@ class AdaptiveResult:
         Pulse widths of the position passes, shape (k,).
     resumed_blocks
         Blocks found done in the file and kept.
+    row_readings
+        Sensor readings averaged per row (:func:`coarse_readings` unless given).
     elapsed
         Wall time of this call [s].
     """
@@ -84,6 +89,7 @@ class AdaptiveResult:
     positions: int
     levels: NDArray[np.int64]
     resumed_blocks: int
+    row_readings: int
     elapsed: float
 
 
@@ -99,6 +105,23 @@ def grid_readings(spec: MotorSpec, settings: CollectionSettings) -> int:
     targets = settings.targets(spec).size
     levels = len(_grid_levels(spec.actuation_max, settings.level_step))
     return targets * (levels * settings.readings + settings.bias_count)
+
+
+def coarse_readings(positions: int, levels: int, settings: CollectionSettings, budget: int) -> int:
+    """Readings per row: the most (up to the settings') with which the coarse pass takes at
+    most half the budget, so that at least half is spent where the surface bends.
+
+    The bias of a block is read over ``settings.bias_count`` scaled by the same ratio. Never
+    below 1 (the caller refuses a budget the coarse pass does not fit in).
+
+    Examples
+    --------
+    >>> s = CollectionSettings.paper(progress=False)  # 10 a row, the bias over 100
+    >>> coarse_readings(64, 33, s, 32_000)  # 64 x (33 r + 10 r) <= 16000: r = 5
+    5
+    """
+    per_reading = positions * (levels + settings.bias_count / settings.readings)
+    return int(max(1, min(settings.readings, (budget / 2) // per_reading)))
 
 
 def _blocks_matrix(
@@ -155,6 +178,68 @@ def choose_levels(
             break
         del keep[j + 1]
     return levels[keep].astype(np.int64)
+
+
+def refine_levels(
+    curves: NDArray[np.float64],
+    levels: NDArray[np.int64],
+    *,
+    tolerance: float,
+    finest: int,
+) -> NDArray[np.int64]:
+    """Add levels inside the gaps where linear interpolation across them would miss.
+
+    The error of interpolating a curve linearly across a gap of width ``h`` is at most
+    ``h^2 |f''| / 8``; ``f''`` at a gap is the larger of the second divided differences at
+    its two ends (largest over the blocks, relative to the smaller of the two levels' mean
+    torques, as in :func:`choose_levels`). A gap whose error exceeds ``tolerance`` is split evenly into
+    steps of ``sqrt(8 tolerance / |f''|)``, never finer than ``finest``.
+
+    Parameters
+    ----------
+    curves
+        Torque of each block at each level [N m], shape (blocks, k); NaN where missing.
+    levels
+        The levels the curves are at, increasing, shape (k,).
+    tolerance
+        Largest relative interpolation error allowed across a gap.
+    finest
+        Smallest step between levels.
+
+    Returns
+    -------
+    ndarray of int64
+        ``levels`` and the levels added, increasing.
+
+    Examples
+    --------
+    >>> lv = np.arange(0, 65, 16)
+    >>> refine_levels(np.array([np.maximum(lv - 16.0, 0.0)]), lv, tolerance=0.01,
+    ...               finest=4).tolist()
+    [0, 4, 8, 12, 16, 20, 24, 28, 32, 48, 64]
+    """
+    x = levels.astype(np.float64)
+    if x.size < 3:
+        return levels.astype(np.int64)
+    c = np.where(np.isfinite(curves), curves, np.nan)
+    top = float(np.nanmax(np.abs(c)))
+    scale = np.maximum(np.nanmean(np.abs(c), axis=0), max(tolerance, 1e-6) * top + 1e-300)
+    slope = np.diff(c, axis=1) / np.diff(x)[None, :]
+    d2 = np.abs(np.diff(slope, axis=1)) / (0.5 * (x[2:] - x[:-2]))[None, :]
+    d2 = np.concatenate([d2[:, :1], d2, d2[:, -1:]], axis=1)  # at every level
+    out = set(levels.tolist())
+    for i in range(x.size - 1):
+        h = x[i + 1] - x[i]
+        # the curvature at either end against the smaller torque of the two
+        worst = float(
+            np.nanmax(np.maximum(d2[:, i], d2[:, i + 1]), initial=0.0) / min(scale[i], scale[i + 1])
+        )
+        if h <= finest or h * h * worst / 8.0 <= tolerance:
+            continue
+        step = max(float(finest), float(np.sqrt(8.0 * tolerance / worst)))
+        pieces = int(np.ceil(h / step))
+        out.update(round(x[i] + h * j / pieces) for j in range(1, pieces))
+    return np.array(sorted(out), dtype=np.int64)
 
 
 def position_scores(
@@ -237,6 +322,7 @@ def collect_adaptive(
     coarse_level_step: int | None = None,
     coarse_position_factor: int = 2,
     saturation: float | None = None,
+    refine: bool = False,
 ) -> AdaptiveResult:
     """Collect DATA.csv adaptively within a fraction of the settings' grid's readings.
 
@@ -257,8 +343,9 @@ def collect_adaptive(
     tolerance
         Relative interpolation error below which a pulse width is not measured (step 2).
     row_readings
-        Sensor readings averaged per row (default ``settings.readings``); the bias of each
-        block gets ``settings.bias_count`` scaled by the same ratio.
+        Sensor readings averaged per row (default :func:`coarse_readings`: the most, up to
+        ``settings.readings``, with which the coarse pass takes at most half the budget); the
+        bias of each block gets ``settings.bias_count`` scaled by the same ratio.
     coarse_level_step
         Pulse-width step of the coarse pass (default ``2 settings.level_step``).
     coarse_position_factor
@@ -267,6 +354,9 @@ def collect_adaptive(
     saturation
         Sensor range [N m] (default the rig's ``saturation`` attribute): a reading at or beyond
         it ends the block.
+    refine
+        Add pulse widths (down to ``settings.level_step`` apart) inside the gaps of the kept
+        ones where the coarse curves bend (:func:`refine_levels`): the onset.
 
     Returns
     -------
@@ -281,7 +371,20 @@ def collect_adaptive(
     """
     start = time.perf_counter()
     grid = CollectionSettings.paper() if settings is None else settings
-    per_row = grid.readings if row_readings is None else int(row_readings)
+    if not 0 < fraction <= 1:
+        raise InputError(f"the budget fraction must be in (0, 1], got {fraction}")
+    n, top = spec.positions_per_cycle, spec.actuation_max
+    reference = grid_readings(spec, grid)
+    budget = int(fraction * reference)
+    # no wider than the gap the table builder interpolates across (P / 4 m)
+    coarse_step = max(1, min(coarse_position_factor * grid.position_step, n // (4 * spec.phases)))
+    coarse_targets = sorted({(j * n) // -(-n // coarse_step) for j in range(-(-n // coarse_step))})
+    coarse_levels = _grid_levels(top, coarse_level_step or 2 * grid.level_step)
+    per_row = (
+        coarse_readings(len(coarse_targets), len(coarse_levels), grid, budget)
+        if row_readings is None
+        else int(row_readings)
+    )
     if per_row < 1:
         raise InputError(f"readings per row must be >= 1, got {row_readings}")
     s = CollectionSettings(
@@ -291,15 +394,10 @@ def collect_adaptive(
         level_step=grid.level_step,
         progress=False,
     )
-    if not 0 < fraction <= 1:
-        raise InputError(f"the budget fraction must be in (0, 1], got {fraction}")
     path = Path(out_csv)
     if not path.parent.exists():
         raise InputError("output folder does not exist", path=path.parent)
     record_path = path.with_name(path.name + ".adaptive.json")
-    n, top = spec.positions_per_cycle, spec.actuation_max
-    reference = grid_readings(spec, grid)
-    budget = int(fraction * reference)
     rows, done = _read_state(path, record_path)
     resumed = len(done)
     header = ",".join(CHARACTERISATION_COLUMNS)
@@ -364,12 +462,6 @@ def collect_adaptive(
         save_record()
 
     try:
-        # no wider than the gap the table builder interpolates across (P / 4 m)
-        coarse_step = max(1, min(coarse_position_factor * s.position_step, n // (4 * spec.phases)))
-        coarse_targets = sorted(
-            {(j * n) // -(-n // coarse_step) for j in range(-(-n // coarse_step))}
-        )
-        coarse_levels = _grid_levels(top, coarse_level_step or 2 * s.level_step)
         coarse_cost = len(coarse_targets) * (len(coarse_levels) * s.readings + s.bias_count)
         if coarse_cost > budget:
             raise InputError(
@@ -383,6 +475,14 @@ def collect_adaptive(
         lv = np.array(coarse_levels, dtype=np.int64)
         curves = np.array([[table[int(t)].get(int(v), np.nan) for v in lv] for t in targets])
         kept = [int(v) for v in choose_levels(curves, lv, tolerance=tolerance)]
+        if refine:
+            kc = np.array([[table[int(t)].get(v, np.nan) for v in kept] for t in targets])
+            kept = [
+                int(v)
+                for v in refine_levels(
+                    _fill_levels(kc), np.array(kept), tolerance=tolerance, finest=s.level_step
+                )
+            ]
         cost = len(kept) * s.readings + s.bias_count
         min_gap = max(1, s.position_step // 2)
         while spent() + cost <= budget:
@@ -418,6 +518,7 @@ def collect_adaptive(
         positions=int(targets.size),
         levels=np.array(kept, dtype=np.int64),
         resumed_blocks=resumed,
+        row_readings=s.readings,
         elapsed=time.perf_counter() - start,
     )
 
