@@ -171,47 +171,47 @@ def _friction_basis(
 def estimate_motion_delay(
     t: Sequence[NDArray[np.float64]],
     angle: Sequence[NDArray[np.float64]],
-    velocity: Sequence[NDArray[np.float64]],
     acceleration: Sequence[NDArray[np.float64]],
     torque: Sequence[NDArray[np.float64]],
     rows: Sequence[NDArray[np.bool_]],
     orders: Sequence[float],
     *,
+    window: float,
     inertia_modulation: Sequence[NDArray[np.float64]] | None = None,
-    samples_per_window: float = 1.0,
     max_delay: float = 0.25,
     steps: int = 41,
     confidence: float = 1.0 - 1e-6,
 ) -> DelayEstimate:
     """Estimate the torque channel's delay from every moving sample, ramps included.
 
-    Each trial delay ``d`` pairs each torque sample with the motion ``d`` earlier and fits,
+    Each trial delay ``d`` pairs the motion at each row with the torque ``d`` later and fits,
     by linear least squares, inertia times acceleration, a friction law of no fixed form
     (per direction, piecewise linear in the log speed on knots 1.8x apart over the speeds
     the rows hold) and the PDTV ``orders``; the residual-minimising delay is kept when an F
     test says it explains more than noise. Ramps show a delay far more strongly than the
     constant-speed passes (where it is only an angle offset of the PDTV), and a law fitted
     anew at every trial cannot absorb it, as friction and inertia identified from a
-    misaligned torque do.
+    misaligned torque do. The torque and every column but the acceleration are smoothed by
+    the kernel through which the differentiator sees acceleration
+    (:func:`torquemap.filters.smooth_as_acceleration`), so both sides carry one filter and a
+    ramp's start or end does not bias the delay; friction is evaluated at a central
+    difference of the angle over +-1/8 window, which does not smear a ramp's start.
 
     Parameters
     ----------
-    t, angle, velocity, acceleration
-        Per log: time [s], motor angle [rad], velocity [rad/s] and acceleration [rad/s^2]
-        (differentiated), each shape (n_log,).
-    torque
-        Per log: the motor torque smoothed by the acceleration's kernel
-        (:func:`torquemap.filters.smooth_as_acceleration`) [N m], shape (n_log,).
+    t, angle, acceleration, torque
+        Per log: time [s], motor angle [rad], differentiated acceleration [rad/s^2] and motor
+        torque [N m], each shape (n_log,).
     rows
         Per log: the samples fitted (the joint moving alone, faster than friction is known),
         boolean shape (n_log,).
     orders
         PDTV orders [CPR].
+    window
+        The differentiator's window [s]; neighbouring rows within it share their noise, and
+        the F test counts one independent residual per window's worth of rows.
     inertia_modulation
         Per log, the factor of a second inertia column (``cos`` of the elbow angle), or None.
-    samples_per_window
-        Samples per differentiator window: neighbouring rows are correlated over it, so the F
-        test counts ``rows / samples_per_window`` independent residuals.
     max_delay, steps, confidence
         As :func:`estimate_delay`.
 
@@ -221,38 +221,52 @@ def estimate_motion_delay(
     """
     from scipy import stats
 
+    from torquemap.filters import smooth_as_acceleration
+
     idx = [np.flatnonzero(r) for r in rows]
     total = sum(i.size for i in idx)
     if total < 10:
         return DelayEstimate(0.0, 0.0, math.nan, math.nan, 0.0, False)
+    span = window / 8.0
+    vel = []
+    for ti, th in zip(t, angle, strict=True):
+        lo = np.maximum(ti - span, ti[0])
+        hi = np.minimum(ti + span, ti[-1])
+        vel.append((np.interp(hi, ti, th) - np.interp(lo, ti, th)) / np.maximum(hi - lo, 1e-300))
+    speeds = np.concatenate([np.abs(v[i]) for v, i in zip(vel, idx, strict=True)])
+    lo_s = max(float(np.percentile(speeds, 1)), 1e-12)
+    hi_s = max(float(np.percentile(speeds, 99)), 2 * lo_s)
+    knots = np.geomspace(lo_s, hi_s, max(2, math.ceil(math.log(hi_s / lo_s) / math.log(1.8)) + 1))
     stride = max(1, total // 60000)
-    idx = [i[::stride] for i in idx]
-    y = np.concatenate([torque[li][i] for li, i in enumerate(idx)])
-    speeds = np.concatenate([np.abs(velocity[li][i]) for li, i in enumerate(idx)])
-    lo, hi = float(np.percentile(speeds, 1)), float(np.percentile(speeds, 99))
-    n_knots = max(2, math.ceil(math.log(max(hi / max(lo, 1e-12), 1.0 + 1e-9)) / math.log(1.8)) + 1)
-    knots = np.geomspace(max(lo, 1e-12), max(hi, 2 * max(lo, 1e-12)), n_knots)
+    blocks, torques, times = [], [], []
+    for li, i in enumerate(idx):
+        if i.size == 0:
+            continue
+        parts = [_friction_basis(vel[li], knots)]
+        parts += [np.c_[np.cos(n * angle[li]), np.sin(n * angle[li])] for n in orders]
+        smooth = smooth_as_acceleration(t[li], np.hstack(parts), window=window)
+        a = acceleration[li][:, None]
+        cols = [a, smooth]
+        if inertia_modulation is not None:
+            cols.append(a * inertia_modulation[li][:, None])
+        keep = i[::stride]
+        blocks.append(np.hstack(cols)[keep])
+        torques.append(smooth_as_acceleration(t[li], torque[li], window=window))
+        times.append((t[li], t[li][keep]))
+    design = np.vstack(blocks)
+    used = np.any(design != 0, axis=0)
+    design = design[:, used]
+    n_cols = int(used.sum())
 
-    def design(delay: float) -> NDArray[np.float64]:
-        cols = []
-        for li, i in enumerate(idx):
-            ti = t[li][i] - delay
-            th = np.interp(ti, t[li], angle[li])
-            v = np.interp(ti, t[li], velocity[li])
-            a = np.interp(ti, t[li], acceleration[li])
-            parts = [a[:, None], _friction_basis(v, knots)]
-            if inertia_modulation is not None:
-                parts.append((a * np.interp(ti, t[li], inertia_modulation[li]))[:, None])
-            for n in orders:
-                parts.append(np.c_[np.cos(n * th), np.sin(n * th)])
-            cols.append(np.hstack(parts))
-        return np.vstack(cols)
+    def target(delay: float) -> NDArray[np.float64]:
+        return np.concatenate(
+            [np.interp(tk + delay, tl, y) for (tl, tk), y in zip(times, torques, strict=True)]
+        )
 
     def rss(delay: float) -> float:
-        a = design(delay)
-        keep = np.any(a != 0, axis=0)
-        coef, *_ = np.linalg.lstsq(a[:, keep], y, rcond=None)
-        r = y - a[:, keep] @ coef
+        y = target(delay)
+        coef, *_ = np.linalg.lstsq(design, y, rcond=None)
+        r = y - design @ coef
         return float(r @ r)
 
     grid = np.linspace(-max_delay, max_delay, steps)
@@ -271,12 +285,13 @@ def estimate_motion_delay(
             if r_trial <= rss_best:
                 best, rss_best = trial, r_trial
     rss_zero = float(values[int(np.argmin(np.abs(grid)))])
-    n_cols = 1 + 2 * knots.size + 2 * len(orders) + (inertia_modulation is not None)
+    rows_n = design.shape[0]
     # neighbouring rows within a window share their noise: the change in the residual has
     # ``c`` times the variance that independent rows would give it
-    c = max(samples_per_window / stride, 1.0)
-    sigma2 = rss_best / max(y.size - n_cols, 1)
-    dof = max(y.size / c - n_cols, 1.0)
+    step = float(np.median(np.concatenate([np.diff(tl) for tl, _ in times])))
+    c = max(window / max(step, 1e-12) / stride, 1.0)
+    sigma2 = rss_best / max(rows_n - n_cols, 1)
+    dof = max(rows_n / c - n_cols, 1.0)
     f = (rss_zero - rss_best) / max(sigma2 * c, np.finfo(float).tiny)
     significant = bool(interior and f > stats.f.ppf(confidence, 1, dof))
     return DelayEstimate(

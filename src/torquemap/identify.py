@@ -298,30 +298,26 @@ def _estimate_joint_delay(
 
     elbow_k = _elbow_joint(rb, k)
     slowest = min(abs(p.speed) for _, p in res.passes)
-    ts, angles, vels, accs, torques, rows, mods = [], [], [], [], [], [], []
-    spw = []
+    ts, angles, accs, torques, rows, mods = [], [], [], [], [], []
     for li, log in enumerate(logs):
         d = derivs[li][k]
         ts.append(log.t)
         angles.append(d.position)
-        vels.append(d.velocity)
         accs.append(d.acceleration)
-        torques.append(smooth_as_acceleration(log.t, log.motor_torque[:, k], window=window))
+        torques.append(log.motor_torque[:, k])
         rows.append(_still_mask(derivs[li], k, p99) & (np.abs(d.velocity) > 0.5 * slowest))
         if elbow_k is not None:
             mods.append(np.cos(log.q[:, elbow_k]))
-        spw.append(window / max(float(np.median(np.diff(log.t))), 1e-12))
     orders = sorted({ln.order for ln in jm.pdtv})
     est = estimate_motion_delay(
         ts,
         angles,
-        vels,
         accs,
         torques,
         rows,
         orders,
+        window=window,
         inertia_modulation=mods if elbow_k is not None else None,
-        samples_per_window=float(np.median(spw)),
         max_delay=max(0.25, 4 * window),
     )
     return est.delay
