@@ -44,7 +44,12 @@ SPEEDS = (1.36, 3.28, 7.94, 19.2, 46.5, 112.4)
 
 
 def simulate(
-    rng: np.random.Generator, *, delay: float, rate: float = 340.0, noise: float = 0.0025
+    rng: np.random.Generator,
+    *,
+    delay: float,
+    rate: float = 340.0,
+    noise: float = 0.0025,
+    friction: FrictionModel = FRICTION,
 ) -> Log:
     """Back-and-forth passes of 2.6 revolutions at ``SPEEDS`` [rad/s], ramps at a constant
     1000 rad/s^2, logged at ``rate`` [Hz] with 17 % jitter, the torque channel reporting what
@@ -63,7 +68,7 @@ def simulate(
     theta = np.concatenate(([0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * h)))
     pd = sum(ln.amplitude * np.cos(ln.order * theta + ln.phase) for ln in LINES)
     moving = np.abs(w) > 1e-9
-    tau = J_TRUE * acc + np.where(moving, friction_torque(w, FRICTION) + pd, 0.0)
+    tau = J_TRUE * acc + np.where(moving, friction_torque(w, friction) + pd, 0.0)
     step = (1.0 + 0.17 * rng.uniform(-1.0, 1.0, int(tf[-1] * rate) + 2)) / rate
     t = np.cumsum(step)
     t = t[t < tf[-1]]
@@ -143,3 +148,23 @@ def test_pass_method_finds_the_delay_of_a_simulated_servo(bench31) -> None:  # t
     assert_allclose(
         ident.model.joints["b"].inertia.constant, truth.joints["b"].inertia.constant, rtol=0.1
     )
+
+
+MISFIT = "the pass model does not explain the sweep"
+# Coulomb and viscous only: a law the pass method fits exactly
+PLAIN = FrictionModel(coulomb_positive=0.034, coulomb_negative=0.028, viscous=3.3e-4)
+
+
+def test_pass_check_is_silent_when_the_pass_model_holds() -> None:
+    log = simulate(np.random.default_rng(5), delay=DELAY, friction=PLAIN)
+    ident = identify_model(robot_from_dict(ROBOT), [log], friction="passes")
+    # the F test at 1 - 1e-6: a true model warns once in a million logs
+    assert not [w for w in ident.warnings if MISFIT in w]
+
+
+def test_pass_check_warns_when_the_delay_is_wrong() -> None:
+    log = simulate(np.random.default_rng(5), delay=DELAY, friction=PLAIN)
+    ident = identify_model(robot_from_dict(ROBOT), [log], friction="passes", channel_delay=0.0)
+    # told there is no delay, the pass means carry the ramps' torque and the ramps lead the
+    # torque by 118 ms: the free law fitted to every sample explains far more
+    assert [w for w in ident.warnings if MISFIT in w]
