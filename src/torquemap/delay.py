@@ -152,6 +152,20 @@ def estimate_delay(
     )
 
 
+def speed_knots(speeds: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Knots [rad/s] 1.8x apart from the 1st to the 99th percentile of ``speeds`` [rad/s].
+
+    Examples
+    --------
+    >>> k = speed_knots(np.linspace(1.0, 10.0, 1001))
+    >>> k.size, round(float(k[1] / k[0]), 3) <= 1.8
+    (5, True)
+    """
+    lo = max(float(np.percentile(speeds, 1)), 1e-12)
+    hi = max(float(np.percentile(speeds, 99)), 2 * lo)
+    return np.geomspace(lo, hi, max(2, math.ceil(math.log(hi / lo) / math.log(1.8)) + 1))
+
+
 def _friction_basis(
     velocity: NDArray[np.float64], knots: NDArray[np.float64]
 ) -> NDArray[np.float64]:
@@ -234,9 +248,7 @@ def estimate_motion_delay(
         hi = np.minimum(ti + span, ti[-1])
         vel.append((np.interp(hi, ti, th) - np.interp(lo, ti, th)) / np.maximum(hi - lo, 1e-300))
     speeds = np.concatenate([np.abs(v[i]) for v, i in zip(vel, idx, strict=True)])
-    lo_s = max(float(np.percentile(speeds, 1)), 1e-12)
-    hi_s = max(float(np.percentile(speeds, 99)), 2 * lo_s)
-    knots = np.geomspace(lo_s, hi_s, max(2, math.ceil(math.log(hi_s / lo_s) / math.log(1.8)) + 1))
+    knots = speed_knots(speeds)
     stride = max(1, total // 60000)
     blocks, torques, times = [], [], []
     for li, i in enumerate(idx):

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from torquemap.delay import _friction_basis
+from torquemap.delay import _friction_basis, speed_knots
 from torquemap.filters import smooth_as_acceleration
 
 
@@ -98,9 +98,7 @@ def check_pass_model(
     if total < 10:
         return PassModelCheck(math.nan, math.nan, 0.0, 0, 0.0, True)
     speeds = np.concatenate([np.abs(v[i]) for v, i in zip(velocity, idx, strict=True)])
-    lo_s = max(float(np.percentile(speeds, 1)), 1e-12)
-    hi_s = max(float(np.percentile(speeds, 99)), 2 * lo_s)
-    knots = np.geomspace(lo_s, hi_s, max(2, math.ceil(math.log(hi_s / lo_s) / math.log(1.8)) + 1))
+    knots = speed_knots(speeds)
     blocks, ys, rm, steps = [], [], [], []
     for li, i in enumerate(idx):
         if i.size == 0:
