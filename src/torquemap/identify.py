@@ -183,6 +183,7 @@ def _identify_passes(
     torque_lag: float | Literal["auto"] = 0.0,
     channel_delay: float | Literal["auto"] = "auto",
     derivatives: Sequence[Sequence[Derivatives]] | None = None,
+    check: bool = True,
 ) -> Identification:
     """:func:`identify_model` with ``friction="passes"`` on logs already sanitised.
 
@@ -191,7 +192,8 @@ def _identify_passes(
     first-order lag of the torque channel (``"auto"`` fits it, experimental), corrected by
     ``tau + lag * dtau/dt`` before PDTV and inertia. ``derivatives``: those of the logs'
     motor angles when already computed (a torque channel's delay undone leaves them as they
-    are).
+    are). ``check``: warn for each joint whose pass model explains the whole sweep, ramps
+    included, significantly worse than a free law (:mod:`torquemap.pass_check`).
     """
     model_in = robot if isinstance(robot, Model) else None
     rb = robot.robot if isinstance(robot, Model) else robot
@@ -241,8 +243,8 @@ def _identify_passes(
             jm = new_joints.get(name)
             if channel_delay != "auto":
                 delays[name] = float(channel_delay)
-            elif jm is not None and jm.pdtv and res.pdtv_passes:
-                delays[name] = _estimate_joint_delay(rb, k, logs, derivs, res, jm, window)
+            elif jm is not None and res.passes:
+                delays[name] = _estimate_joint_delay(rb, k, logs, derivs, res, jm, window, p99)
         if any(d != 0 for d in delays.values()):
             shifted = [_shift_log(log, rb, delays) for log in logs]
             again = _identify_passes(
@@ -257,21 +259,94 @@ def _identify_passes(
                 torque_lag=torque_lag,
                 channel_delay=0.0,
                 derivatives=derivs,
+                check=False,
             )
             joints_out = {
                 n: dataclasses.replace(r, channel_delay=delays.get(n, 0.0))
                 for n, r in again.joints.items()
             }
-            warnings = again.warnings
+            warnings = again.warnings + _check_joints(
+                rb, shifted, derivs, joints_out, again.model, window, p99
+            )
             notes = _notes(
                 logs, joints_out, window=window, false_alarm=false_alarm, warnings=warnings
             )
             model = Model(robot=rb, joints=again.model.joints, notes=notes)
             return Identification(model=model, joints=joints_out, warnings=warnings)
     warnings = tuple(w for r in results.values() for w in r.warnings)
+    model = Model(robot=rb, joints=new_joints)
+    if check:
+        warnings += _check_joints(rb, logs, derivs, results, model, window, p99)
     notes = _notes(logs, results, window=window, false_alarm=false_alarm, warnings=warnings)
     model = Model(robot=rb, joints=new_joints, notes=notes)
     return Identification(model=model, joints=results, warnings=warnings)
+
+
+def _check_joints(
+    rb: Robot,
+    logs: Sequence[Log],
+    derivs: Sequence[Sequence[Derivatives]],
+    results: Mapping[str, JointIdentification],
+    model: Model,
+    window: float,
+    p99: Sequence[float],
+) -> tuple[str, ...]:
+    """One warning per joint whose pass model explains the whole sweep significantly worse
+    than a free law does (:func:`torquemap.pass_check.check_pass_model`)."""
+    from torquemap.pass_check import check_pass_model
+
+    out = []
+    for name, res in results.items():
+        if not res.passes:
+            continue
+        k = rb.joint_names.index(name)
+        jm = model.joints[name]
+        elbow_k = _elbow_joint(rb, k)
+        slowest = min(abs(p.speed) for _, p in res.passes)
+        span = window / 8.0
+        ts, angles, accs, taus, rows, law, inert, vels, mods = ([] for _ in range(9))
+        for li, log in enumerate(logs):
+            d = derivs[li][k]
+            t = log.t
+            lo, hi = np.maximum(t - span, t[0]), np.minimum(t + span, t[-1])
+            v = (np.interp(hi, t, d.position) - np.interp(lo, t, d.position)) / np.maximum(
+                hi - lo, 1e-300
+            )
+            cos_e = np.cos(log.q[:, elbow_k]) if elbow_k is not None else np.zeros(t.size)
+            ts.append(t)
+            angles.append(d.position)
+            accs.append(d.acceleration)
+            taus.append(log.motor_torque[:, k])
+            rows.append(_still_mask(derivs[li], k, p99) & (np.abs(d.velocity) > 0.5 * slowest))
+            law.append(
+                friction_torque(v, jm.friction) + pdtv_torque(d.position, jm.pdtv, velocity=v)
+            )
+            inert.append((jm.inertia.constant + jm.inertia.cos_elbow * cos_e) * d.acceleration)
+            vels.append(v)
+            mods.append(cos_e)
+        chk = check_pass_model(
+            ts,
+            angles,
+            accs,
+            taus,
+            rows,
+            law,
+            inert,
+            sorted({ln.order for ln in jm.pdtv}),
+            window=window,
+            velocity=vels,
+            inertia_modulation=mods if elbow_k is not None else None,
+        )
+        if not chk.consistent:
+            out.append(
+                f"joint {name}: the pass model does not explain the sweep (ramps included): its "
+                f"residual is {1e3 * chk.rms_model:.3g} mN m against {1e3 * chk.rms_free:.3g} "
+                f"mN m for a free friction law and inertia on the same samples (F = "
+                f"{chk.f_statistic:.3g} on {chk.dof_model} and {chk.dof_residual:.0f} degrees "
+                "of freedom, p < 1e-6): its friction law, inertia or delay is wrong; use the "
+                "default whole-log fit (--friction whole)"
+            )
+    return tuple(out)
 
 
 def _estimate_joint_delay(
@@ -282,26 +357,44 @@ def _estimate_joint_delay(
     res: JointIdentification,
     jm: JointModel,
     window: float,
+    p99: Sequence[float],
 ) -> float:
-    """The torque channel's delay of joint ``k`` [s], or 0 when not identifiable."""
-    from torquemap.delay import estimate_delay
+    """The torque channel's delay of joint ``k`` [s], or 0 when not identifiable.
+
+    Scored on every sample where the joint moves alone faster than half its slowest pass,
+    ramps included, with friction, inertia and the PDTV amplitudes refitted at every trial
+    delay (:func:`torquemap.delay.estimate_motion_delay`). Scoring the PDTV's phase on the
+    passes with the friction and inertia identified before the delay was known
+    (:func:`torquemap.delay.estimate_delay`) confounds the delay with those terms' errors: on
+    a random bench with a 118 ms delay it found 68 ms, and the pass means, still carrying the
+    ramps' torque, gave a viscous term 4x and an inertia 1/8 of the truth.
+    """
+    from torquemap.delay import estimate_motion_delay
 
     elbow_k = _elbow_joint(rb, k)
-    ts, angles, torques = [], [], []
+    slowest = min(abs(p.speed) for _, p in res.passes)
+    ts, angles, accs, torques, rows, mods = [], [], [], [], [], []
     for li, log in enumerate(logs):
         d = derivs[li][k]
-        elbow = log.q[:, elbow_k] if elbow_k is not None else np.zeros(log.t.size)
-        j = jm.inertia.constant + jm.inertia.cos_elbow * np.cos(elbow)
         ts.append(log.t)
         angles.append(d.position)
-        torques.append(
-            log.motor_torque[:, k] - j * d.acceleration - friction_torque(d.velocity, jm.friction)
-        )
-    spans = [
-        (res.passes[i][0], res.passes[i][1].start, res.passes[i][1].stop) for i in res.pdtv_passes
-    ]
+        accs.append(d.acceleration)
+        torques.append(log.motor_torque[:, k])
+        rows.append(_still_mask(derivs[li], k, p99) & (np.abs(d.velocity) > 0.5 * slowest))
+        if elbow_k is not None:
+            mods.append(np.cos(log.q[:, elbow_k]))
     orders = sorted({ln.order for ln in jm.pdtv})
-    est = estimate_delay(ts, angles, torques, spans, orders, max_delay=max(0.25, 4 * window))
+    est = estimate_motion_delay(
+        ts,
+        angles,
+        accs,
+        torques,
+        rows,
+        orders,
+        window=window,
+        inertia_modulation=mods if elbow_k is not None else None,
+        max_delay=max(0.25, 4 * window),
+    )
     return est.delay
 
 
@@ -947,6 +1040,7 @@ def identify_model(
         torque_lag=torque_lag,
         channel_delay=channel_delay,
         derivatives=derivs,
+        check=friction == "passes",
     )
     quanta = {j.name: _motor_quantum(pieces, j.gear_ratio, k) for k, j in enumerate(rb.joints)}
     joint_notes = base.model.notes.get("joints", {})
