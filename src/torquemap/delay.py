@@ -275,10 +275,14 @@ def estimate_motion_delay(
             [np.interp(tk + delay, tl, y) for (tl, tk), y in zip(times, torques, strict=True)]
         )
 
+    # the design is the same at every trial delay: factor it once (an SVD with lstsq's
+    # cut-off) and project each trial's torque on its column space
+    u, sv, _ = np.linalg.svd(design, full_matrices=False)
+    basis = u[:, sv > np.finfo(float).eps * max(design.shape) * float(sv[0])] if sv.size else u
+
     def rss(delay: float) -> float:
         y = target(delay)
-        coef, *_ = np.linalg.lstsq(design, y, rcond=None)
-        r = y - design @ coef
+        r = y - basis @ (basis.T @ y)
         return float(r @ r)
 
     grid = np.linspace(-max_delay, max_delay, steps)
