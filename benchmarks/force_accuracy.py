@@ -234,6 +234,20 @@ def family_robot(seed: int, cutoff: float) -> dict[str, Any]:
         except Exception as exc:
             scores[method] = {"error": f"estimate failed: {type(exc).__name__}: {exc}"}
     o = dict(scores["oracle"])
+    # where the sweeps hold steady data (the samples the pass model answers: every joint at or
+    # above its slowest steady pass, outside reversals) and elsewhere, the whole fit's ratio
+    steady = scores["passes"].get("ok")
+    w = scores["whole"]
+    for part, mask in (("steady", steady), ("below", None if steady is None else ~steady)):
+        w["ratio_" + part] = math.nan
+        if mask is None or "ok" not in w or "ok" not in o:
+            continue
+        both = mask & w["ok"] & o["ok"]
+        den = float(np.mean(np.sum(o["err"][both] ** 2, axis=1))) if both.sum() >= 10 else 0.0
+        if den > 0:
+            num = float(np.mean(np.sum(w["err"][both] ** 2, axis=1)))
+            w["ratio_" + part] = math.sqrt(num / den)
+        w["share_" + part] = float(both.mean())
     for s in scores.values():
         s.setdefault("rms", math.nan)
         s.setdefault("flagged", 1.0)
@@ -320,6 +334,35 @@ def _delays(r: dict[str, Any]) -> str:
     return " | ".join(out)
 
 
+def _split_table(results: list[dict[str, Any]]) -> str:
+    """Table 2b: the whole fit's ratio to the oracle where the sweeps hold steady data and
+    below them (split by the samples the pass model answers)."""
+    lines = [
+        "Table 2b. whole / oracle split by where the sweeps hold steady data: 'steady' = the "
+        "samples the pass model answers (every joint at or above its slowest steady pass, "
+        "outside reversals), 'below' = the rest (friction there is extrapolated)"
+    ]
+    head = f"{'part':<8}{'median share':>14}{'med ratio':>11}{'worst ratio':>13}{'worst robot':>13}"
+    lines += [head, "-" * len(head)]
+    for part in ("steady", "below"):
+        vals = [
+            (r["scores"]["whole"].get("ratio_" + part, math.nan), r["seed"], r) for r in results
+        ]
+        ratio = np.array([v for v, _, _ in vals], dtype=float)
+        share = np.array(
+            [r["scores"]["whole"].get("share_" + part, math.nan) for r in results], dtype=float
+        )
+        if not np.isfinite(ratio).any():
+            lines.append(f"{part:<8}{'-':>14}{'-':>11}{'-':>13}{'-':>13}")
+            continue
+        worst = int(np.nanargmax(ratio))
+        lines.append(
+            f"{part:<8}{np.nanmedian(share):>14.0%}{np.nanmedian(ratio):>11.2f}"
+            f"{ratio[worst]:>13.2f}{vals[worst][1]:>13d}"
+        )
+    return "\n".join(lines)
+
+
 def family_tables(results: list[dict[str, Any]], cutoff: float) -> str:
     """Table 2 (summary), table 3 (per robot) and the worst cases, as text."""
     results = sorted(results, key=lambda r: r["seed"])
@@ -361,6 +404,8 @@ def family_tables(results: list[dict[str, Any]], cutoff: float) -> str:
         "targets: median ratio <= 1.5, worst ratio <= 3, flagged < 5 % on every robot, "
         "2-sigma share 90-99 %"
     )
+    lines.append("")
+    lines.append(_split_table(results))
     lines.append("")
     lines.append(
         "Table 3. Per robot: laws a/b (P paper form, X static of another form, L LuGre; "
