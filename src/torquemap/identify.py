@@ -1167,6 +1167,7 @@ def _identify_whole(
             direction_significance=direction_significance,
             slowest_speed=min((abs(p.speed) for _, p in res.passes), default=0.0),
             steady_speeds=[abs(p.speed) for _, p in res.passes],
+            held_inertia=_determined_inertia(res),
         )
         warnings.extend(fit.warnings)
         coulomb = 0.5 * float(np.sum(fit.law.levels(np.array([fit.observed_speed]))))
@@ -1192,6 +1193,16 @@ def _identify_whole(
     notes["friction_fit"] = "whole"
     model = Model(robot=rb, joints=new_joints, notes=notes)
     return Identification(model=model, joints=results, warnings=tuple(warnings))
+
+
+def _determined_inertia(res: JointIdentification) -> tuple[float, float] | None:
+    """The pass method's inertia and its standard error [kg m^2] when its ramps determine it
+    (2 standard errors above 0), else None."""
+    fit = res.inertia
+    if fit is None or fit.samples < 3:
+        return None
+    value, se = fit.inertia.constant, fit.standard_error[0]
+    return (float(value), float(se)) if value > 2.0 * se else None
 
 
 def _whole_joint_model(fit: Any) -> JointModel:

@@ -618,6 +618,7 @@ def fit_joint_whole(
     max_order: float = 0.0,
     slowest_speed: float = 0.0,
     steady_speeds: Sequence[float] = (),
+    held_inertia: tuple[float, float] | None = None,
 ) -> WholeFit:
     """Fit one joint's friction table, inertia, PDTV and torque delay to whole logs.
 
@@ -673,6 +674,12 @@ def fit_joint_whole(
     steady_speeds
         Motor speeds [rad/s] the logs hold steadily (the passes'): the table has a knot at
         each (:func:`table_speeds`).
+    held_inertia
+        ``(value, standard error)`` [kg m^2] of an inertia determined elsewhere (the pass
+        method's, from its ramps), held when these logs do not determine the inertia; None
+        holds it at 0 then. Setting an undetermined inertia to 0 hands the ramps' inertial
+        torque to the friction table (a random bench: the friction 3 % off inside the swept
+        speeds, the force 6x the oracle's error there).
 
     Returns
     -------
@@ -842,24 +849,38 @@ def fit_joint_whole(
         if any(dd for _, dd in final_orders):
             fixed, fixed_names, a, prior, fit = refit(final_orders)
     undetermined = False
+    se = math.inf
     if inertia and fit.coef[0] > 0:
         # an inertia the logs do not determine (speed steps with no ramp, say) may come out
         # at any size, 1e6 kg m^2 included: kept only when it stands 2 standard errors above 0
         spread = cluster_covariance(a, fit.residual, fit.weights, fit.bread, rows.clusters)
         se = math.sqrt(max(float(spread[0, 0]), 0.0))
         undetermined = not fit.coef[0] > 2.0 * se
-        if undetermined:
-            warnings.append(
-                f"the fitted inertia ({fit.coef[0]:.3g} +- {se:.2g} kg m^2) is not determined "
-                "by the logs: no ramp stands out of the speed ripple; inertia set to 0 (record "
-                "sweeps with clear accelerations)"
-            )
-    if inertia and fit.coef[0] <= 0:
-        warnings.append(
-            f"the fitted inertia is not positive ({fit.coef[0]:.3g} kg m^2): no ramp stands "
-            "out of the speed ripple; inertia set to 0 (record sweeps with clear accelerations)"
-        )
+    pass_inertia = None
     if inertia and (fit.coef[0] <= 0 or undetermined):
+        why = (
+            f"the fitted inertia ({fit.coef[0]:.3g} +- {se:.2g} kg m^2) is not determined by "
+            "the logs"
+            if fit.coef[0] > 0
+            else f"the fitted inertia is not positive ({fit.coef[0]:.3g} kg m^2)"
+        )
+        if held_inertia is not None and held_inertia[0] > 0:
+            # the pass method's, with the larger of its and this fit's standard errors
+            pass_inertia = (
+                float(held_inertia[0]),
+                max(float(held_inertia[1]), se if se < math.inf else 0.0),
+            )
+            warnings.append(
+                f"{why}: the whole fit's ramps do not separate it from the friction table; the "
+                f"pass method's ({pass_inertia[0]:.3g} +- {pass_inertia[1]:.2g} kg m^2, from "
+                "its ramps) is held (record sweeps with clear accelerations)"
+            )
+            y = y - pass_inertia[0] * rows.at(lambda p: p.acceleration)
+        else:
+            warnings.append(
+                f"{why}: no ramp stands out of the speed ripple; inertia set to 0 (record sweeps "
+                "with clear accelerations)"
+            )
         fixed, fixed_names, a, prior, fit = refit(final_orders, with_inertia=False, elbow=False)
     m = fixed.shape[1]
     fit, bound_note = _dissipative(a, y, fit, prior, m, k, noise=noise)
@@ -874,6 +895,13 @@ def fit_joint_whole(
     if copy_note:
         warnings.append(copy_note)
     names = [*fixed_names, *(f"friction.{x}" for x in law.linear_parameter_names)]
+    coef = np.r_[fit.coef[:m], law.linear_parameters()]
+    if pass_inertia is not None:
+        # the held inertia is a parameter of the model like the fitted ones, with its variance
+        names.insert(0, "inertia.constant")
+        coef = np.r_[pass_inertia[0], coef]
+        cov = np.pad(cov, ((1, 0), (1, 0)))
+        cov[0, 0] = pass_inertia[1] ** 2
     psd = _residual_psd(rows, fit.residual, scale)
     table = residual_table(
         [p.t[r] for p, r in zip(rows.pieces, rows.rows, strict=True)],
@@ -887,7 +915,7 @@ def fit_joint_whole(
         grav, grav_sig = _gravity_test(rows, a, y, fit, prior, gravity_check, planar)
     return WholeFit(
         names=tuple(names),
-        coef=np.r_[fit.coef[:m], law.linear_parameters()],
+        coef=coef,
         covariance=cov,
         law=law,
         stribeck=not flat,
