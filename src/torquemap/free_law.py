@@ -36,12 +36,16 @@ MAX_ROWS = 60_000
 #: hold a ramp of a fast pass, several times the window that each stretch adds either side.
 STRETCH_WINDOWS = 4.0
 
+#: Stretches a thinned run keeps at least: its start, its middle and its end.
+FEWEST_STRETCHES = 3
+
 #: Samples beyond the window either side of a stretch: where the sampling is sparse a
 #: sample's window widens to ``MIN_WINDOW_SAMPLES`` (5) samples, 2 either side.
 EDGE = 3
 
-#: Pieces closer than this many samples are smoothed as one: each call costs about what
-#: filtering a few thousand samples costs.
+#: Pieces closer than this many samples are smoothed as one where each piece is a call of its
+#: own (the inertia fit of :mod:`torquemap.identify`): a call costs about what filtering a few
+#: thousand samples costs.
 JOIN = 2048
 
 
@@ -89,11 +93,15 @@ def mask_runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
 
 
 def pieces_around(
-    t: NDArray[np.float64], stretches: Sequence[tuple[int, int]], *, margin: float
+    t: NDArray[np.float64],
+    stretches: Sequence[tuple[int, int]],
+    *,
+    margin: float,
+    join: int = JOIN,
 ) -> list[tuple[int, int]]:
     """``(start, stop)`` of pieces of a log that hold each stretch of rows with ``margin`` [s]
-    and ``EDGE`` samples either side, cut at the log's ends, those within ``JOIN`` samples of
-    each other merged (sorted stretches in, sorted pieces out).
+    and ``EDGE`` samples either side, cut at the log's ends, those that overlap or lie within
+    ``join`` samples of each other merged (sorted stretches in, sorted pieces out).
 
     With ``margin`` the differentiator's window, a filter whose output at a sample depends
     only on the samples within half a window of it gives the same answer at a stretch's rows
@@ -114,7 +122,7 @@ def pieces_around(
     hi = np.minimum(np.searchsorted(t, t[b - 1] + margin, side="right") + EDGE, t.size)
     out: list[tuple[int, int]] = []
     for p, q in zip(lo.tolist(), hi.tolist(), strict=True):
-        if out and p <= out[-1][1] + JOIN:
+        if out and p <= out[-1][1] + join:
             out[-1] = (out[-1][0], max(out[-1][1], q))
         else:
             out.append((p, q))
@@ -130,11 +138,12 @@ def select_stretches(
 ) -> list[list[tuple[int, int]]]:
     """At most ``max_rows`` of the True rows, as contiguous stretches (all of them if fewer).
 
-    Each run of True rows keeps its first and last ``STRETCH_WINDOWS`` windows (where a pass's
-    ramps are) and evenly spaced stretches of that length between them, as many as keep the
-    same fraction of every run long enough to be thinned; that fraction is the largest within
-    the budget. If the runs' ends alone exceed it, the stretches shorten (to one row), and
-    beyond that evenly spaced runs are kept.
+    Each run of True rows longer than three stretches of ``STRETCH_WINDOWS`` windows keeps its
+    first and last stretch (where a pass's ramps are) and evenly spaced stretches between (at
+    least one, in its middle), as many as keep the same share of every such run; that share is
+    the largest within the budget; shorter runs are kept whole. When the runs are so many that
+    three stretches each exceed the budget, the stretches shorten, down to one window; beyond
+    that, evenly spaced runs are kept.
 
     Parameters
     ----------
@@ -164,32 +173,33 @@ def select_stretches(
     sizes = np.array([b - a for r in runs for a, b in r], dtype=np.int64)
     if int(sizes.sum()) <= max_rows:
         return runs
-    # a stretch of STRETCH_WINDOWS windows at each log's mean step
-    length = np.concatenate(
-        [
-            np.full(
-                len(r),
-                max(1, math.ceil(STRETCH_WINDOWS * window / _mean_step(tl))),
-                dtype=np.int64,
-            )
-            for tl, r in zip(t, runs, strict=True)
-        ]
-    )
+
+    def per_run(windows: float) -> NDArray[np.int64]:
+        """``windows`` differentiator windows in samples, at each run's log's mean step."""
+        return np.concatenate(
+            [
+                np.full(len(r), max(1, math.ceil(windows * window / _mean_step(tl))))
+                for tl, r in zip(t, runs, strict=True)
+            ]
+        ).astype(np.int64)
+
+    length, shortest = per_run(STRETCH_WINDOWS), per_run(1.0)
     keep = np.ones(sizes.size, dtype=bool)
+    count = sizes.size
     while True:
-        ends = int(np.where(keep, np.minimum(sizes, 2 * length), 0).sum())
-        if ends <= max_rows:
+        least = int(np.where(keep, np.minimum(sizes, FEWEST_STRETCHES * length), 0).sum())
+        if least <= max_rows:
             break
-        if np.all(length == 1):
-            # more runs than half the budget: evenly spaced ones
-            count = max(max_rows // 2, 1)
+        if np.all(length <= shortest):
+            # too many runs for three stretches of a window each: evenly spaced runs
+            count = max(min(count - 1, count * max_rows // least), 1)
             keep[:] = False
-            keep[np.unique(np.round(np.linspace(0, sizes.size - 1, count)).astype(np.int64))] = True
+            keep[np.round(np.linspace(0, sizes.size - 1, count)).astype(np.int64)] = True
             continue
-        length = np.maximum(length * max_rows // ends, 1)
+        length = np.maximum(length * max_rows // least, shortest)
 
     def taken(fraction: float) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-        k = np.maximum(2, np.ceil(fraction * sizes / length)).astype(np.int64)
+        k = np.maximum(FEWEST_STRETCHES, np.ceil(fraction * sizes / length)).astype(np.int64)
         return np.where(keep, np.minimum(k * length, sizes), 0), k
 
     lo, hi = 0.0, 1.0
@@ -252,8 +262,8 @@ class FreeLawRows:
     correlation
         Rows per differentiator window (at least 1): rows within a window share their noise.
     shifted
-        Per piece of a log: the times of its rows, the piece's times and its smoothed torque
-        (:meth:`torque_at`).
+        Per log with rows: the rows' times, the times of its pieces side by side and their
+        smoothed torque (:meth:`torque_at`).
     """
 
     design: NDArray[np.float64]
@@ -276,19 +286,6 @@ def _interpolated(
 ) -> NDArray[np.float64]:
     parts = [np.interp(tr + delay, tp, yp) for tr, tp, yp in shifted]
     return np.asarray(np.concatenate([np.empty(0), *parts]), dtype=np.float64)
-
-
-def _members(
-    pieces: Sequence[tuple[int, int]], stretches: Sequence[tuple[int, int]]
-) -> list[list[tuple[int, int]]]:
-    """The stretches (sorted) that each piece (sorted, disjoint, holding them) holds."""
-    out: list[list[tuple[int, int]]] = [[] for _ in pieces]
-    j = 0
-    for a, b in stretches:
-        while pieces[j][1] < b:
-            j += 1
-        out[j].append((a, b))
-    return out
 
 
 def _rows_of(stretches: Sequence[tuple[int, int]], offset: int = 0) -> NDArray[np.intp]:
@@ -365,49 +362,43 @@ def free_law_rows(
     chosen = select_stretches(t, rows, window=window, max_rows=max_rows)
     if not any(chosen):
         raise ValueError("no rows to fit")
-    span = window / 8.0
-    # per log and piece: (start, stop, friction velocity on the piece, its stretches)
+    # Per log, the samples of every piece (a stretch widened by a window) side by side, smoothed
+    # in one call: a row's smoothing sees only its own piece's samples (the next piece is
+    # more than half a window away in samples and in time), and across a seam the double
+    # integral runs on by a linear function of time, which the curvature passes.
     layouts = []
     for li, stretches in enumerate(chosen):
-        around = pieces_around(t[li], stretches, margin=window)
-        layouts.append(
-            [
-                (lo, hi, _friction_velocity(t[li], angle[li], t[li][lo:hi], span), held)
-                for (lo, hi), held in zip(around, _members(around, stretches), strict=True)
-            ]
-        )
-    speeds = [np.abs(v[_rows_of(held, lo)]) for pieces in layouts for lo, _, v, held in pieces]
-    knots = speed_knots(np.concatenate(speeds))
-
-    blocks, models, index, steps, shifted, acc, mod = [], [], [], [], [], [], []
-    for li, (stretches, pieces) in enumerate(zip(chosen, layouts, strict=True)):
+        tl = t[li]
         idx = _rows_of(stretches)
-        index.append(idx)
+        held = _rows_of(pieces_around(tl, stretches, margin=window, join=0))
+        v = _friction_velocity(tl, angle[li], tl[held], window / 8.0)
+        layouts.append((idx, held, np.searchsorted(held, idx), v))
+    knots = speed_knots(np.concatenate([np.abs(v[at]) for _, _, at, v in layouts]))
+
+    blocks, models, steps, shifted, acc, mod = [], [], [], [], [], []
+    for li, (stretches, (idx, held, at, v)) in enumerate(zip(chosen, layouts, strict=True)):
         if not stretches:
             continue
         tl = t[li]
-        step = regular_step(tl, rtol=1e-9)  # the whole log's filter, on every piece
+        step = regular_step(tl, rtol=1e-9)  # the whole log's filter, on its pieces
         steps += [np.diff(tl[a:b]) for a, b in stretches]
         acc.append(acceleration[li][idx])
         if inertia_modulation is not None:
             mod.append(inertia_modulation[li][idx])
-        for lo, hi, v, held in pieces:
-            th = angle[li][lo:hi]
-            parts = [_friction_basis(v, knots)]
-            parts += [np.c_[np.cos(n * th), np.sin(n * th)] for n in orders]
-            if model_torque is not None:
-                parts.append(np.asarray(model_torque(th, v), dtype=np.float64)[:, None])
-            smooth = _smooth_as_acceleration_at_step(tl[lo:hi], np.hstack(parts), window, step)
-            local = _rows_of(held, lo)
-            if model_torque is not None:
-                models.append(smooth[local, -1])
-                smooth = smooth[:, :-1]
-            blocks.append(smooth[local])
+        th = angle[li][held]
+        parts = [_friction_basis(v, knots)]
+        parts += [np.c_[np.cos(n * th), np.sin(n * th)] for n in orders]
+        if model_torque is not None:
+            parts.append(np.asarray(model_torque(th, v), dtype=np.float64)[:, None])
+        smooth = _smooth_as_acceleration_at_step(tl[held], np.hstack(parts), window, step)[at]
+        if model_torque is not None:
+            models.append(smooth[:, -1])
+            smooth = smooth[:, :-1]
+        blocks.append(smooth)
         # the torque on pieces wide enough for every trial shift
-        wide = pieces_around(tl, stretches, margin=window + max_shift)
-        for (lo, hi), held in zip(wide, _members(wide, stretches), strict=True):
-            y = _smooth_as_acceleration_at_step(tl[lo:hi], torque[li][lo:hi], window, step)
-            shifted.append((tl[_rows_of(held)], tl[lo:hi], y))
+        wide = _rows_of(pieces_around(tl, stretches, margin=window + max_shift, join=0))
+        y = _smooth_as_acceleration_at_step(tl[wide], torque[li][wide], window, step)
+        shifted.append((tl[idx], tl[wide], y))
     a = np.concatenate(acc)
     cols = [a[:, None], np.vstack(blocks)]
     if inertia_modulation is not None:
@@ -420,7 +411,7 @@ def free_law_rows(
         design=design,
         torque=_interpolated(shifted, 0.0),
         model=np.concatenate(models) if models else np.zeros(design.shape[0]),
-        index=tuple(index),
+        index=tuple(idx for idx, _, _, _ in layouts),
         knots=knots,
         correlation=max(window / max(step_rows, 1e-12), 1.0),
         shifted=tuple(shifted),
