@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from torquemap.free_law import MAX_ROWS, free_law_rows
 from torquemap.pdtv import fit_harmonics
 
 
@@ -152,36 +153,6 @@ def estimate_delay(
     )
 
 
-def speed_knots(speeds: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Knots [rad/s] 1.8x apart from the 1st to the 99th percentile of ``speeds`` [rad/s].
-
-    Examples
-    --------
-    >>> k = speed_knots(np.linspace(1.0, 10.0, 1001))
-    >>> k.size, round(float(k[1] / k[0]), 3) <= 1.8
-    (5, True)
-    """
-    lo = max(float(np.percentile(speeds, 1)), 1e-12)
-    hi = max(float(np.percentile(speeds, 99)), 2 * lo)
-    return np.geomspace(lo, hi, max(2, math.ceil(math.log(hi / lo) / math.log(1.8)) + 1))
-
-
-def _friction_basis(
-    velocity: NDArray[np.float64], knots: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """Columns of a friction law of no fixed form: per direction, hat functions of the log
-    speed at ``knots`` [rad/s] (constant beyond the end knots), shape (n, 2 * knots.size)."""
-    s = np.log(np.maximum(np.abs(velocity), knots[0]))
-    lk = np.log(knots)
-    hats = np.empty((velocity.size, knots.size))
-    for i in range(knots.size):
-        e = np.zeros(knots.size)
-        e[i] = 1.0
-        hats[:, i] = np.interp(s, lk, e)
-    pos = (velocity > 0)[:, None]
-    return np.hstack([hats * pos, hats * ~pos])
-
-
 def estimate_motion_delay(
     t: Sequence[NDArray[np.float64]],
     angle: Sequence[NDArray[np.float64]],
@@ -195,8 +166,9 @@ def estimate_motion_delay(
     max_delay: float = 0.25,
     steps: int = 41,
     confidence: float = 1.0 - 1e-6,
+    max_rows: int = MAX_ROWS,
 ) -> DelayEstimate:
-    """Estimate the torque channel's delay from every moving sample, ramps included.
+    """Estimate the torque channel's delay from the moving samples, ramps included.
 
     Each trial delay ``d`` pairs the motion at each row with the torque ``d`` later and fits,
     by linear least squares, inertia times acceleration, a friction law of no fixed form
@@ -205,11 +177,13 @@ def estimate_motion_delay(
     test says it explains more than noise. Ramps show a delay far more strongly than the
     constant-speed passes (where it is only an angle offset of the PDTV), and a law fitted
     anew at every trial cannot absorb it, as friction and inertia identified from a
-    misaligned torque do. The torque and every column but the acceleration are smoothed by
-    the kernel through which the differentiator sees acceleration
-    (:func:`torquemap.filters.smooth_as_acceleration`), so both sides carry one filter and a
-    ramp's start or end does not bias the delay; friction is evaluated at a central
-    difference of the angle over +-1/8 window, which does not smear a ramp's start.
+    misaligned torque do. The regression is :func:`torquemap.free_law.free_law_rows`'s: the
+    torque and every column but the acceleration are smoothed by the kernel through which the
+    differentiator sees acceleration, so both sides carry one filter and a ramp's start or
+    end does not bias the delay; friction is evaluated at a central difference of the angle
+    over +-1/8 window, which does not smear a ramp's start; at most ``max_rows`` rows, as
+    contiguous stretches of every run of moving rows (its ramps and evenly spaced stretches
+    between), so the cost does not grow with the log.
 
     Parameters
     ----------
@@ -217,8 +191,8 @@ def estimate_motion_delay(
         Per log: time [s], motor angle [rad], differentiated acceleration [rad/s^2] and motor
         torque [N m], each shape (n_log,).
     rows
-        Per log: the samples fitted (the joint moving alone, faster than friction is known),
-        boolean shape (n_log,).
+        Per log: the samples that may be fitted (the joint moving alone, faster than friction
+        is known), boolean shape (n_log,).
     orders
         PDTV orders [CPR].
     window
@@ -228,6 +202,8 @@ def estimate_motion_delay(
         Per log, the factor of a second inertia column (``cos`` of the elbow angle), or None.
     max_delay, steps, confidence
         As :func:`estimate_delay`.
+    max_rows
+        The rows fitted at most (:func:`torquemap.free_law.select_stretches`).
 
     Returns
     -------
@@ -235,45 +211,22 @@ def estimate_motion_delay(
     """
     from scipy import stats
 
-    from torquemap.filters import smooth_as_acceleration
-
-    idx = [np.flatnonzero(r) for r in rows]
-    total = sum(i.size for i in idx)
-    if total < 10:
+    if sum(int(np.count_nonzero(r)) for r in rows) < 10:
         return DelayEstimate(0.0, 0.0, math.nan, math.nan, 0.0, False)
-    span = window / 8.0
-    vel = []
-    for ti, th in zip(t, angle, strict=True):
-        lo = np.maximum(ti - span, ti[0])
-        hi = np.minimum(ti + span, ti[-1])
-        vel.append((np.interp(hi, ti, th) - np.interp(lo, ti, th)) / np.maximum(hi - lo, 1e-300))
-    speeds = np.concatenate([np.abs(v[i]) for v, i in zip(vel, idx, strict=True)])
-    knots = speed_knots(speeds)
-    stride = max(1, total // 60000)
-    blocks, torques, times = [], [], []
-    for li, i in enumerate(idx):
-        if i.size == 0:
-            continue
-        parts = [_friction_basis(vel[li], knots)]
-        parts += [np.c_[np.cos(n * angle[li]), np.sin(n * angle[li])] for n in orders]
-        smooth = smooth_as_acceleration(t[li], np.hstack(parts), window=window)
-        a = acceleration[li][:, None]
-        cols = [a, smooth]
-        if inertia_modulation is not None:
-            cols.append(a * inertia_modulation[li][:, None])
-        keep = i[::stride]
-        blocks.append(np.hstack(cols)[keep])
-        torques.append(smooth_as_acceleration(t[li], torque[li], window=window))
-        times.append((t[li], t[li][keep]))
-    design = np.vstack(blocks)
-    used = np.any(design != 0, axis=0)
-    design = design[:, used]
-    n_cols = int(used.sum())
-
-    def target(delay: float) -> NDArray[np.float64]:
-        return np.concatenate(
-            [np.interp(tk + delay, tl, y) for (tl, tk), y in zip(times, torques, strict=True)]
-        )
+    free = free_law_rows(
+        t,
+        angle,
+        acceleration,
+        torque,
+        rows,
+        orders,
+        window=window,
+        inertia_modulation=inertia_modulation,
+        max_rows=max_rows,
+        max_shift=max_delay,
+    )
+    design = free.design
+    n_cols = design.shape[1]
 
     # the design is the same at every trial delay: factor it once (an SVD with lstsq's
     # cut-off) and project each trial's torque on its column space
@@ -281,7 +234,7 @@ def estimate_motion_delay(
     basis = u[:, sv > np.finfo(float).eps * max(design.shape) * float(sv[0])] if sv.size else u
 
     def rss(delay: float) -> float:
-        y = target(delay)
+        y = free.torque_at(delay)
         r = y - basis @ (basis.T @ y)
         return float(r @ r)
 
@@ -304,8 +257,7 @@ def estimate_motion_delay(
     rows_n = design.shape[0]
     # neighbouring rows within a window share their noise: the change in the residual has
     # ``c`` times the variance that independent rows would give it
-    step = float(np.median(np.concatenate([np.diff(tl) for tl, _ in times])))
-    c = max(window / max(step, 1e-12) / stride, 1.0)
+    c = free.correlation
     sigma2 = rss_best / max(rows_n - n_cols, 1)
     dof = max(rows_n / c - n_cols, 1.0)
     f = (rss_zero - rss_best) / max(sigma2 * c, np.finfo(float).tiny)

@@ -120,6 +120,13 @@ def differentiate(t: ArrayLike, x: ArrayLike, *, window: float) -> Derivatives:
         half = math.floor(w / (2 * h) + 1e-9)
         if half >= 2 and 2 * half + 1 <= n:
             return _differentiate_uniform(xx, h, 2 * half + 1)
+    return _differentiate_irregular(tt, xx, w)
+
+
+def _differentiate_irregular(
+    tt: NDArray[np.float64], xx: NDArray[np.float64], w: float
+) -> Derivatives:
+    """:func:`differentiate` by per-sample normal equations (any time axis)."""
     lo, hi = _windows(tt, w)
     two_d = xx.ndim == 2
     x2 = xx if two_d else xx[:, None]
@@ -406,6 +413,31 @@ def smooth_as_acceleration(t: ArrayLike, x: ArrayLike, *, window: float) -> NDAr
     first = integrate.cumulative_trapezoid(xx - mean, tt, initial=0.0, axis=0)
     second = integrate.cumulative_trapezoid(first, tt, initial=0.0, axis=0)
     out: NDArray[np.float64] = differentiate_rates(tt, second, window=window).acceleration + mean
+    return out
+
+
+def _smooth_as_acceleration_at_step(
+    tt: NDArray[np.float64], xx: NDArray[np.float64], window: float, step: float | None
+) -> NDArray[np.float64]:
+    """:func:`smooth_as_acceleration` of a piece of a log, by the filter the whole log takes.
+
+    ``step`` is the whole log's :func:`regular_step` (None when irregular): a piece of an
+    irregular log may itself be regular, and the two paths' windows can differ by a sample
+    where the window is a whole number of steps. Validated input (a piece of a log that
+    :func:`smooth_as_acceleration` accepts, at least a window long and ``MIN_WINDOW_SAMPLES``
+    samples).
+    """
+    from scipy import integrate
+
+    mean = np.mean(xx, axis=0)
+    first = integrate.cumulative_trapezoid(xx - mean, tt, initial=0.0, axis=0)
+    second = integrate.cumulative_trapezoid(first, tt, initial=0.0, axis=0)
+    half = math.floor(window / (2 * step) + 1e-9) if step is not None else 0
+    if step is not None and half >= 2 and 2 * half + 1 <= tt.size:
+        acc = _rates_uniform(second, step, 2 * half + 1).acceleration
+    else:
+        acc = _differentiate_irregular(tt, second, window).acceleration
+    out: NDArray[np.float64] = acc + mean
     return out
 
 

@@ -29,6 +29,7 @@ from torquemap.filters import (
     differentiate_rates,
     smooth_as_acceleration,
 )
+from torquemap.free_law import mask_runs, pieces_around
 from torquemap.friction import (
     FrictionFit,
     InertiaFit,
@@ -303,27 +304,25 @@ def _check_joints(
         jm = model.joints[name]
         elbow_k = _elbow_joint(rb, k)
         slowest = min(abs(p.speed) for _, p in res.passes)
-        span = window / 8.0
-        ts, angles, accs, taus, rows, law, inert, vels, mods = ([] for _ in range(9))
+        ts, angles, accs, taus, rows, inert, mods = ([] for _ in range(7))
         for li, log in enumerate(logs):
             d = derivs[li][k]
-            t = log.t
-            lo, hi = np.maximum(t - span, t[0]), np.minimum(t + span, t[-1])
-            v = (np.interp(hi, t, d.position) - np.interp(lo, t, d.position)) / np.maximum(
-                hi - lo, 1e-300
-            )
-            cos_e = np.cos(log.q[:, elbow_k]) if elbow_k is not None else np.zeros(t.size)
-            ts.append(t)
+            cos_e = np.cos(log.q[:, elbow_k]) if elbow_k is not None else np.zeros(log.t.size)
+            ts.append(log.t)
             angles.append(d.position)
             accs.append(d.acceleration)
             taus.append(log.motor_torque[:, k])
             rows.append(_still_mask(derivs[li], k, p99) & (np.abs(d.velocity) > 0.5 * slowest))
-            law.append(
-                friction_torque(v, jm.friction) + pdtv_torque(d.position, jm.pdtv, velocity=v)
-            )
             inert.append((jm.inertia.constant + jm.inertia.cos_elbow * cos_e) * d.acceleration)
-            vels.append(v)
             mods.append(cos_e)
+
+        def law(
+            angle: NDArray[np.float64], velocity: NDArray[np.float64], jm: JointModel = jm
+        ) -> NDArray[np.float64]:
+            return friction_torque(velocity, jm.friction) + pdtv_torque(
+                angle, jm.pdtv, velocity=velocity
+            )
+
         chk = check_pass_model(
             ts,
             angles,
@@ -334,7 +333,6 @@ def _check_joints(
             inert,
             sorted({ln.order for ln in jm.pdtv}),
             window=window,
-            velocity=vels,
             inertia_modulation=mods if elbow_k is not None else None,
         )
         if not chk.consistent:
@@ -565,15 +563,13 @@ def _identify_joint(
     return res, jm
 
 
-JOIN = 2048
-
-
 def _stretches(
     t: NDArray[np.float64], mask: NDArray[np.bool_], window: float
 ) -> list[tuple[int, int]]:
     """``(start, stop)`` of stretches that hold every True sample of ``mask`` with a
-    differentiator ``window`` [s] (and 3 samples) either side, those within ``JOIN`` samples
-    of each other merged, cut at the log's ends.
+    differentiator ``window`` [s] (and 3 samples) either side, those within
+    :data:`torquemap.free_law.JOIN` samples of each other merged, cut at the log's ends
+    (:func:`torquemap.free_law.pieces_around` of the mask's runs).
 
     A filter whose output at a sample depends only on the samples within half a window of
     it (:func:`torquemap.filters.smooth_as_acceleration`, which annihilates the constant and
@@ -588,20 +584,7 @@ def _stretches(
     >>> _stretches(t, mask, 0.05)
     [(13, 38), (8992, 9009)]
     """
-    idx = np.flatnonzero(mask)
-    if idx.size == 0:
-        return []
-    lo = np.maximum(np.searchsorted(t, t[idx] - window, side="left") - 3, 0)
-    hi = np.minimum(np.searchsorted(t, t[idx] + window, side="right") + 3, t.size)
-    out: list[tuple[int, int]] = []
-    for a, b in zip(lo.tolist(), hi.tolist(), strict=True):
-        # stretches closer than JOIN samples are one: each costs a call's overhead, about
-        # what filtering a few thousand samples costs
-        if out and a <= out[-1][1] + JOIN:
-            out[-1] = (out[-1][0], max(out[-1][1], b))
-        else:
-            out.append((a, b))
-    return out
+    return pieces_around(t, mask_runs(mask), margin=window)
 
 
 def _elbow_joint(rb: Robot, k: int) -> int | None:
