@@ -209,8 +209,6 @@ def _build(args: argparse.Namespace) -> int:
         print(
             "between measured positions: the structured torque surface (the ramp hands over there)"
         )
-    if tables.contour:
-        print("in the friction zone: what the surface misses carried along its contours")
     print("wrote " + ", ".join(written))
     for warning in tables.warnings:
         print(f"torquemap: warning: {args.data}: {warning}", file=sys.stderr)

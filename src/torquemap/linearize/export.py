@@ -78,7 +78,6 @@ def npz_arrays(tables: TableSet) -> dict[str, NDArray[Any]]:
     out["handover_cells"] = np.asarray(tables.handover_cells)  # optional on reading (added later)
     out["detent_harmonics"] = np.asarray(tables.detent_harmonics, dtype=np.int64)  # optional too
     out["surface"] = np.asarray(tables.surface)  # optional on reading (added later)
-    out["contour"] = np.asarray(tables.contour)  # optional on reading (added later)
     return out
 
 
@@ -143,7 +142,6 @@ def load_tables(path: str | os.PathLike[str]) -> TableSet:
             denoise_rank=int(data["denoise_rank"].item()) if "denoise_rank" in data else 0,
             handover_cells=(int(data["handover_cells"].item()) if "handover_cells" in data else 0),
             surface=bool(data["surface"].item()) if "surface" in data else False,
-            contour=bool(data["contour"].item()) if "contour" in data else False,
         )
     except (TypeError, ValueError) as exc:
         raise InputError(f"tables file has malformed contents ({exc})", path=p) from None

@@ -41,7 +41,6 @@ from scipy.optimize import isotonic_regression
 
 from torquemap.errors import InputError
 from torquemap.io import numeric_column, read_table
-from torquemap.linearize.contour import ZONE, carry_along_contours, check_contour
 from torquemap.linearize.denoise import denoise_blocks
 from torquemap.linearize.detent import detent_correction, fit_detent
 from torquemap.linearize.handover import check_handover, fill_handover
@@ -137,9 +136,6 @@ class TableSet:
     surface
         Whether the forward model between measured positions came from the structured
         surface (:mod:`torquemap.linearize.surface`).
-    contour
-        Whether what the structured surface misses was carried between measured positions
-        along its contours in the friction zone (:mod:`torquemap.linearize.contour`).
     warnings
         What the data cannot hold and what to collect instead, one line each (for example
         cogging sampled at most twice a period: :mod:`torquemap.linearize.sampling`); not
@@ -169,7 +165,6 @@ class TableSet:
     handover_cells: int = 0
     detent_harmonics: tuple[int, ...] = ()
     surface: bool = False
-    contour: bool = False
     warnings: tuple[str, ...] = ()
 
     @property
@@ -725,14 +720,10 @@ def _surface_forward(
     levels: NDArray[np.float64],
     onset_law: tuple[float, float],
     readable: float,
-    *,
-    contour: bool = True,
-) -> tuple[NDArray[np.float64], SurfaceFit, bool]:
+) -> tuple[NDArray[np.float64], SurfaceFit]:
     """Sensed torque on every base pulse width from the structured surface
     (:mod:`torquemap.linearize.surface`) plus what it misses at the measured cells,
-    interpolated between them, shape (P, A + 1); the surface; and whether, in the friction
-    zone, what it misses was carried along its contours (:mod:`torquemap.linearize.contour`,
-    where the held-out measured positions prefer it)."""
+    interpolated between them, shape (P, A + 1); and the surface."""
     n = spec.positions_per_cycle
     col = np.searchsorted(levels, pw)
     mean, count = _cells(pos, col.astype(np.int64), tau, (n, levels.size))
@@ -756,17 +747,9 @@ def _surface_forward(
     res = fill_voids(res, levels=levels)
     u = np.arange(spec.actuation_max + 1, dtype=np.float64)
     res_fine = np.stack([np.interp(u, levels, np.nan_to_num(r)) for r in res])
-    model = surface_prediction(fit, ramp, u)
-    used = False
-    anchors = np.unique(pos[pw == 0])
-    if contour and anchors.size >= 3:
-        limit = ZONE * readable
-        if check_contour(model, res_fine, anchors, levels, limit=limit).preferred:
-            res_fine = carry_along_contours(model, res_fine, anchors, limit=limit)
-            used = True
-    out = np.maximum(model + res_fine, 0.0)
+    out = np.maximum(surface_prediction(fit, ramp, u) + res_fine, 0.0)
     out = np.maximum.accumulate(out, axis=1)
-    return out, fit, used
+    return out, fit
 
 
 #: The structured surface replaces the interpolation between measured curves where a phase's
@@ -893,7 +876,6 @@ def build_tables(
     handover: bool = True,
     detent: bool = True,
     surface: bool = True,
-    contour: bool = True,
     path: str | os.PathLike[str] | None = None,
 ) -> TableSet:
     """Build the per-phase torque-linearisation tables from characterisation data (paper §4.3).
@@ -948,13 +930,6 @@ def build_tables(
         ``"interp"`` only: between measured positions, take the torque at rest (cogging) from
         a Fourier fit of one fundamental and its multiples (:mod:`torquemap.linearize.detent`),
         kept only while it predicts the measured curves better, instead of interpolating it.
-    surface
-        ``"interp"`` with ``onset`` only: where the ramp hands a phase over between measured
-        positions, model the whole surface (:mod:`torquemap.linearize.surface`).
-    contour
-        With the structured surface: in the friction zone, carry what it misses between
-        measured positions along its contours (:mod:`torquemap.linearize.contour`) where the
-        held-out measured positions say that predicts better than the fixed pulse width.
     path
         The data file, named in error messages.
 
@@ -1036,7 +1011,6 @@ def build_tables(
         "log_curvature": log_curvature,
     }
     surface_used = False
-    contour_used = False
     warnings: list[str] = []
     if method == "interp":
         target = torque_from_command(np.arange(cmax + 1), **law)  # type: ignore[arg-type]
@@ -1065,9 +1039,7 @@ def build_tables(
             onset_law = (fit.dead_zone, fit.exponent)
             anchors = np.unique(pos[pw == 0])
             if surface and ramp_share_step(ramp, anchors) > SURFACE_SHARE_STEP:
-                modelled, fitted, contour_used = _surface_forward(
-                    spec, pos, pw, tau, levels, onset_law, readable, contour=contour
-                )
+                modelled, fitted = _surface_forward(spec, pos, pw, tau, levels, onset_law, readable)
                 fine = np.where(np.isnan(fine), np.nan, modelled)
                 check = check_position_sampling(
                     fitted.rest, anchors, n, torque_per_count=torque_max / cmax
@@ -1133,7 +1105,6 @@ def build_tables(
         handover_cells=handover_cells,
         detent_harmonics=harmonics,
         surface=surface_used,
-        contour=contour_used,
         warnings=tuple(warnings),
     )
 
