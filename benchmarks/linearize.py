@@ -178,11 +178,16 @@ def measured(
 
 
 def verification_settings(spec: MotorSpec) -> CollectionSettings:
-    """Every command at about 16 positions over the cycle, 40 readings a row (a reading costs
-    little beside settling; more of them make the low commands measurable). The step is odd, so
-    the positions fall between the characterisation's targets as often as on them."""
+    """Every command at 17 to 19 positions over the cycle, 40 readings a row (a reading costs
+    little beside settling; more of them make the low commands measurable). The targets are
+    ``floor(j P / n)`` with ``n = ceil(P / (P // 17))`` (:func:`collection_targets`): for every
+    ``P`` of the family (128 to 512) ``P / n`` is not a whole number, so about a quarter of
+    them fall on the characterisation's targets (every 4th position) and the rest between.
+    (The step ``P // 16 + 1`` used before gave ``n = 16`` targets ``P / 16`` apart on 256, 384
+    and 512 positions: all of them measured positions, so the verification never saw the
+    tables between measured positions on those motors.)"""
     return CollectionSettings(
-        readings=40, level_step=1, position_step=spec.positions_per_cycle // 16 + 1,
+        readings=40, level_step=1, position_step=max(1, spec.positions_per_cycle // 17),
         bias_open=True, progress=False,
     )  # fmt: skip
 
