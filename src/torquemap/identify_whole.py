@@ -81,6 +81,9 @@ RUN_WINDOWS = 4.0
 #: in units of the friction level: a Stribeck rise of half the level within a decade of
 #: speed below the slowest pass is about one sigma.
 FLAT_PRIOR = 0.25
+#: Periods a PDTV line found in the whole fit's residual must go through within a typical run
+#: of one direction to be told from friction that differs between runs.
+MIN_PERIODS = 2.0
 #: Viscous torque at the top speed, in units of the friction level, that is one sigma of the
 #: viscous slopes' prior: loose (real viscous torques reach about the Coulomb level), it only
 #: separates a slope from a level where the logs hold a single speed.
@@ -814,6 +817,12 @@ def fit_joint_whole(
         missed = _missed_orders(
             theta[inside], fit.residual[inside], [o for o, _ in both], min(max_order, resolved)
         )
+        # a line that does not go through MIN_PERIODS periods within a typical run of one
+        # direction is, inside each run, a slow trend: the fit cannot tell it from friction
+        # that differs between runs (the passes' speeds), which binned over the motor angle
+        # looks like low orders
+        span = _run_revolutions(rows)
+        missed = [o for o in missed if o * span >= MIN_PERIODS]
         if missed:
             trial = sorted([*both, *((o, False) for o in missed)])
             fixed_t, names_t, a_t, prior_t, fit_t = refit(trial)
@@ -1137,6 +1146,27 @@ def _held_lines(
         if chi > limit:
             held.append(order)
     return held
+
+
+def _run_revolutions(rows: _Rows) -> float:
+    """Motor revolutions of a typical run of one direction of motion among the rows: the
+    row-weighted median of the runs' angle spans (0 when no row moves)."""
+    spans, weights = [], []
+    for p, r in zip(rows.pieces, rows.rows, strict=True):
+        if r.size == 0:
+            continue
+        sign = np.sign(p.velocity[r])
+        cuts = np.flatnonzero(np.diff(sign) != 0) + 1
+        for run in np.split(np.arange(r.size), cuts):
+            if run.size and sign[run[0]] != 0:
+                th = p.theta[r[run]]
+                spans.append(abs(float(th[-1] - th[0])) / (2.0 * math.pi))
+                weights.append(run.size)
+    if not spans:
+        return 0.0
+    order = np.argsort(spans)
+    cum = np.cumsum(np.asarray(weights, dtype=np.float64)[order])
+    return float(np.asarray(spans)[order][int(np.searchsorted(cum, 0.5 * cum[-1]))])
 
 
 def _missed_orders(
