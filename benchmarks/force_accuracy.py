@@ -345,20 +345,16 @@ def _split_table(results: list[dict[str, Any]]) -> str:
     head = f"{'part':<8}{'median share':>14}{'med ratio':>11}{'worst ratio':>13}{'worst robot':>13}"
     lines += [head, "-" * len(head)]
     for part in ("steady", "below"):
-        vals = [
-            (r["scores"]["whole"].get("ratio_" + part, math.nan), r["seed"], r) for r in results
-        ]
-        ratio = np.array([v for v, _, _ in vals], dtype=float)
-        share = np.array(
-            [r["scores"]["whole"].get("share_" + part, math.nan) for r in results], dtype=float
-        )
+        whole = [r["scores"]["whole"] for r in results]
+        ratio = np.array([w.get("ratio_" + part, math.nan) for w in whole], dtype=float)
+        share = np.array([w.get("share_" + part, math.nan) for w in whole], dtype=float)
         if not np.isfinite(ratio).any():
             lines.append(f"{part:<8}{'-':>14}{'-':>11}{'-':>13}{'-':>13}")
             continue
         worst = int(np.nanargmax(ratio))
         lines.append(
             f"{part:<8}{np.nanmedian(share):>14.0%}{np.nanmedian(ratio):>11.2f}"
-            f"{ratio[worst]:>13.2f}{vals[worst][1]:>13d}"
+            f"{ratio[worst]:>13.2f}{results[worst]['seed']:>13d}"
         )
     return "\n".join(lines)
 

@@ -858,7 +858,7 @@ def fit_joint_whole(
         if any(dd for _, dd in final_orders):
             fixed, fixed_names, a, prior, fit = refit(final_orders)
     undetermined = False
-    se = math.inf
+    se = 0.0  # the fitted inertia's standard error (computed only for a positive fit)
     if inertia and fit.coef[0] > 0:
         # an inertia the logs do not determine (speed steps with no ramp, say) may come out
         # at any size, 1e6 kg m^2 included: kept only when it stands 2 standard errors above 0
@@ -875,10 +875,7 @@ def fit_joint_whole(
         )
         if held_inertia is not None and held_inertia[0] > 0:
             # the pass method's, with the larger of its and this fit's standard errors
-            pass_inertia = (
-                float(held_inertia[0]),
-                max(float(held_inertia[1]), se if se < math.inf else 0.0),
-            )
+            pass_inertia = (float(held_inertia[0]), max(float(held_inertia[1]), se))
             warnings.append(
                 f"{why}: the whole fit's ramps do not separate it from the friction table; the "
                 f"pass method's ({pass_inertia[0]:.3g} +- {pass_inertia[1]:.2g} kg m^2, from "
