@@ -18,11 +18,16 @@ every cell of the torque the sensor would see, motor minus the rig's friction):
   non-adaptive way to spend a third.
 
 Printed: APMD of each, the ratios to the grid, readings spent; median and worst.
+
+``--noise-free``: every rig without sensor noise (one draw suffices), so that the ratio is what
+the placement alone loses (positions and pulse widths not measured), not the noise of fewer
+readings.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import statistics
 import sys
 import tempfile
@@ -34,7 +39,7 @@ from torquemap.linearize.adaptive import collect_adaptive, grid_readings
 from torquemap.linearize.collect import CollectionSettings, collect_characterisation
 from torquemap.linearize.metrics import apmd_report
 from torquemap.linearize.tables import TableSet, build_tables, read_data
-from torquemap.sim.family import random_bench
+from torquemap.sim.family import Bench, random_bench
 from torquemap.sim.rig import SimRig
 
 
@@ -52,6 +57,14 @@ def apmd(rig: SimRig, tables: TableSet) -> tuple[float, float]:
     return report.apmd, report.apmd_above_10
 
 
+def _bench(seed: int, *, noise_seed: int | None = None, noise_free: bool = False) -> Bench:
+    """The family's bench, its sensor noise set to zero when ``noise_free``."""
+    bench = random_bench(seed, noise_seed=noise_seed)
+    if noise_free:
+        bench.rig.settings = dataclasses.replace(bench.rig.settings, noise=0.0)
+    return bench
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n", 1)[0])
     parser.add_argument("--count", type=int, default=6, help="random motors (default 6)")
@@ -59,7 +72,13 @@ def main() -> int:
     parser.add_argument(
         "--draws", type=int, default=4, help="noise draws of the adaptive run (default 4)"
     )
+    parser.add_argument(
+        "--noise-free",
+        action="store_true",
+        help="rigs without sensor noise: the loss of the placement alone",
+    )
     args = parser.parse_args()
+    quiet = bool(args.noise_free)
     seeds = range(args.first_seed, args.first_seed + args.count)
     paper = CollectionSettings.paper(progress=False)
     third = CollectionSettings(readings=10, position_step=8, level_step=8, progress=False)
@@ -72,16 +91,15 @@ def main() -> int:
             scores = {}
             for label, settings in (("grid", paper), ("uniform", third)):
                 out = d / f"{seed}-{label}.csv"
-                collect_characterisation(random_bench(seed).rig, spec, out, settings)
+                collect_characterisation(_bench(seed, noise_free=quiet).rig, spec, out, settings)
                 data = read_data(out, spec, kind="characterisation")
                 tables = build_tables(spec, data.position, data.level, data.torque)
                 scores[label] = apmd(bench.rig, tables)
             draws = []
             for k in range(1, args.draws + 1):
                 out = d / f"{seed}-adaptive-{k}.csv"
-                result = collect_adaptive(
-                    random_bench(seed, noise_seed=seed + 1000 * k).rig, spec, out, paper
-                )
+                rig = _bench(seed, noise_seed=seed + 1000 * k, noise_free=quiet).rig
+                result = collect_adaptive(rig, spec, out, paper)
                 data = read_data(out, spec, kind="characterisation")
                 tables = build_tables(spec, data.position, data.level, data.torque)
                 draws.append(apmd(bench.rig, tables))
