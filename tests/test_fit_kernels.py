@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from torquemap._fit_kernels import (
+    column_centres,
     interp_increasing,
     smooth_at_rows,
     speed_table_block,
@@ -84,7 +85,38 @@ def test_smooth_at_rows_equals_sparse_product(m: int, uniform: bool) -> None:
     ref = np.asarray(op @ _double_integral_numpy(t, x - mean))
     got = smooth_at_rows(t, x, mean, op.indptr, op.indices, op.data)
     np.testing.assert_array_equal(got, ref)
-    np.testing.assert_array_equal(smoother(x), ref + mean)
+    centre = column_centres(x)
+    ref_centred = np.asarray(op @ _double_integral_numpy(t, x - centre))
+    np.testing.assert_array_equal(smoother(x), ref_centred + centre)
+    # the centre only sets the rounding (the smoothing is exact for a constant): the two
+    # centres agree to the rounding of the double integral (values up to ~1e2 over 2 s, so
+    # 2e-14 absolute) carried through a row's weights (~100 of them, each up to 2 / 0.025^2):
+    # a bound of ~1e-8; measured 2e-10
+    np.testing.assert_allclose(smoother(x), ref + mean, rtol=0, atol=1e-8)
+
+
+def test_column_centres_is_the_mean_of_every_step_th_sample() -> None:
+    rng = np.random.default_rng(5)
+    for n in (1, 7, 1023, 1024, 5000, 300_001):
+        x = np.ascontiguousarray(rng.standard_normal((n, 3)) + np.array([1.0, -2e3, 5e6]))
+        step = max(1, n // 1024)
+        # numpy's mean of the same samples: the same sum in another order (1e-15 relative)
+        np.testing.assert_allclose(column_centres(x), x[::step].mean(axis=0), rtol=1e-13)
+
+
+def test_a_column_smooths_to_the_same_bits_alone_or_beside_others() -> None:
+    # the whole fit caches a column however it was smoothed (the torque per delay four at a
+    # time, or alone): every chunk must give the column the same numbers
+    rng = np.random.default_rng(3)
+    n = 6001
+    t = 1.0 + np.arange(n) * 5e-4
+    rows = np.arange(3, n, 7).astype(np.intp)
+    smoother = RowSmoother.build(t, rows, 0.05)
+    x = np.ascontiguousarray(rng.standard_normal((n, 6)).cumsum(axis=0))
+    together = smoother(x)
+    for c in range(6):
+        np.testing.assert_array_equal(smoother(x[:, c : c + 1]), together[:, c : c + 1])
+    np.testing.assert_array_equal(smoother(x[:, 2:5]), together[:, 2:5])
 
 
 @pytest.mark.parametrize("uniform", [True, False])

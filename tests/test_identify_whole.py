@@ -382,3 +382,52 @@ def test_run_revolutions_is_the_row_weighted_median_span() -> None:
     assert _run_revolutions(rows) == pytest.approx(3.0)  # type: ignore[arg-type]
     rows = SimpleNamespace(pieces=[piece], rows=[np.arange(300, 400)])
     assert _run_revolutions(rows) == pytest.approx(0.5)  # type: ignore[arg-type]
+
+
+def test_normal_matrices_from_one_gram_equal_the_direct_product() -> None:
+    from torquemap.identify_whole import _Gram
+
+    # a design with columns of very different sizes and one seen only on a few rows (a slow
+    # knot), base weights 0/1 (the rows kept), weights Huber's times the base: the
+    # downdated gram equals the direct product to rounding of the gram's own size
+    rng = np.random.default_rng(2)
+    n, p = 5000, 9
+    a = rng.standard_normal((n, p)) * np.logspace(-3, 2, p)
+    a[:, 4] = np.where(np.arange(n) < 60, a[:, 4], 0.0)
+    keep = (rng.uniform(size=n) > 0.2).astype(np.float64)
+    for base in (np.ones(n), keep):
+        gram = _Gram(a, base)
+        huber = np.minimum(1.0, 1.0 / np.abs(rng.standard_normal(n)))  # 1 on ~68 % of rows
+        for w in (base, huber * base, 0.5 * base, huber * base + 0.3 * (base == 0)):
+            direct = a.T @ (a * w[:, None])
+            size = np.sqrt(np.outer(np.diag(gram.gram), np.diag(gram.gram)))
+            assert np.all(np.abs(gram(w) - direct) <= 1e-13 * size)
+
+
+def test_torques_prepared_four_at_a_time_are_those_of_one_at_a_time() -> None:
+    from torquemap.identify_whole import Piece, _prepare_rows, _prepare_torques, _torque
+    from torquemap.whole_delay import delay_grid
+
+    rng = np.random.default_rng(4)
+    pieces = []
+    for n in (3000, 4500):
+        t = 2.0 + np.arange(n) / 1000.0
+        v = 3.0 * np.sin(2.0 * t)
+        pieces.append(
+            Piece(
+                t=t,
+                theta=np.cumsum(v) / 1000.0,
+                velocity=v,
+                acceleration=6.0 * np.cos(2.0 * t),
+                torque=0.1 * np.sign(v) + 0.01 * rng.standard_normal(n),
+                elbow=np.zeros(n),
+                use=np.ones(n, dtype=bool),
+                joint_angles=np.zeros((n, 1)),
+            )
+        )
+    one = _prepare_rows(pieces, 0.05, 1.0, 0.01)
+    four = _prepare_rows(pieces, 0.05, 1.0, 0.01)
+    grid = delay_grid(0.25)
+    _prepare_torques(four, grid)
+    for d in (*grid, 0.0):
+        np.testing.assert_array_equal(_torque(four, float(d)), _torque(one, float(d)))

@@ -46,7 +46,13 @@ from torquemap.friction_law import SpeedTableFriction
 from torquemap.robust import cluster_covariance, huber_weights, robust_scale
 from torquemap.smooth_rows import RowSmoother
 from torquemap.uncertainty import LOWPASS_ENB, residual_table
-from torquemap.whole_delay import DelayProfile, delay_profile, huber_cost, judge_delay
+from torquemap.whole_delay import (
+    DelayProfile,
+    delay_grid,
+    delay_profile,
+    huber_cost,
+    judge_delay,
+)
 
 __all__ = [
     "LOWPASS_ENB",
@@ -296,9 +302,9 @@ class _Rows:
     ) -> NDArray[np.float64]:
         """:meth:`smooth` of ``width`` <= 4 columns (one chunk), kept under ``key``.
 
-        A column smoothed in one chunk equals that column smoothed in any other chunk of two
-        columns or more (the chunk's mean is then a running sum down each column), and a
-        one-column chunk is only ever cached as such: the numbers do not depend on the cache.
+        A column smoothed in one chunk equals that column smoothed in any other chunk (the
+        smoother's centre and sums run down each column alone): the numbers do not depend on
+        the cache.
         """
         if key not in self.cache:
             out = self.smooth(make, width)
@@ -460,15 +466,35 @@ def friction_velocity(
     return np.asarray((np.interp(hi, t, theta) - np.interp(lo, t, theta)) / dt, dtype=np.float64)
 
 
-def _torque(rows: _Rows, delay: float) -> NDArray[np.float64]:
-    """The torque read ``delay`` [s] later, smoothed at the rows (once per delay)."""
+def _delayed(p: Piece, delay: float) -> NDArray[np.float64]:
+    """Piece ``p``'s torque read ``delay`` [s] later (N m), shape (n,)."""
     from torquemap._fit_kernels import interp_increasing
 
+    return p.torque if delay == 0 else interp_increasing(p.t + delay, p.t, p.torque)
+
+
+def _torque(rows: _Rows, delay: float) -> NDArray[np.float64]:
+    """The torque read ``delay`` [s] later, smoothed at the rows (once per delay)."""
+
     def make(p: Piece, j0: int, j1: int) -> NDArray[np.float64]:
-        tau = p.torque if delay == 0 else interp_increasing(p.t + delay, p.t, p.torque)
-        return tau[:, None]
+        return _delayed(p, delay)[:, None]
 
     return rows.smooth_once(("torque", delay), make, 1)[:, 0]
+
+
+def _prepare_torques(rows: _Rows, delays: NDArray[np.float64]) -> None:
+    """:func:`_torque` of every delay in ``delays`` [s], smoothed four at a time (the smoother
+    reads its weights once for four columns) and kept: the same numbers as one at a time."""
+    todo = [float(d) for d in delays if ("torque", float(d)) not in rows.cache]
+
+    def make(p: Piece, j0: int, j1: int) -> NDArray[np.float64]:
+        return np.column_stack([_delayed(p, d) for d in todo[j0:j1]])
+
+    out = rows.smooth(make, len(todo))
+    for j, d in enumerate(todo):
+        column = out[:, j : j + 1].copy()
+        column.setflags(write=False)
+        rows.cache[("torque", d)] = column
 
 
 def _prior(
@@ -525,24 +551,65 @@ def _psolve(
     return _Solver(a, w, prior)(y)
 
 
+class _Gram:
+    """``A^T diag(w) A`` of one design ``A`` for many weights ``w`` that equal the base weights
+    ``b`` on most rows (Huber's weights are 1 on every row inside the threshold).
+
+    ``A^T diag(b) A`` is formed once; each ``w`` then costs a product over the rows where it
+    differs from ``b`` only: ``A^T diag(w) A = A^T diag(b) A - A_S^T diag(b_S - w_S) A_S``.
+    Equal to the direct product to rounding; when ``b - w`` is small on a column's every row
+    (weights near ``b``) the difference cancels to about ``1e-16`` of ``A^T diag(b) A``.
+    """
+
+    def __init__(self, a: NDArray[np.float64], base: NDArray[np.float64]) -> None:
+        self.a, self.base = a, base
+        on = np.flatnonzero(base)
+        if on.size == base.size and np.all(base == 1.0):
+            self.gram = a.T @ a
+        else:
+            part = a[on] * np.sqrt(base[on])[:, None]
+            self.gram = part.T @ part
+
+    def __call__(self, w: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``A^T diag(w) A`` (p, p)."""
+        diff = self.base - w
+        s = np.flatnonzero(diff)
+        if 2 * s.size > w.size:  # most rows differ: the direct product is cheaper
+            return self.a.T @ (self.a * w[:, None])
+        if s.size == 0:
+            return self.gram.copy()
+        d = diff[s]
+        part = self.a[s]
+        if np.all(d > 0):
+            part = part * np.sqrt(d)[:, None]
+            return self.gram - part.T @ part
+        return self.gram - part.T @ (part * d[:, None])
+
+
 class _Solver:
     """:func:`_psolve` of one design, weights and prior for any right-hand side ``y``: the
-    normal equations are formed and inverted once."""
+    normal equations are formed and inverted once (from ``gram``'s product when given)."""
 
     def __init__(
-        self, a: NDArray[np.float64], w: NDArray[np.float64], prior: NDArray[np.float64]
+        self,
+        a: NDArray[np.float64],
+        w: NDArray[np.float64],
+        prior: NDArray[np.float64],
+        gram: _Gram | None = None,
     ) -> None:
-        aw = a * w[:, None]
-        normal = a.T @ aw + prior
+        if gram is not None and gram.a is a:
+            normal = gram(w) + prior
+        else:
+            normal = a.T @ (a * w[:, None]) + prior
         d = np.sqrt(np.maximum(np.diag(normal), 0.0))
         d = np.where(d > 0, d, 1.0)
         scaled = normal / np.outer(d, d)
         scaled[np.diag_indices_from(scaled)] += 1e-12
-        self.a, self.aw, self.w, self.prior = a, aw, w, prior
+        self.a, self.w, self.prior = a, w, prior
         self.bread = np.linalg.pinv(scaled, rcond=1e-12, hermitian=True) / np.outer(d, d)
 
     def __call__(self, y: NDArray[np.float64]) -> _Trial:
-        coef = self.bread @ (self.aw.T @ y)
+        coef = self.bread @ (self.a.T @ (self.w * y))
         r = y - self.a @ coef
         obj = float(np.sum(self.w * r * r) + coef @ self.prior @ coef)
         return _Trial(coef=coef, bread=self.bread, residual=r, weights=self.w, objective=obj)
@@ -558,11 +625,12 @@ def _irls(
     keep: NDArray[np.float64],
 ) -> _Trial:
     """Huber reweighting of :func:`_psolve` on the rows with ``keep`` 1 (the others 0)."""
-    trial = _psolve(a, y, w * keep, prior)
+    gram = _Gram(a, keep)  # every weight is Huber's times ``keep``: 1 on most kept rows
+    trial = _Solver(a, w * keep, prior, gram)(y)
     inside = keep > 0
     for _ in range(iterations):
         scale = robust_scale(trial.residual[inside])
-        new = _psolve(a, y, huber_weights(trial.residual, scale) * keep, prior)
+        new = _Solver(a, huber_weights(trial.residual, scale) * keep, prior, gram)(y)
         moved = float(np.max(np.abs(new.residual - trial.residual)[inside], initial=0.0))
         trial = new
         if moved < 1e-3 * robust_scale(trial.residual[inside]):
@@ -745,19 +813,21 @@ def fit_joint_whole(
     # start's weights down-weight exactly the misaligned ramps that tell the delay)
     # every row, the ramps' starts from rest included: they are where the torque's timing
     # shows most (the table's slow knots take up their friction for the purpose)
-    plain = _Solver(a, np.ones(n), prior)  # every trial's first solve: one normal matrix
+    gram = _Gram(a, np.ones(n))
+    plain = _Solver(a, np.ones(n), prior, gram)  # every trial's first solve: one normal matrix
 
     @functools.cache
     def delay_cost(d: float) -> float:
         y_ = _torque(rows, d)
         trial = plain(y_)
-        trial = _psolve(a, y_, huber_weights(trial.residual, scale0), prior)
+        trial = _Solver(a, huber_weights(trial.residual, scale0), prior, gram)(y_)
         return huber_cost(trial.residual, scale0)
 
     dof = max(n / ROWS_PER_WINDOW, 1.0)  # a window's rows count as one
     d = 0.0 if delay == "auto" else float(delay)
     delay_interval = (d, d)
     if delay == "auto":
+        _prepare_torques(rows, delay_grid(max_delay))
         profile: DelayProfile = delay_profile(delay_cost, max_delay, dof=dof)
         d, delay_interval, note = judge_delay(profile, reference_delay, max_delay)
         warnings += note

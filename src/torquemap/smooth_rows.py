@@ -70,14 +70,13 @@ class RowSmoother:
 
     def __call__(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """The smoothed ``x`` (n, m) at the rows, shape (rows, m)."""
-        from torquemap._fit_kernels import smooth_at_rows
+        from torquemap._fit_kernels import column_centres, smooth_at_rows
 
-        mean = np.mean(x, axis=0)
+        x = np.ascontiguousarray(x, dtype=np.float64)
+        centre = column_centres(x)
         op = self.operator
-        out = smooth_at_rows(
-            self.t, np.ascontiguousarray(x, dtype=np.float64), mean, op.indptr, op.indices, op.data
-        )
-        return np.asarray(out + mean, dtype=np.float64)
+        out = smooth_at_rows(self.t, x, centre, op.indptr, op.indices, op.data)
+        return np.asarray(out + centre, dtype=np.float64)
 
 
 #: Rows whose weights are built at once (bounds the memory of :meth:`RowSmoother.build`).
