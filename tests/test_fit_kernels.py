@@ -9,6 +9,7 @@ import pytest
 
 from torquemap._fit_kernels import (
     column_centres,
+    curvature_weights,
     interp_increasing,
     smooth_at_rows,
     speed_table_block,
@@ -153,3 +154,47 @@ def test_speed_table_block_equals_numpy_columns() -> None:
             hat = np.where(i == j % k, 1.0 - u, 0.0) + np.where(i + 1 == j % k, u, 0.0)
             ref = hat * (b if j < k else -(1.0 - b))
         np.testing.assert_array_equal(got[:, c], ref)
+
+
+def _curvature_weights_numpy(
+    t: np.ndarray, rows: np.ndarray, lo: np.ndarray, hi: np.ndarray
+) -> np.ndarray:
+    """The rows' weights as :mod:`torquemap.smooth_rows` built them with numpy (rows, width):
+    each row's 3x3 normal equations of the local quadratic solved by LU."""
+    n = t.size
+    width = int((hi - lo).max())
+    offsets = np.arange(width)
+    index = np.minimum(lo[:, None] + offsets, n - 1)
+    inside = (lo[:, None] + offsets) < hi[:, None]
+    scale = np.maximum(0.5 * (t[hi - 1] - t[lo]), 1e-300)
+    sc = np.where(inside, (t[index] - t[rows][:, None]) / scale[:, None], 0.0)
+    m = inside.astype(np.float64)
+    basis = np.stack([m, m * sc, m * sc * sc], axis=-1)
+    normal = np.einsum("rli,rlj->rij", basis, basis)
+    unit = np.broadcast_to(np.array([0.0, 0.0, 1.0]), (rows.size, 3))[:, :, None]
+    e = np.linalg.solve(normal, unit)[:, :, 0]
+    return np.asarray(2.0 * np.einsum("rlj,rj->rl", basis, e) / (scale**2)[:, None])
+
+
+@pytest.mark.parametrize("uniform", [True, False])
+def test_curvature_weights_equal_the_lu_solution(uniform: bool) -> None:
+    # centred windows, windows clipped at both ends (the row at its window's edge) and, on
+    # jittered time, windows of different lengths: the cofactor formula and numpy's LU solve
+    # of the same 3x3 systems agree to rounding, 1e-12 of a row's largest weight (the systems'
+    # condition numbers are below ~1e2 for abscissae in [-2, 2])
+    rng = np.random.default_rng(7 + uniform)
+    n = 3001
+    t = 1e3 + (np.arange(n) * 5e-4 if uniform else np.cumsum(rng.uniform(2e-4, 8e-4, n)))
+    rows = np.r_[0, 1, np.sort(rng.choice(n, 200, replace=False)), n - 2, n - 1]
+    half = 50
+    lo = np.clip(rows - half + rng.integers(-10, 10, rows.size) * (not uniform), 0, n - 101)
+    hi = lo + 101 - rng.integers(0, 30, rows.size) * (not uniform)
+    ref = _curvature_weights_numpy(t, rows, lo, hi)
+    width = ref.shape[1]
+    data, index = curvature_weights(t, rows, lo, hi, width)
+    got = data.reshape(rows.size, width)
+    big = np.max(np.abs(ref), axis=1, keepdims=True)
+    assert np.all(np.abs(got - ref) <= 1e-12 * big)
+    np.testing.assert_array_equal(
+        index.reshape(rows.size, width), np.minimum(lo[:, None] + np.arange(width), n - 1)
+    )

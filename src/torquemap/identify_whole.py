@@ -253,21 +253,22 @@ def pdtv_basis(
 
     Names are ``pdtv.<order>.<direction>.a`` / ``.b`` for ``a cos(n theta) + b sin(n theta)``.
     """
-    cols: list[NDArray[np.float64]] = []
     names: list[str] = []
-    pos, neg = velocity > 0, velocity < 0
+    out = np.empty((theta.size, sum(4 if directional else 2 for _, directional in orders)))
+    j = 0
     for order, directional in orders:
         c, s = np.cos(order * theta), np.sin(order * theta)
         if directional:
-            for mask, d in ((pos, "positive"), (neg, "negative")):
-                cols += [c * mask, s * mask]
+            for mask, d in ((velocity > 0, "positive"), (velocity < 0, "negative")):
+                np.multiply(c, mask, out=out[:, j])
+                np.multiply(s, mask, out=out[:, j + 1])
                 names += [f"pdtv.{order:g}.{d}.a", f"pdtv.{order:g}.{d}.b"]
+                j += 2
         else:
-            cols += [c, s]
+            out[:, j], out[:, j + 1] = c, s
             names += [f"pdtv.{order:g}.both.a", f"pdtv.{order:g}.both.b"]
-    if not cols:
-        return np.zeros((theta.size, 0)), names
-    return np.column_stack(cols), names
+            j += 2
+    return out, names
 
 
 def gravity_basis(q: NDArray[np.float64], k: int, planar: bool) -> NDArray[np.float64]:
@@ -350,9 +351,7 @@ def _dilate(t: NDArray[np.float64], mask: NDArray[np.bool_], reach: float) -> ND
         return mask.copy()
     lo = np.searchsorted(t, t[bad] - reach, side="left")
     hi = np.searchsorted(t, t[bad] + reach, side="right")
-    edges = np.zeros(t.size + 1, dtype=np.int64)
-    np.add.at(edges, lo, 1)
-    np.add.at(edges, hi, -1)
+    edges = np.bincount(lo, minlength=t.size + 1) - np.bincount(hi, minlength=t.size + 1)
     return np.cumsum(edges[:-1]) > 0
 
 
@@ -488,7 +487,10 @@ def _prepare_torques(rows: _Rows, delays: NDArray[np.float64]) -> None:
     todo = [float(d) for d in delays if ("torque", float(d)) not in rows.cache]
 
     def make(p: Piece, j0: int, j1: int) -> NDArray[np.float64]:
-        return np.column_stack([_delayed(p, d) for d in todo[j0:j1]])
+        out = np.empty((p.t.size, j1 - j0))
+        for j, d in enumerate(todo[j0:j1]):
+            out[:, j] = _delayed(p, d)
+        return out
 
     out = rows.smooth(make, len(todo))
     for j, d in enumerate(todo):
