@@ -431,3 +431,41 @@ def test_torques_prepared_four_at_a_time_are_those_of_one_at_a_time() -> None:
     _prepare_torques(four, grid)
     for d in (*grid, 0.0):
         np.testing.assert_array_equal(_torque(four, float(d)), _torque(one, float(d)))
+
+
+def test_the_delay_rows_of_a_long_log_are_a_bounded_set_of_stretches() -> None:
+    from torquemap.identify_whole import Piece, _delay_rows, _prepare_rows, _torque
+
+    # passes of alternating direction with ramps: 4 pieces of 40 s at 1 kHz
+    rng = np.random.default_rng(6)
+    pieces = []
+    for k in range(4):
+        t = 50.0 * k + np.arange(40_000) / 1000.0
+        v = 4.0 * np.sign(np.sin(0.5 * t)) * np.minimum(1.0, np.abs(np.sin(0.5 * t)) * 5.0)
+        pieces.append(
+            Piece(
+                t=t,
+                theta=np.cumsum(v) / 1000.0,
+                velocity=v,
+                acceleration=np.gradient(v, t),
+                torque=0.1 * np.sign(v) + 0.01 * rng.standard_normal(t.size),
+                elbow=np.zeros(t.size),
+                use=np.ones(t.size, dtype=bool),
+                joint_angles=np.zeros((t.size, 1)),
+            )
+        )
+    rows = _prepare_rows(pieces, 0.05, 1.0, 0.01)
+    n = rows.clusters.size
+    assert _delay_rows(rows, n) is None  # all rows below the budget
+    sub = _delay_rows(rows, n // 3)
+    assert sub is not None
+    assert n // 4 < sub.size <= n // 3
+    assert np.all(np.diff(sub) > 0)
+    # every run of one direction keeps its first and last rows (its ramps)
+    v = rows.at(lambda p: p.velocity)
+    starts = np.flatnonzero(np.r_[True, np.sign(v[1:]) != np.sign(v[:-1])])
+    assert np.isin(starts, sub).all()
+    # a row's smoothing does not depend on the other rows: the subset's numbers are the same
+    part = rows.subset(sub)
+    np.testing.assert_array_equal(_torque(part, 0.02), _torque(rows, 0.02)[sub])
+    np.testing.assert_array_equal(part.clusters, rows.clusters[sub])

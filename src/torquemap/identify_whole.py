@@ -83,6 +83,12 @@ CURVATURE_PRIOR = 0.05
 SLOPE_PRIOR = 1.0
 #: Shortest run of one sign of motion whose samples enter the fit [differentiator windows].
 RUN_WINDOWS = 4.0
+
+#: Rows that score the torque delay's trials at most (all of them below that): a trial costs
+#: a normal matrix over its rows, and the search tries about 26 delays per joint. Chosen as
+#: :data:`torquemap.free_law.MAX_ROWS`; a single sweep stays below it (the bench's, 0.49 M
+#: samples: about 20 000 rows per joint).
+DELAY_ROWS = 60_000
 #: Prior standard deviation of the table's first difference below the slowest observed speed,
 #: in units of the friction level: a Stribeck rise of half the level within a decade of
 #: speed below the slowest pass is about one sigma.
@@ -294,6 +300,25 @@ class _Rows:
     #: per delay [s], the PDTV columns per ``(order, directional)`` (read-only arrays).
     cache: dict[object, NDArray[np.float64]] = field(default_factory=dict)
 
+    def subset(self, index: NDArray[np.intp]) -> _Rows:
+        """The rows ``index`` (sorted, into the stacked rows) alone, with their own smoothers
+        and cache: a row's smoothing does not depend on the other rows (the same numbers)."""
+        edges = np.cumsum([0, *(r.size for r in self.rows)])
+        rows = [
+            r[index[(index >= a) & (index < b)] - a]
+            for r, a, b in zip(self.rows, edges[:-1], edges[1:], strict=True)
+        ]
+        return _Rows(
+            pieces=self.pieces,
+            rows=rows,
+            smoothers=[
+                RowSmoother.build(p.t, r, self.window)
+                for p, r in zip(self.pieces, rows, strict=True)
+            ],
+            clusters=self.clusters[index],
+            window=self.window,
+        )
+
     def at(self, get: Callable[[Piece], NDArray[np.float64]]) -> NDArray[np.float64]:
         """A raw per-sample quantity at the rows, stacked over pieces."""
         return np.concatenate([get(p)[r] for p, r in zip(self.pieces, self.rows, strict=True)])
@@ -353,6 +378,37 @@ def _dilate(t: NDArray[np.float64], mask: NDArray[np.bool_], reach: float) -> ND
     hi = np.searchsorted(t, t[bad] + reach, side="right")
     edges = np.bincount(lo, minlength=t.size + 1) - np.bincount(hi, minlength=t.size + 1)
     return np.cumsum(edges[:-1]) > 0
+
+
+def _delay_rows(rows: _Rows, max_rows: int) -> NDArray[np.intp] | None:
+    """The rows (indices into the stacked rows) that score the delay's trials: None (all of
+    them) up to ``max_rows``; beyond, at most ``max_rows`` in contiguous stretches of the runs
+    of one direction of motion (:func:`torquemap.free_law.select_stretches`: each run's first
+    and last stretch, where its ramps are, and evenly spaced stretches between)."""
+    from torquemap.free_law import select_stretches
+
+    if rows.clusters.size <= max_rows:
+        return None
+    times, masks, places = [], [], []
+    for p, r in zip(rows.pieces, rows.rows, strict=True):
+        v, tr = p.velocity[r], p.t[r]
+        # a run ends where the direction changes or rows were left out (more than a window)
+        cut = np.r_[False, (np.sign(v[1:]) != np.sign(v[:-1])) | (np.diff(tr) > rows.window)]
+        place = np.arange(r.size) + np.cumsum(cut)
+        mask = np.zeros(r.size + int(cut.sum()), dtype=bool)
+        mask[place] = True
+        times.append(np.interp(np.arange(mask.size), place, tr) if r.size else np.zeros(0))
+        masks.append(mask)
+        places.append(place)
+    chosen = select_stretches(times, masks, window=rows.window, max_rows=max_rows)
+    out, offset = [], 0
+    for place, mask, stretches in zip(places, masks, chosen, strict=True):
+        keep = np.zeros(mask.size, dtype=bool)
+        for a, b in stretches:
+            keep[a:b] = True
+        out.append(offset + np.flatnonzero(keep[place]))
+        offset += place.size
+    return np.concatenate(out).astype(np.intp)
 
 
 def _prepare_rows(pieces: Sequence[Piece], window: float, block: float, rest: float) -> _Rows:
@@ -815,21 +871,25 @@ def fit_joint_whole(
     # start's weights down-weight exactly the misaligned ramps that tell the delay)
     # every row, the ramps' starts from rest included: they are where the torque's timing
     # shows most (the table's slow knots take up their friction for the purpose)
-    gram = _Gram(a, np.ones(n))
-    plain = _Solver(a, np.ones(n), prior, gram)  # every trial's first solve: one normal matrix
+    # a long log's trials are scored on a bounded share of its rows (each trial costs a
+    # normal matrix over them, and a log of 4 M samples has ~330 000)
+    sub = _delay_rows(rows, DELAY_ROWS)
+    trows, at = (rows, a) if sub is None else (rows.subset(sub), a[sub])
+    gram = _Gram(at, np.ones(at.shape[0]))
+    plain = _Solver(at, np.ones(at.shape[0]), prior, gram)  # every trial's first solve
 
     @functools.cache
     def delay_cost(d: float) -> float:
-        y_ = _torque(rows, d)
+        y_ = _torque(trows, d)
         trial = plain(y_)
-        trial = _Solver(a, huber_weights(trial.residual, scale0), prior, gram)(y_)
+        trial = _Solver(at, huber_weights(trial.residual, scale0), prior, gram)(y_)
         return huber_cost(trial.residual, scale0)
 
-    dof = max(n / ROWS_PER_WINDOW, 1.0)  # a window's rows count as one
+    dof = max(at.shape[0] / ROWS_PER_WINDOW, 1.0)  # a window's rows count as one
     d = 0.0 if delay == "auto" else float(delay)
     delay_interval = (d, d)
     if delay == "auto":
-        _prepare_torques(rows, delay_grid(max_delay))
+        _prepare_torques(trows, delay_grid(max_delay))
         profile: DelayProfile = delay_profile(delay_cost, max_delay, dof=dof)
         d, delay_interval, note = judge_delay(profile, reference_delay, max_delay)
         warnings += note
