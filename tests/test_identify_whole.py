@@ -12,6 +12,7 @@ from torquemap.errors import InputError
 from torquemap.estimate import estimate_forces
 from torquemap.friction_law import SpeedTableFriction, StribeckFriction
 from torquemap.identify import identify_model
+from torquemap.identify_whole import Piece
 from torquemap.io import Log
 from torquemap.model import PdtvLine, pdtv_torque
 from torquemap.robot import robot_from_dict
@@ -81,7 +82,7 @@ def simulate(
 
 @pytest.fixture(scope="module")
 def delayed() -> object:
-    return identify_model(robot(), [simulate(delay=0.02)], max_order=20, friction="whole")  # type: ignore[arg-type]
+    return identify_model(robot(), [simulate(delay=0.02)], max_order=20, friction="whole")
 
 
 def _true_levels(law: object, speeds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -122,8 +123,8 @@ def test_a_vertical_arm_is_refused() -> None:
     # angle explains; as large as the Coulomb friction here
     log = simulate(gravity=0.06, gear=10.0)
     with pytest.raises(InputError, match="vertical arm"):
-        identify_model(robot(gear=10.0), [log], max_order=20, friction="whole")  # type: ignore[arg-type]
-    res = identify_model(robot(gear=10.0), [simulate(gear=10.0)], max_order=20, friction="whole")  # type: ignore[arg-type]
+        identify_model(robot(gear=10.0), [log], max_order=20, friction="whole")
+    res = identify_model(robot(gear=10.0), [simulate(gear=10.0)], max_order=20, friction="whole")
     assert not any("vertical" in w for w in res.warnings)
 
 
@@ -190,7 +191,7 @@ def test_a_law_of_another_form() -> None:
             v = np.asarray(v, dtype=np.float64)
             return np.where(v >= 0, up.torque(v), down.torque(v))
 
-    res = identify_model(robot(), [simulate(law=Law())], max_order=20, friction="whole")  # type: ignore[arg-type]
+    res = identify_model(robot(), [simulate(law=Law())], max_order=20, friction="whole")
     f = res.model.joints["m"].friction
     speeds = np.geomspace(0.5, 8.0, 9)
     # within 3 % over the swept speeds: the steep exponent-3 drop near 2.5 rad/s falls between
@@ -256,7 +257,7 @@ def test_speed_steps_with_no_ramp_are_not_a_vertical_arm_nor_an_inertia() -> Non
     # vertical arm, 7e7 N m); and no acceleration stands out, so no inertia is determined
     # (it once came out at 1e6 kg m^2)
     bot, log = _steps()
-    res = identify_model(bot, [log], friction="whole")  # type: ignore[arg-type]
+    res = identify_model(bot, [log], friction="whole")
     assert not any("vertical" in m for m in res.warnings)
     for name in ("a", "b"):
         assert res.model.joints[name].inertia.constant == 0.0
@@ -267,7 +268,7 @@ def test_lines_found_in_the_residual_are_kept_only_if_the_fit_holds_them() -> No
     # seed 5: the residual's spectrum shows a 5 CPR line of 0.05 mN m (no such line was
     # simulated; the truth is 2 and 7 CPR); the joint fit's Wald test with the rows' cluster
     # covariance does not hold it, while the true lines (10-20 mN m) stand far out
-    res = identify_model(robot(), [simulate(seed=5)], max_order=20, friction="whole")  # type: ignore[arg-type]
+    res = identify_model(robot(), [simulate(seed=5)], max_order=20, friction="whole")
     lines = res.model.joints["m"].pdtv
     assert [line.order for line in lines] == [2.0, 7.0]
     assert_allclose([line.amplitude for line in lines], [0.02, 0.01], rtol=0.01)
@@ -282,7 +283,7 @@ def test_one_steady_speed_tells_a_level_not_a_slope() -> None:
     tau = 0.02 + 0.004 * np.cos(2.0 * theta + 0.3)
     tau = tau + np.random.default_rng(0).normal(0.0, 1e-4, t.size)
     log = Log(t=t, q=theta[:, None], motor_torque=tau[:, None], joint_names=("m",), path="m.csv")
-    res = identify_model(rb, [log], friction="whole")  # type: ignore[arg-type]
+    res = identify_model(rb, [log], friction="whole")
     f = res.model.joints["m"].friction
     # the level at the logged speed is the mean torque (noise 0.1 mN m over 4000 samples)
     assert_allclose(f.torque(np.array([3.0])), 0.02, atol=2e-4)
@@ -328,7 +329,7 @@ def test_a_knot_at_each_steady_speed() -> None:
     )
     passes = (2.25, 3.53, 5.55, 8.72)
     log = simulate(law=law, ramp=0.02, speeds=passes)
-    res = identify_model(robot(), [log], max_order=20, friction="whole")  # type: ignore[arg-type]
+    res = identify_model(robot(), [log], max_order=20, friction="whole")
     f = res.model.joints["m"].friction
     assert isinstance(f, SpeedTableFriction)
     for v in passes:
@@ -348,7 +349,7 @@ def test_an_undetermined_inertia_holds_the_pass_methods(monkeypatch) -> None:  #
     held = (1e-9, 1e-9)  # too small to move the friction: the levels are checked below
     monkeypatch.setattr(identify, "_determined_inertia", lambda res: held)
     bot, log = _steps()
-    res = identify_model(bot, [log], friction="whole")  # type: ignore[arg-type]
+    res = identify_model(bot, [log], friction="whole")
     for name in ("a", "b"):
         assert res.model.joints[name].inertia.constant == held[0]
         u = res.model.notes["joints"][name]["uncertainty"]
@@ -379,9 +380,9 @@ def test_run_revolutions_is_the_row_weighted_median_span() -> None:
     )
     piece = SimpleNamespace(velocity=v, theta=theta)
     rows = SimpleNamespace(pieces=[piece], rows=[np.arange(v.size)])
-    assert _run_revolutions(rows) == pytest.approx(3.0)  # type: ignore[arg-type]
+    assert _run_revolutions(rows) == pytest.approx(3.0)
     rows = SimpleNamespace(pieces=[piece], rows=[np.arange(300, 400)])
-    assert _run_revolutions(rows) == pytest.approx(0.5)  # type: ignore[arg-type]
+    assert _run_revolutions(rows) == pytest.approx(0.5)
 
 
 def test_normal_matrices_from_one_gram_equal_the_direct_product() -> None:
@@ -404,11 +405,9 @@ def test_normal_matrices_from_one_gram_equal_the_direct_product() -> None:
             assert np.all(np.abs(gram(w) - direct) <= 1e-13 * size)
 
 
-def test_torques_prepared_four_at_a_time_are_those_of_one_at_a_time() -> None:
-    from torquemap.identify_whole import Piece, _prepare_rows, _prepare_torques, _torque
-    from torquemap.whole_delay import delay_grid
-
-    rng = np.random.default_rng(4)
+def _sine_pieces(seed: int) -> list[Piece]:
+    """Two pieces of a joint swinging both ways, a noisy friction torque."""
+    rng = np.random.default_rng(seed)
     pieces = []
     for n in (3000, 4500):
         t = 2.0 + np.arange(n) / 1000.0
@@ -425,6 +424,14 @@ def test_torques_prepared_four_at_a_time_are_those_of_one_at_a_time() -> None:
                 joint_angles=np.zeros((n, 1)),
             )
         )
+    return pieces
+
+
+def test_torques_prepared_four_at_a_time_are_those_of_one_at_a_time() -> None:
+    from torquemap.identify_whole import _prepare_rows, _prepare_torques, _torque
+    from torquemap.whole_delay import delay_grid
+
+    pieces = _sine_pieces(4)
     one = _prepare_rows(pieces, 0.05, 1.0, 0.01)
     four = _prepare_rows(pieces, 0.05, 1.0, 0.01)
     grid = delay_grid(0.25)
@@ -433,8 +440,23 @@ def test_torques_prepared_four_at_a_time_are_those_of_one_at_a_time() -> None:
         np.testing.assert_array_equal(_torque(four, float(d)), _torque(one, float(d)))
 
 
+def test_lines_prepared_both_ways_are_those_of_each_way_alone() -> None:
+    from torquemap.identify_whole import _fixed_columns, _prepare_both_ways, _prepare_rows
+
+    pieces = _sine_pieces(5)
+    alone = _prepare_rows(pieces, 0.05, 1.0, 0.01)
+    together = _prepare_rows(pieces, 0.05, 1.0, 0.01)
+    _prepare_both_ways(together, [3.0, 7.5])
+    for directional in (False, True):
+        lines = [(3.0, directional), (7.5, directional)]
+        got = _fixed_columns(together, lines, elbow_term=False, inertia=False)
+        ref = _fixed_columns(alone, lines, elbow_term=False, inertia=False)
+        np.testing.assert_array_equal(got[0], ref[0])
+        assert got[1] == ref[1]
+
+
 def test_the_delay_rows_of_a_long_log_are_a_bounded_set_of_stretches() -> None:
-    from torquemap.identify_whole import Piece, _delay_rows, _prepare_rows, _torque
+    from torquemap.identify_whole import _delay_rows, _prepare_rows, _torque
 
     # passes of alternating direction with ramps: 4 pieces of 40 s at 1 kHz
     rng = np.random.default_rng(6)
