@@ -55,6 +55,7 @@ def simulate(
     law: object = LAW,
     ramp: float = 0.4,
     speeds: tuple[float, ...] = (0.5, 2.0, 8.0),
+    creep: float = 0.0,
 ) -> Log:
     """Passes at ``speeds`` [rad/s] (0.5-8) both ways with raised-cosine ramps through rest; the torque read
     ``delay`` late; ``gravity`` [N m, motor side] times cos of the joint angle; ramps of
@@ -69,12 +70,19 @@ def simulate(
             up = 0.5 * (1 - np.cos(np.pi * tr / ramp)) * v * s
             hold = np.full(int(2.5 * 2 * np.pi / v * rate), v * s)
             vel += [up, hold, up[::-1], np.zeros(150)]
+    slow = sum(x.size for x in vel)
+    if creep:  # 16 creeps at 0.1 rad/s (0.3 rad each, no pass), 3 s each way
+        tr = np.arange(0.0, ramp, h)
+        for s in (1, -1) * 8:
+            up = 0.5 * (1 - np.cos(np.pi * tr / ramp)) * 0.1 * s
+            vel += [up, np.full(int(3.0 * rate), 0.1 * s), up[::-1], np.zeros(150)]
     w = np.concatenate(vel)
     t = np.arange(w.size) * h
     acc = np.gradient(w, h)
     theta = np.concatenate(([0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * h)))
     tau = J * acc + law.torque(w) + pdtv_torque(theta, LINES)  # type: ignore[attr-defined]
     tau += gravity * np.cos(theta / gear)
+    tau[slow:] += creep * np.sign(w[slow:])  # what the law does not hold while creeping
     tau = np.interp(t - delay, t, tau) + rng.normal(0.0, 0.005, t.size)
     q = np.round(theta * counts / (2 * np.pi)) * (2 * np.pi / counts) / gear
     return Log(t=t, q=q[:, None], motor_torque=tau[:, None], joint_names=("m",), path="m.csv")
@@ -116,6 +124,22 @@ def test_covariance_and_noise_recorded(delayed) -> None:  # type: ignore[no-unty
     assert np.all(np.linalg.eigvalsh(cov) > -1e-12 * np.abs(cov).max())
     # white noise of 5 mN m at 1 kHz: PSD 2 * 0.005^2 / 1000 = 5e-8 N^2 m^2 / Hz (one-sided)
     assert 2e-8 < u["residual_psd"] < 2e-7
+
+
+def test_creeping_rows_do_not_set_the_noise() -> None:
+    # most of the log creeps at 0.1 rad/s, below half the slowest pass (1 rad/s), with
+    # 30 mN m the law does not hold: the table is not fitted there (its prior's), so that
+    # misfit belongs to the per-speed residual table at 0.1 rad/s, not to the noise level that
+    # every sample's sigma carries: still the white noise's 5e-8 N^2 m^2 / Hz (as above)
+    fit = identify_model(
+        robot(), [simulate(creep=0.03, speeds=(1.0, 8.0))], max_order=20, friction="whole"
+    )
+    u = fit.model.notes["joints"]["m"]["uncertainty"]
+    assert 2e-8 < u["residual_psd"] < 2e-7
+    table = u["residual"]
+    speeds, rms = np.asarray(table["speeds"]), np.asarray(table["rms"])
+    # the creep's misfit is in the per-speed table at its speed
+    assert rms[np.argmin(np.abs(speeds - 0.1))] > 0.01
 
 
 def test_a_vertical_arm_is_refused() -> None:

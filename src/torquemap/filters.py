@@ -441,6 +441,25 @@ def _smooth_as_acceleration_at_step(
     return out
 
 
+def dilate(t: NDArray[np.float64], mask: NDArray[np.bool_], reach: float) -> NDArray[np.bool_]:
+    """Samples within ``reach`` [s] of a sample of ``mask`` (``t`` [s] increasing).
+
+    Examples
+    --------
+    >>> t = np.arange(10.0)
+    >>> dilate(t, t == 4.0, 1.5).astype(int).tolist()
+    [0, 0, 0, 1, 1, 1, 0, 0, 0, 0]
+    """
+    bad = np.flatnonzero(mask)
+    if bad.size == 0:
+        return np.asarray(mask, dtype=bool).copy()
+    lo = np.searchsorted(t, t[bad] - reach, side="left")
+    hi = np.searchsorted(t, t[bad] + reach, side="right")
+    edges = np.bincount(lo, minlength=t.size + 1) - np.bincount(hi, minlength=t.size + 1)
+    out: NDArray[np.bool_] = np.cumsum(edges[:-1]) > 0
+    return out
+
+
 def uniform_step(t: NDArray[np.float64]) -> float:
     """Median sampling step [s] of ``t`` (the grid :func:`lowpass` resamples to)."""
     return float(np.median(np.diff(t)))

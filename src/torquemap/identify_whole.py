@@ -41,7 +41,7 @@ from numpy.typing import NDArray
 from scipy import optimize, stats
 
 from torquemap.errors import InputError
-from torquemap.filters import lowpass
+from torquemap.filters import dilate, lowpass
 from torquemap.friction_law import SpeedTableFriction
 from torquemap.robust import cluster_covariance, huber_weights, robust_scale
 from torquemap.smooth_rows import RowSmoother
@@ -366,18 +366,7 @@ def _unsteady(
     for a, b in zip(starts, stops, strict=True):
         if sign[a] == 0 or t[b - 1] - t[a] < RUN_WINDOWS * window:
             short[a:b] = True
-    return _dilate(t, short, window)
-
-
-def _dilate(t: NDArray[np.float64], mask: NDArray[np.bool_], reach: float) -> NDArray[np.bool_]:
-    """Samples within ``reach`` [s] of a sample of ``mask``."""
-    bad = np.flatnonzero(mask)
-    if bad.size == 0:
-        return mask.copy()
-    lo = np.searchsorted(t, t[bad] - reach, side="left")
-    hi = np.searchsorted(t, t[bad] + reach, side="right")
-    edges = np.bincount(lo, minlength=t.size + 1) - np.bincount(hi, minlength=t.size + 1)
-    return np.cumsum(edges[:-1]) > 0
+    return dilate(t, short, window)
 
 
 def _delay_rows(rows: _Rows, max_rows: int) -> NDArray[np.intp] | None:
@@ -882,7 +871,7 @@ def fit_joint_whole(
     # a row whose window reaches a slower sample sees the table there through the smoothing
     near = np.concatenate(
         [
-            _dilate(p.t, np.abs(p.velocity) < observed, window)[r]
+            dilate(p.t, np.abs(p.velocity) < observed, window)[r]
             for p, r in zip(rows.pieces, rows.rows, strict=True)
         ]
     )
@@ -1079,7 +1068,7 @@ def fit_joint_whole(
         coef = np.r_[pass_inertia[0], coef]
         cov = np.pad(cov, ((1, 0), (1, 0)))
         cov[0, 0] = pass_inertia[1] ** 2
-    psd = _residual_psd(rows, fit.residual, scale)
+    psd = _residual_psd(rows, fit.residual, scale, keep)
     table = residual_table(
         [p.t[r] for p, r in zip(rows.pieces, rows.rows, strict=True)],
         [p.velocity[r] for p, r in zip(rows.pieces, rows.rows, strict=True)],
@@ -1241,18 +1230,31 @@ def _law(
     return law, note
 
 
-def _residual_psd(rows: _Rows, residual: NDArray[np.float64], scale: float) -> float:
-    """Low-frequency PSD of the residual [N^2 m^2/Hz] (see :class:`WholeFit`)."""
+def _residual_psd(
+    rows: _Rows, residual: NDArray[np.float64], scale: float, keep: NDArray[np.float64]
+) -> float:
+    """Low-frequency PSD of the residual [N^2 m^2/Hz] (see :class:`WholeFit`), over the rows
+    the table is fitted on (``keep`` > 0), each run of them low-passed on its own: the rows
+    below the observed speeds (a joint creeping or held while another moves, where the table
+    is its prior's) leave a residual the per-speed table (:func:`residual_table`) carries at
+    those speeds; in the noise level it would inflate every sample's sigma."""
     values = []
-    for p, r, res in zip(rows.pieces, rows.rows, _split(residual, rows), strict=True):
-        if r.size < 50:
+    for p, r, res, kp in zip(
+        rows.pieces, rows.rows, _split(residual, rows), _split(keep, rows), strict=True
+    ):
+        inside = np.flatnonzero(kp > 0)
+        if inside.size == 0:
             continue
-        tt = p.t[r]
-        keep = np.concatenate(([True], np.diff(tt) > 0))
-        try:
-            values.append(lowpass(tt[keep], res[keep], cutoff=REFERENCE_CUTOFF))
-        except InputError:  # a piece too short for the filter adds nothing
-            continue
+        cut = np.flatnonzero(np.diff(inside) > 1) + 1
+        for run in np.split(inside, cut):
+            if run.size < 50:
+                continue
+            tt = p.t[r[run]]
+            ok = np.concatenate(([True], np.diff(tt) > 0))
+            try:
+                values.append(lowpass(tt[ok], res[run][ok], cutoff=REFERENCE_CUTOFF))
+            except InputError:  # a run too short for the filter adds nothing
+                continue
     if not values:
         return scale**2 / 50.0
     low = np.concatenate(values)

@@ -117,8 +117,11 @@ def _add_quiet(command: argparse.ArgumentParser) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit status (0 ok, 1 failed check, 2 bad input)."""
+    from torquemap._memory import retain_freed_memory
     from torquemap.progress import reporter
 
+    # block after block the same large arrays: reuse their pages, do not fault in new ones
+    retain_freed_memory()
     parser = build_parser()
     args = parser.parse_args(argv)
     args.progress = reporter(quiet=bool(getattr(args, "quiet", False)))
