@@ -139,3 +139,17 @@ def test_several_signals_at_once_match_one_by_one() -> None:
         assert_allclose(both.acceleration[:, k], one.acceleration, rtol=1e-9, atol=1e-9)
     sm = smooth_as_acceleration(t, x, window=0.03)
     assert_allclose(sm[:, 1], smooth_as_acceleration(t, x[:, 1], window=0.03), atol=1e-9)
+
+
+def test_dilate_marks_the_samples_within_reach_of_a_marked_one() -> None:
+    from torquemap.filters import dilate
+
+    # the definition, sample by sample (a second algorithm): within reach of a marked sample,
+    # on jittered time with repeated stamps (stamps on a 0.01 s grid, the reach between two
+    # grid distances: no sample lies at the reach, where rounding would decide)
+    rng = np.random.default_rng(11)
+    t = np.sort(np.round(rng.uniform(0.0, 10.0, 600), 2))
+    for share in (0.0, 0.01, 0.2):
+        mask = rng.uniform(size=t.size) < share
+        ref = np.array([bool(np.any(mask & (np.abs(t - ti) <= 0.075))) for ti in t])
+        np.testing.assert_array_equal(dilate(t, mask, 0.075), ref)

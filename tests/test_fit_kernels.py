@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 
 from torquemap._fit_kernels import (
+    column_centres,
+    curvature_weights,
     interp_increasing,
     smooth_at_rows,
     speed_table_block,
@@ -84,7 +86,38 @@ def test_smooth_at_rows_equals_sparse_product(m: int, uniform: bool) -> None:
     ref = np.asarray(op @ _double_integral_numpy(t, x - mean))
     got = smooth_at_rows(t, x, mean, op.indptr, op.indices, op.data)
     np.testing.assert_array_equal(got, ref)
-    np.testing.assert_array_equal(smoother(x), ref + mean)
+    centre = column_centres(x)
+    ref_centred = np.asarray(op @ _double_integral_numpy(t, x - centre))
+    np.testing.assert_array_equal(smoother(x), ref_centred + centre)
+    # the centre only sets the rounding (the smoothing is exact for a constant): the two
+    # centres agree to the rounding of the double integral (values up to ~1e2 over 2 s, so
+    # 2e-14 absolute) carried through a row's weights (~100 of them, each up to 2 / 0.025^2):
+    # a bound of ~1e-8; measured 2e-10
+    np.testing.assert_allclose(smoother(x), ref + mean, rtol=0, atol=1e-8)
+
+
+def test_column_centres_is_the_mean_of_every_step_th_sample() -> None:
+    rng = np.random.default_rng(5)
+    for n in (1, 7, 1023, 1024, 5000, 300_001):
+        x = np.ascontiguousarray(rng.standard_normal((n, 3)) + np.array([1.0, -2e3, 5e6]))
+        step = max(1, n // 1024)
+        # numpy's mean of the same samples: the same sum in another order (1e-15 relative)
+        np.testing.assert_allclose(column_centres(x), x[::step].mean(axis=0), rtol=1e-13)
+
+
+def test_a_column_smooths_to_the_same_bits_alone_or_beside_others() -> None:
+    # the whole fit caches a column however it was smoothed (the torque per delay four at a
+    # time, or alone): every chunk must give the column the same numbers
+    rng = np.random.default_rng(3)
+    n = 6001
+    t = 1.0 + np.arange(n) * 5e-4
+    rows = np.arange(3, n, 7).astype(np.intp)
+    smoother = RowSmoother.build(t, rows, 0.05)
+    x = np.ascontiguousarray(rng.standard_normal((n, 6)).cumsum(axis=0))
+    together = smoother(x)
+    for c in range(6):
+        np.testing.assert_array_equal(smoother(x[:, c : c + 1]), together[:, c : c + 1])
+    np.testing.assert_array_equal(smoother(x[:, 2:5]), together[:, 2:5])
 
 
 @pytest.mark.parametrize("uniform", [True, False])
@@ -121,3 +154,47 @@ def test_speed_table_block_equals_numpy_columns() -> None:
             hat = np.where(i == j % k, 1.0 - u, 0.0) + np.where(i + 1 == j % k, u, 0.0)
             ref = hat * (b if j < k else -(1.0 - b))
         np.testing.assert_array_equal(got[:, c], ref)
+
+
+def _curvature_weights_numpy(
+    t: np.ndarray, rows: np.ndarray, lo: np.ndarray, hi: np.ndarray
+) -> np.ndarray:
+    """The rows' weights as :mod:`torquemap.smooth_rows` built them with numpy (rows, width):
+    each row's 3x3 normal equations of the local quadratic solved by LU."""
+    n = t.size
+    width = int((hi - lo).max())
+    offsets = np.arange(width)
+    index = np.minimum(lo[:, None] + offsets, n - 1)
+    inside = (lo[:, None] + offsets) < hi[:, None]
+    scale = np.maximum(0.5 * (t[hi - 1] - t[lo]), 1e-300)
+    sc = np.where(inside, (t[index] - t[rows][:, None]) / scale[:, None], 0.0)
+    m = inside.astype(np.float64)
+    basis = np.stack([m, m * sc, m * sc * sc], axis=-1)
+    normal = np.einsum("rli,rlj->rij", basis, basis)
+    unit = np.broadcast_to(np.array([0.0, 0.0, 1.0]), (rows.size, 3))[:, :, None]
+    e = np.linalg.solve(normal, unit)[:, :, 0]
+    return np.asarray(2.0 * np.einsum("rlj,rj->rl", basis, e) / (scale**2)[:, None])
+
+
+@pytest.mark.parametrize("uniform", [True, False])
+def test_curvature_weights_equal_the_lu_solution(uniform: bool) -> None:
+    # centred windows, windows clipped at both ends (the row at its window's edge) and, on
+    # jittered time, windows of different lengths: the cofactor formula and numpy's LU solve
+    # of the same 3x3 systems agree to rounding, 1e-12 of a row's largest weight (the systems'
+    # condition numbers are below ~1e2 for abscissae in [-2, 2])
+    rng = np.random.default_rng(7 + uniform)
+    n = 3001
+    t = 1e3 + (np.arange(n) * 5e-4 if uniform else np.cumsum(rng.uniform(2e-4, 8e-4, n)))
+    rows = np.r_[0, 1, np.sort(rng.choice(n, 200, replace=False)), n - 2, n - 1]
+    half = 50
+    lo = np.clip(rows - half + rng.integers(-10, 10, rows.size) * (not uniform), 0, n - 101)
+    hi = lo + 101 - rng.integers(0, 30, rows.size) * (not uniform)
+    ref = _curvature_weights_numpy(t, rows, lo, hi)
+    width = ref.shape[1]
+    data, index = curvature_weights(t, rows, lo, hi, width)
+    got = data.reshape(rows.size, width)
+    big = np.max(np.abs(ref), axis=1, keepdims=True)
+    assert np.all(np.abs(got - ref) <= 1e-12 * big)
+    np.testing.assert_array_equal(
+        index.reshape(rows.size, width), np.minimum(lo[:, None] + np.arange(width), n - 1)
+    )

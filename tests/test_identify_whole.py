@@ -12,6 +12,7 @@ from torquemap.errors import InputError
 from torquemap.estimate import estimate_forces
 from torquemap.friction_law import SpeedTableFriction, StribeckFriction
 from torquemap.identify import identify_model
+from torquemap.identify_whole import Piece
 from torquemap.io import Log
 from torquemap.model import PdtvLine, pdtv_torque
 from torquemap.robot import robot_from_dict
@@ -89,7 +90,7 @@ def simulate(
 
 @pytest.fixture(scope="module")
 def delayed() -> object:
-    return identify_model(robot(), [simulate(delay=0.02)], max_order=20, friction="whole")  # type: ignore[arg-type]
+    return identify_model(robot(), [simulate(delay=0.02)], max_order=20, friction="whole")
 
 
 def _true_levels(law: object, speeds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -146,8 +147,8 @@ def test_a_vertical_arm_is_refused() -> None:
     # angle explains; as large as the Coulomb friction here
     log = simulate(gravity=0.06, gear=10.0)
     with pytest.raises(InputError, match="vertical arm"):
-        identify_model(robot(gear=10.0), [log], max_order=20, friction="whole")  # type: ignore[arg-type]
-    res = identify_model(robot(gear=10.0), [simulate(gear=10.0)], max_order=20, friction="whole")  # type: ignore[arg-type]
+        identify_model(robot(gear=10.0), [log], max_order=20, friction="whole")
+    res = identify_model(robot(gear=10.0), [simulate(gear=10.0)], max_order=20, friction="whole")
     assert not any("vertical" in w for w in res.warnings)
 
 
@@ -214,7 +215,7 @@ def test_a_law_of_another_form() -> None:
             v = np.asarray(v, dtype=np.float64)
             return np.where(v >= 0, up.torque(v), down.torque(v))
 
-    res = identify_model(robot(), [simulate(law=Law())], max_order=20, friction="whole")  # type: ignore[arg-type]
+    res = identify_model(robot(), [simulate(law=Law())], max_order=20, friction="whole")
     f = res.model.joints["m"].friction
     speeds = np.geomspace(0.5, 8.0, 9)
     # within 3 % over the swept speeds: the steep exponent-3 drop near 2.5 rad/s falls between
@@ -280,7 +281,7 @@ def test_speed_steps_with_no_ramp_are_not_a_vertical_arm_nor_an_inertia() -> Non
     # vertical arm, 7e7 N m); and no acceleration stands out, so no inertia is determined
     # (it once came out at 1e6 kg m^2)
     bot, log = _steps()
-    res = identify_model(bot, [log], friction="whole")  # type: ignore[arg-type]
+    res = identify_model(bot, [log], friction="whole")
     assert not any("vertical" in m for m in res.warnings)
     for name in ("a", "b"):
         assert res.model.joints[name].inertia.constant == 0.0
@@ -291,7 +292,7 @@ def test_lines_found_in_the_residual_are_kept_only_if_the_fit_holds_them() -> No
     # seed 5: the residual's spectrum shows a 5 CPR line of 0.05 mN m (no such line was
     # simulated; the truth is 2 and 7 CPR); the joint fit's Wald test with the rows' cluster
     # covariance does not hold it, while the true lines (10-20 mN m) stand far out
-    res = identify_model(robot(), [simulate(seed=5)], max_order=20, friction="whole")  # type: ignore[arg-type]
+    res = identify_model(robot(), [simulate(seed=5)], max_order=20, friction="whole")
     lines = res.model.joints["m"].pdtv
     assert [line.order for line in lines] == [2.0, 7.0]
     assert_allclose([line.amplitude for line in lines], [0.02, 0.01], rtol=0.01)
@@ -306,7 +307,7 @@ def test_one_steady_speed_tells_a_level_not_a_slope() -> None:
     tau = 0.02 + 0.004 * np.cos(2.0 * theta + 0.3)
     tau = tau + np.random.default_rng(0).normal(0.0, 1e-4, t.size)
     log = Log(t=t, q=theta[:, None], motor_torque=tau[:, None], joint_names=("m",), path="m.csv")
-    res = identify_model(rb, [log], friction="whole")  # type: ignore[arg-type]
+    res = identify_model(rb, [log], friction="whole")
     f = res.model.joints["m"].friction
     # the level at the logged speed is the mean torque (noise 0.1 mN m over 4000 samples)
     assert_allclose(f.torque(np.array([3.0])), 0.02, atol=2e-4)
@@ -352,7 +353,7 @@ def test_a_knot_at_each_steady_speed() -> None:
     )
     passes = (2.25, 3.53, 5.55, 8.72)
     log = simulate(law=law, ramp=0.02, speeds=passes)
-    res = identify_model(robot(), [log], max_order=20, friction="whole")  # type: ignore[arg-type]
+    res = identify_model(robot(), [log], max_order=20, friction="whole")
     f = res.model.joints["m"].friction
     assert isinstance(f, SpeedTableFriction)
     for v in passes:
@@ -372,7 +373,7 @@ def test_an_undetermined_inertia_holds_the_pass_methods(monkeypatch) -> None:  #
     held = (1e-9, 1e-9)  # too small to move the friction: the levels are checked below
     monkeypatch.setattr(identify, "_determined_inertia", lambda res: held)
     bot, log = _steps()
-    res = identify_model(bot, [log], friction="whole")  # type: ignore[arg-type]
+    res = identify_model(bot, [log], friction="whole")
     for name in ("a", "b"):
         assert res.model.joints[name].inertia.constant == held[0]
         u = res.model.notes["joints"][name]["uncertainty"]
@@ -403,6 +404,114 @@ def test_run_revolutions_is_the_row_weighted_median_span() -> None:
     )
     piece = SimpleNamespace(velocity=v, theta=theta)
     rows = SimpleNamespace(pieces=[piece], rows=[np.arange(v.size)])
-    assert _run_revolutions(rows) == pytest.approx(3.0)  # type: ignore[arg-type]
+    assert _run_revolutions(rows) == pytest.approx(3.0)
     rows = SimpleNamespace(pieces=[piece], rows=[np.arange(300, 400)])
-    assert _run_revolutions(rows) == pytest.approx(0.5)  # type: ignore[arg-type]
+    assert _run_revolutions(rows) == pytest.approx(0.5)
+
+
+def test_normal_matrices_from_one_gram_equal_the_direct_product() -> None:
+    from torquemap.identify_whole import _Gram
+
+    # a design with columns of very different sizes and one seen only on a few rows (a slow
+    # knot), base weights 0/1 (the rows kept), weights Huber's times the base: the
+    # downdated gram equals the direct product to rounding of the gram's own size
+    rng = np.random.default_rng(2)
+    n, p = 5000, 9
+    a = rng.standard_normal((n, p)) * np.logspace(-3, 2, p)
+    a[:, 4] = np.where(np.arange(n) < 60, a[:, 4], 0.0)
+    keep = (rng.uniform(size=n) > 0.2).astype(np.float64)
+    for base in (np.ones(n), keep):
+        gram = _Gram(a, base)
+        huber = np.minimum(1.0, 1.0 / np.abs(rng.standard_normal(n)))  # 1 on ~68 % of rows
+        for w in (base, huber * base, 0.5 * base, huber * base + 0.3 * (base == 0)):
+            direct = a.T @ (a * w[:, None])
+            size = np.sqrt(np.outer(np.diag(gram.gram), np.diag(gram.gram)))
+            assert np.all(np.abs(gram(w) - direct) <= 1e-13 * size)
+
+
+def _sine_pieces(seed: int) -> list[Piece]:
+    """Two pieces of a joint swinging both ways, a noisy friction torque."""
+    rng = np.random.default_rng(seed)
+    pieces = []
+    for n in (3000, 4500):
+        t = 2.0 + np.arange(n) / 1000.0
+        v = 3.0 * np.sin(2.0 * t)
+        pieces.append(
+            Piece(
+                t=t,
+                theta=np.cumsum(v) / 1000.0,
+                velocity=v,
+                acceleration=6.0 * np.cos(2.0 * t),
+                torque=0.1 * np.sign(v) + 0.01 * rng.standard_normal(n),
+                elbow=np.zeros(n),
+                use=np.ones(n, dtype=bool),
+                joint_angles=np.zeros((n, 1)),
+            )
+        )
+    return pieces
+
+
+def test_torques_prepared_four_at_a_time_are_those_of_one_at_a_time() -> None:
+    from torquemap.identify_whole import _prepare_rows, _prepare_torques, _torque
+    from torquemap.whole_delay import delay_grid
+
+    pieces = _sine_pieces(4)
+    one = _prepare_rows(pieces, 0.05, 1.0, 0.01)
+    four = _prepare_rows(pieces, 0.05, 1.0, 0.01)
+    grid = delay_grid(0.25)
+    _prepare_torques(four, grid)
+    for d in (*grid, 0.0):
+        np.testing.assert_array_equal(_torque(four, float(d)), _torque(one, float(d)))
+
+
+def test_lines_prepared_both_ways_are_those_of_each_way_alone() -> None:
+    from torquemap.identify_whole import _fixed_columns, _prepare_both_ways, _prepare_rows
+
+    pieces = _sine_pieces(5)
+    alone = _prepare_rows(pieces, 0.05, 1.0, 0.01)
+    together = _prepare_rows(pieces, 0.05, 1.0, 0.01)
+    _prepare_both_ways(together, [3.0, 7.5])
+    for directional in (False, True):
+        lines = [(3.0, directional), (7.5, directional)]
+        got = _fixed_columns(together, lines, elbow_term=False, inertia=False)
+        ref = _fixed_columns(alone, lines, elbow_term=False, inertia=False)
+        np.testing.assert_array_equal(got[0], ref[0])
+        assert got[1] == ref[1]
+
+
+def test_the_delay_rows_of_a_long_log_are_a_bounded_set_of_stretches() -> None:
+    from torquemap.identify_whole import _delay_rows, _prepare_rows, _torque
+
+    # passes of alternating direction with ramps: 4 pieces of 40 s at 1 kHz
+    rng = np.random.default_rng(6)
+    pieces = []
+    for k in range(4):
+        t = 50.0 * k + np.arange(40_000) / 1000.0
+        v = 4.0 * np.sign(np.sin(0.5 * t)) * np.minimum(1.0, np.abs(np.sin(0.5 * t)) * 5.0)
+        pieces.append(
+            Piece(
+                t=t,
+                theta=np.cumsum(v) / 1000.0,
+                velocity=v,
+                acceleration=np.gradient(v, t),
+                torque=0.1 * np.sign(v) + 0.01 * rng.standard_normal(t.size),
+                elbow=np.zeros(t.size),
+                use=np.ones(t.size, dtype=bool),
+                joint_angles=np.zeros((t.size, 1)),
+            )
+        )
+    rows = _prepare_rows(pieces, 0.05, 1.0, 0.01)
+    n = rows.clusters.size
+    assert _delay_rows(rows, n) is None  # all rows below the budget
+    sub = _delay_rows(rows, n // 3)
+    assert sub is not None
+    assert n // 4 < sub.size <= n // 3
+    assert np.all(np.diff(sub) > 0)
+    # every run of one direction keeps its first and last rows (its ramps)
+    v = rows.at(lambda p: p.velocity)
+    starts = np.flatnonzero(np.r_[True, np.sign(v[1:]) != np.sign(v[:-1])])
+    assert np.isin(starts, sub).all()
+    # a row's smoothing does not depend on the other rows: the subset's numbers are the same
+    part = rows.subset(sub)
+    np.testing.assert_array_equal(_torque(part, 0.02), _torque(rows, 0.02)[sub])
+    np.testing.assert_array_equal(part.clusters, rows.clusters[sub])

@@ -57,6 +57,81 @@ def window_sums(
 
 
 @jit
+def curvature_weights(
+    t: NDArray[np.float64],
+    rows: NDArray[np.intp],
+    lo: NDArray[np.intp],
+    hi: NDArray[np.intp],
+    width: int,
+) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
+    """The row smoother's weights (:class:`torquemap.smooth_rows.RowSmoother`): per row ``r``,
+    twice the curvature of a local quadratic least-squares fit over samples ``lo:hi`` of time
+    ``t`` [s] as weights on those samples, ``width`` slots per row (a shorter window padded with
+    zero weights on the last sample); returns the weights and their sample indices, each
+    shape (rows * width,).
+
+    With ``s = (t_j - t_r) / c``, ``c`` half the window's span, and ``S_p`` the window's sums
+    of ``s^p``, the fit's curvature is ``e^T (1, s_j, s_j^2)`` per sample with ``e`` the last
+    column of the inverse of ``[[S_0, S_1, S_2], [S_1, S_2, S_3], [S_2, S_3, S_4]]`` (its
+    cofactors over its determinant), times ``2 / c^2``. The numpy code it replaced solved
+    each 3x3 system by LU: the same weights to rounding (1e-13 of the largest).
+    """
+    n = t.size
+    m = rows.size
+    data = np.zeros(m * width)
+    index = np.empty(m * width, dtype=np.intp)
+    for r in range(m):
+        a, b = lo[r], hi[r]
+        scale = max(0.5 * (t[b - 1] - t[a]), 1e-300)
+        tr = t[rows[r]]
+        s0 = s1 = s2 = s3 = s4 = 0.0
+        for j in range(a, b):
+            u = (t[j] - tr) / scale
+            u2 = u * u
+            s0 += 1.0
+            s1 += u
+            s2 += u2
+            s3 += u2 * u
+            s4 += u2 * u2
+        c0 = s1 * s3 - s2 * s2
+        c1 = s1 * s2 - s0 * s3
+        c2 = s0 * s2 - s1 * s1
+        det = s2 * c0 + s3 * c1 + s4 * c2
+        f = 2.0 / (det * scale * scale)
+        for k in range(width):
+            j = a + k
+            index[r * width + k] = min(j, n - 1)
+            if j < b:
+                u = (t[j] - tr) / scale
+                data[r * width + k] = f * (c0 + c1 * u + c2 * u * u)
+    return data, index
+
+
+@jit
+def column_centres(x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """A centre of each column of ``x`` (n, m), subtracted before the row smoother's double
+    integral (which would otherwise grow with the square of the time): the mean of every
+    ``max(1, n // 1024)``-th sample, summed in order.
+
+    Any value near the column's level serves (the smoothing is exact for a constant, so the
+    centre only sets the rounding), and this one costs a thousandth of a pass and is the same
+    for a column whatever columns are smoothed beside it (numpy's mean is not: it sums one
+    column pairwise, several row by row).
+    """
+    n, m = x.shape
+    step = max(1, n // 1024)
+    out = np.zeros(m)
+    count = 0
+    for i in range(0, n, step):
+        count += 1
+        for c in range(m):
+            out[c] += x[i, c]
+    for c in range(m):
+        out[c] = out[c] / max(count, 1)
+    return out
+
+
+@jit
 def smooth_at_rows(
     t: NDArray[np.float64],
     x: NDArray[np.float64],

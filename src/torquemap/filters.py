@@ -455,9 +455,7 @@ def dilate(t: NDArray[np.float64], mask: NDArray[np.bool_], reach: float) -> NDA
         return np.asarray(mask, dtype=bool).copy()
     lo = np.searchsorted(t, t[bad] - reach, side="left")
     hi = np.searchsorted(t, t[bad] + reach, side="right")
-    edges = np.zeros(t.size + 1, dtype=np.int64)
-    np.add.at(edges, lo, 1)
-    np.add.at(edges, hi, -1)
+    edges = np.bincount(lo, minlength=t.size + 1) - np.bincount(hi, minlength=t.size + 1)
     out: NDArray[np.bool_] = np.cumsum(edges[:-1]) > 0
     return out
 

@@ -46,7 +46,13 @@ from torquemap.friction_law import SpeedTableFriction
 from torquemap.robust import cluster_covariance, huber_weights, robust_scale
 from torquemap.smooth_rows import RowSmoother
 from torquemap.uncertainty import LOWPASS_ENB, residual_table
-from torquemap.whole_delay import DelayProfile, delay_profile, huber_cost, judge_delay
+from torquemap.whole_delay import (
+    DelayProfile,
+    delay_grid,
+    delay_profile,
+    huber_cost,
+    judge_delay,
+)
 
 __all__ = [
     "LOWPASS_ENB",
@@ -77,6 +83,12 @@ CURVATURE_PRIOR = 0.05
 SLOPE_PRIOR = 1.0
 #: Shortest run of one sign of motion whose samples enter the fit [differentiator windows].
 RUN_WINDOWS = 4.0
+
+#: Rows that score the torque delay's trials at most (all of them below that): a trial costs
+#: a normal matrix over its rows, and the search tries about 26 delays per joint. Chosen as
+#: :data:`torquemap.free_law.MAX_ROWS`; a single sweep stays below it (the bench's, 0.49 M
+#: samples: about 20 000 rows per joint).
+DELAY_ROWS = 60_000
 #: Prior standard deviation of the table's first difference below the slowest observed speed,
 #: in units of the friction level: a Stribeck rise of half the level within a decade of
 #: speed below the slowest pass is about one sigma.
@@ -247,21 +259,22 @@ def pdtv_basis(
 
     Names are ``pdtv.<order>.<direction>.a`` / ``.b`` for ``a cos(n theta) + b sin(n theta)``.
     """
-    cols: list[NDArray[np.float64]] = []
     names: list[str] = []
-    pos, neg = velocity > 0, velocity < 0
+    out = np.empty((theta.size, sum(4 if directional else 2 for _, directional in orders)))
+    j = 0
     for order, directional in orders:
         c, s = np.cos(order * theta), np.sin(order * theta)
         if directional:
-            for mask, d in ((pos, "positive"), (neg, "negative")):
-                cols += [c * mask, s * mask]
+            for mask, d in ((velocity > 0, "positive"), (velocity < 0, "negative")):
+                np.multiply(c, mask, out=out[:, j])
+                np.multiply(s, mask, out=out[:, j + 1])
                 names += [f"pdtv.{order:g}.{d}.a", f"pdtv.{order:g}.{d}.b"]
+                j += 2
         else:
-            cols += [c, s]
+            out[:, j], out[:, j + 1] = c, s
             names += [f"pdtv.{order:g}.both.a", f"pdtv.{order:g}.both.b"]
-    if not cols:
-        return np.zeros((theta.size, 0)), names
-    return np.column_stack(cols), names
+            j += 2
+    return out, names
 
 
 def gravity_basis(q: NDArray[np.float64], k: int, planar: bool) -> NDArray[np.float64]:
@@ -287,6 +300,25 @@ class _Rows:
     #: per delay [s], the PDTV columns per ``(order, directional)`` (read-only arrays).
     cache: dict[object, NDArray[np.float64]] = field(default_factory=dict)
 
+    def subset(self, index: NDArray[np.intp]) -> _Rows:
+        """The rows ``index`` (sorted, into the stacked rows) alone, with their own smoothers
+        and cache: a row's smoothing does not depend on the other rows (the same numbers)."""
+        edges = np.cumsum([0, *(r.size for r in self.rows)])
+        rows = [
+            r[index[(index >= a) & (index < b)] - a]
+            for r, a, b in zip(self.rows, edges[:-1], edges[1:], strict=True)
+        ]
+        return _Rows(
+            pieces=self.pieces,
+            rows=rows,
+            smoothers=[
+                RowSmoother.build(p.t, r, self.window)
+                for p, r in zip(self.pieces, rows, strict=True)
+            ],
+            clusters=self.clusters[index],
+            window=self.window,
+        )
+
     def at(self, get: Callable[[Piece], NDArray[np.float64]]) -> NDArray[np.float64]:
         """A raw per-sample quantity at the rows, stacked over pieces."""
         return np.concatenate([get(p)[r] for p, r in zip(self.pieces, self.rows, strict=True)])
@@ -296,9 +328,9 @@ class _Rows:
     ) -> NDArray[np.float64]:
         """:meth:`smooth` of ``width`` <= 4 columns (one chunk), kept under ``key``.
 
-        A column smoothed in one chunk equals that column smoothed in any other chunk of two
-        columns or more (the chunk's mean is then a running sum down each column), and a
-        one-column chunk is only ever cached as such: the numbers do not depend on the cache.
+        A column smoothed in one chunk equals that column smoothed in any other chunk (the
+        smoother's centre and sums run down each column alone): the numbers do not depend on
+        the cache.
         """
         if key not in self.cache:
             out = self.smooth(make, width)
@@ -335,6 +367,37 @@ def _unsteady(
         if sign[a] == 0 or t[b - 1] - t[a] < RUN_WINDOWS * window:
             short[a:b] = True
     return dilate(t, short, window)
+
+
+def _delay_rows(rows: _Rows, max_rows: int) -> NDArray[np.intp] | None:
+    """The rows (indices into the stacked rows) that score the delay's trials: None (all of
+    them) up to ``max_rows``; beyond, at most ``max_rows`` in contiguous stretches of the runs
+    of one direction of motion (:func:`torquemap.free_law.select_stretches`: each run's first
+    and last stretch, where its ramps are, and evenly spaced stretches between)."""
+    from torquemap.free_law import select_stretches
+
+    if rows.clusters.size <= max_rows:
+        return None
+    times, masks, places = [], [], []
+    for p, r in zip(rows.pieces, rows.rows, strict=True):
+        v, tr = p.velocity[r], p.t[r]
+        # a run ends where the direction changes or rows were left out (more than a window)
+        cut = np.r_[False, (np.sign(v[1:]) != np.sign(v[:-1])) | (np.diff(tr) > rows.window)]
+        place = np.arange(r.size) + np.cumsum(cut)
+        mask = np.zeros(r.size + int(cut.sum()), dtype=bool)
+        mask[place] = True
+        times.append(np.interp(np.arange(mask.size), place, tr) if r.size else np.zeros(0))
+        masks.append(mask)
+        places.append(place)
+    chosen = select_stretches(times, masks, window=rows.window, max_rows=max_rows)
+    out, offset = [], 0
+    for place, mask, stretches in zip(places, masks, chosen, strict=True):
+        keep = np.zeros(mask.size, dtype=bool)
+        for a, b in stretches:
+            keep[a:b] = True
+        out.append(offset + np.flatnonzero(keep[place]))
+        offset += place.size
+    return np.concatenate(out).astype(np.intp)
 
 
 def _prepare_rows(pieces: Sequence[Piece], window: float, block: float, rest: float) -> _Rows:
@@ -383,6 +446,43 @@ def _fixed_columns(
     names += pd_names
     n = sum(r.size for r in rows.rows)
     return (np.hstack(cols) if cols else np.zeros((n, 0))), names
+
+
+def _prepare_both_ways(rows: _Rows, orders: Sequence[float]) -> None:
+    """The PDTV columns of lines ``orders`` for both directions and per direction at once, and
+    kept (:meth:`_Rows.smooth_once`'s keys): the direction test needs both, and the cosine and
+    sine of a line cost more than smoothing its columns. The same numbers as one at a time."""
+    for order in orders:
+        if ("pdtv", order, False) in rows.cache or ("pdtv", order, True) in rows.cache:
+            continue
+        columns = rows.smooth(_both_ways_columns(order), 6)
+        for key, part in (
+            (("pdtv", order, False), columns[:, :2]),
+            (("pdtv", order, True), columns[:, 2:]),
+        ):
+            kept = part.copy()
+            kept.setflags(write=False)
+            rows.cache[key] = kept
+
+
+def _both_ways_columns(order: float) -> Callable[[Piece, int, int], NDArray[np.float64]]:
+    """The columns of line ``order`` for both directions, then per direction (six, as
+    :func:`pdtv_basis` forms them), the cosine and sine once per piece for its chunks."""
+    memo: dict[int, NDArray[np.float64]] = {}
+
+    def make(p: Piece, j0: int, j1: int) -> NDArray[np.float64]:
+        if id(p) not in memo:
+            memo.clear()
+            c, s = np.cos(order * p.theta), np.sin(order * p.theta)
+            out = np.empty((c.size, 6))
+            out[:, 0], out[:, 1] = c, s
+            for j, mask in ((2, p.velocity > 0), (4, p.velocity < 0)):
+                np.multiply(c, mask, out=out[:, j])
+                np.multiply(s, mask, out=out[:, j + 1])
+            memo[id(p)] = out
+        return memo[id(p)][:, j0:j1]
+
+    return make
 
 
 def _pdtv_columns(line: tuple[float, bool]) -> Callable[[Piece, int, int], NDArray[np.float64]]:
@@ -447,15 +547,38 @@ def friction_velocity(
     return np.asarray((np.interp(hi, t, theta) - np.interp(lo, t, theta)) / dt, dtype=np.float64)
 
 
-def _torque(rows: _Rows, delay: float) -> NDArray[np.float64]:
-    """The torque read ``delay`` [s] later, smoothed at the rows (once per delay)."""
+def _delayed(p: Piece, delay: float) -> NDArray[np.float64]:
+    """Piece ``p``'s torque read ``delay`` [s] later (N m), shape (n,)."""
     from torquemap._fit_kernels import interp_increasing
 
+    return p.torque if delay == 0 else interp_increasing(p.t + delay, p.t, p.torque)
+
+
+def _torque(rows: _Rows, delay: float) -> NDArray[np.float64]:
+    """The torque read ``delay`` [s] later, smoothed at the rows (once per delay)."""
+
     def make(p: Piece, j0: int, j1: int) -> NDArray[np.float64]:
-        tau = p.torque if delay == 0 else interp_increasing(p.t + delay, p.t, p.torque)
-        return tau[:, None]
+        return _delayed(p, delay)[:, None]
 
     return rows.smooth_once(("torque", delay), make, 1)[:, 0]
+
+
+def _prepare_torques(rows: _Rows, delays: NDArray[np.float64]) -> None:
+    """:func:`_torque` of every delay in ``delays`` [s], smoothed four at a time (the smoother
+    reads its weights once for four columns) and kept: the same numbers as one at a time."""
+    todo = [float(d) for d in delays if ("torque", float(d)) not in rows.cache]
+
+    def make(p: Piece, j0: int, j1: int) -> NDArray[np.float64]:
+        out = np.empty((p.t.size, j1 - j0))
+        for j, d in enumerate(todo[j0:j1]):
+            out[:, j] = _delayed(p, d)
+        return out
+
+    out = rows.smooth(make, len(todo))
+    for j, d in enumerate(todo):
+        column = out[:, j : j + 1].copy()
+        column.setflags(write=False)
+        rows.cache[("torque", d)] = column
 
 
 def _prior(
@@ -512,24 +635,65 @@ def _psolve(
     return _Solver(a, w, prior)(y)
 
 
+class _Gram:
+    """``A^T diag(w) A`` of one design ``A`` for many weights ``w`` that equal the base weights
+    ``b`` on most rows (Huber's weights are 1 on every row inside the threshold).
+
+    ``A^T diag(b) A`` is formed once; each ``w`` then costs a product over the rows where it
+    differs from ``b`` only: ``A^T diag(w) A = A^T diag(b) A - A_S^T diag(b_S - w_S) A_S``.
+    Equal to the direct product to rounding; when ``b - w`` is small on a column's every row
+    (weights near ``b``) the difference cancels to about ``1e-16`` of ``A^T diag(b) A``.
+    """
+
+    def __init__(self, a: NDArray[np.float64], base: NDArray[np.float64]) -> None:
+        self.a, self.base = a, base
+        on = np.flatnonzero(base)
+        if on.size == base.size and np.all(base == 1.0):
+            self.gram = a.T @ a
+        else:
+            part = a[on] * np.sqrt(base[on])[:, None]
+            self.gram = part.T @ part
+
+    def __call__(self, w: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``A^T diag(w) A`` (p, p)."""
+        diff = self.base - w
+        s = np.flatnonzero(diff)
+        if 2 * s.size > w.size:  # most rows differ: the direct product is cheaper
+            return self.a.T @ (self.a * w[:, None])
+        if s.size == 0:
+            return self.gram.copy()
+        d = diff[s]
+        part = self.a[s]
+        if np.all(d > 0):
+            part = part * np.sqrt(d)[:, None]
+            return self.gram - part.T @ part
+        return self.gram - part.T @ (part * d[:, None])
+
+
 class _Solver:
     """:func:`_psolve` of one design, weights and prior for any right-hand side ``y``: the
-    normal equations are formed and inverted once."""
+    normal equations are formed and inverted once (from ``gram``'s product when given)."""
 
     def __init__(
-        self, a: NDArray[np.float64], w: NDArray[np.float64], prior: NDArray[np.float64]
+        self,
+        a: NDArray[np.float64],
+        w: NDArray[np.float64],
+        prior: NDArray[np.float64],
+        gram: _Gram | None = None,
     ) -> None:
-        aw = a * w[:, None]
-        normal = a.T @ aw + prior
+        if gram is not None and gram.a is a:
+            normal = gram(w) + prior
+        else:
+            normal = a.T @ (a * w[:, None]) + prior
         d = np.sqrt(np.maximum(np.diag(normal), 0.0))
         d = np.where(d > 0, d, 1.0)
         scaled = normal / np.outer(d, d)
         scaled[np.diag_indices_from(scaled)] += 1e-12
-        self.a, self.aw, self.w, self.prior = a, aw, w, prior
+        self.a, self.w, self.prior = a, w, prior
         self.bread = np.linalg.pinv(scaled, rcond=1e-12, hermitian=True) / np.outer(d, d)
 
     def __call__(self, y: NDArray[np.float64]) -> _Trial:
-        coef = self.bread @ (self.aw.T @ y)
+        coef = self.bread @ (self.a.T @ (self.w * y))
         r = y - self.a @ coef
         obj = float(np.sum(self.w * r * r) + coef @ self.prior @ coef)
         return _Trial(coef=coef, bread=self.bread, residual=r, weights=self.w, objective=obj)
@@ -545,11 +709,12 @@ def _irls(
     keep: NDArray[np.float64],
 ) -> _Trial:
     """Huber reweighting of :func:`_psolve` on the rows with ``keep`` 1 (the others 0)."""
-    trial = _psolve(a, y, w * keep, prior)
+    gram = _Gram(a, keep)  # every weight is Huber's times ``keep``: 1 on most kept rows
+    trial = _Solver(a, w * keep, prior, gram)(y)
     inside = keep > 0
     for _ in range(iterations):
         scale = robust_scale(trial.residual[inside])
-        new = _psolve(a, y, huber_weights(trial.residual, scale) * keep, prior)
+        new = _Solver(a, huber_weights(trial.residual, scale) * keep, prior, gram)(y)
         moved = float(np.max(np.abs(new.residual - trial.residual)[inside], initial=0.0))
         trial = new
         if moved < 1e-3 * robust_scale(trial.residual[inside]):
@@ -694,6 +859,8 @@ def fit_joint_whole(
     if n == 0:
         raise InputError(f"{name}no sample to fit")
     both = [(float(o), False) for o in orders]
+    if directional:
+        _prepare_both_ways(rows, [o for o, _ in both])
     fixed, fixed_names = _fixed_columns(rows, both, elbow_term=elbow_term, inertia=inertia)
     w0_lo = max(resolution, 1e-9)
     speeds = table_speeds(top_speed, w0_lo, anchors=[abs(x) for x in steady_speeds])
@@ -732,19 +899,25 @@ def fit_joint_whole(
     # start's weights down-weight exactly the misaligned ramps that tell the delay)
     # every row, the ramps' starts from rest included: they are where the torque's timing
     # shows most (the table's slow knots take up their friction for the purpose)
-    plain = _Solver(a, np.ones(n), prior)  # every trial's first solve: one normal matrix
+    # a long log's trials are scored on a bounded share of its rows (each trial costs a
+    # normal matrix over them, and a log of 4 M samples has ~330 000)
+    sub = _delay_rows(rows, DELAY_ROWS)
+    trows, at = (rows, a) if sub is None else (rows.subset(sub), a[sub])
+    gram = _Gram(at, np.ones(at.shape[0]))
+    plain = _Solver(at, np.ones(at.shape[0]), prior, gram)  # every trial's first solve
 
     @functools.cache
     def delay_cost(d: float) -> float:
-        y_ = _torque(rows, d)
+        y_ = _torque(trows, d)
         trial = plain(y_)
-        trial = _psolve(a, y_, huber_weights(trial.residual, scale0), prior)
+        trial = _Solver(at, huber_weights(trial.residual, scale0), prior, gram)(y_)
         return huber_cost(trial.residual, scale0)
 
-    dof = max(n / ROWS_PER_WINDOW, 1.0)  # a window's rows count as one
+    dof = max(at.shape[0] / ROWS_PER_WINDOW, 1.0)  # a window's rows count as one
     d = 0.0 if delay == "auto" else float(delay)
     delay_interval = (d, d)
     if delay == "auto":
+        _prepare_torques(trows, delay_grid(max_delay))
         profile: DelayProfile = delay_profile(delay_cost, max_delay, dof=dof)
         d, delay_interval, note = judge_delay(profile, reference_delay, max_delay)
         warnings += note

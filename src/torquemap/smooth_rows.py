@@ -61,49 +61,23 @@ class RowSmoother:
                 left = np.clip(i - MIN_WINDOW_SAMPLES // 2, 0, n - MIN_WINDOW_SAMPLES)
                 lo[short] = np.minimum(lo[short], left)
                 hi[short] = np.maximum(hi[short], left + MIN_WINDOW_SAMPLES)
-        parts = [
-            _curvature_weights(t, rows[a : a + _CHUNK], lo[a : a + _CHUNK], hi[a : a + _CHUNK])
-            for a in range(0, rows.size, _CHUNK)
-        ]
-        operator = sparse.vstack(parts, format="csr") if parts else sparse.csr_matrix((0, n))
+        from torquemap._fit_kernels import curvature_weights
+
+        width = int((hi - lo).max()) if rows.size else 1
+        data, index = curvature_weights(
+            t, rows.astype(np.intp), lo.astype(np.intp), hi.astype(np.intp), width
+        )
+        operator = sparse.csr_matrix(
+            (data, index, np.arange(0, data.size + 1, width)), shape=(rows.size, n)
+        )
         return cls(t=t, operator=operator)
 
     def __call__(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """The smoothed ``x`` (n, m) at the rows, shape (rows, m)."""
-        from torquemap._fit_kernels import smooth_at_rows
+        from torquemap._fit_kernels import column_centres, smooth_at_rows
 
-        mean = np.mean(x, axis=0)
+        x = np.ascontiguousarray(x, dtype=np.float64)
+        centre = column_centres(x)
         op = self.operator
-        out = smooth_at_rows(
-            self.t, np.ascontiguousarray(x, dtype=np.float64), mean, op.indptr, op.indices, op.data
-        )
-        return np.asarray(out + mean, dtype=np.float64)
-
-
-#: Rows whose weights are built at once (bounds the memory of :meth:`RowSmoother.build`).
-_CHUNK = 4096
-
-
-def _curvature_weights(
-    t: NDArray[np.float64], rows: NDArray[np.intp], lo: NDArray[np.intp], hi: NDArray[np.intp]
-) -> sparse.csr_matrix:
-    """The rows' weights on the double integral (sparse (rows, n)): the curvature of a local
-    quadratic least-squares fit over samples ``lo:hi``, times 2 (an acceleration)."""
-    n = t.size
-    width = int((hi - lo).max()) if rows.size else 1
-    offsets = np.arange(width)
-    index = np.minimum(lo[:, None] + offsets, n - 1)
-    inside = (lo[:, None] + offsets) < hi[:, None]
-    scale = np.maximum(0.5 * (t[hi - 1] - t[lo]), 1e-300)
-    sc = np.where(inside, (t[index] - t[rows][:, None]) / scale[:, None], 0.0)
-    m = inside.astype(np.float64)
-    basis = np.stack([m, m * sc, m * sc * sc], axis=-1)  # (rows, L, 3)
-    normal = np.einsum("rli,rlj->rij", basis, basis)
-    # the curvature's row of (S^T S)^-1 S^T, times 2 / scale^2 (acceleration)
-    unit = np.broadcast_to(np.array([0.0, 0.0, 1.0]), (rows.size, 3))[:, :, None]
-    e = np.linalg.solve(normal, unit)[:, :, 0]
-    weight = 2.0 * np.einsum("rlj,rj->rl", basis, e) / (scale**2)[:, None]
-    return sparse.csr_matrix(
-        (weight.ravel(), index.ravel(), np.arange(0, weight.size + 1, width)),
-        shape=(rows.size, n),
-    )
+        out = smooth_at_rows(self.t, x, centre, op.indptr, op.indices, op.data)
+        return np.asarray(out + centre, dtype=np.float64)

@@ -43,8 +43,18 @@ class DelayProfile:
     candidates: tuple[float, ...]
 
 
+#: Delays tried by :func:`delay_profile` before its parabola.
+STEPS = 25
+
+
+def delay_grid(max_delay: float, steps: int = STEPS) -> NDArray[np.float64]:
+    """The delays [s] :func:`delay_profile` tries first: ``steps`` evenly from ``-max_delay``
+    to ``max_delay`` (a caller may prepare the costs of all of them at once)."""
+    return np.linspace(-max_delay, max_delay, steps)
+
+
 def delay_profile(
-    cost: Callable[[float], float], max_delay: float, *, dof: float, steps: int = 25
+    cost: Callable[[float], float], max_delay: float, *, dof: float, steps: int = STEPS
 ) -> DelayProfile:
     """Scan ``cost`` over delays in ``[-max_delay, max_delay]`` (grid, then a parabola through
     the best three) and bound the delay by a profile F test at 95 % with ``dof`` degrees of
@@ -56,7 +66,7 @@ def delay_profile(
     >>> round(p.best, 4), p.low < 0.05 < p.high, p.candidates == (p.best,)
     (0.05, True, True)
     """
-    grid = np.linspace(-max_delay, max_delay, steps)
+    grid = delay_grid(max_delay, steps)
     vals = np.array([cost(float(x)) for x in grid])
     k = int(np.argmin(vals))
     best, c_best = float(grid[k]), float(vals[k])
