@@ -11,16 +11,9 @@ import pytest
 from scipy import signal
 
 from torquemap import _kernels as K
-from torquemap._memory import retain_freed_memory
+from torquemap._memory import is_glibc, retain_freed_memory
 
 pytestmark = pytest.mark.xdist_group("kernels")
-
-
-def _glibc() -> bool:
-    try:
-        return (os.confstr("CS_GNU_LIBC_VERSION") or "").startswith("glibc")
-    except (AttributeError, OSError, ValueError):
-        return False
 
 
 def _faults_of_lowpass(x: np.ndarray) -> int:
@@ -34,7 +27,7 @@ def _faults_of_lowpass(x: np.ndarray) -> int:
     return resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before
 
 
-@pytest.mark.skipif(not _glibc(), reason="mallopt is glibc's")
+@pytest.mark.skipif(not is_glibc(), reason="mallopt is glibc's")
 def test_a_kernels_arrays_reuse_freed_pages() -> None:
     n = 1 << 20
     x = np.random.default_rng(0).standard_normal((1, n))

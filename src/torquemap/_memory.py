@@ -32,6 +32,14 @@ _M_TOP_PAD = -2
 _M_MMAP_THRESHOLD = -3
 
 
+def is_glibc() -> bool:
+    """Whether the process runs on glibc (where ``mallopt`` is)."""
+    try:
+        return (os.confstr("CS_GNU_LIBC_VERSION") or "").startswith("glibc")
+    except (AttributeError, OSError, ValueError):
+        return False
+
+
 def retain_freed_memory() -> bool:
     """Make glibc keep freed memory for reuse instead of unmapping it; True if set.
 
@@ -42,9 +50,9 @@ def retain_freed_memory() -> bool:
     >>> isinstance(retain_freed_memory(), bool)
     True
     """
+    if not is_glibc():
+        return False
     try:
-        if not (os.confstr("CS_GNU_LIBC_VERSION") or "").startswith("glibc"):
-            return False
         libc = ctypes.CDLL(None)
         settings = (
             (_M_MMAP_THRESHOLD, RETAIN_BYTES),
