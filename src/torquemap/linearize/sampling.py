@@ -278,8 +278,8 @@ def unheld_gap_advice(
     >>> a = np.array([0, 4, 8, 16, 20, 24, 28])
     >>> bad = np.zeros(32, dtype=bool)
     >>> bad[10:15] = True
-    >>> unheld_gap_advice(bad, a, 32, period=6.4)[-52:]
-    'interpolated linearly there; collect position 12 too'
+    >>> unheld_gap_advice(bad, a, 32, period=6.4)[-47:]
+    'only the slower ripple; collect position 12 too'
     """
     mask = np.asarray(unheld, dtype=bool)
     a = np.asarray(anchors, dtype=np.int64)
@@ -308,5 +308,5 @@ def unheld_gap_advice(
     return (
         f"the torque at rest ripples with a period of {period:.3g} table positions that the "
         f"measured positions cannot hold at positions {shown} (measured positions up to "
-        f"{widest} apart): interpolated linearly there; collect position{plural} {wanted} too"
+        f"{widest} apart): the tables there carry only the slower ripple; collect position{plural} {wanted} too"
     )
