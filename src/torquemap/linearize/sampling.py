@@ -201,3 +201,112 @@ def check_stated_cogging(cogging_periods: int, anchors: ArrayLike, positions_per
         f"{_nth(s)} position cannot hold it; collect again measuring every {_nth(d)} position "
         f"(position step {d})"
     )
+
+
+def aliased_gaps(anchors: ArrayLike, positions_per_cycle: int, harmonic: int) -> NDArray[np.bool_]:
+    """The table positions inside gaps between measured positions that sample a harmonic at
+    most twice a period.
+
+    A ripple of ``h`` periods per cycle of ``P`` positions is sampled more than twice a period
+    across a gap of ``d`` positions only when ``2 d h < P``. Evenly spaced measured positions
+    (``K`` of them) satisfy this for every ``h < K / 2``, all a fit over them may keep; on
+    unevenly spaced ones (an adaptive collection, a grid with positions missing) the dense
+    stretches can fix a harmonic that the wide gaps cannot measure: there the tables rely on
+    the ripple repeating exactly.
+
+    Parameters
+    ----------
+    anchors
+        The measured positions, ascending, shape (K,).
+    positions_per_cycle
+        ``P``.
+    harmonic
+        ``h``, periods per cycle (0: nothing to sample).
+
+    Returns
+    -------
+    ndarray of bool
+        True inside every such gap, shape (P,).
+
+    Examples
+    --------
+    >>> a = np.setdiff1d(np.arange(0, 96, 4), [40])  # a gap of 8 around 40
+    >>> np.flatnonzero(aliased_gaps(a, 96, 6)).tolist()  # 16 positions a period
+    [37, 38, 39, 40, 41, 42, 43]
+    >>> aliased_gaps(np.arange(0, 96, 4), 96, 6).any()
+    np.False_
+    """
+    a = np.asarray(anchors, dtype=np.int64)
+    n = int(positions_per_cycle)
+    out = np.zeros(n, dtype=bool)
+    if harmonic < 1 or a.size < 2:
+        return out
+    width = (np.roll(a, -1) - a) % n
+    width[width == 0] = n
+    for start, d in zip(a.tolist(), width.tolist(), strict=True):
+        if d > 1 and 2 * d * harmonic >= n:
+            out[(start + np.arange(1, d)) % n] = True
+    return out
+
+
+def unheld_gap_advice(
+    unheld: ArrayLike, anchors: ArrayLike, positions_per_cycle: int, *, period: float
+) -> str:
+    """One line naming the gaps between measured positions where the torque at rest's ripple
+    is not held by the data, and the positions to collect.
+
+    Parameters
+    ----------
+    unheld
+        True at the table positions where the fitted ripple is not determined by the measured
+        positions, shape (P,).
+    anchors
+        The measured positions, ascending, shape (K,).
+    positions_per_cycle
+        ``P``.
+    period
+        The ripple's period [table positions].
+
+    Returns
+    -------
+    str
+        Empty when no position is unheld; otherwise the gaps (first and last unmeasured
+        position), their widest span and the midpoint of each, to measure.
+
+    Examples
+    --------
+    >>> a = np.array([0, 4, 8, 16, 20, 24, 28])
+    >>> bad = np.zeros(32, dtype=bool)
+    >>> bad[10:15] = True
+    >>> unheld_gap_advice(bad, a, 32, period=6.4)[-47:]
+    'only the slower ripple; collect position 12 too'
+    """
+    mask = np.asarray(unheld, dtype=bool)
+    a = np.asarray(anchors, dtype=np.int64)
+    n = int(positions_per_cycle)
+    if not mask.any() or a.size < 2:
+        return ""
+    width = (np.roll(a, -1) - a) % n
+    width[width == 0] = n
+    gaps: list[str] = []
+    collect: list[int] = []
+    widest = 0
+    for start, d in zip(a.tolist(), width.tolist(), strict=True):
+        inside = (start + np.arange(1, d)) % n
+        if d < 2 or not mask[inside].any():
+            continue
+        gaps.append(f"{int(inside[0])} .. {int(inside[-1])}")
+        collect.append(int((start + d // 2) % n))
+        widest = max(widest, int(d))
+    if not gaps:
+        return ""
+    shown = ", ".join(gaps[:6]) + (f" and {len(gaps) - 6} more gaps" if len(gaps) > 6 else "")
+    wanted = ", ".join(map(str, collect[:12])) + (
+        f" and {len(collect) - 12} more" if len(collect) > 12 else ""
+    )
+    plural = "s" if len(collect) > 1 else ""
+    return (
+        f"the torque at rest ripples with a period of {period:.3g} table positions that the "
+        f"measured positions cannot hold at positions {shown} (measured positions up to "
+        f"{widest} apart): the tables there carry only the slower ripple; collect position{plural} {wanted} too"
+    )

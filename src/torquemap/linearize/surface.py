@@ -42,6 +42,7 @@ from scipy.optimize import nnls
 from scipy.sparse.linalg import spsolve
 
 from torquemap.linearize.detent import loo_press
+from torquemap.linearize.sampling import SIGNIFICANT, aliased_gaps
 
 #: Most alternating least-squares rounds.
 ROUNDS = 40
@@ -68,6 +69,9 @@ class SurfaceFit:
     offset
         The sensor's offset left in each position's readings (the bias error of its block)
         [N m], shape (P,): read where the model is below zero.
+    series
+        How ``o`` was carried between the measured positions (its harmonics, and where the
+        data could not hold one it asked for).
     """
 
     phi: NDArray[np.float64]
@@ -75,6 +79,7 @@ class SurfaceFit:
     rest: NDArray[np.float64]
     rms: float
     offset: NDArray[np.float64]
+    series: RestSeries | None = None
 
 
 def _second_difference(n: int) -> sp.csr_matrix:
@@ -85,15 +90,77 @@ def _second_difference(n: int) -> sp.csr_matrix:
     return sp.csr_matrix((vals, (rows, cols)), shape=(n, n))
 
 
-def _interpolate_rest(
-    rest: NDArray[np.float64], anchors: NDArray[np.int64], n: int
-) -> NDArray[np.float64]:
+#: A Fourier term of the torque at rest is kept only while the series' prediction at every
+#: table position has at most this variance, in units of one measured position's: a
+#: prediction between measured positions twice as uncertain as a measurement (in standard
+#: deviation) is not what the measured positions hold.
+LEVERAGE_MAX = 4.0
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class RestSeries:
+    """``o`` on every position, the harmonics of its Fourier part, and the positions where
+    the measured positions do not hold the ripple: where a harmonic the data asked for was
+    refused (its prediction's variance above ``LEVERAGE_MAX`` there) or where a gap samples
+    the fastest harmonic kept at most twice a period
+    (:func:`torquemap.linearize.sampling.aliased_gaps`); and the shortest such period
+    [table positions]."""
+
+    rest: NDArray[np.float64]
+    harmonics: tuple[int, ...]
+    amplitudes: tuple[float, ...]
+    noise_amplitude: float
+    unheld: NDArray[np.bool_]
+    unheld_period: float
+
+    def unheld_at(
+        self, anchors: NDArray[np.int64], *, matters: float
+    ) -> tuple[NDArray[np.bool_], float]:
+        """The positions where the measured positions do not hold the ripple, and its
+        shortest period there [table positions]: the refused harmonics' positions, and the
+        gaps that sample the fastest kept harmonic at most twice a period
+        (:func:`torquemap.linearize.sampling.aliased_gaps`), of those whose amplitude is
+        ``matters`` [N m] or more and stands out of the noise (``SIGNIFICANT`` times the
+        median amplitude of a harmonic fitted to noise alone, as in
+        :func:`torquemap.linearize.sampling.check_position_sampling`)."""
+        n = self.rest.size
+        mask, period = self.unheld.copy(), self.unheld_period
+        bound = max(matters, SIGNIFICANT * self.noise_amplitude)
+        big = [h for h, a in zip(self.harmonics, self.amplitudes, strict=True) if a >= bound]
+        if big:
+            aliased = aliased_gaps(anchors, n, max(big))
+            if aliased.any():
+                mask |= aliased
+                period = min(period, n / max(big))
+        return mask, period
+
+
+def _leverage(x: NDArray[np.float64], harmonics: list[int], n: int) -> NDArray[np.float64]:
+    """Variance of the series' prediction at every position, in units of one sample's."""
+    design = _fourier_set(x, harmonics, n)
+    every = _fourier_set(np.arange(n, dtype=np.float64), harmonics, n)
+    inverse = np.linalg.pinv(design.T @ design)
+    out: NDArray[np.float64] = np.einsum("ij,jk,ik->i", every, inverse, every)
+    return out
+
+
+def _interpolate_rest(rest: NDArray[np.float64], anchors: NDArray[np.int64], n: int) -> RestSeries:
     """``o`` between the anchors: harmonics kept while their leave-one-out error falls (one
-    fundamental and its multiples first, as cogging repeats), the rest linear."""
+    fundamental and its multiples first, as cogging repeats), the rest linear.
+
+    The leave-one-out error sees the anchors only. On unevenly spaced anchors (an adaptive
+    collection, a grid with positions missing) the dense stretches can fix a set of harmonics
+    that a wide gap does not: the series then swings freely inside the gap (seed 11 of the
+    family, an adaptive collection: 1.9 N m four positions from a measured one, where the
+    ripple is 0.4 N m peak to peak). A harmonic is therefore kept only while the series'
+    prediction variance stays below ``LEVERAGE_MAX`` times one sample's at every position;
+    the next best by fit is tried instead."""
     x = anchors.astype(np.float64)
     y = rest[anchors]
     top = (anchors.size - 1) // 2
     kept: list[int] = []
+    unheld = np.zeros(n, dtype=bool)
+    unheld_period = np.inf
     best, coef = loo_press(np.ones((x.size, 1)), y)
     while 2 * len(kept) + 3 < anchors.size:
         trials = []
@@ -104,21 +171,35 @@ def _interpolate_rest(
             sol, *_ = np.linalg.lstsq(d, y, rcond=None)
             rr = y - d @ sol
             trials.append((float(rr @ rr), h))
-        if not trials:
+        chosen = None
+        for _, h in sorted(trials):
+            lev = _leverage(x, [*kept, h], n)
+            if lev.max() <= LEVERAGE_MAX:
+                chosen = h
+                break
+            if not unheld.any() and loo_press(_fourier_set(x, [*kept, h], n), y)[0] < best:
+                unheld, unheld_period = lev > LEVERAGE_MAX, n / h
+        if chosen is None:
             break
-        _, h = min(trials)
-        press, sol = loo_press(_fourier_set(x, [*kept, h], n), y)
+        press, sol = loo_press(_fourier_set(x, [*kept, chosen], n), y)
         if not press < best:
             break
         best, coef = press, sol
-        kept.append(h)
+        kept.append(chosen)
     allp = np.arange(n, dtype=np.float64)
     smooth = _fourier_set(allp, kept, n) @ coef
     resid = y - _fourier_set(x, kept, n) @ coef
     ext = np.concatenate([anchors - n, anchors, anchors + n])
     out = smooth + np.interp(allp, ext, np.tile(resid, 3))
     out[anchors] = y
-    return out
+    pairs = coef[1:].reshape(2, -1) if kept else np.zeros((2, 0))
+    amplitude = np.hypot(pairs[0], pairs[1])
+    # the median amplitude of a harmonic fitted to noise alone (Rayleigh, scale
+    # sigma sqrt(2 / K)), sigma from the leave-one-out residuals
+    noise = 1.177 * np.sqrt(best / y.size) * np.sqrt(2.0 / y.size)
+    return RestSeries(
+        out, tuple(kept), tuple(amplitude.tolist()), float(noise), unheld, float(unheld_period)
+    )
 
 
 def _fourier_set(p: NDArray[np.float64], harmonics: list[int], n: int) -> NDArray[np.float64]:
@@ -216,7 +297,6 @@ def fit_surface(
         return values[jj] * (1 - ww) + values[np.minimum(jj + 1, knots - 1)] * ww
 
     gain = np.zeros((n, m))
-    rest = np.zeros(n)
     coef_o = np.zeros(nf)
     pred = np.zeros_like(y)
     offset = np.zeros(n)
@@ -282,11 +362,16 @@ def fit_surface(
         if abs(last - sse) <= TOLERANCE * sse:
             break
         last = sse
-    rest = _interpolate_rest(coef_o, anchors, n)
+    series = _interpolate_rest(coef_o, anchors, n)
     res = np.maximum(pred, 0.0) - (y - offset[cp])
     phi_all = np.interp(np.arange(actuation_max + 1, dtype=np.float64), kx, phi_k)
     return SurfaceFit(
-        phi=phi_all, gain=gain, rest=rest, rms=float(np.sqrt(np.mean(res**2))), offset=offset
+        phi=phi_all,
+        gain=gain,
+        rest=series.rest,
+        rms=float(np.sqrt(np.mean(res**2))),
+        offset=offset,
+        series=series,
     )
 
 

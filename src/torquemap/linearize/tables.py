@@ -46,7 +46,12 @@ from torquemap.linearize.detent import detent_correction, fit_detent
 from torquemap.linearize.handover import check_handover, fill_handover
 from torquemap.linearize.motor import MotorSpec
 from torquemap.linearize.onset import extend_below, fit_onset
-from torquemap.linearize.sampling import check_position_sampling, check_stated_cogging
+from torquemap.linearize.sampling import (
+    MATTERS,
+    check_position_sampling,
+    check_stated_cogging,
+    unheld_gap_advice,
+)
 from torquemap.linearize.surface import SurfaceFit, fit_surface, surface_prediction
 
 CommandScaling = Literal["linear", "log"]
@@ -1045,6 +1050,12 @@ def build_tables(
                 )
                 if check.undersampled:
                     warnings.append(check.advice())
+                if fitted.series is not None:
+                    unheld, period = fitted.series.unheld_at(
+                        anchors, matters=MATTERS * torque_max / cmax
+                    )
+                    if unheld.any():
+                        warnings.append(unheld_gap_advice(unheld, anchors, n, period=period))
                 base = _invert(fine, np.arange(spec.actuation_max + 1, dtype=np.float64), target)
                 base = _snap(fine, base, target) if actuation_bits is None else base
                 surface_used = True
