@@ -308,7 +308,7 @@ def _pdtv_map(args: argparse.Namespace) -> int:
         suffixes = (Path(args.output).suffix.lower(),)  # --format names what the suffix does not
     check_outputs([(args.output, suffixes)], [args.model])
     model = load_model(args.model)
-    table = pdtv_map(model, args.joint, bins=args.bins)
+    table = pdtv_map(model, args.joint, bins=args.bins, path=args.model)
     write_pdtv_map(args.output, table, file_format=file_format, int_type=args.int_type)
     print(f"wrote {args.output}")
     return 0
