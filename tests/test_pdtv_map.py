@@ -40,11 +40,6 @@ def test_map_is_the_closed_form_at_bin_centres() -> None:
         pdtv_map(MODEL, "x")
     with pytest.raises(InputError, match="at least 2"):
         pdtv_map(MODEL, "m", bins=1)
-    # a robot file (no lines) once gave an all-zero anti-cogging map, exit 0
-    bare = Model(robot=RB, joints={"m": JointModel()})
-    with pytest.raises(InputError, match=r"r\.toml: joint 'm' has no PDTV lines: its map would"):
-        pdtv_map(bare, "m", bins=8, path="r.toml")
-    assert_allclose(pdtv_map(bare, "m", motor_angle=[0.0, 1.0]).torque, 0.0)  # a curve: zero
 
 
 @pytest.mark.parametrize("int_type,full", [("int16", 32767), ("int8", 127)])

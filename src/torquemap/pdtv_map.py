@@ -67,7 +67,6 @@ def pdtv_map(
     bins: int = 1024,
     motor_angle: ArrayLike | None = None,
     direction: Literal["mean", "positive", "negative"] = "mean",
-    path: str | os.PathLike[str] | None = None,
 ) -> PdtvMap:
     """Tabulate a joint's PDTV over one motor revolution.
 
@@ -83,8 +82,6 @@ def pdtv_map(
         Evaluate at these motor angles [rad] instead of bin centres, shape (m,).
     direction
         Directional lines: ``"mean"`` of both directions, or one direction's.
-    path
-        The model file, for error messages.
 
     Returns
     -------
@@ -94,8 +91,7 @@ def pdtv_map(
     Raises
     ------
     InputError
-        On an unknown joint, a joint without PDTV lines tabulated in bins (its map would be
-        all zeros), or ``bins`` outside ``2 .. MAX_BINS``.
+        On an unknown joint, or ``bins`` outside ``2 .. MAX_BINS``.
 
     Examples
     --------
@@ -110,13 +106,6 @@ def pdtv_map(
     """
     jt = model.robot.joint(joint)
     jm = model.joints[joint]
-    if motor_angle is None and not jm.pdtv:  # a map to export, not a curve to draw
-        raise InputError(
-            f"joint {joint!r} has no PDTV lines: its map would be all zeros (a robot file, or "
-            "identification found no line above the noise); export from the model "
-            "`torquemap identify` wrote",
-            path=path,
-        )
     if motor_angle is None:
         if bins < 2:
             raise InputError(f"--bins must be at least 2, got {bins}")

@@ -308,7 +308,13 @@ def _pdtv_map(args: argparse.Namespace) -> int:
         suffixes = (Path(args.output).suffix.lower(),)  # --format names what the suffix does not
     check_outputs([(args.output, suffixes)], [args.model])
     model = load_model(args.model)
-    table = pdtv_map(model, args.joint, bins=args.bins, path=args.model)
+    table = pdtv_map(model, args.joint, bins=args.bins)
+    if not model.joints[args.joint].pdtv:  # a valid map of no ripple, but likely a robot file
+        print(
+            f"torquemap: warning: {args.model}: joint {args.joint!r} has no PDTV lines, the map "
+            "is all zeros (a robot file, or identification found no line above the noise?)",
+            file=sys.stderr,
+        )
     write_pdtv_map(args.output, table, file_format=file_format, int_type=args.int_type)
     print(f"wrote {args.output}")
     return 0
