@@ -8,6 +8,7 @@ tests/test_vertical.py (small and fast).
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +36,19 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> Path:
     write_table(d / "other.csv", {k.replace("_a", "_x"): v for k, v in cols.items()})
     still = {k: (np.full_like(v, v[0]) if k.startswith("q_") else v) for k, v in cols.items()}
     write_table(d / "still.csv", {k: v[:3000] for k, v in still.items()})
+    write_table(d / "ms.csv", {**cols, "t": cols["t"] * 1000.0})  # time in milliseconds
+    write_table(d / "degrees.csv", {**cols, "q_a": np.degrees(cols["q_a"])})
+    write_table(d / "constant.csv", {**cols, "i_a": np.full_like(cols["i_a"], 0.2)})
+    first_b = int(np.argmax(cols["q_b"] != cols["q_b"][0]))  # the sweeps move a, then b
+    write_table(d / "only_a.csv", {k: v[: first_b - 1] for k, v in cols.items()})
+    # the true model, with the notes a whole-log fit writes: its steady sweep speeds (motor
+    # side; friction through zero, so that a joint at rest while the other sweeps is bridged)
+    doc = model_to_dict(truth_model())  # type: ignore[arg-type]
+    speeds = [20.0, -20.0, 60.0, -60.0]
+    doc["identification"] = {
+        "joints": {j: {"friction_fit": "whole", "speeds": speeds} for j in ("a", "b")}
+    }
+    write_toml(d / "model_speeds.toml", doc)
     return d
 
 
@@ -89,3 +103,54 @@ def test_report_says_it_in_the_report(files: Path, tmp_path: Path) -> None:
         main(["report", str(files / "model.toml"), str(files / "still.csv"), "-o", str(out)]) == 0
     )
     assert "record every joint moving faster than that" in out.read_text()
+
+
+@pytest.mark.parametrize("command", ["identify", "estimate"])
+def test_time_in_milliseconds_is_named(
+    files: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], command: str
+) -> None:
+    # before: "no stretch ... record without gaps longer than 0.125 s", nothing about units
+    out = str(tmp_path / "out")
+    err = _one_line(COMMANDS[command](files, str(files / "ms.csv"), out), capsys)
+    assert "ms.csv" in err and "median time step is 2 s: 't' must be in seconds" in err
+    assert not list(tmp_path.iterdir())
+
+
+def test_a_cut_off_float64_cannot_hold(
+    files: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # before: a traceback (numpy.linalg.LinAlgError: Singular matrix)
+    argv = COMMANDS["estimate"](files, str(files / "constant.csv"), str(tmp_path / "f"))
+    err = _one_line([*argv, "--cutoff", "1e-9"], capsys)
+    assert "constant.csv" in err and "float64 cannot hold that filter" in err
+    assert not list(tmp_path.iterdir())
+
+
+def test_a_joint_that_never_moves_is_left_unidentified(
+    files: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # before: exit 2 with "joint b: no sample to fit" (no file, nothing to do about it); now
+    # as the pass method: the joint that moved is identified, the other left with a warning
+    out = tmp_path / "m.toml"
+    argv = COMMANDS["identify"](files, str(files / "only_a.csv"), str(tmp_path / "m"))
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert "joint b never moves at a steady speed: left unidentified" in err
+    assert "too few samples where it alone moves" in err and out.exists()
+
+
+def test_a_constant_current_and_a_log_in_degrees_are_warned(
+    files: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    model = str(files / "model_speeds.toml")
+    for log, says in (
+        ("constant.csv", r"joint {}: the current \(torque\) is 0\.02 N m at every sample while"),
+        # a moves half the log, at 57 x its 20 and 60 rad/s: above 90 rad/s but on its ramps
+        ("degrees.csv", r"joint {}: \d\d% of the samples run at motor speeds above 1\.5 times the "
+         r"fastest steady sweep pass 60 rad/s"),
+    ):  # fmt: skip
+        capsys.readouterr()
+        assert main(["estimate", model, str(files / log), "-o", str(tmp_path / "f.csv")]) == 0
+        err = capsys.readouterr().err
+        assert re.search(says.format("a"), err), err
+        assert not re.search(says.format("b"), err), err  # b is sound

@@ -96,6 +96,18 @@ def test_pdtv_map_formats(bench: Path, fmt: str | None, name: str) -> None:
         assert list(cols) == ["motor_angle", "torque", "current"] and cols["torque"].size == 64
 
 
+def test_pdtv_map_of_a_joint_without_lines_warns(
+    bench: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a robot file instead of the model: once an all-zero map with nothing said
+    out = tmp_path / "zero.csv"
+    argv = ["pdtv-map", str(bench / "robot.toml"), "--joint", "m", "--bins", "8", "-o", str(out)]
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert "robot.toml: joint 'm' has no PDTV lines, the map is all zeros" in err
+    assert not read_table(out)["torque"].any()
+
+
 def _error(capsys: pytest.CaptureFixture[str], argv: list[str]) -> str:
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()

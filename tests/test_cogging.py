@@ -127,7 +127,12 @@ def test_verify_refuses_what_it_cannot_check(
     argv = ["cogging", "verify", str(tmp_path / "plain.toml"), str(tmp_path / "after.csv")]
     assert main([*argv, "--joint", "a"]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "holds no PDTV line" in err
+    assert err.count("\n") == 1 and "plain.toml: joint a: the model holds no PDTV line" in err
+    # a percentage outside 0 .. 100 always failed (200) or always passed (-1)
+    for bad in ("200", "-1"):
+        with pytest.raises(SystemExit):
+            main([*argv, "--joint", "a", "--require", bad])
+        assert "argument --require: must be a number in [0, 100]" in capsys.readouterr().err
 
 
 def test_quasi_static_refuses_a_sweep(stand: Stand) -> None:

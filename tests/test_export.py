@@ -138,6 +138,11 @@ def test_load_errors(tables: TableSet, tmp_path: Path) -> None:
     junk.write_bytes(b"not a zip at all")
     with pytest.raises(InputError, match=r"junk\.npz: cannot read tables"):
         load_tables(junk)
+    # a CSV saved as .npz: np.load called it pickled data and suggested allow_pickle
+    text = tmp_path / "text.npz"
+    text.write_text("position,pulse_width,torque\n0,0,0.1\n")
+    with pytest.raises(InputError, match=r"text\.npz: .*\(not a zip archive, as \.npz files are\)"):
+        load_tables(text)
     with pytest.raises(InputError, match="file not found"):
         load_tables(tmp_path / "missing.npz")
     partial = tmp_path / "partial.npz"

@@ -7,7 +7,12 @@ import pytest
 from numpy.testing import assert_allclose
 
 from torquemap.errors import InputError
-from torquemap.filters import differentiate, lowpass, smooth_as_acceleration
+from torquemap.filters import (
+    MIN_RELATIVE_CUTOFF,
+    differentiate,
+    lowpass,
+    smooth_as_acceleration,
+)
 from torquemap.friction import fit_inertia
 
 
@@ -65,6 +70,17 @@ def test_lowpass_irregular_time_and_errors() -> None:
         lowpass(t, t, cutoff=1e4)
     with pytest.raises(InputError, match="shorter than the low-pass filter"):
         lowpass(np.arange(5) * 1e-3, np.zeros(5), cutoff=10.0)
+
+
+def test_lowpass_refuses_a_cut_off_float64_cannot_hold() -> None:
+    t = np.arange(4000) * 1e-3  # Nyquist 500 Hz
+    x = np.full(t.size, 3.0)
+    # at the bound the design is still sound: a constant passes with gain 1 (DC gain of a
+    # Butterworth; its float64 error there is ~1e-16 / 1e-10 = 1e-6 at most)
+    y = lowpass(t, x, cutoff=MIN_RELATIVE_CUTOFF * 500.0)
+    assert_allclose(y, 3.0, rtol=1e-6)
+    with pytest.raises(InputError, match=r"below 1e-05 of the Nyquist frequency 500 Hz"):
+        lowpass(t, x, cutoff=1e-9)  # was numpy.linalg.LinAlgError (a singular initial state)
 
 
 @pytest.mark.parametrize("irregular", [False, True])

@@ -104,6 +104,14 @@ GOOD = "t,q_a,q_b,i_a,i_b\n0,0,0,0,0\n0.5,1,1,1,1\n1,2,2,2,2\n"
         ("t,q_a,i_a,i_b\n0,0,0,0\n1,1,1,1\n", r"missing column 'q_b'"),
         ("t,q_a,q_b,i_a\n0,0,0,0\n1,1,1,1\n", r"missing column 'i_b' or 'tau_b' for joint 'b'"),
         ("q_a,q_b,i_a,i_b\n0,0,0,0\n1,1,1,1\n", r"missing column 't'"),
+        # what the file holds instead: another separator, a near miss, else its columns
+        (
+            GOOD.replace(",", ";"),
+            r"missing column 't' \(the header is one column, 't;q_a;q_b;i_a;i_b': separate",
+        ),
+        (GOOD.replace("t,", "T,", 1), r"missing column 't' \(the file has 'T': names are exact"),
+        (GOOD.replace("q_a,", "q_a [rad],", 1), r"'q_a' \(the file has 'q_a \[rad\]': names"),
+        (GOOD.replace("t,", "x,", 1), r"missing column 't' \(the file has x, q_a, q_b, i_a, i_b\)"),
         (
             GOOD.replace("0.5,1,1,1,1", "0.5,nan,1,1,1"),
             r"'q_a' holds NaN or inf \(first at data row 2\)",

@@ -316,3 +316,35 @@ def test_robot_link_length_1e_320(tmp_path: Path, capsys: pytest.CaptureFixture[
     write_toml(tmp_path / "model.toml", doc)
     status, err = estimate(tmp_path / "model.toml", log, capsys)
     assert status == 2 and err.count("\n") == 1 and "link_lengths" in err, err
+
+
+def test_toml_with_a_byte_order_mark_is_read(tmp_path: Path) -> None:
+    # Windows editors (Notepad) start UTF-8 files with one; tomllib alone refuses it
+    plain, marked = tmp_path / "r.toml", tmp_path / "bom.toml"
+    write_toml(plain, ROBOT)
+    marked.write_bytes(b"\xef\xbb\xbf" + plain.read_bytes())
+    assert read_toml(marked) == read_toml(plain)
+
+
+@pytest.mark.parametrize(("value", "shown"), [("-1.0", "-1.0"), ("'abc'", "'abc'"), ("nan", "nan")])
+def test_model_differentiation_window_is_checked(
+    value: str, shown: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # estimate, spectrum and report default to it: once skipped silently (0.05 s used instead)
+    write_toml(tmp_path / "m.toml", ROBOT)
+    model = tmp_path / "m.toml"
+    model.write_text(model.read_text() + f"\n[identification]\ndifferentiation_window = {value}\n")
+    write_table(tmp_path / "log.csv", log_columns())
+    status, err = estimate(model, tmp_path / "log.csv", capsys)
+    assert_one_line(
+        status,
+        err,
+        f"m.toml: [identification] differentiation_window must be a number in (0, 10] s, got {shown}",
+    )
+    assert not (tmp_path / "f.csv").exists()
+
+
+def test_a_joint_without_a_name_is_refused(tmp_path: Path) -> None:
+    doc = {**ROBOT, "joints": {"": ROBOT["joints"]["a"], "b": ROBOT["joints"]["b"]}}
+    with pytest.raises(InputError, match=r"\[joints\.''\] a joint needs a name"):
+        robot_from_dict(doc, path="r.toml")

@@ -242,6 +242,19 @@ def test_uncovered_positions_and_zero_torque_raise() -> None:
         build_tables(spec, p, w, t0, max_gap=0)
 
 
+def test_constant_torque_and_oversized_grid_raise() -> None:
+    spec = one_phase()
+    p, w, t = quadratic_data(spec)
+    # a sensor that reads the same on every row (unconnected, a wrong column): no curve
+    with pytest.raises(InputError, match=r"d\.csv: every row reads torque 0\.01 N m"):
+        build_tables(spec, p, w, np.full(t.size, 0.01), path="d.csv")
+    # 16-bit pulse widths at 48 positions: 3.1 M cells, refused before any allocation
+    wide = motor_spec("m", phases=1, positions_per_cycle=48, equilibrium_positions=(0,),
+                      actuation_max=65535)  # fmt: skip
+    with pytest.raises(InputError, match=r"= 3\.15e\+06 cells, more than the 2\.1e\+06"):
+        build_tables(wide, p, w, t)
+
+
 def test_read_data_errors(tmp_path) -> None:  # type: ignore[no-untyped-def]
     spec = one_phase()
     f = tmp_path / "d.csv"

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import os
 from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Literal
@@ -223,6 +224,7 @@ def verify_cogging(
     joint: str | None = None,
     current: Literal["total", "feedback"] = "total",
     window: float = 0.05,
+    path: str | os.PathLike[str] | None = None,
 ) -> CoggingVerification:
     """Compare the ripple at the model's PDTV lines in a sweep with the map and one without.
 
@@ -242,6 +244,8 @@ def verify_cogging(
         ``"feedback"``: the log holds only the position loop's output.
     window
         Differentiator window [s] for the speed.
+    path
+        The model file, for error messages.
 
     Returns
     -------
@@ -259,13 +263,16 @@ def verify_cogging(
         if len(with_lines) != 1:
             raise InputError(
                 "name the joint to verify (--joint): the model has PDTV lines for "
-                f"{', '.join(with_lines) or 'no joint'}"
+                f"{', '.join(with_lines) or 'no joint'}",
+                path=path,
             )
         joint = with_lines[0]
     model.robot.joint(joint)
     lines = model.joints[joint].pdtv
     if not lines:
-        raise InputError(f"joint {joint}: the model holds no PDTV line, so there is no map")
+        raise InputError(
+            f"joint {joint}: the model holds no PDTV line, so there is no map", path=path
+        )
     orders = sorted({ln.order for ln in lines})
     amps = _model_amplitudes(lines, orders)
     rank = np.argsort(-amps, kind="stable")

@@ -517,7 +517,7 @@ def estimate_forces(
         for ``paper``, a log in which no joint with PDTV lines ever makes a monotonic pass of
         ``min_revolutions``.
     """
-    from torquemap.sanitize import sanitize_log
+    from torquemap.sanitize import no_stretch_message, sanitize_log
 
     if method not in METHODS:
         raise InputError(f"unknown method {method!r} (choose from {', '.join(METHODS)})")
@@ -539,11 +539,7 @@ def estimate_forces(
         )
     clean = sanitize_log(log, window=win)
     if not clean.pieces:
-        raise InputError(
-            f"no stretch of the log between gaps in time lasts the {win:.3g} s differentiator "
-            f"window; record without gaps longer than {2.5 * win:.3g} s",
-            path=log.path,
-        )
+        raise InputError(no_stretch_message(log.t, win), path=log.path)
     nan2 = np.full((n, nj), np.nan)
     out = {
         name: nan2.copy()
@@ -627,6 +623,7 @@ def estimate_forces(
                 "where friction is undetermined (flagged)"
             )
     warnings += slow_task_warnings(model, out["velocity"])
+    warnings += fast_task_warnings(model, out["velocity"])
     gear = np.array([j.gear_ratio for j in robot.joints])
     tau_ext = -out["external"] * gear
     tau_sigma = out["sigma"] * gear
@@ -1056,7 +1053,13 @@ def identified_slowest_speeds(model: Model) -> dict[str, float]:
     >>> identified_slowest_speeds(m)
     {'a': 0.5}
     """
-    out: dict[str, float] = {}
+    return {name: min(values) for name, values in _identified_speeds(model).items()}
+
+
+def _identified_speeds(model: Model) -> dict[str, list[float]]:
+    """Per joint, the steady motor speeds [rad/s] of ``[identification.joints.<j>] speeds``
+    (magnitudes, finite and positive); joints without any are left out."""
+    out: dict[str, list[float]] = {}
     joints = model.notes.get("joints", {})
     if isinstance(joints, Mapping):
         for name, entry in joints.items():
@@ -1065,7 +1068,48 @@ def identified_slowest_speeds(model: Model) -> dict[str, float]:
                 values = [abs(float(v)) for v in speeds if isinstance(v, int | float)]
                 values = [v for v in values if math.isfinite(v) and v > 0]
                 if values:
-                    out[str(name)] = min(values)
+                    out[str(name)] = values
+    return out
+
+
+#: How much faster than the fastest steady pass of identification a sample may run before
+#: estimation says its friction is extrapolated (the sweeps' own ramps and ripple reach ~1.2x).
+FAST_TASK_FACTOR = 1.5
+
+
+def fast_task_warnings(model: Model, velocity: NDArray[np.float64]) -> list[str]:
+    """One line per joint whose log runs, on at least ``SLOW_TASK_SHARE`` of its samples,
+    faster than ``FAST_TASK_FACTOR`` times the fastest steady speed identification measured
+    friction at (``[identification.joints.<j>] speeds``): there the friction law is
+    extrapolated, or the log is not in the units the robot file says (degrees for radians).
+    ``velocity`` is the motor velocity [rad/s], shape (n, n_joints).
+
+    Examples
+    --------
+    >>> from torquemap.robot import robot_from_dict
+    >>> rb = robot_from_dict({"robot": {"name": "m", "kinematics": "none"}, "joints": {"a": {
+    ...     "gear_ratio": 1.0, "torque_constant": 0.1}}})
+    >>> m = Model(robot=rb, joints={}, notes={"joints": {"a": {"speeds": [2.0, -2.2]}}})
+    >>> fast_task_warnings(m, np.linspace(1.0, 10.0, 100)[:, None])[0][:30]  # 74 above 3.3
+    'joint a: 74% of the samples ru'
+    """
+    out: list[str] = []
+    speeds = _identified_speeds(model)
+    for k, name in enumerate(model.robot.joint_names):
+        if name not in speeds:
+            continue
+        top = max(speeds[name])
+        speed = np.abs(velocity[:, k])
+        speed = speed[np.isfinite(speed)]
+        fast = speed[speed > FAST_TASK_FACTOR * top]
+        if speed.size == 0 or fast.size < SLOW_TASK_SHARE * speed.size:
+            continue
+        out.append(
+            f"joint {name}: {fast.size / speed.size:.0%} of the samples run at motor speeds "
+            f"above {FAST_TASK_FACTOR:g} times the fastest steady sweep pass {top:.3g} rad/s "
+            f"(up to {float(speed.max()):.3g} rad/s), where friction is extrapolated; record "
+            "sweeps that fast, or check the log's units (q in rad, t in s)"
+        )
     return out
 
 

@@ -977,7 +977,7 @@ def identify_model(
         No log, an unknown joint, a log shorter than the differentiation window, no motion at
         all, ``max_order`` beyond what the slowest pass resolves, or a vertical arm.
     """
-    from torquemap.sanitize import sanitize_log
+    from torquemap.sanitize import no_stretch_message, sanitize_log
 
     if friction not in FRICTION_METHODS:
         raise InputError(f"unknown friction method {friction!r} (choose whole or passes)")
@@ -1004,11 +1004,7 @@ def identify_model(
             pieces.append(piece.log)
             sound.append(~clean.implausible[piece.rows])
         if not clean.pieces:
-            raise InputError(
-                "no stretch between gaps in time is long enough to differentiate; record "
-                f"without gaps longer than {2.5 * window:.3g} s",
-                path=log.path,
-            )
+            raise InputError(no_stretch_message(log.t, window), path=log.path)
     # the pieces' motor-angle derivatives, once: the pass fit and the vertical-arm check
     derivs = [_derivatives(piece, rb, window) for piece in pieces]
     base = _identify_passes(
@@ -1114,16 +1110,17 @@ def _identify_whole(
                     joint_angles=log.q,
                 )
             )
-        if sum(int(p.use.sum()) for p in wp) < 50 or top[k] <= 0:
-            warnings.append(f"joint {name}: too few samples where it alone moves: left as it was")
-            continue
-        jm = base.model.joints[name]
-        orders = sorted({ln.order for ln in jm.pdtv})
         resolution = _velocity_resolution(pieces, joint.gear_ratio, k, window)
         # at rest friction is anything within its band (static friction): such samples say
         # nothing about the law and would pull the Coulomb levels towards the holding torque
         for p in wp:
             p.use[np.abs(p.velocity) < 3.0 * resolution] = False
+        # counted at speed: a joint held still (only encoder noise) has nothing to fit
+        if sum(int(p.use.sum()) for p in wp) < 50 or top[k] <= 0:
+            warnings.append(f"joint {name}: too few samples where it alone moves: left as it was")
+            continue
+        jm = base.model.joints[name]
+        orders = sorted({ln.order for ln in jm.pdtv})
         elbow_term = False
         if elbow_k is not None:
             c = np.concatenate([np.cos(p.elbow[p.use]) for p in wp])

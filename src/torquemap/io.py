@@ -299,6 +299,37 @@ def _is_number(value: object) -> bool:
     )
 
 
+def near_miss(name: str, present: Sequence[str]) -> str | None:
+    """The column of ``present`` that is ``name`` but for case, spaces or a unit, else None."""
+    for c in present:
+        if re.sub(r"\s*[\[(].*?[\])]\s*", "", str(c)).strip().lower() == name.lower():
+            return str(c)
+    return None
+
+
+def missing_column_message(name: str, present: Sequence[str]) -> str:
+    """``missing column 'name'`` plus what the file holds instead: a header that is one
+    column (another separator), a near miss (case, spaces, a unit), or the columns it has.
+
+    Examples
+    --------
+    >>> missing_column_message("t", ["t;q_a;i_a"])
+    "missing column 't' (the header is one column, 't;q_a;i_a': separate columns with commas)"
+    >>> missing_column_message("q_a", ["t", " Q_A [rad]", "i_a"])
+    "missing column 'q_a' (the file has ' Q_A [rad]': names are exact, lower case, no unit)"
+    """
+    text = f"missing column {name!r}"
+    cols = [str(c) for c in present]
+    if len(cols) == 1 and any(sep in cols[0] for sep in ";\t|"):
+        return f"{text} (the header is one column, {cols[0][:60]!r}: separate columns with commas)"
+
+    near = near_miss(name, cols)
+    if near is not None:
+        return f"{text} (the file has {near!r}: names are exact, lower case, no unit)"
+    shown = ", ".join(cols[:8]) + (f", ... ({len(cols)} in all)" if len(cols) > 8 else "")
+    return f"{text} (the file has {shown})"
+
+
 def numeric_column(
     columns: Columns,
     name: str,
@@ -334,7 +365,7 @@ def numeric_column(
         beyond ``max_abs``.
     """
     if name not in columns:
-        raise InputError(f"missing column {name!r}", path=path)
+        raise InputError(missing_column_message(name, list(columns)), path=path)
     raw = np.asarray(columns[name])
     kind = raw.dtype.kind
     if kind == "b":
@@ -646,6 +677,9 @@ def _log_arrays(
     if whole:
         check_time(t, p)
     missing = [j.name for j in robot.joints if f"q_{j.name}" not in cols]
+    for name in missing:
+        if near_miss(f"q_{name}", list(cols)) is not None:
+            raise InputError(missing_column_message(f"q_{name}", list(cols)), path=p)
     others = sorted(k[2:] for k in cols if k.startswith("q_") and k[2:] not in robot.joint_names)
     if missing and others:  # issue 12: a log from another robot, refused clearly
         raise InputError(
@@ -850,7 +884,7 @@ def iter_log_chunks(
                 raise InputError(
                     f"missing column 'i_{j}' or 'tau_{j}' for joint {j!r}", path=os.fspath(p)
                 )
-            raise InputError(f"missing column {name!r}", path=os.fspath(p))
+            raise InputError(missing_column_message(name, present), path=os.fspath(p))
     chain = _ChunkChain(robot, os.fspath(p))
     batches = _record_batches(p, names, rows)
     while True:

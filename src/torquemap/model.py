@@ -255,6 +255,18 @@ def model_from_dict(
     notes = document.get("identification", {})
     if not isinstance(notes, Mapping):
         raise InputError("[identification] must be a table", path=p)
+    window = notes.get("differentiation_window")
+    if window is not None and not (
+        isinstance(window, int | float)
+        and not isinstance(window, bool)
+        and math.isfinite(window)
+        and 0 < window <= 10
+    ):
+        # estimate, spectrum and report default to it: a bad value is refused, not skipped
+        raise InputError(
+            f"[identification] differentiation_window must be a number in (0, 10] s, got {window!r}",
+            path=p,
+        )
     return Model(robot=robot, joints=joints, notes=dict(notes))
 
 

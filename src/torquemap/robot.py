@@ -218,6 +218,10 @@ def robot_from_dict(
     joints = []
     for jname, spec in tables.items():
         where = f"[joints.{jname}]"
+        if not str(jname).strip():
+            raise InputError(
+                f"[joints.{jname!r}] a joint needs a name (the <j> of the log's columns)", path=p
+            )
         if not isinstance(spec, Mapping):
             raise InputError(f"{where} must be a table", path=p)
         _check_keys(spec, {*_JOINT_KEYS, *extra_joint_tables}, where, p)

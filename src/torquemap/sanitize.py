@@ -15,6 +15,9 @@ Before anything is differentiated or filtered, :func:`sanitize_log`
    after the jump is flagged implausible): each piece is processed on its own and nothing
    leaks across a cut.
 
+A joint whose current (torque) is the same at every sample while it moves gets a warning: no
+real current is that still, the log holds no current for it.
+
 The result keeps the original rows (for the output) and the pieces (for the filters).
 """
 
@@ -229,6 +232,26 @@ def max_gap_for(window: float) -> float:
     return 2.5 * float(window)
 
 
+def no_stretch_message(t: NDArray[np.float64], window: float) -> str:
+    """What to say when no stretch of a log between gaps lasts the differentiator window.
+
+    When the median time step is itself a gap, the time is likely not in seconds (a log in
+    milliseconds looks 1000 times sparser), or the window is shorter than the sampling period.
+    """
+    limit = max_gap_for(window)
+    text = (
+        f"no stretch of the log between gaps in time lasts the {window:.3g} s differentiator "
+        f"window; record without gaps longer than {limit:.3g} s"
+    )
+    step = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    if step > limit:
+        text += (
+            f" (its median time step is {step:.3g} s: 't' must be in seconds, not ms or us; "
+            f"else the --window must be at least {step / 2.5:.3g} s)"
+        )
+    return text
+
+
 def sanitize_log(log: Log, *, window: float, min_piece: float | None = None) -> CleanLog:
     """Drop repeated stamps, bridge implausible samples and cut the log at gaps.
 
@@ -258,6 +281,15 @@ def sanitize_log(log: Log, *, window: float, min_piece: float | None = None) -> 
         tk, q, tau = t, log.q.copy(), log.motor_torque.copy()
     else:
         tk, q, tau = t[keep], log.q[keep], log.motor_torque[keep]
+    for k in range(q.shape[1]):
+        # a real current is never exactly constant while its joint moves: no channel
+        if tau.shape[0] > 1 and np.ptp(tau[:, k]) == 0 and np.ptp(q[:, k]) > 0:
+            name = log.joint_names[k] if k < len(log.joint_names) else str(k)
+            warnings.append(
+                f"joint {name}: the current (torque) is {tau[0, k]:.6g} N m at every sample "
+                "while the joint moves: no current was recorded (a wrong or unset column?); "
+                "what is computed from it is not the robot's"
+            )
     bad_any = np.zeros(keep.size, dtype=bool)
     for k in range(q.shape[1]):
         for arr, what in ((tau, "torque"), (q, "angle")):

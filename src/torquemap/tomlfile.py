@@ -62,7 +62,8 @@ def read_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
     if not text.strip():
         raise InputError("file is empty", path=p)
     try:
-        decoded = text.decode("utf-8")
+        # "utf-8-sig": a byte-order mark, as Windows editors write one, is skipped
+        decoded = text.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         raise InputError(
             f"not UTF-8 text (byte 0x{text[exc.start]:02x} at offset {exc.start})", path=p

@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from typing import Any
+
+from torquemap.cli.argtypes import float_in
 
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
@@ -48,7 +51,7 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     )
     v.add_argument(
         "--require",
-        type=float,
+        type=float_in(0.0, 100.0),
         default=None,
         metavar="PERCENT",
         help="exit with status 1 unless this much of the ripple is removed (speed ripple with "
@@ -69,9 +72,11 @@ def _verify(args: argparse.Namespace) -> int:
     model = load_model(args.model)
     after = read_log(args.after, model.robot)
     before = None if args.before is None else read_log(args.before, model.robot)
-    res = verify_cogging(model, after, before, joint=args.joint, current=args.current)
-    for w in res.warnings:
-        print(f"torquemap: warning: {w}")
+    res = verify_cogging(
+        model, after, before, joint=args.joint, current=args.current, path=args.model
+    )
+    for w in res.warnings:  # stderr, as every command's: stdout holds the CSV lines
+        print(f"torquemap: warning: {w}", file=sys.stderr)
     src = "sweep without the map" if res.before_source == "log" else "model lines"
     print(f"joint {res.joint}: before = {src}; after = {args.after}")
     print(
@@ -100,7 +105,6 @@ def _verify(args: argparse.Namespace) -> int:
 
 def identify_holds(model: Any, logs: Any, args: argparse.Namespace) -> int:
     """``identify --quasi-static``: PDTV lines from position holds; writes the model."""
-    import sys
 
     from torquemap.model import save_model
     from torquemap.quasistatic import identify_quasi_static

@@ -309,6 +309,12 @@ def _pdtv_map(args: argparse.Namespace) -> int:
     check_outputs([(args.output, suffixes)], [args.model])
     model = load_model(args.model)
     table = pdtv_map(model, args.joint, bins=args.bins)
+    if not model.joints[args.joint].pdtv:  # a valid map of no ripple, but likely a robot file
+        print(
+            f"torquemap: warning: {args.model}: joint {args.joint!r} has no PDTV lines, the map "
+            "is all zeros (a robot file, or identification found no line above the noise?)",
+            file=sys.stderr,
+        )
     write_pdtv_map(args.output, table, file_format=file_format, int_type=args.int_type)
     print(f"wrote {args.output}")
     return 0

@@ -103,6 +103,11 @@ def load_tables(path: str | os.PathLike[str]) -> TableSet:
     p = os.fspath(path)
     if not Path(p).exists():
         raise InputError("file not found", path=p)
+    if not zipfile.is_zipfile(p):  # np.load would call it "pickled data" and suggest unpickling
+        raise InputError(
+            "cannot read tables, corrupt or truncated (not a zip archive, as .npz files are)",
+            path=p,
+        )
     try:
         with open(p, "rb") as handle, np.load(handle, allow_pickle=False) as npz:
             data = {name: np.asarray(npz[name]) for name in npz.files}
