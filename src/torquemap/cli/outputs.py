@@ -83,7 +83,7 @@ def check_outputs(
         Naming the output, on: a suffix that does not match what is written; an output that is
         one of the inputs (same path, or a link to it); the same output named twice; a missing
         output folder; an output that is a folder or a read-only file; an output folder path
-        that is a file.
+        that is a file, or lies below one.
     """
     ins = [Path(p) for p in inputs if p is not None]
     files: list[Path] = []
@@ -105,6 +105,12 @@ def check_outputs(
         base = Path(folder)
         if base.exists() and not base.is_dir():
             raise InputError("output path exists and is not a folder", path=base)
+        above = next((a for a in base.parents if a.exists()), None)
+        if not base.exists() and above is not None and not above.is_dir():
+            raise InputError(
+                f"cannot create output folder: {os.fspath(above)} is a file, not a folder",
+                path=base,
+            )
         for name in names:
             files.append(base / name)
             if not base.exists():
