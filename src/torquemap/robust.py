@@ -73,6 +73,35 @@ def huber_weights(residual: NDArray[np.float64], scale: float) -> NDArray[np.flo
     return np.asarray(1.0 / np.maximum(u, 1.0), dtype=np.float64)
 
 
+def cluster_medians(values: ArrayLike, clusters: ArrayLike) -> NDArray[np.float64]:
+    """The median of each value's cluster, shape (n,) like ``values``.
+
+    Parameters
+    ----------
+    values
+        Values, shape (n,).
+    clusters
+        Integer cluster label of each value, shape (n,).
+
+    Examples
+    --------
+    >>> cluster_medians([1.0, 5.0, 2.0, 10.0, 20.0], [0, 0, 0, 7, 7]).tolist()
+    [2.0, 2.0, 2.0, 15.0, 15.0]
+    """
+    v = np.asarray(values, dtype=np.float64)
+    labels, g = np.unique(np.asarray(clusters), return_inverse=True)
+    g = g.ravel()
+    if v.size == 0:
+        return np.zeros(0)
+    order = np.lexsort((v, g))
+    sg, sv = g[order], v[order]
+    starts = np.flatnonzero(np.r_[True, sg[1:] != sg[:-1]])
+    stops = np.r_[starts[1:], sg.size]
+    medians = np.zeros(labels.size)
+    medians[sg[starts]] = 0.5 * (sv[(starts + stops - 1) // 2] + sv[(starts + stops) // 2])
+    return np.asarray(medians[g], dtype=np.float64)
+
+
 def weighted_solve(
     a: NDArray[np.float64], y: NDArray[np.float64], w: NDArray[np.float64], *, ridge: float = 1e-12
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
