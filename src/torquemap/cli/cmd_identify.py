@@ -21,7 +21,8 @@ from torquemap.errors import InputError
 
 MapFormat = Literal["csv", "json", "c-header"]
 
-#: Highest PDTV order --max-order accepts [CPR]: finer than any encoder resolves.
+#: Highest PDTV order --max-order accepts [CPR]: finer than any encoder resolves
+#: (torquemap.model.MAX_PDTV_ORDER, the most a model file holds).
 MAX_ORDER = 1e6
 #: The friction methods of identify --friction (torquemap.identify.FRICTION_METHODS).
 FRICTION_CHOICES = ("passes", "whole")
