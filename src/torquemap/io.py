@@ -738,6 +738,33 @@ def _log_arrays(
     return t, q, tau
 
 
+def cut_last_line_warning(path: str | os.PathLike[str]) -> str | None:
+    """A warning naming ``path`` when it is a CSV file whose last line has no line end, else None.
+
+    A file copied while another program was writing it ends inside a line, and its last
+    number may be cut (``-0.0123`` read as ``-0.01``) with nothing else wrong to see. A line
+    end (``\\n``, ``\\r\\n`` or ``\\r``) as the last byte, an empty, unreadable or Parquet file:
+    None (tests/test_cli_bad_logs.py).
+    """
+    p = Path(path)
+    if p.suffix.lower() != ".csv":
+        return None
+    try:
+        with open(p, "rb") as handle:
+            if handle.seek(0, os.SEEK_END) == 0:
+                return None
+            handle.seek(-1, os.SEEK_END)
+            last = handle.read(1)
+    except OSError:
+        return None
+    if last in (b"\n", b"\r"):
+        return None
+    return (
+        f"{p}: the last line has no line end: if the file was copied while being written its "
+        "last row may be cut; check it"
+    )
+
+
 def read_log(path: str | os.PathLike[str], robot: Robot) -> Log:
     """Read a log file (CSV or Parquet) for ``robot`` (docs/formats.md).
 
