@@ -33,6 +33,7 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> Path:
         "i_a": log.motor_torque[:, 0] / KT[0],
         "i_b": log.motor_torque[:, 1] / KT[1],
     }
+    write_table(d / "log.csv", cols)
     write_table(d / "other.csv", {k.replace("_a", "_x"): v for k, v in cols.items()})
     still = {k: (np.full_like(v, v[0]) if k.startswith("q_") else v) for k, v in cols.items()}
     write_table(d / "still.csv", {k: v[:3000] for k, v in still.items()})
@@ -154,3 +155,37 @@ def test_a_constant_current_and_a_log_in_degrees_are_warned(
         err = capsys.readouterr().err
         assert re.search(says.format("a"), err), err
         assert not re.search(says.format("b"), err), err  # b is sound
+
+
+@pytest.mark.parametrize("command", ["identify", "estimate"])
+def test_a_log_whose_last_line_has_no_line_end_is_warned(
+    files: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], command: str
+) -> None:
+    text = (files / "log.csv").read_bytes()
+    assert text.endswith(b"\n") and text[-2:-1].isdigit()
+    cut = tmp_path / "cut.csv"
+    cut.write_bytes(text[:-2])  # copied while being written: the last number lost a digit
+    crlf = tmp_path / "crlf.csv"
+    crlf.write_bytes(text.replace(b"\n", b"\r\n"))
+    warning = (
+        f"torquemap: warning: {cut}: the last line has no line end: if the file was copied "
+        "while being written its last row may be cut; check it"
+    )
+    for log, says in ((cut, warning), (files / "log.csv", None), (crlf, None)):
+        out = str(tmp_path / f"{command}_{log.stem}")
+        capsys.readouterr()
+        # before: exit 0 and nothing said about the cut row
+        argv = COMMANDS[command](files, str(log), out)
+        if command == "estimate":  # the sweeps move one joint at a time: friction through 0
+            argv[1] = str(files / "model_speeds.toml")
+        assert main(argv) == 0
+        err = capsys.readouterr().err
+        assert (warning in err.splitlines()) is (says is not None), err
+        assert "no line end" not in err.replace(warning, ""), err
+    parquet = tmp_path / "log.parquet"
+    parquet.write_bytes(b"PAR1 not a line")  # a Parquet file never warns (it has no lines)
+    from torquemap.io import cut_last_line_warning
+
+    assert cut_last_line_warning(parquet) is None
+    (tmp_path / "empty.csv").write_bytes(b"")
+    assert cut_last_line_warning(tmp_path / "empty.csv") is None

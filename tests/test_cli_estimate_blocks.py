@@ -83,3 +83,29 @@ def test_follow_refuses_what_needs_the_whole_log(
     assert "--follow estimates with the model, lowpass or raw method" in capsys.readouterr().err
     assert main([*argv, "-o", str(tmp_path / "f.json")]) == 2
     assert not list(tmp_path.iterdir())
+
+
+def test_a_large_log_with_spaces_in_its_header_gets_the_small_logs_hint(
+    scara_bench: Path,
+    identified: Path,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    text = (scara_bench / "circle.csv").read_text()
+    head, rest = text.split("\n", 1)
+    log = tmp_path / "spaced.csv"
+    log.write_text(head.replace(",", " , ") + "\n" + rest)  # 't , q_1 , ...'
+    out = tmp_path / "f.csv"
+    argv = ["estimate", str(identified), str(log), "-o", str(out)]
+    capsys.readouterr()
+    assert main(argv) == 2
+    small = capsys.readouterr().err
+    monkeypatch.setattr(cmd_estimate, "STREAM_BYTES", 0)  # every CSV log counts as large
+    assert main(argv) == 2
+    large = capsys.readouterr().err
+    # before: the chunked reader stripped the spaces, then failed with "cannot parse table"
+    assert large == small
+    assert len(large.splitlines()) == 1 and str(log) in large
+    assert "missing column 't' (the file has 't ': names are exact" in large
+    assert not out.exists()

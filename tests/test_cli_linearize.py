@@ -189,6 +189,25 @@ def test_missing_output_folder_writes_nothing(
     assert "output folder does not exist" in err
 
 
+def test_two_phases_at_one_equilibrium_are_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    write_case(tmp_path)
+    motor = tmp_path / "motor.toml"
+    # before: accepted, and the tables for negative commands reflected two phases alike
+    from torquemap.tomlfile import read_toml
+
+    doc = read_toml(motor)
+    doc["motor"]["equilibrium_positions"] = [8, 24, 8]
+    write_toml(motor, doc)
+    d = str(tmp_path)
+    err = bad(
+        tmp_path, capsys, ["linearize", "build", str(motor), f"{d}/data.csv", "-o", f"{d}/t.npz"]
+    )
+    assert err.startswith(f"torquemap: error: {motor}: [motor] equilibrium_positions: phases 1 "
+                          "and 3 are both at table position 8")  # fmt: skip
+
+
 def _noisy_case(tmp_path: Path, *, seed: int) -> list[str]:
     """write_case with 0.01 N m of noise on the torque; the ``linearize build`` arguments."""
     write_case(tmp_path)

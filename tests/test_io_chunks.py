@@ -114,3 +114,20 @@ def test_a_failed_stream_leaves_no_file(tmp_path: Path) -> None:
         append({"a": np.arange(3.0)})
         raise RuntimeError("disk full")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_header_with_spaces_gets_the_same_hint_read_whole_or_in_chunks(tmp_path: Path) -> None:
+    cols = _counts_log(50)
+    p = tmp_path / "spaced.csv"
+    rows = "".join(f"{a:.17g},{b:.17g},{c:.17g}\n" for a, b, c in zip(*cols.values(), strict=True))
+    p.write_text("t , q_m,i_m\n" + rows)
+    with pytest.raises(InputError) as whole:
+        read_log(p, COUNTS)
+    with pytest.raises(InputError) as chunked:
+        list(iter_log_chunks(p, COUNTS, rows=10))
+    with pytest.raises(InputError) as followed:
+        list(follow_log_chunks(p, COUNTS, timeout=0.0, sleep=lambda s: None))
+    hint = f"{p}: missing column 't' (the file has 't ': names are exact, lower case, no unit)"
+    assert str(whole.value) == str(chunked.value) == str(followed.value) == hint
+    p.write_text('"t","q_m","i_m"\n' + rows)  # quoted names are the names
+    assert_array_equal(np.concatenate([c.t for c in iter_log_chunks(p, COUNTS)]), cols["t"])

@@ -194,6 +194,10 @@ _GOOD = {
         ({"equilibrium_positions": [1, 2]}, "list of 3 integers"),
         ({"equilibrium_positions": [1, 2, 24]}, r"equilibrium_positions\[2\] must be in 0 .. 23"),
         ({"equilibrium_positions": [1, 2, "3"]}, r"equilibrium_positions\[2\] must be an integer"),
+        (
+            {"equilibrium_positions": [5, 2, 5]},
+            "equilibrium_positions: phases 1 and 3 are both at table position 5",
+        ),
         ({"ramping": 3}, "ramping must be 'narrow', 'wide' or a CSV path"),
         ({"ramping": "nothere.csv"}, "ramping file 'nothere.csv' not found"),
     ],

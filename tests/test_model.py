@@ -162,6 +162,22 @@ def _set(doc: dict[str, Any], path: tuple[Any, ...], value: Any) -> dict[str, An
         (("joints", "a", "friction", "coulomb_positive"), -0.1, r"Coulomb magnitudes must be >= 0"),
         (("joints", "a", "friction", "zero_velocity"), 0.0, r"zero_velocity must be > 0"),
         (("joints", "a", "pdtv", 0, "order"), 0.0, r"order must be positive"),
+        # before: accepted, and pdtv-map/estimate evaluated cos(1e9 theta), noise in float64
+        (
+            ("joints", "a", "pdtv", 0, "order"),
+            1e9,
+            r"\[joints\.a\.pdtv\]\[0\] order must be at most 1e\+06 CPR .*got 1e\+09",
+        ),
+        (
+            ("joints", "a", "inertia", "constant"),
+            1e300,
+            r"\[joints\.a\.inertia\] constant must lie in \+-1e\+06 kg m\^2 .*got 1e\+300",
+        ),
+        (
+            ("joints", "a", "inertia", "cos_elbow"),
+            -2e6,
+            r"\[joints\.a\.inertia\] cos_elbow must lie in \+-1e\+06",
+        ),
         (("joints", "a", "pdtv", 0, "direction"), "up", r"direction must be 'both', 'positive'"),
         (("joints", "a", "pdtv", 0, "width"), 1.0, r"unknown key 'width'"),
         (("joints", "a", "pdtv"), {"order": 1}, r"must be an array of tables"),
@@ -202,3 +218,36 @@ def test_missing_robot_table(tmp_path: Path) -> None:
     p.write_text(tomli_w.dumps(doc))
     with pytest.raises(InputError, match=r"model\.toml: missing table \[robot\]"):
         load_model(p)
+
+
+def test_negative_inertia_is_accepted(tmp_path: Path) -> None:
+    # identify writes a negative armature when the data want it: not a bad file
+    p = tmp_path / "model.toml"
+    p.write_text(tomli_w.dumps(_set(_doc(), ("joints", "a", "inertia", "constant"), -2e-5)))
+    assert load_model(p).joints["a"].inertia.constant == -2e-5
+
+
+@pytest.mark.parametrize(
+    ("path", "value", "message"),
+    [
+        (("joints", "a", "pdtv", 0, "order"), 1e9, "[joints.a.pdtv][0] order must be at most"),
+        (("joints", "a", "inertia", "constant"), 1e300, "[joints.a.inertia] constant must lie"),
+    ],
+)
+def test_absurd_model_values_are_refused_by_the_cli(
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    path: tuple[Any, ...],
+    value: Any,
+    message: str,
+) -> None:
+    from torquemap.cli.main import main
+
+    p = tmp_path / "model.toml"
+    p.write_text(tomli_w.dumps(_set(_doc(), path, value)))
+    out = tmp_path / "map.csv"
+    capsys.readouterr()
+    assert main(["pdtv-map", str(p), "--joint", "a", "--bins", "64", "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert len(err.splitlines()) == 1 and err.startswith(f"torquemap: error: {p}: {message}")
+    assert not out.exists()

@@ -6,6 +6,7 @@ Every writer goes through :func:`atomic_output`: the file appears whole or not a
 from __future__ import annotations
 
 import contextlib
+import csv
 import os
 import re
 import tempfile
@@ -737,6 +738,33 @@ def _log_arrays(
     return t, q, tau
 
 
+def cut_last_line_warning(path: str | os.PathLike[str]) -> str | None:
+    """A warning naming ``path`` when it is a CSV file whose last line has no line end, else None.
+
+    A file copied while another program was writing it ends inside a line, and its last
+    number may be cut (``-0.0123`` read as ``-0.01``) with nothing else wrong to see. A line
+    end (``\\n``, ``\\r\\n`` or ``\\r``) as the last byte, an empty, unreadable or Parquet file:
+    None (tests/test_cli_bad_logs.py).
+    """
+    p = Path(path)
+    if p.suffix.lower() != ".csv":
+        return None
+    try:
+        with open(p, "rb") as handle:
+            if handle.seek(0, os.SEEK_END) == 0:
+                return None
+            handle.seek(-1, os.SEEK_END)
+            last = handle.read(1)
+    except OSError:
+        return None
+    if last in (b"\n", b"\r"):
+        return None
+    return (
+        f"{p}: the last line has no line end: if the file was copied while being written its "
+        "last row may be cut; check it"
+    )
+
+
 def read_log(path: str | os.PathLike[str], robot: Robot) -> Log:
     """Read a log file (CSV or Parquet) for ``robot`` (docs/formats.md).
 
@@ -801,7 +829,21 @@ def _csv_header(p: Path) -> list[str]:
     except UnicodeDecodeError:
         raise InputError("not UTF-8 text in the header; save the file as UTF-8", path=p) from None
     line = line.removeprefix("\ufeff")  # a byte-order mark, as spreadsheets write
-    return [name.strip().strip('"') for name in line.rstrip("\r\n").split(",")]
+    # names as pyarrow reads them (quotes removed, spaces kept), so that a name with spaces
+    # gets the same missing-column hint as from read_table, not a parse error later
+    return next(csv.reader([line.rstrip("\r\n")]), [])
+
+
+def _check_log_header(names: Sequence[str], present: Sequence[str], p: Path) -> None:
+    """InputError, as :func:`read_log` words it, for the first of ``names`` not ``present``."""
+    for name in names:
+        if name not in present:
+            if name.startswith("i_"):
+                j = name[2:]
+                raise InputError(
+                    f"missing column 'i_{j}' or 'tau_{j}' for joint {j!r}", path=os.fspath(p)
+                )
+            raise InputError(missing_column_message(name, present), path=os.fspath(p))
 
 
 def _record_batches(p: Path, names: list[str], rows: int) -> Iterator[Any]:
@@ -877,14 +919,7 @@ def iter_log_chunks(
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise InputError(f"cannot parse table, truncated or malformed ({first})", path=p) from None
     names = _log_column_names(robot, present)
-    for name in names:
-        if name not in present:
-            if name.startswith("i_"):
-                j = name[2:]
-                raise InputError(
-                    f"missing column 'i_{j}' or 'tau_{j}' for joint {j!r}", path=os.fspath(p)
-                )
-            raise InputError(missing_column_message(name, present), path=os.fspath(p))
+    _check_log_header(names, present, p)
     chain = _ChunkChain(robot, os.fspath(p))
     batches = _record_batches(p, names, rows)
     while True:
@@ -995,9 +1030,7 @@ def follow_log_chunks(
     wait = time.sleep if sleep is None else sleep
     header = _csv_header(p)
     names = _log_column_names(robot, header)
-    for name in names:
-        if name not in header:
-            raise InputError(f"missing column {name!r}", path=p)
+    _check_log_header(names, header, p)
     chain = _ChunkChain(robot, os.fspath(p))
     with open(p, "rb") as handle:
         head = handle.readline()

@@ -25,6 +25,14 @@ from torquemap.tomlfile import read_toml
 
 Direction = Literal["both", "positive", "negative"]
 
+#: Highest PDTV order a model file may hold [CPR]: finer than any encoder resolves (identify
+#: --max-order stops there too); a larger one is a typo or a corrupt file.
+MAX_PDTV_ORDER = 1e6
+#: Largest motor-side inertia magnitude a model file may hold [kg m^2]: a million times a
+#: large servo motor's rotor with its reflected load; beyond it, a typo or a corrupt file.
+#: Negative values are allowed (identify writes a negative armature when the data want it).
+MAX_INERTIA = 1e6
+
 
 @dataclass(frozen=True, slots=True, eq=False)
 class InertiaModel:
@@ -226,6 +234,12 @@ def _pdtv_lines(raw: Any, where: str, path: str | None) -> tuple[PdtvLine, ...]:
                 raise InputError(f"{w} is missing {key}", path=path)
         if nums["order"] <= 0:
             raise InputError(f"{w} order must be positive", path=path)
+        if nums["order"] > MAX_PDTV_ORDER:
+            raise InputError(
+                f"{w} order must be at most {MAX_PDTV_ORDER:g} CPR (cycles per motor "
+                f"revolution), got {nums['order']:g}",
+                path=path,
+            )
         lines.append(PdtvLine(direction=direction, **nums))
     return tuple(lines)
 
@@ -244,9 +258,15 @@ def model_from_dict(
     joints: dict[str, JointModel] = {}
     for name, spec in document["joints"].items():
         where = f"[joints.{name}"
-        inertia = InertiaModel(
-            **_floats(spec.get("inertia", {}), InertiaModel, where + ".inertia]", p)
-        )
+        values = _floats(spec.get("inertia", {}), InertiaModel, where + ".inertia]", p)
+        for key, value in values.items():
+            if abs(value) > MAX_INERTIA:
+                raise InputError(
+                    f"{where}.inertia] {key} must lie in +-{MAX_INERTIA:g} kg m^2 (motor side), "
+                    f"got {value:g}",
+                    path=p,
+                )
+        inertia = InertiaModel(**values)
         friction = friction_law_from_dict(
             spec.get("friction", {}), where=where + ".friction]", path=p
         )

@@ -16,6 +16,7 @@ from torquemap.cli.outputs import (
     check_outputs,
     check_table,
     columns_writer,
+    warn_cut_last_lines,
 )
 from torquemap.estimate import METHODS
 
@@ -117,6 +118,12 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
 
 
 def _estimate(args: argparse.Namespace) -> int:
+    status = _estimate_log(args)
+    warn_cut_last_lines([args.log])  # after the run: a refusal stays one line
+    return status
+
+
+def _estimate_log(args: argparse.Namespace) -> int:
     import numpy as np
 
     from torquemap.estimate import check_answered, estimate_forces, forces_columns

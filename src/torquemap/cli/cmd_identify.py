@@ -16,12 +16,14 @@ from torquemap.cli.outputs import (
     check_figure,
     check_outputs,
     output_suffix,
+    warn_cut_last_lines,
 )
 from torquemap.errors import InputError
 
 MapFormat = Literal["csv", "json", "c-header"]
 
-#: Highest PDTV order --max-order accepts [CPR]: finer than any encoder resolves.
+#: Highest PDTV order --max-order accepts [CPR]: finer than any encoder resolves
+#: (torquemap.model.MAX_PDTV_ORDER, the most a model file holds).
 MAX_ORDER = 1e6
 #: The friction methods of identify --friction (torquemap.identify.FRICTION_METHODS).
 FRICTION_CHOICES = ("passes", "whole")
@@ -179,6 +181,12 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
 
 
 def _identify(args: argparse.Namespace) -> int:
+    status = _identify_logs(args)
+    warn_cut_last_lines(args.logs)  # after the run: a refusal stays one line
+    return status
+
+
+def _identify_logs(args: argparse.Namespace) -> int:
     from torquemap.identify import identify_model
     from torquemap.io import read_log, write_toml
     from torquemap.model import load_model, model_to_dict

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -19,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from torquemap.errors import InputError
-from torquemap.io import check_output_file
+from torquemap.io import check_output_file, cut_last_line_warning
 
 PathLike = str | os.PathLike[str]
 
@@ -52,6 +53,15 @@ def same_file(a: PathLike, b: PathLike) -> bool:
     except (OSError, ValueError):
         return False
     return (sa.st_dev, sa.st_ino) == (sb.st_dev, sb.st_ino)
+
+
+def warn_cut_last_lines(logs: Iterable[PathLike]) -> None:
+    """Print on stderr a warning for each CSV log whose last line has no line end
+    (:func:`torquemap.io.cut_last_line_warning`)."""
+    for log in logs:
+        text = cut_last_line_warning(log)
+        if text is not None:
+            print(f"torquemap: warning: {text}", file=sys.stderr)
 
 
 def _suffixes(allowed: Sequence[str]) -> str:

@@ -351,6 +351,14 @@ def motor_from_dict(
     eq = tuple(
         _int(v, f"equilibrium_positions[{k}]", p, low=0, high=n - 1) for k, v in enumerate(raw_eq)
     )
+    for k, e in enumerate(eq):
+        if e in eq[:k]:  # each phase alone pulls the rotor to its own position (paper §4.3)
+            raise InputError(
+                f"[motor] equilibrium_positions: phases {eq.index(e) + 1} and {k + 1} are both "
+                f"at table position {e}; each phase settles at its own position (a phase "
+                "listed twice?)",
+                path=p,
+            )
     ramping = table["ramping"]
     if not isinstance(ramping, str) or not ramping.strip():
         raise InputError(
