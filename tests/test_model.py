@@ -251,3 +251,12 @@ def test_absurd_model_values_are_refused_by_the_cli(
     err = capsys.readouterr().err
     assert len(err.splitlines()) == 1 and err.startswith(f"torquemap: error: {p}: {message}")
     assert not out.exists()
+
+
+def test_identify_never_writes_an_order_the_model_loader_refuses() -> None:
+    """``identify --max-order`` keeps its own copy of the limit (the CLI module loads without
+    numpy): it must be the loader's."""
+    from torquemap.cli.cmd_identify import MAX_ORDER
+    from torquemap.model import MAX_PDTV_ORDER
+
+    assert MAX_ORDER == MAX_PDTV_ORDER
