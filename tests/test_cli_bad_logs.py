@@ -157,7 +157,7 @@ def test_a_constant_current_and_a_log_in_degrees_are_warned(
         assert not re.search(says.format("b"), err), err  # b is sound
 
 
-@pytest.mark.parametrize("command", ["identify", "estimate"])
+@pytest.mark.parametrize("command", list(COMMANDS))
 def test_a_log_whose_last_line_has_no_line_end_is_warned(
     files: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], command: str
 ) -> None:

@@ -294,6 +294,7 @@ def _spectrum(args: argparse.Namespace) -> int:
         )
         save_figure(fig, args.output)
         print(f"wrote {args.output}")
+        warn_cut_last_lines([args.log])  # after the run: a refusal stays one line
         return 0
     sp = jr.spectrum
     order = sorted(range(sp.order.size), key=lambda i: -sp.amplitude[i])[: args.top]
@@ -303,6 +304,7 @@ def _spectrum(args: argparse.Namespace) -> int:
     for i in order:
         mark = "yes" if round(float(sp.order[i]), 6) in known else "no"
         print(f"{sp.order[i]:.4g},{sp.amplitude[i]:.6g},{sp.phase[i]:.4f},{mark}")
+    warn_cut_last_lines([args.log])  # after the run: a refusal stays one line
     return 0
 
 

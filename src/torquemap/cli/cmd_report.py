@@ -7,7 +7,7 @@ from typing import Any
 
 from torquemap.cli.argtypes import add_window_argument
 from torquemap.cli.helptext import described
-from torquemap.cli.outputs import output_suffix
+from torquemap.cli.outputs import output_suffix, warn_cut_last_lines
 
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
@@ -48,4 +48,5 @@ def _report(args: argparse.Namespace) -> int:
         f"wrote {args.output} ({len(report.sections)} sections, {figures} figures, "
         f"{warnings} warnings)"
     )
+    warn_cut_last_lines(args.logs)  # after the run: a refusal stays one line
     return 0
