@@ -232,6 +232,7 @@ def test_negative_inertia_is_accepted(tmp_path: Path) -> None:
     [
         (("joints", "a", "pdtv", 0, "order"), 1e9, "[joints.a.pdtv][0] order must be at most"),
         (("joints", "a", "inertia", "constant"), 1e300, "[joints.a.inertia] constant must lie"),
+        (("joints", "a", "pdtv", 0, "amplitude"), -1e300, "[joints.a.pdtv][0] amplitude must lie"),
     ],
 )
 def test_absurd_model_values_are_refused_by_the_cli(

@@ -32,6 +32,9 @@ MAX_PDTV_ORDER = 1e6
 #: large servo motor's rotor with its reflected load; beyond it, a typo or a corrupt file.
 #: Negative values are allowed (identify writes a negative armature when the data want it).
 MAX_INERTIA = 1e6
+#: Largest PDTV line amplitude a model file may hold [N m, motor side]: far beyond any
+#: actuator's torque; beyond it, a typo or a corrupt file.
+MAX_PDTV_AMPLITUDE = 1e6
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -238,6 +241,12 @@ def _pdtv_lines(raw: Any, where: str, path: str | None) -> tuple[PdtvLine, ...]:
             raise InputError(
                 f"{w} order must be at most {MAX_PDTV_ORDER:g} CPR (cycles per motor "
                 f"revolution), got {nums['order']:g}",
+                path=path,
+            )
+        if abs(nums["amplitude"]) > MAX_PDTV_AMPLITUDE:
+            raise InputError(
+                f"{w} amplitude must lie in +-{MAX_PDTV_AMPLITUDE:g} N m (motor side), got "
+                f"{nums['amplitude']:g}",
                 path=path,
             )
         lines.append(PdtvLine(direction=direction, **nums))
