@@ -138,6 +138,12 @@ def test_a_joint_that_never_moves_is_left_unidentified(
     err = capsys.readouterr().err
     assert "joint b never moves at a steady speed: left unidentified" in err
     assert "too few samples where it alone moves" in err and out.exists()
+    # a model with joint b unidentified, on a log where b moves: said, not silently answered
+    capsys.readouterr()
+    argv = ["estimate", str(out), str(files / "log.csv"), "-o", str(tmp_path / "f.csv")]
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert "joint b was not identified" in err and "joint a was not identified" not in err
 
 
 def test_a_constant_current_and_a_log_in_degrees_are_warned(

@@ -624,6 +624,7 @@ def estimate_forces(
             )
     warnings += slow_task_warnings(model, out["velocity"])
     warnings += fast_task_warnings(model, out["velocity"])
+    warnings += unidentified_joint_warnings(model)
     gear = np.array([j.gear_ratio for j in robot.joints])
     tau_ext = -out["external"] * gear
     tau_sigma = out["sigma"] * gear
@@ -1069,6 +1070,40 @@ def _identified_speeds(model: Model) -> dict[str, list[float]]:
                 values = [v for v in values if math.isfinite(v) and v > 0]
                 if values:
                     out[str(name)] = values
+    return out
+
+
+def unidentified_joint_warnings(model: Model) -> list[str]:
+    """One line per joint that identification left unidentified (its notes say no steady
+    pass and no whole-log fit: the joint never moved in the identification logs). Its model is
+    the robot file's (no friction, inertia or PDTV from data), so its external torque and the
+    forces that use it are not the robot's.
+
+    Examples
+    --------
+    >>> from torquemap.robot import robot_from_dict
+    >>> rb = robot_from_dict({"robot": {"name": "m", "kinematics": "none"}, "joints": {"a": {
+    ...     "gear_ratio": 1.0, "torque_constant": 0.1}}})
+    >>> m = Model(robot=rb, joints={}, notes={"joints": {"a": {"passes": 0}}})
+    >>> unidentified_joint_warnings(m)[0][:46]
+    'joint a was not identified (it never moved at '
+    """
+    joints = model.notes.get("joints", {})
+    out: list[str] = []
+    if not isinstance(joints, Mapping):
+        return out
+    for name, entry in joints.items():
+        if (
+            isinstance(entry, Mapping)
+            and entry.get("passes") == 0
+            and entry.get("friction_fit") != "whole"
+        ):
+            out.append(
+                f"joint {name} was not identified (it never moved at a steady speed in the "
+                "identification logs): its model holds no friction, inertia or PDTV from data, "
+                f"so tau_ext_{name} and the forces are not the robot's; identify from sweeps "
+                f"that move joint {name}"
+            )
     return out
 
 
