@@ -195,3 +195,25 @@ def test_a_log_whose_last_line_has_no_line_end_is_warned(
     assert cut_last_line_warning(parquet) is None
     (tmp_path / "empty.csv").write_bytes(b"")
     assert cut_last_line_warning(tmp_path / "empty.csv") is None
+
+
+def test_report_names_time_in_milliseconds(
+    files: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # before: exit 0, passes described at a thousandth of their speed, nothing about units
+    out = tmp_path / "r.html"
+    assert main(["report", str(files / "model.toml"), str(files / "ms.csv"), "-o", str(out)]) == 0
+    says = "its median time step is 2 s (0.5 Hz): if 't' is in ms or us, convert it to seconds"
+    assert says in capsys.readouterr().err
+    assert says.replace("'", "&#x27;") in out.read_text()
+
+
+def test_quasi_static_identification_names_time_in_milliseconds(
+    files: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # before: refused without a word about units
+    # (these sweeps hold no hold: refused, the refusal now names the unit too)
+    argv = COMMANDS["identify"](files, str(files / "ms.csv"), str(tmp_path / "m"))
+    err = _one_line([*argv, "--quasi-static"], capsys)
+    assert "ms.csv" in err and "its median time step is 2 s" in err
+    assert "convert it to seconds" in err and not list(tmp_path.iterdir())

@@ -30,6 +30,7 @@ from torquemap.io import Log
 from torquemap.model import JointModel, Model, PdtvLine
 from torquemap.pdtv import HarmonicFit, fit_harmonics
 from torquemap.robot import Robot
+from torquemap.sanitize import slow_time_warning
 
 TWO_PI = 2.0 * math.pi
 
@@ -374,6 +375,10 @@ def identify_quasi_static(
     )
     results: dict[str, QuasiStaticJoint] = {}
     warnings: list[str] = []
+    for log in logs:
+        slow = slow_time_warning(log.t)
+        if slow is not None:
+            warnings.append(f"{log.path}: {slow}" if log.path else slow)
     for name in names:
         k = rb.joint_names.index(name)
         gear = rb.joints[k].gear_ratio
@@ -411,9 +416,10 @@ def identify_quasi_static(
         old = new_joints.get(name, JointModel())
         new_joints[name] = JointModel(inertia=old.inertia, friction=old.friction, pdtv=lines)
     if not results:
+        slowest = [w for w in (slow_time_warning(log.t) for log in logs) if w is not None]
         raise InputError(
             "no joint holds still at 8 or more positions per motor revolution; quasi-static "
-            "identification needs position holds",
+            "identification needs position holds" + (f" ({slowest[0]})" if slowest else ""),
             path=logs[0].path if len(logs) == 1 else None,
         )
     notes = {

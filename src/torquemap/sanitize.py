@@ -252,6 +252,31 @@ def no_stretch_message(t: NDArray[np.float64], window: float) -> str:
     return text
 
 
+def slow_time_warning(t: NDArray[np.float64], window: float = 0.05) -> str | None:
+    """A warning when a log's median time step is longer than the filters bridge, else None.
+
+    Such a log is either sampled slower than ``1 / max_gap_for(window)`` (8 Hz with the default
+    0.05 s window) or, far more often, stamped in ms or us: it then reads as 1000 times slower,
+    every stretch of motion as a hold.
+
+    Examples
+    --------
+    >>> slow_time_warning(np.arange(10) * 0.25)[:40]
+    'its median time step is 0.25 s (4 Hz): i'
+    >>> slow_time_warning(np.arange(10) * 0.001) is None
+    True
+    """
+    if t.size < 2:
+        return None
+    step = float(np.median(np.diff(t)))
+    if not step > max_gap_for(window):
+        return None
+    return (
+        f"its median time step is {step:.3g} s ({1 / step:.3g} Hz): if 't' is in ms or us, "
+        "convert it to seconds (read as it is, motion looks like position holds)"
+    )
+
+
 def sanitize_log(log: Log, *, window: float, min_piece: float | None = None) -> CleanLog:
     """Drop repeated stamps, bridge implausible samples and cut the log at gaps.
 

@@ -21,6 +21,7 @@ report takes seconds. Charts are interactive (:mod:`torquemap.plots.chart`).
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 import os
@@ -46,6 +47,7 @@ from torquemap.pdtv import discrete_position_signal, position_spectrum
 from torquemap.pdtv_map import pdtv_map
 from torquemap.plots.chart import Chart, series, spans_from_mask
 from torquemap.report import Report, Section, Table, table, write_report
+from torquemap.sanitize import slow_time_warning
 
 TWO_PI = 2.0 * math.pi
 
@@ -741,11 +743,15 @@ def _log_result(model: Model, path: str, window: float | None = None) -> _LogRes
         swept = _sweep_section(model, log, path, window)
     except InputError:
         swept = None
-    if swept is not None:
-        return swept
-    held = _holds_section(model, log, path)
-    if held is not None:
-        return held
+    read = swept if swept is not None else _holds_section(model, log, path)
+    if read is not None:
+        # a log stamped in ms reads as 1000 times slower: passes at a thousandth of the
+        # speed, or motion as holds; say so where both readings are possible
+        slow = slow_time_warning(log.t, model_window(model) if window is None else window)
+        if slow is not None:
+            section = dataclasses.replace(read.section, warnings=(slow, *read.section.warnings))
+            return dataclasses.replace(read, section=section)
+        return read
     return _force_section(
         model,
         log,

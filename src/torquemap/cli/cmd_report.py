@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
 from torquemap.cli.argtypes import add_window_argument
@@ -48,5 +49,8 @@ def _report(args: argparse.Namespace) -> int:
         f"wrote {args.output} ({len(report.sections)} sections, {figures} figures, "
         f"{warnings} warnings)"
     )
+    for section in report.sections:
+        for w in section.warnings:
+            print(f"torquemap: warning: {section.heading}: {w}", file=sys.stderr)
     warn_cut_last_lines(args.logs)  # after the run: a refusal stays one line
     return 0
