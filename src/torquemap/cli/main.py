@@ -8,37 +8,33 @@ one line with the file it concerns, exit status 2, never a traceback.
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 from collections.abc import Sequence
+from types import ModuleType
 
 from torquemap import __version__
-from torquemap.cli import (
-    cmd_cogging,
-    cmd_demo,
-    cmd_estimate,
-    cmd_excite,
-    cmd_fleet,
-    cmd_identify,
-    cmd_import,
-    cmd_linearize,
-    cmd_report,
-    cmd_simulate,
-)
 from torquemap.cli.helptext import described
 from torquemap.errors import InputError, one_line
 
-_MODULES = (
-    cmd_simulate,
-    cmd_identify,
-    cmd_estimate,
-    cmd_excite,
-    cmd_linearize,
-    cmd_demo,
-    cmd_report,
-    cmd_import,
-    cmd_fleet,
-    cmd_cogging,
+#: The command modules, in the order of ``torquemap --help``; imported by :func:`build_parser`
+#: (numpy and the rest load there, inside :func:`main`'s Ctrl-C handler).
+_MODULE_NAMES = (
+    "cmd_simulate",
+    "cmd_identify",
+    "cmd_estimate",
+    "cmd_excite",
+    "cmd_linearize",
+    "cmd_demo",
+    "cmd_report",
+    "cmd_import",
+    "cmd_fleet",
+    "cmd_cogging",
 )
+
+
+def _modules() -> list[ModuleType]:
+    return [importlib.import_module(f"torquemap.cli.{name}") for name in _MODULE_NAMES]
 
 
 _QUIET_HELP = "no progress output on stderr (results and warnings still print)"
@@ -74,7 +70,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="the command to run; torquemap COMMAND --help describes it, with examples",
     )
     sub.required = True
-    for module in _MODULES:
+    for module in _modules():
         module.register(sub)
     for command in commands(parser):
         _add_quiet(command)
@@ -117,15 +113,15 @@ def _add_quiet(command: argparse.ArgumentParser) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit status (0 ok, 1 failed check, 2 bad input)."""
-    from torquemap._memory import retain_freed_memory
-    from torquemap.progress import reporter
-
-    # block after block the same large arrays: reuse their pages, do not fault in new ones
-    retain_freed_memory()
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    args.progress = reporter(quiet=bool(getattr(args, "quiet", False)))
     try:
+        from torquemap._memory import retain_freed_memory
+        from torquemap.progress import reporter
+
+        # block after block the same large arrays: reuse their pages, do not fault in new ones
+        retain_freed_memory()
+        parser = build_parser()  # imports numpy and the commands: Ctrl-C there is handled too
+        args = parser.parse_args(argv)
+        args.progress = reporter(quiet=bool(getattr(args, "quiet", False)))
         status: int = args.handler(args)
     except InputError as exc:
         print(f"torquemap: error: {one_line(str(exc))}", file=sys.stderr)
