@@ -217,3 +217,17 @@ def test_quasi_static_identification_names_time_in_milliseconds(
     err = _one_line([*argv, "--quasi-static"], capsys)
     assert "ms.csv" in err and "its median time step is 2 s" in err
     assert "convert it to seconds" in err and not list(tmp_path.iterdir())
+
+
+def test_cogging_verify_warns_of_a_log_whose_last_line_has_no_line_end(
+    files: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # before: exit 0 and nothing said about the cut row (the other log-reading commands warned)
+    cut = tmp_path / "cut.csv"
+    cut.write_bytes((files / "log.csv").read_bytes()[:-2])
+    model = str(files / "model.toml")
+    assert main(["cogging", "verify", model, str(cut), "--joint", "a"]) == 0
+    err = capsys.readouterr().err
+    assert f"torquemap: warning: {cut}: the last line has no line end" in err
+    assert main(["cogging", "verify", model, str(files / "log.csv"), "--joint", "a"]) == 0
+    assert "no line end" not in capsys.readouterr().err

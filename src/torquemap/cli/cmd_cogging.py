@@ -65,6 +65,7 @@ def _pct(x: float) -> str:
 
 
 def _verify(args: argparse.Namespace) -> int:
+    from torquemap.cli.outputs import warn_cut_last_lines
     from torquemap.cogging import verify_cogging
     from torquemap.io import read_log
     from torquemap.model import load_model
@@ -93,6 +94,7 @@ def _verify(args: argparse.Namespace) -> int:
         f"all,{res.torque_before:.4g},{res.torque_after:.4g},{_pct(res.torque_removed)},"
         f"{res.speed_before:.4g},{res.speed_after:.4g},{_pct(res.speed_removed)}"
     )
+    warn_cut_last_lines([args.after] + ([] if args.before is None else [args.before]))
     if args.require is not None:
         removed = res.speed_removed if res.before_source == "log" else res.torque_removed
         if not removed * 100 >= args.require:
