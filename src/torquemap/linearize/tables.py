@@ -1059,6 +1059,7 @@ def build_tables(
                 ramp,
                 readable=readable,
                 actuation_max=spec.actuation_max,
+                levels=levels,
             )
             base = _invert(fine, np.arange(spec.actuation_max + 1, dtype=np.float64), target)
             onset_law = (fit.dead_zone, fit.exponent)
