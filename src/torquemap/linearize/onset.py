@@ -205,8 +205,18 @@ def extend_below(
     *,
     readable: float,
     actuation_max: int,
+    levels: NDArray[np.float64] | None = None,
 ) -> tuple[NDArray[np.float64], int]:
     """Replace each fitted position's curve below its first reliable reading by the law.
+
+    The first reliable reading is the first *measured* pulse width whose torque is at least
+    ``readable``. Between it and the last measured pulse width below it, ``fine`` holds the
+    linear interpolation between a reading of about zero and one well above zero: where the
+    sensed torque leaves zero in that interval (the knee), the interpolation puts torque where
+    there is none (the sensed torque is convex there, so the chord lies above it). Below the
+    first reliable reading the curve becomes the law, fitted to the readings above: up to
+    ``readable`` where the interpolation reads less (those readings are lost in the noise),
+    and never above the chord where the interpolation reads more.
 
     Parameters
     ----------
@@ -220,20 +230,48 @@ def extend_below(
         Smallest torque read reliably [N m].
     actuation_max
         ``A``.
+    levels
+        The measured base pulse widths (integers, ascending), shape (J,); ``fine`` is the
+        linear interpolation between them. Default: every pulse width.
 
     Returns
     -------
     ndarray, int
         The extended curves (monotone in the pulse width) and the cells replaced.
+
+    Examples
+    --------
+    One position, a sharp knee at pulse width 13 (torque ``0.1 (u - 13)`` above it, the
+    law's exponent 1 and its dead zone 13 in this example), measured every 4th pulse width:
+    the interpolation between the readings at 12 (zero) and 16 (0.3 N m) reads 0.075 N m at
+    13; the law restores zero there.
+
+    >>> u = np.arange(33.0)
+    >>> law = OnsetFit(dead_zone=13.0, exponent=1.0, gain=np.array([[2.0]]),
+    ...                friction=np.array([0.0]), fitted=np.array([True]))
+    >>> measured = np.arange(0.0, 33.0, 4.0)
+    >>> fine = np.interp(u, measured, np.maximum(0.1 * (measured - 13.0), 0.0))[None, :]
+    >>> out, n = extend_below(fine, law, np.ones((1, 1)), readable=0.25, actuation_max=32,
+    ...                       levels=measured)
+    >>> round(float(fine[0, 13]), 3), round(float(out[0, 13]), 3), n
+    (0.075, 0.0, 16)
     """
     u = np.arange(actuation_max + 1, dtype=np.float64)
     law = onset_curve(fit, ramp, u, actuation_max)
-    below = np.isfinite(fine) & (fine < readable)
+    at = u if levels is None else np.asarray(levels, dtype=np.float64)
+    reading = fine[:, np.clip(np.rint(at).astype(np.int64), 0, actuation_max)]
+    reliable = np.isfinite(reading) & (reading >= readable)
+    has = reliable.any(axis=1)
+    j = np.argmax(reliable, axis=1)
     # below the first reliable reading only: beyond it the readings stand
-    first = np.argmax(np.isfinite(fine) & (fine >= readable), axis=1)
-    before = u[None, :] < first[:, None]
-    take = below & before & fit.fitted[:, None] & np.isfinite(law)
-    out = np.where(take, np.minimum(law, readable), fine)
+    first = np.where(has, at[j], -1.0)
+    take = (
+        (u[None, :] < first[:, None]) & np.isfinite(fine) & fit.fitted[:, None] & np.isfinite(law)
+    )
+    # where the interpolation reads less than the rig can, the law (up to that level); above
+    # it, between a reading below that level and the first reliable one, the chord, or the
+    # law where it is lower
+    out = np.where(take, np.minimum(law, np.maximum(fine, readable)), fine)
     out = np.fmax.accumulate(np.where(np.isnan(out), -np.inf, out), axis=1)
     out = np.where(np.isfinite(out), out, np.nan)
     return out, int(take.sum())

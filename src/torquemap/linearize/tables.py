@@ -44,6 +44,7 @@ from torquemap.io import numeric_column, read_table
 from torquemap.linearize.denoise import denoise_blocks
 from torquemap.linearize.detent import detent_correction, fit_detent
 from torquemap.linearize.handover import check_handover, fill_handover
+from torquemap.linearize.knee import check_uncensored, uncensored_residual
 from torquemap.linearize.motor import MotorSpec
 from torquemap.linearize.onset import extend_below, fit_onset
 from torquemap.linearize.sampling import (
@@ -731,10 +732,14 @@ def _surface_forward(
     levels: NDArray[np.float64],
     onset_law: tuple[float, float],
     readable: float,
+    noise: float,
+    *,
+    knee: bool = True,
 ) -> tuple[NDArray[np.float64], SurfaceFit]:
     """Sensed torque on every base pulse width from the structured surface
     (:mod:`torquemap.linearize.surface`) plus what it misses at the measured cells,
-    interpolated between them, shape (P, A + 1); and the surface."""
+    interpolated between them, shape (P, A + 1); and the surface. ``noise``: one row's
+    noise [N m]."""
     n = spec.positions_per_cycle
     col = np.searchsorted(levels, pw)
     mean, count = _cells(pos, col.astype(np.int64), tau, (n, levels.size))
@@ -755,6 +760,13 @@ def _surface_forward(
     y_adj = mean - fit.offset[:, None]
     res = np.where((pred <= 0) & (y_adj <= 0), 0.0, y_adj - pred)
     res = np.where(np.isfinite(mean), res, np.nan)
+    # below the knee, the residual carried in the uncensored torque where the data prefer it
+    # (torquemap.linearize.knee)
+    if knee:
+        unc = uncensored_residual(res, y_adj, pred, noise=noise)
+        anchors = np.flatnonzero(np.isfinite(mean[:, 0]))
+        if check_uncensored(res, unc, y_adj, pred, anchors).preferred:
+            res = unc
     res = fill_voids(res, levels=levels)
     u = np.arange(spec.actuation_max + 1, dtype=np.float64)
     res_fine = np.stack([np.interp(u, levels, np.nan_to_num(r)) for r in res])
@@ -893,6 +905,7 @@ def build_tables(
     handover: bool = True,
     detent: bool = True,
     surface: bool = True,
+    knee: bool = True,
     path: str | os.PathLike[str] | None = None,
 ) -> TableSet:
     """Build the per-phase torque-linearisation tables from characterisation data (paper §4.3).
@@ -947,6 +960,11 @@ def build_tables(
         ``"interp"`` only: between measured positions, take the torque at rest (cogging) from
         a Fourier fit of one fundamental and its multiples (:mod:`torquemap.linearize.detent`),
         kept only while it predicts the measured curves better, instead of interpolating it.
+    knee
+        ``"interp"`` only, where the structured surface is used: below each measured
+        position's knee, carry what the surface misses between measured positions in the
+        uncensored torque (:mod:`torquemap.linearize.knee`), when the measured positions,
+        predicted from their neighbours, confirm it predicts better.
     path
         The data file, named in error messages.
 
@@ -1059,12 +1077,15 @@ def build_tables(
                 ramp,
                 readable=readable,
                 actuation_max=spec.actuation_max,
+                levels=levels,
             )
             base = _invert(fine, np.arange(spec.actuation_max + 1, dtype=np.float64), target)
             onset_law = (fit.dead_zone, fit.exponent)
             anchors = np.unique(pos[pw == 0])
             if surface and ramp_share_step(ramp, anchors) > SURFACE_SHARE_STEP:
-                modelled, fitted = _surface_forward(spec, pos, pw, tau, levels, onset_law, readable)
+                modelled, fitted = _surface_forward(
+                    spec, pos, pw, tau, levels, onset_law, readable, sigma, knee=knee
+                )
                 fine = np.where(np.isnan(fine), np.nan, modelled)
                 check = check_position_sampling(
                     fitted.rest, anchors, n, torque_per_count=torque_max / cmax
