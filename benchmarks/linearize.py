@@ -400,14 +400,22 @@ def joints_section() -> int:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="random motors only, noise-free")
-    parser.add_argument("--motors", type=int, default=20, help="random motors (default 20)")
+    parser.add_argument(
+        "--motors",
+        type=int,
+        default=20,
+        help="random motors (default 20; 0: the four joints alone)",
+    )
     parser.add_argument("--first-seed", type=int, default=0, help="first seed (default 0)")
     parser.add_argument("--no-joints", action="store_true", help="skip the four joints")
     args = parser.parse_args()
     seeds = list(range(args.first_seed, args.first_seed + args.motors))
+    if args.motors < 0:
+        parser.error("--motors must be >= 0")
     if not (args.quick or args.no_joints):
         joints_section()
-    family(seeds, verify=not args.quick)
+    if seeds:  # --motors 0: the four joints alone
+        family(seeds, verify=not args.quick)
     return 0
 
 
