@@ -447,56 +447,81 @@ def _powers_top(line_power: NDArray[np.int64]) -> int:
 
 
 @jit
+def _regressor_lines(start: int, stop: int, spec: RegressorSpec, rows: NDArray[np.float64]) -> None:
+    """Rows ``0:stop - start`` zeroed and the PDTV lines' cosines and sines of samples
+    ``start:stop`` written (:func:`regressor_directions`). Each line's powers of
+    ``exp(i theta)`` run over the stretch's samples side by side (independent: vectorised),
+    not sample by sample (a chain of dependent products each)."""
+    theta, velocity = spec[2], spec[3]
+    line_order, line_power, line_cos, line_sin, line_direction = spec[4:9]
+    count = stop - start
+    p = rows.shape[1]
+    for at_row in range(count):
+        for j in range(p):
+            rows[at_row, j] = 0.0
+    if not line_order.size:
+        return
+    top = _powers_top(line_power)
+    sq_re = np.empty((top, count))
+    sq_im = np.empty((top, count))
+    for at_row in range(count):
+        sq_re[0, at_row] = math.cos(theta[start + at_row])
+        sq_im[0, at_row] = math.sin(theta[start + at_row])
+    for b in range(1, top):
+        for at_row in range(count):
+            re = sq_re[b - 1, at_row]
+            im = sq_im[b - 1, at_row]
+            sq_re[b, at_row] = re * re - im * im
+            sq_im[b, at_row] = 2.0 * re * im
+    pr = np.empty(count)
+    pi = np.empty(count)
+    for line in range(line_order.size):
+        k = line_power[line]
+        if k >= 0:
+            for at_row in range(count):
+                pr[at_row] = 1.0
+                pi[at_row] = 0.0
+            for b in range(top):
+                if (k >> b) & 1:
+                    for at_row in range(count):
+                        re = pr[at_row] * sq_re[b, at_row] - pi[at_row] * sq_im[b, at_row]
+                        pi[at_row] = pr[at_row] * sq_im[b, at_row] + pi[at_row] * sq_re[b, at_row]
+                        pr[at_row] = re
+        else:
+            for at_row in range(count):
+                angle = line_order[line] * theta[start + at_row]
+                pr[at_row] = math.cos(angle)
+                pi[at_row] = math.sin(angle)
+        direction = line_direction[line]
+        at_cos = line_cos[line]
+        at_sin = line_sin[line]
+        for at_row in range(count):
+            w = velocity[start + at_row]
+            if (direction > 0 and not w > 0) or (direction < 0 and not w < 0):
+                continue
+            if at_cos >= 0:
+                rows[at_row, at_cos] = pr[at_row]
+            if at_sin >= 0:
+                rows[at_row, at_sin] = pi[at_row]
+
+
+@jit
 def _regressor_block(start: int, stop: int, spec: RegressorSpec, rows: NDArray[np.float64]) -> None:
     """Samples ``start:stop``'s regressor rows (p,) into ``rows[0:stop - start]``
     (:func:`regressor_directions`); a stretch per call (a call passes every array)."""
-    (dense, dense_index, theta, velocity, line_order, line_power, line_cos, line_sin,
-     line_direction, knot_logs, knot_positive, knot_negative, viscous, viscous_negative,
-     zero_velocity, _directions, _reach) = spec  # fmt: skip
-    p = rows.shape[1]
-    top = _powers_top(line_power)
-    sq_re = np.empty(top)
-    sq_im = np.empty(top)
+    dense, dense_index, velocity = spec[0], spec[1], spec[3]
+    knot_logs, knot_positive, knot_negative = spec[9], spec[10], spec[11]
+    viscous, viscous_negative, zero_velocity = spec[12], spec[13], spec[14]
     k_knots = knot_logs.size
     # tanh(x) is 1.0 exactly in float64 beyond 19.1: the blend needs no libm call there
     saturated = 20.0 * abs(zero_velocity)
     lo = 0  # the knot count below the speed, carried from sample to sample
+    _regressor_lines(start, stop, spec, rows)
     for i in range(start, stop):
         at_row = i - start  # indexed, not a view per sample (each would touch a refcount)
-        for j in range(p):
-            rows[at_row, j] = 0.0
         for d in range(dense_index.size):
             rows[at_row, dense_index[d]] = dense[d, i]
         w = velocity[i]
-        if line_order.size:
-            sq_re[0] = math.cos(theta[i])
-            sq_im[0] = math.sin(theta[i])
-            for b in range(1, top):
-                re = sq_re[b - 1]
-                im = sq_im[b - 1]
-                sq_re[b] = re * re - im * im
-                sq_im[b] = 2.0 * re * im
-        for line in range(line_order.size):
-            direction = line_direction[line]
-            if (direction > 0 and not w > 0) or (direction < 0 and not w < 0):
-                continue
-            k = line_power[line]
-            if k >= 0:
-                pr = 1.0
-                pi = 0.0
-                for b in range(top):
-                    if (k >> b) & 1:
-                        re = pr * sq_re[b] - pi * sq_im[b]
-                        pi = pr * sq_im[b] + pi * sq_re[b]
-                        pr = re
-            else:
-                angle = line_order[line] * theta[i]
-                pr = math.cos(angle)
-                pi = math.sin(angle)
-            if line_cos[line] >= 0:
-                rows[at_row, line_cos[line]] = pr
-            if line_sin[line] >= 0:
-                rows[at_row, line_sin[line]] = pi
         if k_knots >= 2 or viscous >= 0 or viscous_negative >= 0:
             s = abs(w)
             if w > saturated:
