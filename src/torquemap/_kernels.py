@@ -560,22 +560,13 @@ def _regressor_rows(start: int, stop: int, spec: RegressorSpec, out: NDArray[np.
     """Samples ``start:stop``'s regressor rows times ``directions`` into ``out[0:stop -
     start]`` (:func:`regressor_directions`), a tile at a time."""
     directions, reach = spec[15], spec[16]
-    p, r = directions.shape
+    p = directions.shape[0]
     rows = np.empty((min(TILE, max(stop - start, 0)), p))
     for first in range(start, stop, TILE):
         last = min(first + TILE, stop)
         _regressor_block(first, last, spec, rows)
         for i in range(first, last):
-            # the row times the directions, skipping its zeros and the factor's
-            at_row = i - start
-            at_block = i - first
-            for k in range(r):
-                out[at_row, k] = 0.0
-            for j in range(p):
-                g = rows[at_block, j]
-                if g != 0.0:
-                    for k in range(reach[j]):
-                        out[at_row, k] += g * directions[j, k]
+            _combine_rows(rows, i - first, directions, reach, out, i - start)
 
 
 @jit
@@ -695,19 +686,7 @@ def lowpassed_variance(
             z1[k] = b2 * xk - a2 * yk
             squares[k] = weights[k] * (yk * yk)
         if pad <= j < pad + n:
-            # four partial sums: the sum's chain of dependent additions a quarter as long
-            s0 = s1 = s2 = s3 = 0.0
-            k = 0
-            while k + 4 <= r:
-                s0 += squares[k]
-                s1 += squares[k + 1]
-                s2 += squares[k + 2]
-                s3 += squares[k + 3]
-                k += 4
-            while k < r:
-                s0 += squares[k]
-                k += 1
-            out[j - pad] = (s0 + s1) + (s2 + s3)
+            out[j - pad] = _sum_four(squares)
     return out
 
 
@@ -730,18 +709,22 @@ MultiratePlan = tuple[Any, ...]
 @jit
 def _combine_rows(
     x: NDArray[np.float64],
+    at_x: int,
     directions: NDArray[np.float64],
     reach: NDArray[np.int64],
     out: NDArray[np.float64],
+    at_out: int,
 ) -> None:
-    """``out[k] = sum_j x[j] directions[j, k]`` for ``k < reach[j]`` (a triangular factor)."""
-    for k in range(out.size):
-        out[k] = 0.0
-    for j in range(x.size):
-        g = x[j]
+    """``out[at_out, k] = sum_j x[at_x, j] directions[j, k]`` for ``k < reach[j]`` (a
+    triangular factor), skipping the row's zeros; rows indexed, not viewed (a view per
+    sample would touch a reference count)."""
+    for k in range(out.shape[1]):
+        out[at_out, k] = 0.0
+    for j in range(x.shape[1]):
+        g = x[at_x, j]
         if g != 0.0:
             for k in range(reach[j]):
-                out[k] += g * directions[j, k]
+                out[at_out, k] += g * directions[j, k]
 
 
 @jit
@@ -820,21 +803,32 @@ def _multirate_step(
 
 
 @jit
-def _weighted_squares(y: NDArray[np.float64], weights: NDArray[np.float64]) -> float:
-    """``sum_k weights[k] y[k]^2`` in four partial sums (as :func:`lowpassed_variance`)."""
-    r = y.size
+def _sum_four(values: NDArray[np.float64]) -> float:
+    """The sum of ``values`` in four partial sums: the chain of dependent additions a quarter
+    as long."""
+    r = values.size
     s0 = s1 = s2 = s3 = 0.0
     k = 0
     while k + 4 <= r:
-        s0 += weights[k] * (y[k] * y[k])
-        s1 += weights[k + 1] * (y[k + 1] * y[k + 1])
-        s2 += weights[k + 2] * (y[k + 2] * y[k + 2])
-        s3 += weights[k + 3] * (y[k + 3] * y[k + 3])
+        s0 += values[k]
+        s1 += values[k + 1]
+        s2 += values[k + 2]
+        s3 += values[k + 3]
         k += 4
     while k < r:
-        s0 += weights[k] * (y[k] * y[k])
+        s0 += values[k]
         k += 1
     return (s0 + s1) + (s2 + s3)
+
+
+@jit
+def _weighted_squares(
+    y: NDArray[np.float64], weights: NDArray[np.float64], squares: NDArray[np.float64]
+) -> float:
+    """``sum_k weights[k] y[k]^2`` (:func:`_sum_four`; ``squares`` is scratch of y's size)."""
+    for k in range(y.size):
+        squares[k] = weights[k] * (y[k] * y[k])
+    return _sum_four(squares)
 
 
 @jit
@@ -882,13 +876,13 @@ def decimated_variance(
                 w = cic[i - j * m]
                 for q in range(p):
                     rows[j, q] += w * block[i - begin, q]
-    row = np.empty(p)
+    row = np.empty((1, p))
     # 2. droop compensated and times the factor (decimated samples 1 .. count - 2)
     x = np.zeros((count, r))
     for j in range(1, count - 1):
         for q in range(p):
-            row[q] = (1.0 + 2.0 * alpha) * rows[j, q] - alpha * (rows[j - 1, q] + rows[j + 1, q])
-        _combine_rows(row, directions, reach, x[j])
+            row[0, q] = (1.0 + 2.0 * alpha) * rows[j, q] - alpha * (rows[j - 1, q] + rows[j + 1, q])
+        _combine_rows(row, 0, directions, reach, x, j)
     # 3. forward: the start exactly up to c_3, then decimated up to c_last, then exactly.
     # What passes from a full-rate stretch to the decimated passes goes through the same
     # anti-alias (boxcars and compensation, :func:`_antialiased`): a sample of the full-rate
@@ -1015,13 +1009,14 @@ def decimated_variance(
         y[j] = head[half + j * m]
     # 5. the sum of squares: exact at the ends, interpolated between the decimated samples
     level = np.empty(count)
+    scratch = np.empty(r)
     for j in range(count):
-        level[j] = _weighted_squares(y[j], weights)
+        level[j] = _weighted_squares(y[j], weights, scratch)
     out = np.empty(n)
     for i in range(c_first):
-        out[i] = _weighted_squares(head[i], weights)
+        out[i] = _weighted_squares(head[i], weights, scratch)
     for i in range(c_last, n):
-        out[i] = _weighted_squares(tail[i - c_last], weights)
+        out[i] = _weighted_squares(tail[i - c_last], weights, scratch)
     for i in range(c_first, c_last):
         j = (i - half) // m
         offset = i - half - j * m
