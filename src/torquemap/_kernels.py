@@ -846,12 +846,15 @@ def decimated_variance(
     Each sample's regressor row (p,) is accumulated into the decimated rows it falls under
     (three boxcars of ``m``, centred on every ``m``-th sample from ``(3 m - 3) / 2``), the
     boxcars' droop compensated, and only the decimated rows are multiplied by the factor.
-    The first three and the last three decimated samples' stretch are filtered at the full
-    rate exactly as :func:`lowpassed_variance` does (the odd extensions, the initial
-    states); between, each pass advances the full-rate section's own state ``m`` samples at
-    a time over the input interpolated from the decimated one (:data:`MultiratePlan`); the
-    output's sum of squares is interpolated back to every sample (6-point Lagrange). The
-    caller ensures ``n`` gives at least 8 decimated samples and ``pad < m``.
+    The stretches up to decimated sample 3 and from ``count - 6 - FIT_STEPS`` on are
+    filtered at the full rate exactly as :func:`lowpassed_variance` does (the odd
+    extensions, the initial states); between, each pass advances the full-rate section's
+    own state ``m`` samples at a time over the input interpolated from the decimated one
+    (:data:`MultiratePlan`). Where the forward pass goes from one rate to the other, the
+    state is fitted (least squares, over :data:`FIT_STEPS` decimated samples) to the other
+    rate's output through the anti-alias. The output's sum of squares is interpolated back
+    to every sample (6-point Lagrange). The caller ensures ``n`` gives at least
+    :data:`torquemap.multirate.MIN_DECIMATED` decimated samples and ``pad <= 2 m``.
     """
     m, cic, alpha = plan[0], plan[1], plan[2]
     centred = plan[7]
