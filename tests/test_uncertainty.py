@@ -1,8 +1,9 @@
-"""The parameters' share of the estimate's sigma: the fast form against its definition.
+"""The parameters' share of the estimate's sigma: the fast forms against its definition.
 
 :func:`torquemap.uncertainty.parameter_variance` low-passes a triangular factor's
-combinations of the regressor (compiled kernels); :func:`parameter_variance_direct` forms the
-(n, p) regressor, low-passes every column and takes ``g^T C g`` per sample (a second
+combinations of the regressor (compiled kernels), at the log's rate (``rate="full"``) or at a
+decimated one (the default, :mod:`torquemap.multirate`); :func:`parameter_variance_direct`
+forms the (n, p) regressor, low-passes every column and takes ``g^T C g`` per sample (a second
 algorithm). Both on data drawn here with a seeded generator, and on the whole-log model of the
 SCARA bench.
 """
@@ -16,6 +17,7 @@ import pytest
 from conftest import WHOLE_MODEL
 
 from torquemap.friction_law import SpeedTableFriction, StribeckFriction
+from torquemap.multirate import VARIANCE_RTOL, decimation_factor
 from torquemap.uncertainty import (
     joint_uncertainty,
     parameter_variance,
@@ -81,9 +83,13 @@ def test_table_law_matches_direct_formula(seed: int) -> None:
     names = _names_table(law)
     cov = _covariance(len(names), rng)
     x = _signals(20_000, rng=rng)
-    fast = parameter_variance(names, cov, law=law, cutoff=2.0, **x)
+    fast = parameter_variance(names, cov, law=law, cutoff=2.0, rate="full", **x)
     direct = parameter_variance_direct(names, cov, law=law, cutoff=2.0, **x)
     np.testing.assert_allclose(fast, direct, rtol=RTOL, atol=0.0)
+    # 2 kHz and 2 Hz: decimated by 19 (the default), held to the accuracy multirate states
+    assert decimation_factor(float(x["t"][1]), 2.0) == 19
+    decimated = parameter_variance(names, cov, law=law, cutoff=2.0, **x)
+    np.testing.assert_allclose(decimated, direct, rtol=VARIANCE_RTOL, atol=0.0)
 
 
 def test_rank_deficient_covariance_and_dense_law() -> None:
@@ -103,7 +109,7 @@ def test_rank_deficient_covariance_and_dense_law() -> None:
     ]
     cov = _covariance(len(names), rng, rank=3)
     x = _signals(8_000, rng=rng)
-    fast = parameter_variance(names, cov, law=law, cutoff=5.0, **x)
+    fast = parameter_variance(names, cov, law=law, cutoff=5.0, rate="full", **x)
     direct = parameter_variance_direct(names, cov, law=law, cutoff=5.0, **x)
     # singular: the direct form's rounding, eps ||C|| ||g||^2, is the floor of both
     floor = (
@@ -161,6 +167,10 @@ def test_bench_model_sigma_matches_direct_formula(scara_model: Path, scara_bench
         cov = np.asarray(table["covariance"], dtype=np.float64)
         args = {k: kw[k] for k in ("t", "theta", "velocity", "acceleration", "modulation")}
         law = model.joints[joint].friction
-        fast = parameter_variance(names, cov, law=law, cutoff=float(kw["cutoff"]), **args)
-        direct = parameter_variance_direct(names, cov, law=law, cutoff=float(kw["cutoff"]), **args)
+        cutoff = float(kw["cutoff"])
+        fast = parameter_variance(names, cov, law=law, cutoff=cutoff, rate="full", **args)
+        direct = parameter_variance_direct(names, cov, law=law, cutoff=cutoff, **args)
         np.testing.assert_allclose(fast, direct, rtol=RTOL, atol=0.0)
+        decimated = parameter_variance(names, cov, law=law, cutoff=cutoff, **args)
+        assert decimation_factor(float(np.median(np.diff(args["t"]))), cutoff) == 19
+        np.testing.assert_allclose(decimated, direct, rtol=VARIANCE_RTOL, atol=0.0)

@@ -447,91 +447,126 @@ def _powers_top(line_power: NDArray[np.int64]) -> int:
 
 
 @jit
-def _regressor_rows(start: int, stop: int, spec: RegressorSpec, out: NDArray[np.float64]) -> None:
-    """Samples ``start:stop``'s regressor rows times ``directions`` into ``out[0:stop -
-    start]`` (:func:`regressor_directions`); a stretch per call (a call passes every array)."""
-    (dense, dense_index, theta, velocity, line_order, line_power, line_cos, line_sin,
-     line_direction, knot_logs, knot_positive, knot_negative, viscous, viscous_negative,
-     zero_velocity, directions, reach) = spec  # fmt: skip
-    p, r = directions.shape
-    top = _powers_top(line_power)
-    sq_re = np.empty(top)
-    sq_im = np.empty(top)
-    row = np.empty(p)
-    k_knots = knot_logs.size
-    for i in range(start, stop):
+def _regressor_lines(start: int, stop: int, spec: RegressorSpec, rows: NDArray[np.float64]) -> None:
+    """Rows ``0:stop - start`` zeroed and the PDTV lines' cosines and sines of samples
+    ``start:stop`` written (:func:`regressor_directions`). Each line's powers of
+    ``exp(i theta)`` run over the stretch's samples side by side (independent: vectorised),
+    not sample by sample (a chain of dependent products each)."""
+    theta, velocity = spec[2], spec[3]
+    line_order, line_power, line_cos, line_sin, line_direction = spec[4:9]
+    count = stop - start
+    p = rows.shape[1]
+    for at_row in range(count):
         for j in range(p):
-            row[j] = 0.0
-        for d in range(dense_index.size):
-            row[dense_index[d]] = dense[d, i]
-        w = velocity[i]
-        if line_order.size:
-            sq_re[0] = math.cos(theta[i])
-            sq_im[0] = math.sin(theta[i])
-            for b in range(1, top):
-                re = sq_re[b - 1]
-                im = sq_im[b - 1]
-                sq_re[b] = re * re - im * im
-                sq_im[b] = 2.0 * re * im
-        for line in range(line_order.size):
-            direction = line_direction[line]
+            rows[at_row, j] = 0.0
+    if not line_order.size:
+        return
+    top = _powers_top(line_power)
+    sq_re = np.empty((top, count))
+    sq_im = np.empty((top, count))
+    for at_row in range(count):
+        sq_re[0, at_row] = math.cos(theta[start + at_row])
+        sq_im[0, at_row] = math.sin(theta[start + at_row])
+    for b in range(1, top):
+        for at_row in range(count):
+            re = sq_re[b - 1, at_row]
+            im = sq_im[b - 1, at_row]
+            sq_re[b, at_row] = re * re - im * im
+            sq_im[b, at_row] = 2.0 * re * im
+    pr = np.empty(count)
+    pi = np.empty(count)
+    for line in range(line_order.size):
+        k = line_power[line]
+        if k >= 0:
+            for at_row in range(count):
+                pr[at_row] = 1.0
+                pi[at_row] = 0.0
+            for b in range(top):
+                if (k >> b) & 1:
+                    for at_row in range(count):
+                        re = pr[at_row] * sq_re[b, at_row] - pi[at_row] * sq_im[b, at_row]
+                        pi[at_row] = pr[at_row] * sq_im[b, at_row] + pi[at_row] * sq_re[b, at_row]
+                        pr[at_row] = re
+        else:
+            for at_row in range(count):
+                angle = line_order[line] * theta[start + at_row]
+                pr[at_row] = math.cos(angle)
+                pi[at_row] = math.sin(angle)
+        direction = line_direction[line]
+        at_cos = line_cos[line]
+        at_sin = line_sin[line]
+        for at_row in range(count):
+            w = velocity[start + at_row]
             if (direction > 0 and not w > 0) or (direction < 0 and not w < 0):
                 continue
-            k = line_power[line]
-            if k >= 0:
-                pr = 1.0
-                pi = 0.0
-                for b in range(top):
-                    if (k >> b) & 1:
-                        re = pr * sq_re[b] - pi * sq_im[b]
-                        pi = pr * sq_im[b] + pi * sq_re[b]
-                        pr = re
-            else:
-                angle = line_order[line] * theta[i]
-                pr = math.cos(angle)
-                pi = math.sin(angle)
-            if line_cos[line] >= 0:
-                row[line_cos[line]] = pr
-            if line_sin[line] >= 0:
-                row[line_sin[line]] = pi
+            if at_cos >= 0:
+                rows[at_row, at_cos] = pr[at_row]
+            if at_sin >= 0:
+                rows[at_row, at_sin] = pi[at_row]
+
+
+@jit
+def _regressor_block(start: int, stop: int, spec: RegressorSpec, rows: NDArray[np.float64]) -> None:
+    """Samples ``start:stop``'s regressor rows (p,) into ``rows[0:stop - start]``
+    (:func:`regressor_directions`); a stretch per call (a call passes every array)."""
+    dense, dense_index, velocity = spec[0], spec[1], spec[3]
+    knot_logs, knot_positive, knot_negative = spec[9], spec[10], spec[11]
+    viscous, viscous_negative, zero_velocity = spec[12], spec[13], spec[14]
+    k_knots = knot_logs.size
+    # tanh(x) is 1.0 exactly in float64 beyond 19.1: the blend needs no libm call there
+    saturated = 20.0 * abs(zero_velocity)
+    lo = 0  # the knot count below the speed, carried from sample to sample
+    _regressor_lines(start, stop, spec, rows)
+    for i in range(start, stop):
+        at_row = i - start  # indexed, not a view per sample (each would touch a refcount)
+        for d in range(dense_index.size):
+            rows[at_row, dense_index[d]] = dense[d, i]
+        w = velocity[i]
         if k_knots >= 2 or viscous >= 0 or viscous_negative >= 0:
             s = abs(w)
-            blend = 0.5 * (1.0 + math.tanh(w / zero_velocity))
+            if w > saturated:
+                blend = 1.0
+            elif w < -saturated:
+                blend = 0.0
+            else:
+                blend = 0.5 * (1.0 + math.tanh(w / zero_velocity))
             other = -(1.0 - blend)
             if k_knots >= 2:
                 x = math.log(max(s, 1e-300))
-                lo = 0
-                hi = k_knots
-                while lo < hi:  # numpy.searchsorted(knot_logs, x, side="right")
-                    mid = (lo + hi) // 2
-                    if knot_logs[mid] <= x:
-                        lo = mid + 1
-                    else:
-                        hi = mid
+                # numpy.searchsorted(knot_logs, x, side="right"), from the last sample's
+                while lo > 0 and knot_logs[lo - 1] > x:
+                    lo -= 1
+                while lo < k_knots and knot_logs[lo] <= x:
+                    lo += 1
                 at = min(max(lo - 1, 0), k_knots - 2)
                 u = (x - knot_logs[at]) / (knot_logs[at + 1] - knot_logs[at])
                 u = min(max(u, 0.0), 1.0)
                 if knot_positive[at] >= 0:
-                    row[knot_positive[at]] = blend * (1.0 - u)
+                    rows[at_row, knot_positive[at]] = blend * (1.0 - u)
                 if knot_negative[at] >= 0:
-                    row[knot_negative[at]] = other * (1.0 - u)
+                    rows[at_row, knot_negative[at]] = other * (1.0 - u)
                 if knot_positive[at + 1] >= 0:
-                    row[knot_positive[at + 1]] = blend * u
+                    rows[at_row, knot_positive[at + 1]] = blend * u
                 if knot_negative[at + 1] >= 0:
-                    row[knot_negative[at + 1]] = other * u
+                    rows[at_row, knot_negative[at + 1]] = other * u
             if viscous >= 0:
-                row[viscous] = blend * s
+                rows[at_row, viscous] = blend * s
             if viscous_negative >= 0:
-                row[viscous_negative] = other * s
-        # the row times the directions, skipping its zeros and the factor's
-        at_row = i - start  # indexed, not a view per sample (each would touch a refcount)
-        for k in range(r):
-            out[at_row, k] = 0.0
-        for j in range(p):
-            g = row[j]
-            if g != 0.0:
-                for k in range(reach[j]):
-                    out[at_row, k] += g * directions[j, k]
+                rows[at_row, viscous_negative] = other * s
+
+
+@jit
+def _regressor_rows(start: int, stop: int, spec: RegressorSpec, out: NDArray[np.float64]) -> None:
+    """Samples ``start:stop``'s regressor rows times ``directions`` into ``out[0:stop -
+    start]`` (:func:`regressor_directions`), a tile at a time."""
+    directions, reach = spec[15], spec[16]
+    p = directions.shape[0]
+    rows = np.empty((min(TILE, max(stop - start, 0)), p))
+    for first in range(start, stop, TILE):
+        last = min(first + TILE, stop)
+        _regressor_block(first, last, spec, rows)
+        for i in range(first, last):
+            _combine_rows(rows, i - first, directions, reach, out, i - start)
 
 
 @jit
@@ -651,17 +686,363 @@ def lowpassed_variance(
             z1[k] = b2 * xk - a2 * yk
             squares[k] = weights[k] * (yk * yk)
         if pad <= j < pad + n:
-            # four partial sums: the sum's chain of dependent additions a quarter as long
-            s0 = s1 = s2 = s3 = 0.0
-            k = 0
-            while k + 4 <= r:
-                s0 += squares[k]
-                s1 += squares[k + 1]
-                s2 += squares[k + 2]
-                s3 += squares[k + 3]
-                k += 4
-            while k < r:
-                s0 += squares[k]
-                k += 1
-            out[j - pad] = (s0 + s1) + (s2 + s3)
+            out[j - pad] = _sum_four(squares)
     return out
+
+
+#: Decimated samples over which :func:`decimated_variance` fits the state its forward pass
+#: starts from to the full-rate pass (a fifth of a second at 100 Hz).
+FIT_STEPS = 24
+
+#: The multirate plan of :func:`decimated_variance`, a tuple: ``(m, cic, alpha, step,
+#: inputs, step_short, inputs_short, centred, first)``: the odd decimation factor ``m``; the
+#: anti-alias weights ``cic`` (3 m - 2,), three boxcars of ``m`` convolved, summing to 1;
+#: the droop compensation ``alpha`` of the 3-tap ``(1 + 2 alpha, -alpha, -alpha)``; the
+#: order-2 section's state over ``m`` samples of input interpolated (cubic Lagrange) from 4
+#: decimated samples ``z' = step z + inputs^T x[j - 1 : j + 3]`` (2, 2) and (4, 2), and the
+#: same over ``m - 1`` samples (``_short``); the 6-point Lagrange weights (m, 6) of the
+#: output's interpolation at offsets ``0 .. m - 1`` past a decimated sample, ``centred``
+#: on nodes ``-2 .. 3`` and ``first`` on ``-1 .. 4``.
+MultiratePlan = tuple[Any, ...]
+
+
+@jit
+def _combine_rows(
+    x: NDArray[np.float64],
+    at_x: int,
+    directions: NDArray[np.float64],
+    reach: NDArray[np.int64],
+    out: NDArray[np.float64],
+    at_out: int,
+) -> None:
+    """``out[at_out, k] = sum_j x[at_x, j] directions[j, k]`` for ``k < reach[j]`` (a
+    triangular factor), skipping the row's zeros; rows indexed, not viewed (a view per
+    sample would touch a reference count)."""
+    for k in range(out.shape[1]):
+        out[at_out, k] = 0.0
+    for j in range(x.shape[1]):
+        g = x[at_x, j]
+        if g != 0.0:
+            for k in range(reach[j]):
+                out[at_out, k] += g * directions[j, k]
+
+
+@jit
+def _exact_pass(
+    x: NDArray[np.float64],
+    z0: NDArray[np.float64],
+    z1: NDArray[np.float64],
+    sos: NDArray[np.float64],
+    start: int,
+    stop: int,
+    backward: bool,
+) -> None:
+    """The order-2 section over rows ``start:stop`` of ``x`` (forward, or from ``stop - 1``
+    down to ``start``), each row's output written over its input; state ``z0``, ``z1`` (r,)."""
+    b0, b1, b2, a1, a2 = sos[0, 0], sos[0, 1], sos[0, 2], sos[0, 4], sos[0, 5]
+    r = z0.size
+    for step in range(stop - start):
+        j = stop - 1 - step if backward else start + step
+        for k in range(r):
+            xk = x[j, k]
+            yk = b0 * xk + z0[k]
+            z0[k] = b1 * xk - a1 * yk + z1[k]
+            z1[k] = b2 * xk - a2 * yk
+            x[j, k] = yk
+
+
+@jit
+def _multirate_step(
+    x: NDArray[np.float64],
+    at: int,
+    direction: int,
+    z0: NDArray[np.float64],
+    z1: NDArray[np.float64],
+    b0: float,
+    plan: MultiratePlan,
+    out: NDArray[np.float64],
+) -> None:
+    """One decimated step of the section from decimated sample ``at`` to ``at + direction``:
+    the state after ``m`` full-rate samples of the input interpolated (cubic Lagrange) from
+    ``x[at - direction], x[at], x[at + direction], x[at + 2 direction]``, and the output at
+    the new sample into ``out`` (r,)."""
+    step, inputs, step_short, inputs_short = plan[3], plan[4], plan[5], plan[6]
+    r = z0.size
+    xa = x[at - direction]
+    xb = x[at]
+    xc = x[at + direction]
+    xd = x[at + 2 * direction]
+    for k in range(r):
+        a, b, c, d = xa[k], xb[k], xc[k], xd[k]
+        s0, s1 = z0[k], z1[k]
+        short0 = (
+            step_short[0, 0] * s0
+            + step_short[0, 1] * s1
+            + inputs_short[0, 0] * a
+            + inputs_short[1, 0] * b
+            + inputs_short[2, 0] * c
+            + inputs_short[3, 0] * d
+        )
+        out[k] = b0 * c + short0
+        z0[k] = (
+            step[0, 0] * s0
+            + step[0, 1] * s1
+            + inputs[0, 0] * a
+            + inputs[1, 0] * b
+            + inputs[2, 0] * c
+            + inputs[3, 0] * d
+        )
+        z1[k] = (
+            step[1, 0] * s0
+            + step[1, 1] * s1
+            + inputs[0, 1] * a
+            + inputs[1, 1] * b
+            + inputs[2, 1] * c
+            + inputs[3, 1] * d
+        )
+
+
+@jit
+def _sum_four(values: NDArray[np.float64]) -> float:
+    """The sum of ``values`` in four partial sums: the chain of dependent additions a quarter
+    as long."""
+    r = values.size
+    s0 = s1 = s2 = s3 = 0.0
+    k = 0
+    while k + 4 <= r:
+        s0 += values[k]
+        s1 += values[k + 1]
+        s2 += values[k + 2]
+        s3 += values[k + 3]
+        k += 4
+    while k < r:
+        s0 += values[k]
+        k += 1
+    return (s0 + s1) + (s2 + s3)
+
+
+@jit
+def _weighted_squares(
+    y: NDArray[np.float64], weights: NDArray[np.float64], squares: NDArray[np.float64]
+) -> float:
+    """``sum_k weights[k] y[k]^2`` (:func:`_sum_four`; ``squares`` is scratch of y's size)."""
+    for k in range(y.size):
+        squares[k] = weights[k] * (y[k] * y[k])
+    return _sum_four(squares)
+
+
+@jit
+def decimated_variance(
+    spec: RegressorSpec,
+    weights: NDArray[np.float64],
+    sos: NDArray[np.float64],
+    zi: NDArray[np.float64],
+    pad: int,
+    plan: MultiratePlan,
+) -> NDArray[np.float64]:
+    """:func:`lowpassed_variance` with the filter run at the rate ``1/m`` of the log's
+    (:func:`torquemap.multirate.multirate_plan`); shape (n,).
+
+    Each sample's regressor row (p,) is accumulated into the decimated rows it falls under
+    (three boxcars of ``m``, centred on every ``m``-th sample from ``(3 m - 3) / 2``), the
+    boxcars' droop compensated, and only the decimated rows are multiplied by the factor.
+    The stretches up to decimated sample 3 and from ``count - 6 - FIT_STEPS`` on are
+    filtered at the full rate exactly as :func:`lowpassed_variance` does (the odd
+    extensions, the initial states); between, each pass advances the full-rate section's
+    own state ``m`` samples at a time over the input interpolated from the decimated one
+    (:data:`MultiratePlan`). Where the forward pass goes from one rate to the other, the
+    state is fitted (least squares, over :data:`FIT_STEPS` decimated samples) to the other
+    rate's output through the anti-alias. The output's sum of squares is interpolated back
+    to every sample (6-point Lagrange). The caller ensures ``n`` gives at least
+    :data:`torquemap.multirate.MIN_DECIMATED` decimated samples and ``pad <= 2 m``.
+    """
+    m, cic, alpha = plan[0], plan[1], plan[2]
+    centred = plan[7]
+    directions, reach = spec[15], spec[16]
+    p, r = directions.shape
+    n = spec[2].size
+    half = (3 * m - 3) // 2
+    span = 3 * m - 2
+    count = (n - 1 - 2 * half) // m + 1  # decimated samples, c_j = half + j m
+    b0 = sos[0, 0]
+    za, zb = zi[0, 0], zi[0, 1]
+    # 1. the regressor's rows through the boxcars, at the decimated samples
+    block = np.empty((TILE, p))
+    rows = np.zeros((count, p))
+    for begin in range(0, n, TILE):
+        end = min(begin + TILE, n)
+        _regressor_block(begin, end, spec, block)
+        for i in range(begin, end):
+            lo = max(0, -((span - 1 - i) // m))
+            hi = min(i // m, count - 1)
+            for j in range(lo, hi + 1):
+                w = cic[i - j * m]
+                for q in range(p):
+                    rows[j, q] += w * block[i - begin, q]
+    row = np.empty((1, p))
+    # 2. droop compensated and times the factor (decimated samples 1 .. count - 2)
+    x = np.zeros((count, r))
+    for j in range(1, count - 1):
+        for q in range(p):
+            row[0, q] = (1.0 + 2.0 * alpha) * rows[j, q] - alpha * (rows[j - 1, q] + rows[j + 1, q])
+        _combine_rows(row, 0, directions, reach, x, j)
+    # 3. forward: the start exactly up to c_3, then decimated up to c_last, then exactly.
+    # What passes from a full-rate stretch to the decimated passes goes through the same
+    # anti-alias (boxcars and compensation, :func:`_antialiased`): a sample of the full-rate
+    # output would alias its residue of the input's high frequencies into the pass band.
+    first_fwd = 3
+    fit = min(FIT_STEPS, (count - 12) // 2)
+    last_fwd = count - 6 - fit  # the full-rate end starts here
+    c_first = half + first_fwd * m
+    c_last = half + last_fwd * m
+    head_n = half + (first_fwd + fit) * m + half + m + 1  # the anti-alias reads this far
+    head = np.empty((head_n, r))
+    _regressor_rows(0, head_n, spec, head)
+    z0 = np.zeros(r)
+    z1 = np.zeros(r)
+    ext = np.empty((pad, r))
+    for k in range(r):
+        e = 2.0 * head[0, k] - head[pad, k]
+        z0[k] = za * e
+        z1[k] = zb * e
+        for j in range(pad):
+            ext[j, k] = 2.0 * head[0, k] - head[pad - j, k]
+    _exact_pass(ext, z0, z1, sos, 0, pad, False)
+    _exact_pass(head, z0, z1, sos, 0, head_n, False)
+    # The decimated forward pass starts at c_3 from the state that best continues the
+    # full-rate output through the anti-alias over the next ``fit`` decimated samples
+    # (least squares): the full-rate state holds the input's high frequencies, which the
+    # decimated pass does not see, and handing it on as it is starts a transient.
+    u = np.empty((count, r))  # the forward output at the decimated samples
+    for j in range(first_fwd - 1, first_fwd + fit + 1):
+        _antialiased(head, half + j * m, plan, u[j])
+    free = np.zeros((fit + 1, r))  # the decimated pass from the zero state
+    z0[:] = 0.0
+    z1[:] = 0.0
+    for j in range(first_fwd, first_fwd + fit):
+        _multirate_step(x, j, 1, z0, z1, b0, plan, free[j - first_fwd + 1])
+    step, step_short = plan[3], plan[5]
+    a1, a2 = sos[0, 4], sos[0, 5]
+    g00 = g01 = g11 = 0.0
+    basis = np.zeros((fit + 1, 2))  # its output from the unit states, without input
+    for unit in range(2):
+        s0 = 1.0 if unit == 0 else 0.0
+        s1 = 1.0 - s0
+        for j in range(1, fit + 1):
+            basis[j, unit] = step_short[0, 0] * s0 + step_short[0, 1] * s1
+            s0, s1 = step[0, 0] * s0 + step[0, 1] * s1, step[1, 0] * s0 + step[1, 1] * s1
+    for j in range(1, fit + 1):
+        g00 += basis[j, 0] * basis[j, 0]
+        g01 += basis[j, 0] * basis[j, 1]
+        g11 += basis[j, 1] * basis[j, 1]
+    det = g00 * g11 - g01 * g01
+    for k in range(r):
+        h0 = h1 = 0.0
+        for j in range(1, fit + 1):
+            miss = u[first_fwd + j, k] - free[j, k]
+            h0 += basis[j, 0] * miss
+            h1 += basis[j, 1] * miss
+        z0[k] = (g11 * h0 - g01 * h1) / det
+        z1[k] = (g00 * h1 - g01 * h0) / det
+    # on to c_last and its state, then as far as the decimated input goes (count - 3)
+    kept0 = np.empty(r)
+    kept1 = np.empty(r)
+    for j in range(first_fwd, count - 3):
+        if j == last_fwd:
+            kept0[:] = z0
+            kept1[:] = z1
+        _multirate_step(x, j, 1, z0, z1, b0, plan, u[j + 1])
+    # The full-rate end starts at c_last from the state whose output, through the
+    # anti-alias, best follows the decimated one over its last ``fit`` samples
+    # (least squares), as at the start: the decimated state lacks the input's high
+    # frequencies.
+    tail_n = n - c_last
+    tail = np.empty((tail_n + pad, r))  # samples c_last .. n - 1, then the odd extension
+    _regressor_rows(c_last, n, spec, tail[:tail_n])
+    for j in range(pad):
+        for k in range(r):
+            tail[tail_n + j, k] = 2.0 * tail[tail_n - 1, k] - tail[tail_n - 2 - j, k]
+    free_tail = tail.copy()
+    z0[:] = 0.0
+    z1[:] = 0.0
+    _exact_pass(free_tail, z0, z1, sos, 1, tail_n, False)
+    units = np.zeros((tail_n, 2))  # the full-rate pass's output from the unit states
+    for unit in range(2):
+        s0 = 1.0 if unit == 0 else 0.0
+        s1 = 1.0 - s0
+        for i in range(1, tail_n):
+            yk = s0  # no input
+            s0 = s1 - a1 * yk
+            s1 = -a2 * yk
+            units[i, unit] = yk
+    fitted = np.empty(r)
+    unit_fit = np.empty(2)
+    g00 = g01 = g11 = 0.0
+    sums0 = np.zeros(r)
+    sums1 = np.zeros(r)
+    for j in range(count - 3 - fit, count - 3 + 1):
+        at = half + j * m - c_last
+        _antialiased(free_tail, at, plan, fitted)
+        _antialiased(units, at, plan, unit_fit)
+        g00 += unit_fit[0] * unit_fit[0]
+        g01 += unit_fit[0] * unit_fit[1]
+        g11 += unit_fit[1] * unit_fit[1]
+        for k in range(r):
+            miss = u[j, k] - fitted[k]
+            sums0[k] += unit_fit[0] * miss
+            sums1[k] += unit_fit[1] * miss
+    det = g00 * g11 - g01 * g01
+    for k in range(r):
+        z0[k] = (g11 * sums0[k] - g01 * sums1[k]) / det
+        z1[k] = (g00 * sums1[k] - g01 * sums0[k]) / det
+    _exact_pass(tail, z0, z1, sos, 1, tail_n + pad, False)
+    tail[0] = u[last_fwd]
+    # 4. backward: the end exactly down to c_last, decimated down to c_3, then exactly
+    for k in range(r):
+        z0[k] = za * tail[tail_n + pad - 1, k]
+        z1[k] = zb * tail[tail_n + pad - 1, k]
+    _exact_pass(tail, z0, z1, sos, 0, tail_n + pad, True)
+    y = x  # the decimated input is spent: the backward output takes its place
+    for j in range(last_fwd, count):
+        y[j] = tail[half + j * m - c_last]
+    for j in range(last_fwd, first_fwd, -1):
+        _multirate_step(u, j, -1, z0, z1, b0, plan, y[j - 1])
+    _exact_pass(head, z0, z1, sos, 0, c_first, True)
+    for j in range(first_fwd):
+        y[j] = head[half + j * m]
+    # 5. the sum of squares: exact at the ends, interpolated between the decimated samples
+    level = np.empty(count)
+    scratch = np.empty(r)
+    for j in range(count):
+        level[j] = _weighted_squares(y[j], weights, scratch)
+    out = np.empty(n)
+    for i in range(c_first):
+        out[i] = _weighted_squares(head[i], weights, scratch)
+    for i in range(c_last, n):
+        out[i] = _weighted_squares(tail[i - c_last], weights, scratch)
+    for i in range(c_first, c_last):
+        j = (i - half) // m
+        offset = i - half - j * m
+        v = 0.0
+        for q in range(6):
+            v += centred[offset, q] * level[j - 2 + q]
+        out[i] = max(v, 0.0)
+    return out
+
+
+@jit
+def _antialiased(
+    a: NDArray[np.float64], at: int, plan: MultiratePlan, out: NDArray[np.float64]
+) -> None:
+    """Row ``at`` of ``a`` (rows, r) through the decimation's anti-alias: the three boxcars
+    centred on rows ``at - m``, ``at``, ``at + m`` and the droop compensation, into ``out``."""
+    m, cic, alpha = plan[0], plan[1], plan[2]
+    half = (3 * m - 3) // 2
+    r = out.size
+    for k in range(r):
+        out[k] = 0.0
+    for centre, gain in ((at - m, -alpha), (at, 1.0 + 2.0 * alpha), (at + m, -alpha)):
+        for t in range(cic.size):
+            w = gain * cic[t]
+            for k in range(r):
+                out[k] += w * a[centre - half + t, k]
