@@ -209,3 +209,24 @@ def test_drift_cli(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     text = capsys.readouterr().out
     assert "FLAG r m friction.coulomb_positive" in text
     assert (tmp_path / "drift.csv").read_text().startswith("robot,joint,parameter,")
+
+
+def test_a_day_whose_log_lost_its_last_line_end_is_warned(fleet_dir: Path, tmp_path: Path) -> None:
+    # before: identified with no word about the possibly cut last row (identify itself warned)
+    text = (fleet_dir / "r01" / "2026-11-02.csv").read_bytes()
+    (tmp_path / "cut.csv").write_bytes(text[:-2])
+    (tmp_path / "whole.csv").write_bytes(text)
+    write_toml(tmp_path / "robot.toml", ROBOT)
+    days = [
+        {"date": dt.date(2026, 1, 1 + k), "logs": [name]}
+        for k, name in enumerate(("cut.csv", "whole.csv"))
+    ]
+    write_toml(
+        tmp_path / "F.toml", {"robots": [{"name": "x", "robot": "robot.toml", "days": days}]}
+    )
+    run = identify_fleet(
+        read_fleet(tmp_path / "F.toml"), tmp_path / "o", workers=1, processes=False
+    )
+    cut, whole = run.outcomes
+    assert cut.ok and any("cut.csv: the last line has no line end" in w for w in cut.warnings)
+    assert whole.ok and not any("line end" in w for w in whole.warnings)
