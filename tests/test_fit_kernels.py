@@ -10,6 +10,8 @@ import pytest
 from torquemap._fit_kernels import (
     column_centres,
     curvature_weights,
+    delayed_columns,
+    group_sums,
     interp_increasing,
     smooth_at_rows,
     speed_table_block,
@@ -134,6 +136,22 @@ def test_interp_increasing_is_numpy_interp(uniform: bool) -> None:
         )
 
 
+@pytest.mark.parametrize("uniform", [True, False])
+def test_delayed_columns_are_numpy_interp_per_delay(uniform: bool) -> None:
+    # every delay in one walk: each column numpy's interpolation of its own delay (the signal
+    # itself at 0), equal, not close, whatever the delays beside it
+    rng = np.random.default_rng(7 + uniform)
+    n = 20001
+    t = 3.0 + (np.arange(n) * 5e-4 if uniform else np.cumsum(rng.uniform(1e-4, 1e-3, n)))
+    y = rng.standard_normal(n).cumsum()
+    delays = np.array([-0.25, -0.0104, 0.0, 1e-3 / 3, 5e-4, 0.02, 20.0])
+    got = delayed_columns(t, y, delays)
+    for c, delay in enumerate(delays):
+        expected = y if delay == 0 else np.interp(t + delay, t, y)
+        np.testing.assert_array_equal(got[:, c], expected)
+    np.testing.assert_array_equal(delayed_columns(t, y, delays[3:5]), got[:, 3:5])
+
+
 def test_speed_table_block_equals_numpy_columns() -> None:
     # the friction table's basis as identify_whole built it with numpy, column by column
     rng = np.random.default_rng(5)
@@ -198,3 +216,22 @@ def test_curvature_weights_equal_the_lu_solution(uniform: bool) -> None:
     np.testing.assert_array_equal(
         index.reshape(rows.size, width), np.minimum(lo[:, None] + np.arange(width), n - 1)
     )
+
+
+def test_group_sums_equal_numpy_add_at() -> None:
+    # add.at adds each row into its group in the rows' order; values spread over 16 orders of
+    # magnitude with mixed signs make any other order of the additions round differently
+    rng = np.random.default_rng(11)
+    n, m, count = 5000, 7, 37
+    groups = rng.integers(0, count, n).astype(np.intp)
+    x = rng.standard_normal((n, m)) * 10.0 ** rng.integers(-8, 8, (n, m))
+    expected = np.zeros((count, m))
+    np.add.at(expected, groups, x)
+    got = group_sums(groups, x, count)
+    assert np.array_equal(got, expected)
+    # a sum in another order differs somewhere (the check above can tell orders apart)
+    other = np.zeros((count, m))
+    np.add.at(other, groups[::-1], x[::-1])
+    assert not np.array_equal(other, expected)
+    # no rows: zeros of the groups' shape
+    assert np.array_equal(group_sums(groups[:0], x[:0], 3), np.zeros((3, m)))

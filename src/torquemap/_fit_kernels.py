@@ -243,24 +243,56 @@ def interp_increasing(
     formula per sample (numpy's ``slope * (x - xp[j]) + fp[j]``, the ends held, a sample on
     a knot taking its value) with the knot found by walking forward instead of by bisection.
     """
+    out = np.empty((x.size, 1))
+    _interp_walk(x, 0.0, xp, fp, out, 0)
+    return out[:, 0]
+
+
+@jit
+def delayed_columns(
+    t: NDArray[np.float64], y: NDArray[np.float64], delays: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """``y`` (n,) read ``delays[c]`` [s] later at the times ``t`` (n,), increasing, as column
+    ``c`` of the result (n, m): :func:`interp_increasing` of ``t + delays[c]`` (``y`` itself
+    for a delay of 0), without the shifted times' and the columns' temporaries."""
+    m = delays.size
+    out = np.empty((t.size, m))
+    for c in range(m):
+        if delays[c] == 0.0:
+            out[:, c] = y
+        else:
+            _interp_walk(t, delays[c], t, y, out, c)
+    return out
+
+
+@jit
+def _interp_walk(
+    x: NDArray[np.float64],
+    shift: float,
+    xp: NDArray[np.float64],
+    fp: NDArray[np.float64],
+    out: NDArray[np.float64],
+    column: int,
+) -> None:
+    """``out[:, column] = numpy.interp(x + shift, xp, fp)`` by the forward walk of
+    :func:`interp_increasing` (``x + shift`` formed per sample as numpy forms it)."""
     n = xp.size
-    out = np.empty(x.size)
     j = 0
     for i in range(x.size):
-        xv = x[i]
+        xv = x[i] if shift == 0.0 else x[i] + shift
         if xv != xv:
-            out[i] = xv
+            out[i, column] = xv
         elif xv < xp[0]:
-            out[i] = fp[0]
+            out[i, column] = fp[0]
         elif xv > xp[n - 1]:
-            out[i] = fp[n - 1]
+            out[i, column] = fp[n - 1]
         else:
             while j + 1 < n and xp[j + 1] <= xv:
                 j += 1
             while j > 0 and xp[j] > xv:
                 j -= 1
             if j == n - 1 or xp[j] == xv:
-                out[i] = fp[j]
+                out[i, column] = fp[j]
             else:
                 slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
                 v = slope * (xv - xp[j]) + fp[j]
@@ -268,8 +300,7 @@ def interp_increasing(
                     v = slope * (xv - xp[j + 1]) + fp[j + 1]
                     if v != v and fp[j] == fp[j + 1]:
                         v = fp[j]
-                out[i] = v
-    return out
+                out[i, column] = v
 
 
 @jit
@@ -308,4 +339,18 @@ def speed_table_block(
                 u = fraction[t]
                 hat = ((1.0 - u) if i == at else 0.0) + (u if i + 1 == at else 0.0)
                 out[t, c] = hat * w[t]
+    return out
+
+
+@jit
+def group_sums(groups: NDArray[np.intp], x: NDArray[np.float64], count: int) -> NDArray[np.float64]:
+    """The sum of the rows of ``x`` (n, m) per group, shape (count, m): row ``i`` added to
+    group ``groups[i]`` in the rows' order, from zero (``numpy.add.at``'s operations and
+    order, bit for bit, without its per-row dispatch)."""
+    n, m = x.shape
+    out = np.zeros((count, m))
+    for i in range(n):
+        g = groups[i]
+        for c in range(m):
+            out[g, c] += x[i, c]
     return out

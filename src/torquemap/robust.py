@@ -132,11 +132,12 @@ def cluster_covariance(
 
     Scaled by ``G / (G - 1)`` for ``G`` clusters (the usual small-sample correction).
     """
-    score = a * (w * residual)[:, None]
+    from torquemap._fit_kernels import group_sums
+
+    score = np.ascontiguousarray(a * (w * residual)[:, None], dtype=np.float64)
     _, g = np.unique(clusters, return_inverse=True)
     ng = int(g.max()) + 1 if g.size else 1
-    sums = np.zeros((ng, a.shape[1]))
-    np.add.at(sums, g.ravel(), score)
+    sums = group_sums(g.ravel().astype(np.intp), score, ng)
     meat = sums.T @ sums
     cov = bread @ meat @ bread * (ng / max(ng - 1, 1))
     return np.asarray(0.5 * (cov + cov.T), dtype=np.float64)
