@@ -13,6 +13,7 @@ from torquemap._fit_kernels import (
     delayed_columns,
     group_sums,
     interp_increasing,
+    run_starts,
     smooth_at_rows,
     speed_table_block,
     window_sums,
@@ -86,8 +87,15 @@ def test_smooth_at_rows_equals_sparse_product(m: int, uniform: bool) -> None:
     mean = np.mean(x, axis=0)
     op = smoother.operator
     ref = np.asarray(op @ _double_integral_numpy(t, x - mean))
-    got = smooth_at_rows(t, x, mean, op.indptr, op.indices, op.data)
+    got = smooth_at_rows(t, x, mean, op.indptr, op.indices, op.data, smoother.starts)
     np.testing.assert_array_equal(got, ref)
+    # the rows read by position (consecutive samples) and those read through their indices
+    # (every row so, with no run marked): both the sparse product's numbers
+    assert (smoother.starts >= 0).any()
+    none = np.full(rows.size, -1, dtype=np.intp)
+    np.testing.assert_array_equal(
+        smooth_at_rows(t, x, mean, op.indptr, op.indices, op.data, none), ref
+    )
     centre = column_centres(x)
     ref_centred = np.asarray(op @ _double_integral_numpy(t, x - centre))
     np.testing.assert_array_equal(smoother(x), ref_centred + centre)
@@ -235,3 +243,10 @@ def test_group_sums_equal_numpy_add_at() -> None:
     assert not np.array_equal(other, expected)
     # no rows: zeros of the groups' shape
     assert np.array_equal(group_sums(groups[:0], x[:0], 3), np.zeros((3, m)))
+
+
+def test_run_starts_marks_consecutive_rows_only() -> None:
+    # by hand: a run, a run of one, a gap, a repeated index (a clipped window), an empty row
+    indptr = np.array([0, 3, 4, 6, 9, 9], dtype=np.int32)
+    indices = np.array([5, 6, 7, 2, 1, 3, 8, 9, 9, 4], dtype=np.int32)[:9]
+    assert run_starts(indptr, indices).tolist() == [5, 2, -1, -1, -1]

@@ -139,11 +139,14 @@ def smooth_at_rows(
     indptr: NDArray[np.int32],
     indices: NDArray[np.int32],
     data: NDArray[np.float64],
+    starts: NDArray[np.intp],
 ) -> NDArray[np.float64]:
     """The rows' smoothing of :class:`torquemap.smooth_rows.RowSmoother`: ``operator`` (CSR
     arrays ``indptr``, ``indices``, ``data``) applied to twice the cumulative trapezoidal
     integral of ``x - mean`` (n, m) over ``t`` [s], in one pass instead of a dozen (n, m)
-    temporaries.
+    temporaries. ``starts`` (:func:`run_starts`): per row, the first sample of its indices
+    when they are a run of consecutive samples (read by position, not from ``indices``:
+    a third less memory traffic), else -1.
 
     The same floating-point operations in the same order as the numpy code (the trapezoids'
     running sums, then each row's weighted sum from zero in the operator's order): the
@@ -153,7 +156,7 @@ def smooth_at_rows(
     rows = indptr.size - 1
     out = np.empty((rows, m))
     if m == 1:
-        return _smooth_one(t, x, mean[0], indptr, indices, data, out)
+        return _smooth_one(t, x, mean[0], indptr, indices, data, starts, out)
     second = np.zeros((n, 4))
     # four columns at a time (a column past the last repeats the last; its results are
     # dropped): their running sums side by side in registers, then the operator (a dozen bytes
@@ -186,13 +189,24 @@ def smooth_at_rows(
             pa, pb, pc, pd = ua, ub, uc, ud
         for r in range(rows):
             sa = sb = sc = sd = 0.0
-            for jj in range(indptr[r], indptr[r + 1]):
-                w = data[jj]
-                j = indices[jj]
-                sa += w * second[j, 0]
-                sb += w * second[j, 1]
-                sc += w * second[j, 2]
-                sd += w * second[j, 3]
+            first = indptr[r]
+            if starts[r] >= 0:  # consecutive samples: the same terms in the same order
+                at = starts[r] - first
+                for jj in range(first, indptr[r + 1]):
+                    w = data[jj]
+                    j = at + jj
+                    sa += w * second[j, 0]
+                    sb += w * second[j, 1]
+                    sc += w * second[j, 2]
+                    sd += w * second[j, 3]
+            else:
+                for jj in range(first, indptr[r + 1]):
+                    w = data[jj]
+                    j = indices[jj]
+                    sa += w * second[j, 0]
+                    sb += w * second[j, 1]
+                    sc += w * second[j, 2]
+                    sd += w * second[j, 3]
             out[r, cols[0]] = sa
             out[r, cols[1]] = sb
             out[r, cols[2]] = sc
@@ -208,6 +222,7 @@ def _smooth_one(
     indptr: NDArray[np.int32],
     indices: NDArray[np.int32],
     data: NDArray[np.float64],
+    starts: NDArray[np.intp],
     out: NDArray[np.float64],
 ) -> NDArray[np.float64]:
     """:func:`smooth_at_rows` of one column (n, 1) into ``out`` (rows, 1): the same operations
@@ -229,9 +244,31 @@ def _smooth_one(
         prev = cur
     for r in range(indptr.size - 1):
         s0 = 0.0
-        for jj in range(indptr[r], indptr[r + 1]):
-            s0 += data[jj] * second[indices[jj]]
+        first = indptr[r]
+        if starts[r] >= 0:
+            at = starts[r] - first
+            for jj in range(first, indptr[r + 1]):
+                s0 += data[jj] * second[at + jj]
+        else:
+            for jj in range(first, indptr[r + 1]):
+                s0 += data[jj] * second[indices[jj]]
         out[r, 0] = s0
+    return out
+
+
+def run_starts(indptr: NDArray[np.int32], indices: NDArray[np.int32]) -> NDArray[np.intp]:
+    """Per row of a CSR matrix (``indptr``, ``indices``), its first column index when its
+    indices are consecutive (``i, i + 1, ...``), else -1 (:func:`smooth_at_rows`)."""
+    rows = indptr.size - 1
+    out = np.full(rows, -1, dtype=np.intp)
+    lengths = np.diff(indptr)
+    for length in np.unique(lengths):  # rows of one length at a time, as a 2-D block
+        which = np.flatnonzero(lengths == length)
+        if length == 0:
+            continue
+        block = indices[indptr[which][:, None] + np.arange(length)]
+        run = np.all(block == block[:, :1] + np.arange(length), axis=1)
+        out[which[run]] = block[run, 0]
     return out
 
 
