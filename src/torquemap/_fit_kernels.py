@@ -256,19 +256,23 @@ def _smooth_one(
     return out
 
 
+@jit
 def run_starts(indptr: NDArray[np.int32], indices: NDArray[np.int32]) -> NDArray[np.intp]:
     """Per row of a CSR matrix (``indptr``, ``indices``), its first column index when its
     indices are consecutive (``i, i + 1, ...``), else -1 (:func:`smooth_at_rows`)."""
     rows = indptr.size - 1
     out = np.full(rows, -1, dtype=np.intp)
-    lengths = np.diff(indptr)
-    for length in np.unique(lengths):  # rows of one length at a time, as a 2-D block
-        which = np.flatnonzero(lengths == length)
-        if length == 0:
+    for r in range(rows):
+        first, stop = indptr[r], indptr[r + 1]
+        if stop == first:
             continue
-        block = indices[indptr[which][:, None] + np.arange(length)]
-        run = np.all(block == block[:, :1] + np.arange(length), axis=1)
-        out[which[run]] = block[run, 0]
+        run = True
+        for jj in range(first + 1, stop):
+            if indices[jj] != indices[first] + (jj - first):
+                run = False
+                break
+        if run:
+            out[r] = indices[first]
     return out
 
 
