@@ -14,6 +14,7 @@ from torquemap._fit_kernels import (
     group_sums,
     interp_increasing,
     run_starts,
+    search_increasing,
     smooth_at_rows,
     speed_table_block,
     window_sums,
@@ -250,3 +251,27 @@ def test_run_starts_marks_consecutive_rows_only() -> None:
     indptr = np.array([0, 3, 4, 6, 9, 9], dtype=np.int32)
     indices = np.array([5, 6, 7, 2, 1, 3, 8, 9, 9, 4], dtype=np.int32)[:9]
     assert run_starts(indptr, indices).tolist() == [5, 2, -1, -1, -1]
+
+
+def test_search_increasing_is_numpy_searchsorted() -> None:
+    # keys on the samples (ties), between them, before the first and past the last
+    rng = np.random.default_rng(12)
+    a = np.cumsum(rng.uniform(1e-4, 1e-3, 5000))
+    keys = np.sort(np.r_[a[::7], a[::5] + 3e-4, a[0] - 1.0, a[-1] + 1.0, a[10:12]])
+    for right in (False, True):
+        expected = np.searchsorted(a, keys, side="right" if right else "left")
+        np.testing.assert_array_equal(search_increasing(a, keys, right), expected)
+
+
+def test_cluster_medians_in_order_equal_the_sorting_path() -> None:
+    # clusters in order take the per-segment sort; the same clusters shuffled (the general
+    # lexsort path) must give each value the same median, even and odd counts, ties included
+    from torquemap.robust import cluster_medians
+
+    rng = np.random.default_rng(13)
+    clusters = np.sort(rng.integers(0, 300, 20000))
+    values = np.round(rng.standard_normal(clusters.size), 2)  # ties
+    perm = rng.permutation(clusters.size)
+    shuffled = np.empty(clusters.size)
+    shuffled[perm] = cluster_medians(values[perm], clusters[perm])
+    np.testing.assert_array_equal(cluster_medians(values, clusters), shuffled)

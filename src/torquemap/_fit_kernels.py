@@ -395,3 +395,38 @@ def group_sums(groups: NDArray[np.intp], x: NDArray[np.float64], count: int) -> 
         for c in range(m):
             out[g, c] += x[i, c]
     return out
+
+
+@jit
+def search_increasing(
+    a: NDArray[np.float64], keys: NDArray[np.float64], right: bool
+) -> NDArray[np.intp]:
+    """``numpy.searchsorted(a, keys, side="right" if right else "left")`` for increasing ``a``
+    and non-decreasing ``keys``: the same indices, found by one forward walk."""
+    n = a.size
+    out = np.empty(keys.size, dtype=np.intp)
+    j = 0
+    for i in range(keys.size):
+        k = keys[i]
+        if right:
+            while j < n and a[j] <= k:
+                j += 1
+        else:
+            while j < n and a[j] < k:
+                j += 1
+        out[i] = j
+    return out
+
+
+@jit
+def segment_medians(
+    v: NDArray[np.float64], starts: NDArray[np.intp], stops: NDArray[np.intp]
+) -> NDArray[np.float64]:
+    """The median of each segment ``v[starts[s]:stops[s]]`` (non-empty), the mean of the two
+    middle values of an even count: the value numpy's sorted order gives."""
+    out = np.empty(starts.size)
+    for s in range(starts.size):
+        seg = np.sort(v[starts[s] : stops[s]])
+        m = seg.size
+        out[s] = 0.5 * (seg[(m - 1) // 2] + seg[m // 2])
+    return out

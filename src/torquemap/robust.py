@@ -89,7 +89,15 @@ def cluster_medians(values: ArrayLike, clusters: ArrayLike) -> NDArray[np.float6
     [2.0, 2.0, 2.0, 15.0, 15.0]
     """
     v = np.asarray(values, dtype=np.float64)
-    labels, g = np.unique(np.asarray(clusters), return_inverse=True)
+    c = np.asarray(clusters)
+    if v.size and c.ndim == 1 and c.size == v.size and np.all(c[1:] >= c[:-1]):
+        # clusters in order (blocks of consecutive rows): each one's values sorted alone
+        from torquemap._fit_kernels import segment_medians
+
+        starts = np.flatnonzero(np.r_[True, c[1:] != c[:-1]])
+        stops = np.r_[starts[1:], c.size]
+        return np.repeat(segment_medians(np.ascontiguousarray(v), starts, stops), stops - starts)
+    labels, g = np.unique(c, return_inverse=True)
     g = g.ravel()
     if v.size == 0:
         return np.zeros(0)
