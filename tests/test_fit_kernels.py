@@ -10,7 +10,11 @@ import pytest
 from torquemap._fit_kernels import (
     column_centres,
     curvature_weights,
+    delayed_columns,
+    group_sums,
     interp_increasing,
+    run_starts,
+    search_increasing,
     smooth_at_rows,
     speed_table_block,
     window_sums,
@@ -84,8 +88,15 @@ def test_smooth_at_rows_equals_sparse_product(m: int, uniform: bool) -> None:
     mean = np.mean(x, axis=0)
     op = smoother.operator
     ref = np.asarray(op @ _double_integral_numpy(t, x - mean))
-    got = smooth_at_rows(t, x, mean, op.indptr, op.indices, op.data)
+    got = smooth_at_rows(t, x, mean, op.indptr, op.indices, op.data, smoother.starts)
     np.testing.assert_array_equal(got, ref)
+    # the rows read by position (consecutive samples) and those read through their indices
+    # (every row so, with no run marked): both the sparse product's numbers
+    assert (smoother.starts >= 0).any()
+    none = np.full(rows.size, -1, dtype=np.intp)
+    np.testing.assert_array_equal(
+        smooth_at_rows(t, x, mean, op.indptr, op.indices, op.data, none), ref
+    )
     centre = column_centres(x)
     ref_centred = np.asarray(op @ _double_integral_numpy(t, x - centre))
     np.testing.assert_array_equal(smoother(x), ref_centred + centre)
@@ -132,6 +143,22 @@ def test_interp_increasing_is_numpy_interp(uniform: bool) -> None:
         np.testing.assert_array_equal(
             interp_increasing(t + delay, t, y), np.interp(t + delay, t, y)
         )
+
+
+@pytest.mark.parametrize("uniform", [True, False])
+def test_delayed_columns_are_numpy_interp_per_delay(uniform: bool) -> None:
+    # every delay in one walk: each column numpy's interpolation of its own delay (the signal
+    # itself at 0), equal, not close, whatever the delays beside it
+    rng = np.random.default_rng(7 + uniform)
+    n = 20001
+    t = 3.0 + (np.arange(n) * 5e-4 if uniform else np.cumsum(rng.uniform(1e-4, 1e-3, n)))
+    y = rng.standard_normal(n).cumsum()
+    delays = np.array([-0.25, -0.0104, 0.0, 1e-3 / 3, 5e-4, 0.02, 20.0])
+    got = delayed_columns(t, y, delays)
+    for c, delay in enumerate(delays):
+        expected = y if delay == 0 else np.interp(t + delay, t, y)
+        np.testing.assert_array_equal(got[:, c], expected)
+    np.testing.assert_array_equal(delayed_columns(t, y, delays[3:5]), got[:, 3:5])
 
 
 def test_speed_table_block_equals_numpy_columns() -> None:
@@ -198,3 +225,53 @@ def test_curvature_weights_equal_the_lu_solution(uniform: bool) -> None:
     np.testing.assert_array_equal(
         index.reshape(rows.size, width), np.minimum(lo[:, None] + np.arange(width), n - 1)
     )
+
+
+def test_group_sums_equal_numpy_add_at() -> None:
+    # add.at adds each row into its group in the rows' order; values spread over 16 orders of
+    # magnitude with mixed signs make any other order of the additions round differently
+    rng = np.random.default_rng(11)
+    n, m, count = 5000, 7, 37
+    groups = rng.integers(0, count, n).astype(np.intp)
+    x = rng.standard_normal((n, m)) * 10.0 ** rng.integers(-8, 8, (n, m))
+    expected = np.zeros((count, m))
+    np.add.at(expected, groups, x)
+    got = group_sums(groups, x, count)
+    assert np.array_equal(got, expected)
+    # a sum in another order differs somewhere (the check above can tell orders apart)
+    other = np.zeros((count, m))
+    np.add.at(other, groups[::-1], x[::-1])
+    assert not np.array_equal(other, expected)
+    # no rows: zeros of the groups' shape
+    assert np.array_equal(group_sums(groups[:0], x[:0], 3), np.zeros((3, m)))
+
+
+def test_run_starts_marks_consecutive_rows_only() -> None:
+    # by hand: a run, a run of one, a gap, a repeated index (a clipped window), an empty row
+    indptr = np.array([0, 3, 4, 6, 9, 9], dtype=np.int32)
+    indices = np.array([5, 6, 7, 2, 1, 3, 8, 9, 9, 4], dtype=np.int32)[:9]
+    assert run_starts(indptr, indices).tolist() == [5, 2, -1, -1, -1]
+
+
+def test_search_increasing_is_numpy_searchsorted() -> None:
+    # keys on the samples (ties), between them, before the first and past the last
+    rng = np.random.default_rng(12)
+    a = np.cumsum(rng.uniform(1e-4, 1e-3, 5000))
+    keys = np.sort(np.r_[a[::7], a[::5] + 3e-4, a[0] - 1.0, a[-1] + 1.0, a[10:12]])
+    for right in (False, True):
+        expected = np.searchsorted(a, keys, side="right" if right else "left")
+        np.testing.assert_array_equal(search_increasing(a, keys, right), expected)
+
+
+def test_cluster_medians_in_order_equal_the_sorting_path() -> None:
+    # clusters in order take the per-segment sort; the same clusters shuffled (the general
+    # lexsort path) must give each value the same median, even and odd counts, ties included
+    from torquemap.robust import cluster_medians
+
+    rng = np.random.default_rng(13)
+    clusters = np.sort(rng.integers(0, 300, 20000))
+    values = np.round(rng.standard_normal(clusters.size), 2)  # ties
+    perm = rng.permutation(clusters.size)
+    shuffled = np.empty(clusters.size)
+    shuffled[perm] = cluster_medians(values[perm], clusters[perm])
+    np.testing.assert_array_equal(cluster_medians(values, clusters), shuffled)

@@ -168,3 +168,25 @@ def test_pass_check_warns_when_the_delay_is_wrong() -> None:
     # told there is no delay, the pass means carry the ramps' torque and the ramps lead the
     # torque by 118 ms: the free law fitted to every sample explains far more
     assert [w for w in ident.warnings if MISFIT in w]
+
+
+def test_whole_fit_does_not_judge_the_pass_model(monkeypatch: pytest.MonkeyPatch) -> None:
+    # the default whole-log fit replaces the pass model: the pass check (and its advice to use
+    # the whole fit) is for --friction passes only, also when the pass method found a channel
+    # delay and re-identified (where it used to run regardless and cost 1 s on a 1 M-sample log)
+    import torquemap.pass_check
+
+    calls: list[int] = []
+
+    def counted(*args: object, **kwargs: object) -> object:
+        calls.append(1)
+        return original(*args, **kwargs)
+
+    original = torquemap.pass_check.check_pass_model
+    monkeypatch.setattr(torquemap.pass_check, "check_pass_model", counted)
+    log = simulate(np.random.default_rng(3), delay=DELAY)
+    whole = identify_model(robot_from_dict(ROBOT), [log])
+    assert whole.model.notes["joints"]["m"]["channel_delay"] > 0.05  # the delay path was taken
+    assert calls == []
+    identify_model(robot_from_dict(ROBOT), [log], friction="passes")
+    assert calls == [1]  # after the delay, on the shifted log

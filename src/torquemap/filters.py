@@ -453,8 +453,12 @@ def dilate(t: NDArray[np.float64], mask: NDArray[np.bool_], reach: float) -> NDA
     bad = np.flatnonzero(mask)
     if bad.size == 0:
         return np.asarray(mask, dtype=bool).copy()
-    lo = np.searchsorted(t, t[bad] - reach, side="left")
-    hi = np.searchsorted(t, t[bad] + reach, side="right")
+    from torquemap._fit_kernels import search_increasing
+
+    tb = np.ascontiguousarray(t[bad], dtype=np.float64)
+    ta = np.ascontiguousarray(t, dtype=np.float64)
+    lo = search_increasing(ta, tb - reach, False)  # numpy.searchsorted's, by a forward walk
+    hi = search_increasing(ta, tb + reach, True)
     edges = np.bincount(lo, minlength=t.size + 1) - np.bincount(hi, minlength=t.size + 1)
     out: NDArray[np.bool_] = np.cumsum(edges[:-1]) > 0
     return out

@@ -266,9 +266,9 @@ def _identify_passes(
                 n: dataclasses.replace(r, channel_delay=delays.get(n, 0.0))
                 for n, r in again.joints.items()
             }
-            warnings = again.warnings + _check_joints(
-                rb, shifted, derivs, joints_out, again.model, window, p99
-            )
+            warnings = again.warnings
+            if check:
+                warnings += _check_joints(rb, shifted, derivs, joints_out, again.model, window, p99)
             notes = _notes(
                 logs, joints_out, window=window, false_alarm=false_alarm, warnings=warnings
             )

@@ -571,13 +571,12 @@ def _torque(rows: _Rows, delay: float) -> NDArray[np.float64]:
 def _prepare_torques(rows: _Rows, delays: NDArray[np.float64]) -> None:
     """:func:`_torque` of every delay in ``delays`` [s], smoothed four at a time (the smoother
     reads its weights once for four columns) and kept: the same numbers as one at a time."""
+    from torquemap._fit_kernels import delayed_columns
+
     todo = [float(d) for d in delays if ("torque", float(d)) not in rows.cache]
 
     def make(p: Piece, j0: int, j1: int) -> NDArray[np.float64]:
-        out = np.empty((p.t.size, j1 - j0))
-        for j, d in enumerate(todo[j0:j1]):
-            out[:, j] = _delayed(p, d)
-        return out
+        return delayed_columns(p.t, p.torque, np.array(todo[j0:j1], dtype=np.float64))
 
     out = rows.smooth(make, len(todo))
     for j, d in enumerate(todo):

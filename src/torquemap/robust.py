@@ -89,7 +89,15 @@ def cluster_medians(values: ArrayLike, clusters: ArrayLike) -> NDArray[np.float6
     [2.0, 2.0, 2.0, 15.0, 15.0]
     """
     v = np.asarray(values, dtype=np.float64)
-    labels, g = np.unique(np.asarray(clusters), return_inverse=True)
+    c = np.asarray(clusters)
+    if v.size and c.ndim == 1 and c.size == v.size and np.all(c[1:] >= c[:-1]):
+        # clusters in order (blocks of consecutive rows): each one's values sorted alone
+        from torquemap._fit_kernels import segment_medians
+
+        starts = np.flatnonzero(np.r_[True, c[1:] != c[:-1]])
+        stops = np.r_[starts[1:], c.size]
+        return np.repeat(segment_medians(np.ascontiguousarray(v), starts, stops), stops - starts)
+    labels, g = np.unique(c, return_inverse=True)
     g = g.ravel()
     if v.size == 0:
         return np.zeros(0)
@@ -132,11 +140,12 @@ def cluster_covariance(
 
     Scaled by ``G / (G - 1)`` for ``G`` clusters (the usual small-sample correction).
     """
-    score = a * (w * residual)[:, None]
+    from torquemap._fit_kernels import group_sums
+
+    score = np.ascontiguousarray(a * (w * residual)[:, None], dtype=np.float64)
     _, g = np.unique(clusters, return_inverse=True)
     ng = int(g.max()) + 1 if g.size else 1
-    sums = np.zeros((ng, a.shape[1]))
-    np.add.at(sums, g.ravel(), score)
+    sums = group_sums(g.ravel().astype(np.intp), score, ng)
     meat = sums.T @ sums
     cov = bread @ meat @ bread * (ng / max(ng - 1, 1))
     return np.asarray(0.5 * (cov + cov.T), dtype=np.float64)

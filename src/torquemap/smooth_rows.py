@@ -34,10 +34,14 @@ class RowSmoother:
         Time [s] of the whole piece, shape (n,).
     operator
         The rows' weights on the double integral, sparse (rows, n).
+    starts
+        Per row, the first sample of its weights when they lie on consecutive samples (every
+        row whose window ends before the piece's last sample), else -1, shape (rows,).
     """
 
     t: NDArray[np.float64]
     operator: sparse.csr_matrix
+    starts: NDArray[np.intp]
 
     @classmethod
     def build(cls, t: NDArray[np.float64], rows: NDArray[np.intp], window: float) -> RowSmoother:
@@ -61,7 +65,7 @@ class RowSmoother:
                 left = np.clip(i - MIN_WINDOW_SAMPLES // 2, 0, n - MIN_WINDOW_SAMPLES)
                 lo[short] = np.minimum(lo[short], left)
                 hi[short] = np.maximum(hi[short], left + MIN_WINDOW_SAMPLES)
-        from torquemap._fit_kernels import curvature_weights
+        from torquemap._fit_kernels import curvature_weights, run_starts
 
         width = int((hi - lo).max()) if rows.size else 1
         data, index = curvature_weights(
@@ -70,14 +74,18 @@ class RowSmoother:
         operator = sparse.csr_matrix(
             (data, index, np.arange(0, data.size + 1, width)), shape=(rows.size, n)
         )
-        return cls(t=t, operator=operator)
+        return cls(t=t, operator=operator, starts=run_starts(operator.indptr, operator.indices))
 
     def __call__(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """The smoothed ``x`` (n, m) at the rows, shape (rows, m)."""
         from torquemap._fit_kernels import column_centres, smooth_at_rows
 
-        x = np.ascontiguousarray(x, dtype=np.float64)
+        x = np.asarray(x, dtype=np.float64)
+        if x.strides[0] < x.strides[1] or x.strides[1] != x.itemsize:
+            # rows of columns side by side (a slice of a wider array's columns is read as it
+            # is, without a copy: the kernel reads each row's few columns together)
+            x = np.ascontiguousarray(x)
         centre = column_centres(x)
         op = self.operator
-        out = smooth_at_rows(self.t, x, centre, op.indptr, op.indices, op.data)
+        out = smooth_at_rows(self.t, x, centre, op.indptr, op.indices, op.data, self.starts)
         return np.asarray(out + centre, dtype=np.float64)
