@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import datetime as dt
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -230,3 +231,22 @@ def test_a_day_whose_log_lost_its_last_line_end_is_warned(fleet_dir: Path, tmp_p
     cut, whole = run.outcomes
     assert cut.ok and any("cut.csv: the last line has no line end" in w for w in cut.warnings)
     assert whole.ok and not any("line end" in w for w in whole.warnings)
+
+
+def test_a_taken_dashboard_port_does_not_stop_the_fleet(fleet_dir: Path, tmp_path: Path) -> None:
+    # before: with port 8787 taken (a user's own Dask, or another fleet run at the same time),
+    # the local cluster warned and, warnings being errors under pytest, failed to start
+    import socket
+
+    with socket.socket() as taken:
+        try:
+            taken.bind(("0.0.0.0", 8787))
+        except OSError:
+            pass  # already taken by someone else: the case itself
+        taken.listen()
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            run = identify_fleet(
+                read_fleet(fleet_dir / "FLEET.toml"), tmp_path / "o", workers=1, processes=False
+            )
+    assert [o.ok for o in run.outcomes] == [True, True, True, False]

@@ -360,11 +360,14 @@ def identify_fleet(
     cluster: LocalCluster | None = None
     try:
         if scheduler is None:
+            # the scheduler's HTTP server (metrics; a dashboard where bokeh is installed) on a
+            # free port: its default 8787, when taken (a user's own Dask, a second fleet run),
+            # gives a warning and leaks the socket it tried
             cluster = LocalCluster(
                 n_workers=workers,
                 threads_per_worker=1,
                 processes=processes,
-                dashboard_address=None,
+                dashboard_address="127.0.0.1:0",
                 silence_logs=50,
             )
             client = Client(cluster)
