@@ -217,7 +217,7 @@ def identify_day(day: RobotDay, out_dir: str, window: float | None = None) -> Da
     import time
 
     from torquemap.identify import identify_model
-    from torquemap.io import read_log, write_toml
+    from torquemap.io import cut_last_line_warnings, read_log, write_toml
     from torquemap.model import Model, model_to_dict
     from torquemap.robot import load_robot
 
@@ -248,16 +248,9 @@ def identify_day(day: RobotDay, out_dir: str, window: float | None = None) -> Da
         True,
         target,
         "",
-        (*result.warnings, *cut_last_lines(day.logs)),
+        (*result.warnings, *cut_last_line_warnings(day.logs)),
         time.perf_counter() - start,
     )
-
-
-def cut_last_lines(logs: Sequence[str | os.PathLike[str]]) -> list[str]:
-    """A warning for each CSV log whose last line has no line end (a copy of a growing file)."""
-    from torquemap.io import cut_last_line_warning
-
-    return [w for w in (cut_last_line_warning(p) for p in logs) if w is not None]
 
 
 def standard_errors(result: Any) -> dict[str, dict[str, float]]:

@@ -10,7 +10,7 @@ import csv
 import os
 import re
 import tempfile
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -763,6 +763,11 @@ def cut_last_line_warning(path: str | os.PathLike[str]) -> str | None:
         f"{p}: the last line has no line end: if the file was copied while being written its "
         "last row may be cut; check it"
     )
+
+
+def cut_last_line_warnings(paths: Iterable[str | os.PathLike[str]]) -> list[str]:
+    """:func:`cut_last_line_warning` of each path, the Nones left out."""
+    return [w for w in (cut_last_line_warning(p) for p in paths) if w is not None]
 
 
 def read_log(path: str | os.PathLike[str], robot: Robot) -> Log:

@@ -375,10 +375,8 @@ def identify_quasi_static(
     )
     results: dict[str, QuasiStaticJoint] = {}
     warnings: list[str] = []
-    for log in logs:
-        slow = slow_time_warning(log.t)
-        if slow is not None:
-            warnings.append(f"{log.path}: {slow}" if log.path else slow)
+    slow = [(log, w) for log, w in ((log, slow_time_warning(log.t)) for log in logs) if w]
+    warnings.extend(f"{log.path}: {w}" if log.path else w for log, w in slow)
     for name in names:
         k = rb.joint_names.index(name)
         gear = rb.joints[k].gear_ratio
@@ -416,10 +414,9 @@ def identify_quasi_static(
         old = new_joints.get(name, JointModel())
         new_joints[name] = JointModel(inertia=old.inertia, friction=old.friction, pdtv=lines)
     if not results:
-        slowest = [w for w in (slow_time_warning(log.t) for log in logs) if w is not None]
         raise InputError(
             "no joint holds still at 8 or more positions per motor revolution; quasi-static "
-            "identification needs position holds" + (f" ({slowest[0]})" if slowest else ""),
+            "identification needs position holds" + (f" ({slow[0][1]})" if slow else ""),
             path=logs[0].path if len(logs) == 1 else None,
         )
     notes = {

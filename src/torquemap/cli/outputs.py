@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from torquemap.errors import InputError
-from torquemap.io import check_output_file, cut_last_line_warning
+from torquemap.io import check_output_file, cut_last_line_warnings
 
 PathLike = str | os.PathLike[str]
 
@@ -58,10 +58,8 @@ def same_file(a: PathLike, b: PathLike) -> bool:
 def warn_cut_last_lines(logs: Iterable[PathLike]) -> None:
     """Print on stderr a warning for each CSV log whose last line has no line end
     (:func:`torquemap.io.cut_last_line_warning`)."""
-    for log in logs:
-        text = cut_last_line_warning(log)
-        if text is not None:
-            print(f"torquemap: warning: {text}", file=sys.stderr)
+    for text in cut_last_line_warnings(logs):
+        print(f"torquemap: warning: {text}", file=sys.stderr)
 
 
 def _suffixes(allowed: Sequence[str]) -> str:
