@@ -15,7 +15,9 @@ from scipy import signal
 
 from torquemap import multirate
 from torquemap._kernels import decimated_variance, lowpassed_variance
-from torquemap.filters import _butter_lowpass, _initial_state
+from torquemap.filters import _butter_lowpass, _initial_state, lowpass
+
+REGULAR = (np.empty(0, dtype=np.int64), np.empty(0))  # no resampling grid: the log's samples
 
 
 def _dense_spec(columns: np.ndarray) -> tuple[object, ...]:
@@ -36,8 +38,34 @@ def _both(spec: tuple[object, ...], fs: float, cutoff: float) -> tuple[np.ndarra
     r = spec[15].shape[1]  # type: ignore[attr-defined]
     weights = np.ones(r)
     full = lowpassed_variance(spec, weights, sos.copy(), zi.copy(), pad)
-    fast = decimated_variance(spec, weights, sos.copy(), zi.copy(), pad, plan)
+    fast, steps = decimated_variance(spec, weights, sos.copy(), zi.copy(), pad, plan, REGULAR)
+    assert steps.size == 0
     return full, fast
+
+
+def _irregular(t: np.ndarray, columns: np.ndarray, cutoff: float) -> tuple[np.ndarray, np.ndarray]:
+    """The variance of ``columns`` (r, n) at irregular stamps ``t``: by ``lowpass`` (linear
+    resampling to the median step and back, scipy's filter on the grid: the direct formula's
+    path) and by the decimated kernel on the same grid, interpolated back."""
+    grid = multirate.resample_grid(t)
+    assert grid is not None
+    full = np.sum(lowpass(t, columns.T, cutoff=cutoff) ** 2, axis=1)
+    sos, pad = _butter_lowpass(2, cutoff, 1.0 / grid.step)
+    m = multirate.decimation_factor(grid.step, cutoff)
+    plan = multirate.multirate_plan(sos.tobytes(), m)
+    zi = _initial_state(sos.tobytes())
+    spec = _dense_spec(columns)
+    weights = np.ones(columns.shape[0])
+    var, steps = decimated_variance(
+        spec, weights, sos.copy(), zi.copy(), pad, plan, (grid.index, grid.weight)
+    )
+    return full, multirate.variance_at(t, grid.times, var, steps)
+
+
+def _jittered(n: int, fs: float, rng: np.random.Generator) -> np.ndarray:
+    """Stamps at ``fs`` jittered by up to 3 % of a step, with one sample in 50 dropped."""
+    t = (np.arange(n) + rng.uniform(-0.03, 0.03, n)) / fs
+    return np.delete(t, np.arange(7, n, 50))
 
 
 def test_decimation_factor_is_odd_and_keeps_the_rate() -> None:
@@ -94,4 +122,34 @@ def test_random_regressor_within_the_stated_accuracy(seed: int) -> None:
     columns = np.stack([chirp, steps, drift, noise, 1.0 + 0.0 * t])
     mix = rng.standard_normal((5, 5))
     full, fast = _both(_dense_spec(np.ascontiguousarray(mix @ columns)), fs, 2.0)
+    np.testing.assert_allclose(fast, full, rtol=multirate.VARIANCE_RTOL, atol=0.0)
+
+
+@pytest.mark.parametrize("fs", [2000.0, 1000.0])
+def test_irregular_stamps_sinusoids_within_the_stated_bound(fs: float) -> None:
+    # jittered stamps with dropouts: the decimated kernel on the grid lowpass resamples to,
+    # against lowpass itself (the direct formula's path). The rows are resampled alike and
+    # the variance is interpolated back as the signals are (multirate.variance_at), so what
+    # differs is the decimation: SINE_BOUND
+    cutoff = 2.0
+    t = _jittered(int(40 * fs), fs, np.random.default_rng(int(fs)))
+    for f in np.geomspace(0.05, 0.45 * fs, 13):
+        columns = np.stack([np.sin(2 * np.pi * f * t + 0.3), np.cos(2 * np.pi * f * t + 0.3)])
+        full, fast = _irregular(t, columns, cutoff)
+        assert np.abs(fast - full).max() <= multirate.SINE_BOUND, f
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_irregular_stamps_random_regressor_within_the_stated_accuracy(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    fs = 2000.0
+    t = _jittered(60_000, fs, rng)
+    n = t.size
+    chirp = np.sin(2 * np.pi * (0.1 + 20.0 * t / t[-1]) * t)
+    steps = np.cumsum(rng.random(n) < 2e-4) % 2 - 0.5
+    drift = np.cumsum(rng.standard_normal(n)) / np.sqrt(n)
+    noise = rng.standard_normal(n)
+    columns = np.stack([chirp, steps, drift, noise, 1.0 + 0.0 * t])
+    mix = rng.standard_normal((5, 5))
+    full, fast = _irregular(t, np.ascontiguousarray(mix @ columns), 2.0)
     np.testing.assert_allclose(fast, full, rtol=multirate.VARIANCE_RTOL, atol=0.0)

@@ -120,20 +120,51 @@ def test_rank_deficient_covariance_and_dense_law() -> None:
     np.testing.assert_allclose(fast, direct, rtol=RTOL, atol=floor)
 
 
-def test_irregular_time_takes_the_direct_formula() -> None:
-    rng = np.random.default_rng(3)
+@pytest.mark.parametrize("seed", [0, 1])
+def test_irregular_time_decimated_on_the_resampled_grid(seed: int) -> None:
+    # jittered stamps (3 % of the step) with dropouts: the decimated form runs on the grid the
+    # direct formula's low-pass resamples to (rows interpolated alike, the variance back as
+    # the signals are), held to the accuracy multirate states; rate="full" keeps the direct
+    # formula itself
+    rng = np.random.default_rng(seed)
     law = SpeedTableFriction(
-        speeds=(0.1, 1.0, 10.0),
-        positive=(0.1, 0.08, 0.09),
-        negative=(0.1, 0.07, 0.1),
+        speeds=tuple(np.geomspace(0.05, 40.0, 9)),
+        positive=tuple(0.05 + 0.01 * rng.random(9)),
+        negative=tuple(0.06 + 0.01 * rng.random(9)),
+        viscous=1e-4,
+        viscous_negative=2e-4,
         zero_velocity=0.02,
     )
-    names = ["inertia.constant", "pdtv.2.both.a", "pdtv.2.both.b"] + [
-        f"friction.{k}" for k in law.linear_parameter_names
-    ]
+    names = _names_table(law)
     cov = _covariance(len(names), rng)
-    x = _signals(6_000, rng=rng)
-    x["t"] = x["t"] + 1e-4 * rng.random(x["t"].size)  # jittered stamps: resampled by lowpass
+    x = _signals(20_000, rng=rng)
+    x["t"] = x["t"] + 1.5e-5 * rng.uniform(-1.0, 1.0, x["t"].size)
+    x = {k: np.delete(v, np.arange(11, v.size, 61)) for k, v in x.items()}
+    direct = parameter_variance_direct(names, cov, law=law, cutoff=2.0, **x)
+    full = parameter_variance(names, cov, law=law, cutoff=2.0, rate="full", **x)
+    np.testing.assert_array_equal(full, direct)
+    assert decimation_factor(float(np.median(np.diff(x["t"]))), 2.0) == 19
+    decimated = parameter_variance(names, cov, law=law, cutoff=2.0, **x)
+    np.testing.assert_allclose(decimated, direct, rtol=VARIANCE_RTOL, atol=0.0)
+    assert np.any(decimated != direct)  # the decimated path did run
+
+
+def test_irregular_short_log_takes_the_direct_formula() -> None:
+    # too few decimated samples on the grid: the direct formula, bit for bit
+    rng = np.random.default_rng(4)
+    law = StribeckFriction(
+        coulomb_positive=0.05,
+        coulomb_negative=0.06,
+        viscous=1e-3,
+        stribeck_positive=0.02,
+        stribeck_negative=0.01,
+        stribeck_velocity=0.5,
+        zero_velocity=0.01,
+    )
+    names = ["inertia.constant"] + [f"friction.{k}" for k in law.linear_parameter_names]
+    cov = _covariance(len(names), rng)
+    x = _signals(600, rng=rng)  # 29 decimated samples on the grid, fewer than MIN_DECIMATED
+    x["t"] = x["t"] + 1e-4 * rng.random(x["t"].size)
     fast = parameter_variance(names, cov, law=law, cutoff=2.0, **x)
     direct = parameter_variance_direct(names, cov, law=law, cutoff=2.0, **x)
     np.testing.assert_array_equal(fast, direct)

@@ -705,6 +705,12 @@ FIT_STEPS = 24
 #: on nodes ``-2 .. 3`` and ``first`` on ``-1 .. 4``.
 MultiratePlan = tuple[Any, ...]
 
+#: A regular grid over an irregular log, a tuple ``(index, weight)``: grid point ``g`` lies
+#: between samples ``index[g]`` and ``index[g] + 1`` (int64, ``0 <= index[g] <= n - 2``), a
+#: fraction ``weight[g]`` (float64, 0 to 1) of the way. Two empty arrays: the log is regular
+#: and is its own grid.
+ResampleGrid = tuple[Any, ...]
+
 
 @jit
 def _combine_rows(
@@ -832,6 +838,50 @@ def _weighted_squares(
 
 
 @jit
+def _grid_block(
+    start: int,
+    stop: int,
+    spec: RegressorSpec,
+    grid: ResampleGrid,
+    rows: NDArray[np.float64],
+) -> None:
+    """Grid points ``start:stop``'s regressor rows (p,) into ``rows[0:stop - start]``: on a
+    regular log (``grid``'s arrays empty) the samples' own (:func:`_regressor_block`); else
+    each point's row interpolated linearly between the rows of the samples either side of it
+    (:data:`ResampleGrid`), as :func:`torquemap.filters.lowpass` resamples every column."""
+    index, weight = grid[0], grid[1]
+    if index.size == 0:
+        _regressor_block(start, stop, spec, rows)
+        return
+    first = index[start]
+    last = index[stop - 1] + 1
+    p = rows.shape[1]
+    samples = np.empty((last - first + 1, p))
+    _regressor_block(first, last + 1, spec, samples)
+    for g in range(start, stop):
+        at = index[g] - first
+        w = weight[g]
+        for q in range(p):
+            a = samples[at, q]
+            rows[g - start, q] = a + (samples[at + 1, q] - a) * w
+
+
+@jit
+def _grid_rows(
+    start: int, stop: int, spec: RegressorSpec, grid: ResampleGrid, out: NDArray[np.float64]
+) -> None:
+    """:func:`_regressor_rows` of grid points ``start:stop`` (:func:`_grid_block`)."""
+    directions, reach = spec[15], spec[16]
+    p = directions.shape[0]
+    rows = np.empty((min(TILE, max(stop - start, 0)), p))
+    for first in range(start, stop, TILE):
+        last = min(first + TILE, stop)
+        _grid_block(first, last, spec, grid, rows)
+        for i in range(first, last):
+            _combine_rows(rows, i - first, directions, reach, out, i - start)
+
+
+@jit
 def decimated_variance(
     spec: RegressorSpec,
     weights: NDArray[np.float64],
@@ -839,7 +889,8 @@ def decimated_variance(
     zi: NDArray[np.float64],
     pad: int,
     plan: MultiratePlan,
-) -> NDArray[np.float64]:
+    grid: ResampleGrid,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """:func:`lowpassed_variance` with the filter run at the rate ``1/m`` of the log's
     (:func:`torquemap.multirate.multirate_plan`); shape (n,).
 
@@ -855,12 +906,21 @@ def decimated_variance(
     rate's output through the anti-alias. The output's sum of squares is interpolated back
     to every sample (6-point Lagrange). The caller ensures ``n`` gives at least
     :data:`torquemap.multirate.MIN_DECIMATED` decimated samples and ``pad <= 2 m``.
+
+    ``grid`` (:data:`ResampleGrid`) puts an irregular log on a regular grid first (each grid
+    point's row interpolated linearly between its neighbouring samples' rows); the result is
+    then at the grid's points (the grid's size). Empty arrays: the log's own samples.
+
+    Returns the variance (n,) and, on a grid, the weighted sum of squares of the output's
+    change over each step (n - 1,) (:func:`_step_squares`; empty without a grid): linear
+    interpolation of the output to a time a fraction ``w`` into step ``i`` has the variance
+    ``(1 - w) v_i + w v_(i+1) - w (1 - w) steps[i]``.
     """
     m, cic, alpha = plan[0], plan[1], plan[2]
     centred = plan[7]
     directions, reach = spec[15], spec[16]
     p, r = directions.shape
-    n = spec[2].size
+    n = grid[0].size if grid[0].size else spec[2].size
     half = (3 * m - 3) // 2
     span = 3 * m - 2
     count = (n - 1 - 2 * half) // m + 1  # decimated samples, c_j = half + j m
@@ -871,7 +931,7 @@ def decimated_variance(
     rows = np.zeros((count, p))
     for begin in range(0, n, TILE):
         end = min(begin + TILE, n)
-        _regressor_block(begin, end, spec, block)
+        _grid_block(begin, end, spec, grid, block)
         for i in range(begin, end):
             lo = max(0, -((span - 1 - i) // m))
             hi = min(i // m, count - 1)
@@ -897,7 +957,7 @@ def decimated_variance(
     c_last = half + last_fwd * m
     head_n = half + (first_fwd + fit) * m + half + m + 1  # the anti-alias reads this far
     head = np.empty((head_n, r))
-    _regressor_rows(0, head_n, spec, head)
+    _grid_rows(0, head_n, spec, grid, head)
     z0 = np.zeros(r)
     z1 = np.zeros(r)
     ext = np.empty((pad, r))
@@ -958,7 +1018,7 @@ def decimated_variance(
     # frequencies.
     tail_n = n - c_last
     tail = np.empty((tail_n + pad, r))  # samples c_last .. n - 1, then the odd extension
-    _regressor_rows(c_last, n, spec, tail[:tail_n])
+    _grid_rows(c_last, n, spec, grid, tail[:tail_n])
     for j in range(pad):
         for k in range(r):
             tail[tail_n + j, k] = 2.0 * tail[tail_n - 1, k] - tail[tail_n - 2 - j, k]
@@ -1027,7 +1087,56 @@ def decimated_variance(
         for q in range(6):
             v += centred[offset, q] * level[j - 2 + q]
         out[i] = max(v, 0.0)
-    return out
+    steps = np.zeros(n - 1 if grid[0].size else 0)
+    if grid[0].size:
+        _step_squares(y, head, tail, c_first, c_last, half, m, centred, weights, steps)
+    return out, steps
+
+
+@jit
+def _step_squares(
+    y: NDArray[np.float64],
+    head: NDArray[np.float64],
+    tail: NDArray[np.float64],
+    c_first: int,
+    c_last: int,
+    half: int,
+    m: int,
+    centred: NDArray[np.float64],
+    weights: NDArray[np.float64],
+    steps: NDArray[np.float64],
+) -> None:
+    """``steps[i] = sum_k weights[k] (y_k(i + 1) - y_k(i))^2`` for every step of
+    :func:`decimated_variance`'s output ``y`` (n, r): exact over the full-rate ends (``head``
+    below ``c_first``, ``tail`` from ``c_last``), from the 6-point interpolant of the
+    decimated samples ``y`` (count, r) between."""
+    n = steps.size + 1
+    r = weights.size
+    prev = np.empty(r)
+    cur = np.empty(r)
+    scratch = np.empty(r)
+    for i in range(n):
+        if i < c_first:
+            for k in range(r):
+                cur[k] = head[i, k]
+        elif i >= c_last:
+            for k in range(r):
+                cur[k] = tail[i - c_last, k]
+        else:
+            j = (i - half) // m
+            offset = i - half - j * m
+            for k in range(r):
+                cur[k] = 0.0
+            for q in range(6):
+                c = centred[offset, q]
+                for k in range(r):
+                    cur[k] += c * y[j - 2 + q, k]
+        if i > 0:
+            for k in range(r):
+                prev[k] = cur[k] - prev[k]
+            steps[i - 1] = _weighted_squares(prev, weights, scratch)
+        for k in range(r):
+            prev[k] = cur[k]
 
 
 @jit

@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import functools
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -94,6 +95,88 @@ def decimation_factor(step: float, cutoff: float) -> int:
     if m % 2 == 0:
         m -= 1
     return max(m, 1)
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class RegularGrid:
+    """The regular grid :func:`torquemap.filters.lowpass` resamples an irregular log to.
+
+    Attributes
+    ----------
+    step : float
+        The grid's step [s]: the log's median step.
+    times : ndarray
+        The grid's times [s], shape (m,): from the log's first stamp, the last one clipped to
+        the log's last.
+    index : ndarray
+        Per grid point, the sample at or before it (int64, ``0 .. n - 2``), shape (m,).
+    weight : ndarray
+        Per grid point, how far it lies from sample ``index`` towards the next, 0 to 1,
+        shape (m,).
+    """
+
+    step: float
+    times: NDArray[np.float64]
+    index: NDArray[np.int64]
+    weight: NDArray[np.float64]
+
+
+def resample_grid(t: NDArray[np.float64]) -> RegularGrid | None:
+    """The grid at the median step over ``t`` [s] (strictly increasing, shape (n,), n >= 2)
+    and where each of its points falls between the samples, as
+    :func:`torquemap.filters.lowpass` resamples (``numpy.interp``); None when ``t`` is not
+    finite and strictly increasing (the low-pass refuses it).
+
+    Examples
+    --------
+    >>> g = resample_grid(np.array([0.0, 1.0, 2.5, 3.0, 4.0]))
+    >>> g.step, g.times.tolist(), g.index.tolist(), g.weight.tolist()
+    (1.0, [0.0, 1.0, 2.0, 3.0, 4.0], [0, 1, 1, 3, 3], [0.0, 0.0, 0.6666666666666666, 0.0, 1.0])
+    """
+    n = t.size
+    if n < 2:
+        return None
+    dt = np.diff(t)
+    if not (np.all(np.isfinite(t)) and np.all(dt > 0)):
+        return None
+    h = float(np.median(dt))  # filters.uniform_step
+    size = round((t[-1] - t[0]) / h) + 1
+    times = t[0] + h * np.arange(size)
+    times[-1] = min(times[-1], t[-1])
+    index = np.clip(np.searchsorted(t, times, side="right") - 1, 0, n - 2)
+    weight = np.clip((times - t[index]) / dt[index], 0.0, 1.0)
+    return RegularGrid(step=h, times=times, index=index.astype(np.int64), weight=weight)
+
+
+def variance_at(
+    t: NDArray[np.float64],
+    times: NDArray[np.float64],
+    variance: NDArray[np.float64],
+    steps: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """The variance at ``t`` [s] of signals interpolated linearly from a grid (``times``
+    (m,), increasing) as :func:`torquemap.filters.lowpass` interpolates its output back.
+
+    ``variance`` (m,) is ``sum_k y_k^2`` at the grid's points and ``steps`` (m - 1,) is
+    ``sum_k (y_k(i + 1) - y_k(i))^2`` over each step: at a fraction ``w`` into step ``i``,
+    ``sum_k ((1 - w) y_k(i) + w y_k(i + 1))^2 = (1 - w) v_i + w v_(i+1) - w (1 - w) s_i``
+    (exact algebra). Interpolating the variance alone would overstate it by the last term,
+    which is not small next to a variance that dips to near zero. Outside the grid: its end
+    values (``numpy.interp``'s).
+
+    Examples
+    --------
+    >>> times = np.array([0.0, 1.0])
+    >>> y = np.array([[1.0, 0.0], [-1.0, 2.0]])  # two signals at the two points
+    >>> v, s = (y**2).sum(axis=1), (np.diff(y, axis=0) ** 2).sum(axis=1)
+    >>> variance_at(np.array([0.5]), times, v, s).tolist()  # y(0.5) = (0, 1)
+    [1.0]
+    """
+    size = times.size
+    at = np.clip(np.searchsorted(times, t, side="right") - 1, 0, size - 2)
+    w = np.clip((t - times[at]) / (times[at + 1] - times[at]), 0.0, 1.0)
+    out = variance[at] + (variance[at + 1] - variance[at]) * w - w * (1.0 - w) * steps[at]
+    return np.asarray(np.maximum(out, 0.0), dtype=np.float64)
 
 
 def lagrange_weights(nodes: NDArray[np.float64], at: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -216,6 +216,12 @@ def _parameter_variance_by_directions(
     if p == 0:
         return np.zeros(n)
     step = regular_step(t, rtol=1e-6) if n >= 2 else None
+    grid: tuple[NDArray[Any], ...] = (np.empty(0, dtype=np.int64), np.empty(0))
+    resampled = None
+    if step is None and decimate and n >= 3:
+        resampled = multirate.resample_grid(t)
+        if resampled is not None:
+            step, grid = resampled.step, (resampled.index, resampled.weight)
     if step is None or not (0 < cutoff < 0.5 / step):
         return None
     if not all(
@@ -224,8 +230,13 @@ def _parameter_variance_by_directions(
     ):
         return None  # the direct formula's low-pass refuses them
     sos, pad = _butter_lowpass(2, float(cutoff), 1.0 / step)
-    if sos.shape[0] != 1 or n <= pad:
+    size = grid[0].size if grid[0].size else n  # the samples the filter runs over
+    if sos.shape[0] != 1 or size <= pad:
         return None
+    m = multirate.decimation_factor(step, cutoff) if decimate else 1
+    decimated = m >= 3 and pad <= 2 * m and (size - 3 * m) // m + 1 >= multirate.MIN_DECIMATED
+    if grid[0].size and not decimated:
+        return None  # irregular and not decimated: the direct formula
     directions, reach = _triangular_factor_cached(
         np.ascontiguousarray(covariance, dtype=np.float64).tobytes(), tuple(names)
     )
@@ -297,10 +308,11 @@ def _parameter_variance_by_directions(
         reach.copy(),
     )
     zi = _initial_state(sos.tobytes())
-    m = multirate.decimation_factor(step, cutoff) if decimate else 1
-    if m >= 3 and pad <= 2 * m and (n - 3 * m) // m + 1 >= multirate.MIN_DECIMATED:
+    if decimated:
         plan = multirate.multirate_plan(sos.tobytes(), m)
-        var = decimated_variance(spec, np.ones(p), sos.copy(), zi.copy(), pad, plan)
+        var, steps = decimated_variance(spec, np.ones(p), sos.copy(), zi.copy(), pad, plan, grid)
+        if resampled is not None:
+            var = multirate.variance_at(t, resampled.times, var, steps)
     else:
         var = lowpassed_variance(spec, np.ones(p), sos.copy(), zi.copy(), pad)
     return np.asarray(var, dtype=np.float64)
