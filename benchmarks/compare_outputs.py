@@ -2,9 +2,11 @@
 
 For each column: how many values differ bit for bit (NaN equal to NaN), and the largest
 absolute and relative difference among the finite ones. Exit status 1 when a column is
-missing, the row counts differ, or a column listed with ``--exact`` is not bit for bit.
+missing, the row counts differ, or a column listed with ``--exact`` (every column when it is
+given alone) is not bit for bit.
 
     python benchmarks/compare_outputs.py A.parquet B.parquet --exact tau_ext_a tau_ext_b fx fy flag
+    python benchmarks/compare_outputs.py A.parquet B.parquet --exact   # every column
 """
 
 from __future__ import annotations
@@ -29,10 +31,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("first")
     parser.add_argument("second")
     parser.add_argument(
-        "--exact", nargs="*", default=[], help="columns that must match bit for bit"
+        "--exact", nargs="*", default=None, help="columns that must match bit for bit"
     )
     args = parser.parse_args(argv)
     a, b = _read(args.first), _read(args.second)
+    exact = [] if args.exact is None else (args.exact or list(a))
     ok = True
     if set(a) != set(b):
         print(f"columns differ: {sorted(set(a) ^ set(b))}")
@@ -61,7 +64,7 @@ def main(argv: list[str] | None = None) -> int:
             f"{name:>16}: {differ:>9} of {x.size} differ, max abs {worst[0]:.3g}, "
             f"max rel {worst[1]:.3g}, NaN mismatches {nan_mismatch}"
         )
-        if name in args.exact and differ:
+        if name in exact and differ:
             ok = False
     print("OK" if ok else "MISMATCH")
     return 0 if ok else 1

@@ -29,7 +29,6 @@ end effector is ``F = J(q)^-T tau_ext``, flagged near singular poses.
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -40,7 +39,7 @@ from numpy.typing import NDArray
 
 from torquemap._callable import make_callable as _make_callable
 from torquemap.errors import InputError
-from torquemap.filters import differentiate_rates, lowpass
+from torquemap.filters import Rates, differentiate_rates, lowpass
 from torquemap.io import Log
 from torquemap.model import Model, friction_torque, pdtv_torque
 from torquemap.pdtv import (
@@ -225,12 +224,25 @@ def _signal(
             f"log lasts {span:.3g} s, shorter than the {window:.3g} s differentiator window",
             path=log.path,
         )
-    for k, joint in enumerate(robot.joints):
-        theta = joint.gear_ratio * log.q[:, k]
+    gears = np.array([joint.gear_ratio for joint in robot.joints], dtype=np.float64)
+    thetas = log.q * gears  # each column as gear_ratio * q
+    if rates is None:
+        # every joint in one call: they share the time axis, and on irregular time the
+        # windows and their sums of time powers are found once
         try:
-            d = differentiate_rates(log.t, theta, window=window) if rates is None else rates[k]
+            both = differentiate_rates(log.t, thetas, window=window)
         except InputError as exc:
             raise InputError(exc.message, path=log.path) from None
+    for k, joint in enumerate(robot.joints):
+        theta = thetas[:, k]
+        d = (
+            Rates(
+                velocity=np.ascontiguousarray(both.velocity[:, k]),
+                acceleration=np.ascontiguousarray(both.acceleration[:, k]),
+            )
+            if rates is None
+            else rates[k]
+        )
         jm = model.joints[joint.name]
         inertia = jm.inertia.constant + jm.inertia.cos_elbow * modulation[:, k]
         t_est[:, k] = (
@@ -330,9 +342,12 @@ def reversal_mask(
 
 def _gap_runs(gaps: NDArray[np.bool_]) -> list[tuple[int, int]]:
     """``(start, stop)`` of every run of True in ``gaps``."""
-    change = np.flatnonzero(np.diff(gaps.astype(np.int8))) + 1
-    edges = np.concatenate(([0], change, [gaps.size]))
-    return [(int(a), int(b)) for a, b in itertools.pairwise(edges) if b > a and gaps[a]]
+    if not gaps.size:
+        return []
+    change = np.flatnonzero(gaps[1:] != gaps[:-1]) + 1  # a run starts or stops here
+    edges = [0, *change.tolist(), gaps.size]
+    first = 0 if gaps[0] else 1  # runs of True are every other stretch between the edges
+    return list(zip(edges[first:-1:2], edges[first + 1 :: 2], strict=False))
 
 
 def bridge_gaps(
@@ -343,6 +358,7 @@ def bridge_gaps(
     longest: float,
     support: float = 0.0,
     ends: bool = False,
+    runs: Sequence[tuple[int, int]] | None = None,
 ) -> NDArray[np.float64]:
     """Replace each run of ``gaps`` lasting at most ``longest`` [s] by a straight line.
 
@@ -350,6 +366,7 @@ def bridge_gaps(
     (at least the one neighbour each side), so that noise on a single neighbour does not tilt
     it. Runs longer than ``longest`` are left as they are, and so are runs at the ends of the
     log unless ``ends`` is true: then they hold the mean of their one neighbouring side.
+    ``runs``: the ``(start, stop)`` of the runs of ``gaps`` when the caller has them already.
 
     Examples
     --------
@@ -367,7 +384,7 @@ def bridge_gaps(
     # ties (a sample exactly ``support`` away) are in, to a hundredth of a step, and times are
     # taken from the run's start: the same answer for stamps from zero or Unix-epoch seconds
     tie = 0.01 * float(t[-1] - t[0]) / max(t.size - 1, 1)
-    for a, b in _gap_runs(gaps):
+    for a, b in _gap_runs(gaps) if runs is None else runs:
         if t[b - 1] - t[a] > longest or ((a == 0 or b == gaps.size) and not ends):
             continue
         origin = t[a]
@@ -387,10 +404,14 @@ def bridge_gaps(
 
 
 def bridged_runs(
-    t: NDArray[np.float64], gaps: NDArray[np.bool_], *, longest: float
+    t: NDArray[np.float64],
+    gaps: NDArray[np.bool_],
+    *,
+    longest: float,
+    runs: Sequence[tuple[int, int]] | None = None,
 ) -> NDArray[np.bool_]:
     """The samples of the runs of ``gaps`` that :func:`bridge_gaps` bridges (``ends=False``):
-    runs inside the log lasting at most ``longest`` [s].
+    runs inside the log lasting at most ``longest`` [s] (``runs``: :func:`bridge_gaps`'s).
 
     Examples
     --------
@@ -400,7 +421,7 @@ def bridged_runs(
     [0, 0, 1, 1, 0, 0, 0, 0]
     """
     out = np.zeros(gaps.size, dtype=bool)
-    for a, b in _gap_runs(gaps):
+    for a, b in _gap_runs(gaps) if runs is None else runs:
         if a > 0 and b < gaps.size and t[b - 1] - t[a] <= longest:
             out[a:b] = True
     return out
@@ -504,7 +525,7 @@ def estimate_forces(
     answers_only
         Compute only what the output table holds (:func:`forces_columns`): ``filtered`` is
         NaN for the joints whose ``motor_external`` it is not (``model`` method, joints with
-        PDTV lines), sparing their low-pass.
+        PDTV lines), sparing their low-pass, and ``passes`` is empty (except for ``paper``).
 
     Returns
     -------
@@ -777,6 +798,9 @@ def _estimate_piece(
             if joint.name not in whole:
                 flag[rest] |= FLAG_LOW_SPEED
         rests.append(rest)
+        if answers_only and method != "paper":
+            all_passes.append(())  # the table holds no passes
+            continue
         all_passes.append(
             monotonic_passes(
                 log.t,
@@ -786,6 +810,8 @@ def _estimate_piece(
                 min_revolutions=min_revolutions,
             )
         )
+
+    runs = [_gap_runs(rest) for rest in rests]  # once per joint: every bridge uses them
 
     def prepared(x: NDArray[np.float64], k: int) -> tuple[list[NDArray[np.float64]], Any]:
         """What the low-pass of ``x`` (joint ``k``) filters, and where the second column wins.
@@ -797,14 +823,18 @@ def _estimate_piece(
         neighbours (its sigma covers the friction band): the external load is continuous,
         the friction at rest is not known.
         """
-        if bridge_reversals <= 0 or not rests[k].any():
+        if bridge_reversals <= 0 or not runs[k]:
             return [x], None
         gaps = rests[k]
-        bridged = bridge_gaps(log.t, x, gaps, longest=bridge_reversals, support=window)
-        held = gaps & ~bridged_runs(log.t, gaps, longest=bridge_reversals)
+        bridged = bridge_gaps(
+            log.t, x, gaps, longest=bridge_reversals, support=window, runs=runs[k]
+        )
+        held = gaps & ~bridged_runs(log.t, gaps, longest=bridge_reversals, runs=runs[k])
         if not held.any():
             return [bridged], None
-        filled = bridge_gaps(log.t, x, gaps, longest=math.inf, support=window, ends=True)
+        filled = bridge_gaps(
+            log.t, x, gaps, longest=math.inf, support=window, ends=True, runs=runs[k]
+        )
         if robot.joints[k].name in whole:
             return [filled], None
         return [bridged, filled], held
@@ -900,12 +930,12 @@ def _estimate_piece(
                 cutoff=cutoff,
                 bridged=rests[k],
             )
-            if rests[k].any() and joint.name in whole:
+            if runs[k] and joint.name in whole:
                 # where the answer is a line carried over a bridged run: the load's departure
-                sigma[:, k] = np.hypot(
-                    sigma[:, k],
-                    bridge_departure(log.t, external[:, k], rests[k], cutoff=cutoff),
+                departure = bridge_departure(
+                    log.t, external[:, k], rests[k], cutoff=cutoff, runs=runs[k]
                 )
+                sigma[:, k] = np.hypot(sigma[:, k], departure)
     arrays = {
         "rest": np.column_stack(rests).astype(np.float64) if nj else np.zeros((n, 0)),
         "angle": angle,

@@ -143,7 +143,11 @@ def _differentiate_irregular(
         ],
         axis=-2,
     )
-    coef = np.linalg.solve(a, np.moveaxis(sx_sum, 0, 1))  # (n, 3, m)
+    # one right-hand side per call: LAPACK's solve with several differs in the last bit
+    rhs = np.moveaxis(sx_sum, 0, 1)  # (n, 3, m)
+    coef = np.concatenate(
+        [np.linalg.solve(a, rhs[:, :, c : c + 1]) for c in range(rhs.shape[2])], axis=2
+    )
     position = x2 + coef[:, 0]
     velocity = coef[:, 1] / scale[:, None]
     acceleration = 2.0 * coef[:, 2] / (scale**2)[:, None]

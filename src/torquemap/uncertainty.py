@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any, Literal
 
 import numpy as np
@@ -453,22 +453,24 @@ def joint_sigma(
     entry = joints.get(joint, {}) if isinstance(joints, Mapping) else {}
     resolution = float(entry.get("velocity_resolution", 0.0)) if isinstance(entry, Mapping) else 0.0
     width = max(float(getattr(law, "zero_velocity", 0.0)), resolution, 1e-9)
-    level = sign_sigma(law, velocity, width)
     levels = getattr(law, "levels", None)
     if callable(levels):
+        level, spread, (up, down) = _table_sign_terms(law, velocity, width, _slowest(entry))
         if FORM_FRACTION > 0:  # hypot(level, 0) is level: skip the pass
             # the table's own form error between and beyond its knots: FORM_FRACTION of the level
-            up, down = levels(np.abs(velocity))
             level = np.hypot(level, FORM_FRACTION * 0.5 * (np.abs(up) + np.abs(down)))
-        level = np.hypot(level, extrapolation_spread(law, velocity, width, _slowest(entry)))
-    runs = bridged if bridged is not None and bridged.any() else None
-    if runs is not None:
+        level = np.hypot(level, spread)
+    else:
+        level = sign_sigma(law, velocity, width)
+    from torquemap.estimate import _gap_runs, bridge_gaps
+
+    runs = _gap_runs(bridged) if bridged is not None else []
+    if runs:
         # a bridged sample's answer is the line between its run's ends: friction does not
         # enter it, so neither do its sign nor the law's parameters; its variance is the line
         # between the ends' variances (the load's departure from a line is added by estimation)
-        from torquemap.estimate import bridge_gaps
-
-        level = bridge_gaps(t, level, runs, longest=math.inf, ends=True)
+        assert bridged is not None
+        level = bridge_gaps(t, level, bridged, longest=math.inf, ends=True, runs=runs)
     if misfit_level is None:
         sign = lowpass(t, level, cutoff=cutoff)
     else:  # one call: the filter runs four signals side by side, one costs as much as two
@@ -476,14 +478,44 @@ def joint_sigma(
         noise = np.maximum(noise, np.maximum(both[:, 0], 0.0) ** 2)
         sign = both[:, 1]
     var = np.maximum(var, 0.0) + noise
-    if runs is not None:
-        from torquemap.estimate import bridge_gaps
-
-        var = bridge_gaps(t, var, runs, longest=math.inf, ends=True)
+    if runs:
+        assert bridged is not None
+        var = bridge_gaps(t, var, bridged, longest=math.inf, ends=True, runs=runs)
     out: NDArray[np.float64] = np.sqrt(var + np.maximum(sign, 0.0) ** 2)
     if not math.isfinite(float(np.max(out, initial=0.0))):
         out = np.where(np.isfinite(out), out, np.nan)
     return out
+
+
+def _table_sign_terms(
+    law: Any, velocity: NDArray[np.float64], width: float, slowest: float
+) -> tuple[
+    NDArray[np.float64],
+    NDArray[np.float64],
+    tuple[NDArray[np.float64], NDArray[np.float64]],
+]:
+    """:func:`sign_sigma` and :func:`extrapolation_spread` of a law with ``levels`` (a
+    speed table), and its levels at the speed: the branch share and the levels computed
+    once for both (the same operations each does, so the same numbers)."""
+    v = np.asarray(velocity, dtype=np.float64)
+    p = 0.5 * (1.0 + np.tanh(v / max(width, 1e-12)))
+    speed = np.abs(v)
+    g_up, g_down = law.levels(speed)
+    sign = np.asarray(np.sqrt(p * (1.0 - p)) * np.abs(g_up + g_down), dtype=np.float64)
+    if not slowest > 0:
+        return sign, np.zeros(v.shape), (g_up, g_down)
+    # levels(min(|v|, S)): |v|'s own where it is at most S, the level at S beyond
+    up0, down0 = law.levels(np.array([slowest]))
+    beyond = speed > slowest
+    s = np.minimum(speed, slowest)
+    up = np.where(beyond, up0[0], g_up)
+    down = np.where(beyond, down0[0], g_down)
+    vu = float(getattr(law, "viscous", 0.0))
+    vd = float(getattr(law, "viscous_negative", vu))
+    spread_up = np.abs(up - vu * s - (up0[0] - vu * slowest))
+    spread_down = np.abs(down - vd * s - (down0[0] - vd * slowest))
+    spread = np.asarray(p * spread_up + (1.0 - p) * spread_down, dtype=np.float64)
+    return sign, spread, (g_up, g_down)
 
 
 def _slowest(entry: Any) -> float:
@@ -671,9 +703,10 @@ def bridge_departure(
     bridged: NDArray[np.bool_],
     *,
     cutoff: float,
+    runs: Sequence[tuple[int, int]] | None = None,
 ) -> NDArray[np.float64]:
     """Standard deviation [unit of ``estimate``] of the load's departure from the straight
-    line a bridged run holds.
+    line a bridged run holds (``runs``: the runs of ``bridged`` when the caller has them).
 
     Over a run from ``ta`` to ``tb`` (``D = tb - ta``) the answer is the line between the
     estimates at its ends; a load whose slope goes from ``s1`` (just before) to ``s2`` (just
@@ -695,7 +728,7 @@ def bridge_departure(
 
     out = np.zeros(t.size)
     span = 1.0 / max(cutoff, 1e-12)
-    for a, b in _gap_runs(bridged):
+    for a, b in _gap_runs(bridged) if runs is None else runs:
         ta = float(t[a - 1]) if a > 0 else float(t[a])
         tb = float(t[b]) if b < t.size else float(t[b - 1])
         d = max(tb - ta, 1e-12)
