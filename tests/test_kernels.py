@@ -137,6 +137,26 @@ def test_step_kernels_match_numpy() -> None:
     assert K.count_at_least(x, 1.0) == np.count_nonzero(dq >= 1.0)
 
 
+def test_step_range_matches_numpy() -> None:
+    # the smallest and largest step and finiteness, as numpy.diff/min/max/isfinite give them
+    # (NaN steps propagate as numpy's min and max do); jittered and epoch-stamped times
+    rng = np.random.default_rng(12)
+    for t in (
+        np.cumsum(rng.uniform(0.5, 1.5, 5000)) * 1e-3,
+        1.7e9 + 5e-4 * np.arange(3000),
+        np.array([0.0, 1.0, 1.0, 0.5]),
+    ):
+        d = np.diff(t)
+        assert K.step_range(t) == (True, d.min(), d.max())
+    for bad in (np.inf, np.nan):
+        t = np.arange(10.0)
+        t[4] = bad
+        finite, lo, hi = K.step_range(t)
+        d = np.diff(t)
+        assert not finite
+        np.testing.assert_array_equal([lo, hi], [d.min(), d.max()])
+
+
 def test_planar_force_matches_force_map() -> None:
     # the kernel against force_map's matrices applied by numpy; NaN torques taken as 0, NaN
     # sigmas give NaN sigmas, singular rows NaN
@@ -182,7 +202,7 @@ def _regressor_case(n: int, seed: int) -> tuple[tuple[object, ...], np.ndarray, 
         np.array([2, -1, 4], dtype=i64), np.array([0, 1, -1], dtype=i64),
         np.log(np.array(law.speeds)), np.array([5, 6, 7], dtype=i64), np.array([8, 9, 10], dtype=i64),
         11, 12, law.zero_velocity, np.ascontiguousarray(rng.standard_normal((p, p))),
-        np.full(p, p, dtype=i64),
+        np.full(p, p, dtype=i64), np.empty(0), np.empty(0),
     )  # fmt: skip
     return spec, columns, names
 
@@ -197,6 +217,11 @@ def test_regressor_directions_match_regressor_columns() -> None:
     want = columns @ directions
     scale = np.abs(columns).max() * np.abs(directions).sum(axis=0)
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-13 * scale.max())
+    # the caller's cos and sin of theta (numpy's, libm's as the kernel's own): the same rows
+    theta = spec[2]
+    assert isinstance(theta, np.ndarray)
+    given = (*spec[:17], np.cos(theta), np.sin(theta))
+    np.testing.assert_array_equal(K.regressor_directions(given), got)
 
 
 def test_lowpassed_variance_matches_sosfiltfilt() -> None:

@@ -26,7 +26,7 @@ def _dense_spec(columns: np.ndarray) -> tuple[object, ...]:
     f, i = np.empty(0), np.empty(0, dtype=np.int64)
     return (np.ascontiguousarray(columns), np.arange(r, dtype=np.int64), np.zeros(n), np.ones(n),
             f, i, i, i, i, f, i, i, -1, -1, 1.0, np.eye(r),
-            np.arange(1, r + 1, dtype=np.int64))  # fmt: skip
+            np.arange(1, r + 1, dtype=np.int64), f, f)  # fmt: skip
 
 
 def _both(spec: tuple[object, ...], fs: float, cutoff: float) -> tuple[np.ndarray, np.ndarray]:

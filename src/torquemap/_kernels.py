@@ -24,8 +24,9 @@ TILE = 512
 #: The regressor of :func:`regressor_directions`, a tuple: ``(dense, dense_index, theta,
 #: velocity, line_order, line_power, line_cos, line_sin, line_direction, knot_logs,
 #: knot_positive, knot_negative, viscous, viscous_negative, zero_velocity, directions,
-#: reach)`` (the arrays float64 or int64, C-contiguous; ``viscous``, ``viscous_negative``
-#: int, ``zero_velocity`` float).
+#: reach, cos_theta, sin_theta)`` (the arrays float64 or int64, C-contiguous; ``viscous``,
+#: ``viscous_negative`` int, ``zero_velocity`` float; ``cos_theta``, ``sin_theta`` the
+#: cosine and sine of ``theta`` when the caller has them, else empty).
 RegressorSpec = tuple[Any, ...]
 
 
@@ -377,6 +378,30 @@ def angle_step_summary(t: NDArray[np.float64], q: NDArray[np.float64]) -> tuple[
 
 
 @jit
+def step_range(t: NDArray[np.float64]) -> tuple[bool, float, float]:
+    """Whether every ``t`` is finite, and the smallest and largest of ``numpy.diff(t)`` (NaN
+    both when a difference is NaN, as ``numpy.min``/``max`` give); ``t`` has >= 2 values. One
+    pass, no temporary: what :func:`torquemap.filters.regular_step` and the filters' input
+    checks take from ``t``."""
+    finite = True
+    lo = math.inf
+    hi = -math.inf
+    nan = False
+    for i in range(t.size):
+        if not math.isfinite(t[i]):
+            finite = False
+        if i:
+            d = t[i] - t[i - 1]
+            if d != d:
+                nan = True
+            lo = min(lo, d)
+            hi = max(hi, d)
+    if nan:
+        return finite, math.nan, math.nan
+    return finite, lo, hi
+
+
+@jit
 def count_at_least(x: NDArray[np.float64], reach: float) -> int:
     """The number of ``|diff(x)| >= reach``."""
     count = 0
@@ -464,9 +489,15 @@ def _regressor_lines(start: int, stop: int, spec: RegressorSpec, rows: NDArray[n
     top = _powers_top(line_power)
     sq_re = np.empty((top, count))
     sq_im = np.empty((top, count))
-    for at_row in range(count):
-        sq_re[0, at_row] = math.cos(theta[start + at_row])
-        sq_im[0, at_row] = math.sin(theta[start + at_row])
+    cos_theta, sin_theta = spec[17], spec[18]
+    if cos_theta.size:  # the caller's: the same libm values, not computed twice
+        for at_row in range(count):
+            sq_re[0, at_row] = cos_theta[start + at_row]
+            sq_im[0, at_row] = sin_theta[start + at_row]
+    else:
+        for at_row in range(count):
+            sq_re[0, at_row] = math.cos(theta[start + at_row])
+            sq_im[0, at_row] = math.sin(theta[start + at_row])
     for b in range(1, top):
         for at_row in range(count):
             re = sq_re[b - 1, at_row]

@@ -851,10 +851,14 @@ def _estimate_piece(
                 smoothed_at[k] = len(jobs)
                 jobs.append((t_est[:, k], k))
     first_external = len(jobs)
+    # cos and sin of each lined joint's motor angle, for its PDTV and its sigma's regressor
+    phasors: dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
     if method == "model":
         for k in lined:
             lines = model.joints[robot.joints[k].name].pdtv
-            pdtv = pdtv_torque(angle[:, k], lines, velocity=velocity[:, k])
+            theta = np.ascontiguousarray(angle[:, k])
+            phasors[k] = (np.cos(theta), np.sin(theta))
+            pdtv = pdtv_torque(theta, lines, velocity=velocity[:, k], phasor=phasors[k])
             jobs.append((t_est[:, k] - pdtv, k))
     plans: list[tuple[int, int, Any]] = []
     columns: list[NDArray[np.float64]] = []
@@ -929,6 +933,7 @@ def _estimate_piece(
                 modulation=modulation[:, k],
                 cutoff=cutoff,
                 bridged=rests[k],
+                phasor=phasors.get(k),
             )
             if runs[k] and joint.name in whole:
                 # where the answer is a line carried over a bridged run: the load's departure

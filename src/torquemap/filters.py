@@ -36,15 +36,19 @@ class Derivatives:
 
 
 def _time_and_values(t: ArrayLike, x: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    from torquemap._kernels import max_abs, step_range
+
     tt = np.asarray(t, dtype=np.float64)
     xx = np.asarray(x, dtype=np.float64)
     if tt.ndim != 1 or xx.ndim not in (1, 2) or xx.shape[0] != tt.size:
         raise InputError(f"time and values must be of equal length, got {tt.shape} and {xx.shape}")
     if tt.size < 3:
         raise InputError(f"need at least 3 samples to filter, got {tt.size}")
-    if not (np.all(np.isfinite(tt)) and np.all(np.isfinite(xx))):
+    finite, smallest, _ = step_range(np.ascontiguousarray(tt))
+    values = xx if xx.flags.c_contiguous or xx.flags.f_contiguous else np.ascontiguousarray(xx)
+    if not (finite and math.isfinite(max_abs(values.reshape(-1, order="A")))):
         raise InputError("time or values hold NaN or inf")
-    if not np.all(np.diff(tt) > 0):
+    if not smallest > 0:
         raise InputError("time is not strictly increasing")
     return tt, xx
 
@@ -510,10 +514,12 @@ def regular_step(t: NDArray[np.float64], *, rtol: float = 1e-9) -> float | None:
     h = float(t[-1] - t[0]) / (n - 1)
     if not h > 0:
         return None
+    from torquemap._kernels import step_range
+
     resolution = float(np.spacing(max(abs(float(t[0])), abs(float(t[-1])))))
     tol = rtol * h + 2.0 * resolution
-    step = np.diff(t)
-    if float(step.max()) - h > tol or h - float(step.min()) > tol:
+    _, smallest, largest = step_range(np.ascontiguousarray(t, dtype=np.float64))
+    if largest - h > tol or h - smallest > tol:
         return None
     return round_step(h, resolution=resolution, n=n)
 

@@ -128,11 +128,13 @@ def pdtv_torque(
     lines: tuple[PdtvLine, ...],
     *,
     velocity: ArrayLike | None = None,
+    phasor: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
 ) -> NDArray[np.float64]:
     """PDTV torque [N m] at motor angle ``motor_angle`` [rad].
 
     Lines with ``direction="both"`` always apply; directional lines apply where the sign of
-    ``velocity`` [rad/s] matches (and are skipped when ``velocity`` is None).
+    ``velocity`` [rad/s] matches (and are skipped when ``velocity`` is None). ``phasor``:
+    ``(cos, sin)`` of ``motor_angle`` when the caller has them (the same numbers).
 
     Examples
     --------
@@ -155,8 +157,8 @@ def pdtv_torque(
         phase = np.array([line.phase for line in powers])
         amplitude = np.array([line.amplitude for line in powers])
         phasor_lines(
-            np.cos(flat_theta),
-            np.sin(flat_theta),
+            np.cos(flat_theta) if phasor is None else np.ascontiguousarray(phasor[0]).reshape(-1),
+            np.sin(flat_theta) if phasor is None else np.ascontiguousarray(phasor[1]).reshape(-1),
             np.zeros(1) if flat_w is None else np.ascontiguousarray(flat_w),
             np.array([int(line.order) for line in powers], dtype=np.int64),
             amplitude * np.cos(phase),

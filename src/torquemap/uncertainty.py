@@ -116,6 +116,7 @@ def parameter_variance(
     modulation: NDArray[np.float64],
     cutoff: float,
     rate: Literal["decimated", "full"] = "decimated",
+    phasor: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
 ) -> NDArray[np.float64]:
     """Variance [N^2 m^2] of the low-passed model torque from the parameters' covariance.
 
@@ -127,7 +128,8 @@ def parameter_variance(
     at least :data:`torquemap.multirate.DECIMATED_RATE` cut-offs (:mod:`torquemap.multirate`)
     where the log is regular and fast enough (an odd factor ``m >= 3`` and enough samples),
     within :data:`torquemap.multirate.VARIANCE_RTOL` of the full rate (7.9e-5 relative at
-    worst on the SCARA bench's circle); ``"full"`` at every sample.
+    worst on the SCARA bench's circle); ``"full"`` at every sample. ``phasor``: ``(cos
+    theta, sin theta)`` when the caller has them (the same numbers, computed once).
 
     Notes
     -----
@@ -156,7 +158,13 @@ def parameter_variance(
         "modulation": modulation,
     }
     fast = _parameter_variance_by_directions(
-        names, covariance, law=law, cutoff=cutoff, decimate=rate == "decimated", **signals
+        names,
+        covariance,
+        law=law,
+        cutoff=cutoff,
+        decimate=rate == "decimated",
+        phasor=phasor,
+        **signals,
     )
     if fast is not None:
         return fast
@@ -203,6 +211,7 @@ def _parameter_variance_by_directions(
     modulation: NDArray[np.float64],
     cutoff: float,
     decimate: bool,
+    phasor: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
 ) -> NDArray[np.float64] | None:
     """:func:`parameter_variance` by a triangular factor of the covariance (compiled
     kernels), or None where that does not apply (irregular time, an invalid cut-off: the direct formula
@@ -306,6 +315,11 @@ def _parameter_variance_by_directions(
         float(getattr(law, "zero_velocity", 1.0)),
         directions.copy(),  # writable: the kernels are compiled for one signature
         reach.copy(),
+        *(
+            (np.empty(0), np.empty(0))
+            if phasor is None or not lines
+            else (np.ascontiguousarray(phasor[0]), np.ascontiguousarray(phasor[1]))
+        ),
     )
     zi = _initial_state(sos.tobytes())
     if decimated:
@@ -405,11 +419,13 @@ def joint_sigma(
     modulation: NDArray[np.float64],
     cutoff: float,
     bridged: NDArray[np.bool_] | None = None,
+    phasor: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
 ) -> NDArray[np.float64]:
     """One standard deviation [N m, motor side] of a joint's external-torque estimate.
 
     ``bridged`` marks the samples whose answer is bridged over (estimation's reversal band):
     there friction's sign is taken as unknown (half the band between the two branches).
+    ``phasor``: ``(cos theta, sin theta)`` when the caller has them.
 
     NaN everywhere when the model holds no uncertainty for the joint (a model identified by
     the pass method, or written by hand).
@@ -437,6 +453,7 @@ def joint_sigma(
         acceleration=acceleration,
         modulation=modulation,
         cutoff=cutoff,
+        phasor=phasor,
     )
     psd = float(table.get("residual_psd", 0.0))
     noise = np.full(n, max(psd, 0.0) * LOWPASS_ENB * cutoff)
