@@ -29,30 +29,45 @@ def window_sums(
 
     Each sum runs over the window in time order, each power as the previous one times ``s``:
     the operations and their order of the numpy loop over lags it replaces (bit for bit),
-    without its full-length temporaries per lag.
+    without its full-length temporaries per lag. The sums accumulate in local variables (the
+    same additions from 0.0 in the same order), stored once per sample: an accumulator in
+    the output array is reloaded and stored at every lag.
     """
     n, m = x.shape
-    s_sum = np.zeros((5, n))
-    sx_sum = np.zeros((3, n, m))
+    s_sum = np.empty((5, n))
+    sx_sum = np.empty((3, n, m))
+    acc = np.empty((m, 3))
     for i in range(n):
         ti = tt[i]
         sc = scale[i]
+        a0 = a1 = a2 = a3 = a4 = 0.0
+        for c in range(m):
+            acc[c, 0] = acc[c, 1] = acc[c, 2] = 0.0
         for j in range(lo[i], hi[i]):
             s = (tt[j] - ti) / sc
             p1 = 1.0 * s
             p2 = p1 * s
             p3 = p2 * s
             p4 = p3 * s
-            s_sum[0, i] += 1.0
-            s_sum[1, i] += p1
-            s_sum[2, i] += p2
-            s_sum[3, i] += p3
-            s_sum[4, i] += p4
+            a0 += 1.0
+            a1 += p1
+            a2 += p2
+            a3 += p3
+            a4 += p4
             for c in range(m):
                 xs = x[j, c] - x[i, c]
-                sx_sum[0, i, c] += 1.0 * xs
-                sx_sum[1, i, c] += p1 * xs
-                sx_sum[2, i, c] += p2 * xs
+                acc[c, 0] += 1.0 * xs
+                acc[c, 1] += p1 * xs
+                acc[c, 2] += p2 * xs
+        s_sum[0, i] = a0
+        s_sum[1, i] = a1
+        s_sum[2, i] = a2
+        s_sum[3, i] = a3
+        s_sum[4, i] = a4
+        for c in range(m):
+            sx_sum[0, i, c] = acc[c, 0]
+            sx_sum[1, i, c] = acc[c, 1]
+            sx_sum[2, i, c] = acc[c, 2]
     return s_sum, sx_sum
 
 

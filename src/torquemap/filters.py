@@ -162,10 +162,14 @@ def _differentiate_irregular(
 
 def _windows(tt: NDArray[np.float64], w: float) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
     """Per sample, the slice ``lo:hi`` of its differentiator window (widened where sparse)."""
+    from torquemap._fit_kernels import search_increasing
+
     n = tt.size
     start = np.clip(tt - w / 2, tt[0], tt[-1] - w)
-    lo = np.searchsorted(tt, start, side="left")
-    hi = np.searchsorted(tt, start + w * (1 + 1e-12), side="right")
+    # numpy.searchsorted's indices by one forward walk: the keys increase with the time
+    ta = np.ascontiguousarray(tt)
+    lo = search_increasing(ta, start, False)
+    hi = search_increasing(ta, start + w * (1 + 1e-12), True)
     need = MIN_WINDOW_SAMPLES
     short = (hi - lo) < need
     if short.any():

@@ -143,7 +143,10 @@ def resample_grid(t: NDArray[np.float64]) -> RegularGrid | None:
     size = round((t[-1] - t[0]) / h) + 1
     times = t[0] + h * np.arange(size)
     times[-1] = min(times[-1], t[-1])
-    index = np.clip(np.searchsorted(t, times, side="right") - 1, 0, n - 2)
+    from torquemap._fit_kernels import search_increasing
+
+    # numpy.searchsorted's indices by one forward walk (both increase)
+    index = np.clip(search_increasing(t, times, True) - 1, 0, n - 2)
     weight = np.clip((times - t[index]) / dt[index], 0.0, 1.0)
     return RegularGrid(step=h, times=times, index=index.astype(np.int64), weight=weight)
 
@@ -172,8 +175,15 @@ def variance_at(
     >>> variance_at(np.array([0.5]), times, v, s).tolist()  # y(0.5) = (0, 1)
     [1.0]
     """
+    from torquemap._fit_kernels import search_increasing
+
     size = times.size
-    at = np.clip(np.searchsorted(times, t, side="right") - 1, 0, size - 2)
+    t = np.ascontiguousarray(t, dtype=np.float64)
+    if t.size > 1 and not bool(np.all(t[1:] >= t[:-1])):
+        at = np.searchsorted(times, t, side="right") - 1  # not sorted: no forward walk
+    else:
+        at = search_increasing(np.ascontiguousarray(times), t, True) - 1
+    at = np.clip(at, 0, size - 2)
     w = np.clip((t - times[at]) / (times[at + 1] - times[at]), 0.0, 1.0)
     out = variance[at] + (variance[at + 1] - variance[at]) * w - w * (1.0 - w) * steps[at]
     return np.asarray(np.maximum(out, 0.0), dtype=np.float64)
