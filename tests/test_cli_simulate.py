@@ -30,12 +30,15 @@ def test_simulate_scara_is_the_library_and_a_function_of_the_seed(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     # Byte for byte what the library writes, for a seed; another seed, other noise. On a bench
-    # with one short sweep (the default bench's sweeps take 14 s of CPU; the code is the same).
+    # with one short sweep and a quarter of a circle (the default bench's sweeps take 14 s of
+    # CPU, its circle a few more; the code is the same).
     from torquemap.sim import bench as sim_bench
 
+    bench = default_bench()
     short = dataclasses.replace(
-        default_bench(),
+        bench,
         sweep=Sweep(speeds=(10.0,), revolutions=1.0, elbow_angles=(0.6,), fast_speeds=0),
+        circle=dataclasses.replace(bench.circle, turns=0.25),
     )
     monkeypatch.setattr(sim_bench, "default_bench", lambda: short)
     out = tmp_path / "new" / "bench"  # created with its parent

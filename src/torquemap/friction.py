@@ -426,9 +426,10 @@ def fit_friction(
         unphysical = c2[0] < 0 or c2[1] < 0
         if (stribeck == "always" or passes_test) and c2[3] > 0 and c2[4] > 0 and unphysical:
             warnings.append(
-                f"{name}a Stribeck term would need a negative Coulomb level "
-                f"({min(float(c2[0]), float(c2[1])):.3g} N m): not physical, not used "
-                "(friction of another form than Stribeck's; --friction whole fits any shape)"
+                f"{name}would need a negative Coulomb level "
+                f"({min(float(c2[0]), float(c2[1])):.3g} N m) under a Stribeck term: not "
+                "physical, not used (friction of another form than Stribeck's; --friction "
+                "whole fits any shape)"
             )
         elif (stribeck == "always" or passes_test) and c2[3] > 0 and c2[4] > 0:
             used = True

@@ -1149,6 +1149,11 @@ def _identify_whole(
             steady_speeds=[abs(p.speed) for _, p in res.passes],
             held_inertia=_determined_inertia(res),
         )
+        # the pass method's friction law is replaced: its warnings (a Stribeck term it could
+        # not use, a Coulomb level it clipped) no longer describe the model
+        if res.friction is not None:
+            dropped = set(res.friction.warnings)
+            warnings = [w for w in warnings if w not in dropped]
         warnings.extend(fit.warnings)
         coulomb = 0.5 * float(np.sum(fit.law.levels(np.array([fit.observed_speed]))))
         # a warning only: torquemap.vertical (every method, with nuisance columns for the

@@ -1071,7 +1071,7 @@ def fit_joint_whole(
             )
         fixed, fixed_names, a, prior, fit = refit(final_orders, with_inertia=False, elbow=False)
     m = fixed.shape[1]
-    fit, bound_note = _dissipative(a, y, fit, prior, m, k, noise=noise)
+    fit, bound_note = _dissipative(a, y, fit, prior, m, speeds, noise=noise)
     if bound_note:
         warnings.append(bound_note)
     scale = robust_scale(fit.residual[keep > 0])
@@ -1170,30 +1170,46 @@ def _dissipative(
     fit: _Trial,
     prior: NDArray[np.float64],
     m: int,
-    k: int,
+    speeds: Sequence[float],
     *,
     noise: float | None = None,
 ) -> tuple[_Trial, str]:
-    """The fit with every table level and viscous slope >= 0 (friction opposes motion).
+    """The fit with friction that opposes motion: ``g(s) >= 0`` at every knot, viscous >= 0.
 
-    An unconstrained fit that breaks this is refitted by bounded least squares on the same
-    (penalised, weighted) normal equations; the note says so when the bound moved a value by
-    more than twice its standard deviation (the logs then hold something the law cannot be).
+    Dissipation asks the friction magnitude of each direction, ``g(s) = level(s) + viscous *
+    s``, to be >= 0, not each of its parts: a law rising faster than linearly (drag growing
+    with the square of the speed, say) is a large viscous slope over levels that fall below 0
+    at the top knots, and is dissipative. So the constraint is on ``g`` at the knots (on the
+    first knot's level itself, so that ``g`` stays >= 0 down to rest) and on the viscous
+    slopes (so that it stays >= 0 above the top knot). Between two knots ``g`` lies at most
+    6 % of ``viscous * s`` below the chord of its knot values (``s`` convex in log speed, the
+    knots at most 1.8x apart). An unconstrained fit that breaks this is refitted by bounded
+    least squares on the same (penalised, weighted) normal equations, in the coordinates
+    ``g(s_i)``; the note says so when the bound moved a value by more than twice its standard
+    deviation (the logs then hold something the law cannot be).
     """
     p = a.shape[1]
+    k = len(speeds)
+    # theta = to_table @ phi: phi holds g(s_i) at knots 1..k-1 in place of their levels
+    to_table = np.eye(p)
+    s = np.asarray(speeds, dtype=np.float64)
+    for start, slope in ((m, m + 2 * k), (m + k, m + 2 * k + 1)):
+        to_table[start + 1 : start + k, slope] = -s[1:]
+    to_magnitude = np.linalg.inv(to_table)
     lower = np.full(p, -np.inf)
     lower[m:] = 0.0
-    if np.all(fit.coef >= lower - 1e-15):
+    phi = to_magnitude @ fit.coef
+    if np.all(phi >= lower - 1e-15):
         return fit, ""
     w = fit.weights
-    normal = a.T @ (a * w[:, None]) + prior
-    rhs = a.T @ (w * y)
+    normal = to_table.T @ (a.T @ (a * w[:, None]) + prior) @ to_table
+    rhs = to_table.T @ (a.T @ (w * y))
     d = np.sqrt(np.maximum(np.diag(normal), 1e-300))
     scaled = normal / np.outer(d, d) + 1e-12 * np.eye(p)
     chol = np.linalg.cholesky(scaled)
     target = np.linalg.solve(chol, rhs / d)
     res = optimize.lsq_linear(chol.T, target, bounds=(lower * d, np.full(p, np.inf)))
-    coef = res.x / d
+    coef = to_table @ (res.x / d)
     r = y - a @ coef
     bounded = _Trial(
         coef=coef,
@@ -1205,14 +1221,14 @@ def _dissipative(
     # the posterior standard deviation (``noise``: the residual's variance with the rows'
     # correlation, as in the prior's scale)
     var = robust_scale(fit.residual) ** 2 if noise is None else noise
-    sd = np.sqrt(np.maximum(np.diag(fit.bread), 0.0) * var)
-    moved = (fit.coef < 0) & (np.arange(p) >= m) & (-fit.coef > 2.0 * sd)
+    sd = np.sqrt(np.maximum(np.diag(to_magnitude @ fit.bread @ to_magnitude.T), 0.0) * var)
+    moved = (phi < 0) & (np.arange(p) >= m) & (-phi > 2.0 * sd)
     note = ""
     if moved.any():
         note = (
-            "the unconstrained friction fit was not dissipative (a level or viscous slope "
-            f"below 0 by more than 2 sigma, as low as {float(fit.coef[moved].min()):.3g}): "
-            "friction was held at >= 0 there; the logs may hold a load the model lacks "
+            "the unconstrained friction fit was not dissipative (friction at a knot speed or "
+            f"a viscous slope below 0 by more than 2 sigma, as low as {float(phi[moved].min()):.3g}"
+            "): friction was held at >= 0 there; the logs may hold a load the model lacks "
             "(gravity, a spring) or be misaligned"
         )
     return bounded, note

@@ -300,7 +300,10 @@ def sanitize_log(log: Log, *, window: float, min_piece: float | None = None) -> 
     if n > 1:
         repeated[1:] = np.diff(t) <= 0
     if repeated.any():
-        warnings.append(f"{int(repeated.sum())} samples repeat the previous time stamp: dropped")
+        count = int(repeated.sum())
+        first = float(t[int(np.argmax(repeated))])
+        what = "1 sample repeats" if count == 1 else f"{count} samples repeat"
+        warnings.append(f"{what} the previous time stamp (first at t = {first:.6g} s): dropped")
     keep = np.flatnonzero(~repeated)
     if keep.size == n:  # no repeated stamp: copies (bridging writes into them), no gather
         tk, q, tau = t, log.q.copy(), log.motor_torque.copy()
