@@ -17,8 +17,14 @@ columns (``fx_sigma``, ``fy_sigma``), the share of force-component errors within
 Methods: ``model`` and ``paper`` on the default identification, ``passes`` (``model`` on the
 pass-only identification, ``identify --friction passes``; on a tree without that option it is
 the default identification, which is then the pass method), and the oracle (the true model
-through the same ``model`` pipeline, with the simulator's exact friction law). A stage that
-refuses (identify or estimate) counts as every sample flagged.
+through the same ``model`` pipeline, with the simulator's exact friction law), and ``plain``:
+the naive baseline a user would try first (:func:`plain_fit`: per joint, ordinary least
+squares over every sweep sample where that joint moves alone, with inertia, per-direction
+Coulomb, viscous, a per-direction Stribeck term with its velocity searched on a grid, and 40
+harmonics of the motor angle; no delay, no weights, no sigma), run by the ``model`` method. A
+stage that refuses (identify, the plain fit or estimate) counts as every sample flagged.
+Table 2b splits the whole and the plain fits' ratios to the oracle into the samples the pass
+model answers ("steady") and the rest ("below").
 Targets (issue 12): median <= 1.5x the oracle, worst <= 3x, flagged < 5 % on every robot, 90-99 %
 of errors within 2 sigma.
 """
@@ -43,9 +49,20 @@ import numpy as np
 
 from torquemap.errors import InputError
 from torquemap.estimate import estimate_forces, forces_columns
-from torquemap.identify import identify_model
-from torquemap.io import log_from_columns, read_log, read_table
-from torquemap.model import Model, load_model, model_from_dict
+from torquemap.filters import differentiate
+from torquemap.friction_law import StribeckFriction
+from torquemap.identify import _still_mask, _velocity_resolution, identify_model
+from torquemap.io import Log, log_from_columns, read_log, read_table
+from torquemap.model import (
+    InertiaModel,
+    JointModel,
+    Model,
+    PdtvLine,
+    load_model,
+    model_from_dict,
+)
+from torquemap.robot import Robot
+from torquemap.sanitize import sanitize_log
 from torquemap.sim.bench import simulate_bench, write_scara_bench
 from torquemap.sim.scara import ScaraBench
 from torquemap.sim.scara_family import random_bench
@@ -53,12 +70,13 @@ from torquemap.sim.score import PAPER_FORCE, common_mask, force_error
 from torquemap.sim.trajectory import circle_reference
 from torquemap.sim.truth_law import TrueFriction
 
-METHODS = ("whole", "passes", "paper", "oracle")
+METHODS = ("whole", "passes", "paper", "plain", "oracle")
 #: method -> (identification, estimation method); the oracle is the true model
 PIPELINES = {
     "whole": ("whole", "model"),
     "passes": ("passes", "model"),
     "paper": ("passes", "paper"),
+    "plain": ("plain", "model"),
 }
 
 
@@ -131,6 +149,191 @@ def paper_table(seed: int, cutoff: float) -> str:
     return "\n".join(lines)
 
 
+# -- the plain least-squares baseline --------------------------------------------------------
+
+#: Harmonics of the motor angle the plain fit holds (cos and sin of n theta, n = 1..40).
+PLAIN_HARMONICS = 40
+#: Stribeck velocities tried by the plain fit, log-spaced between the slowest and the 99th
+#: percentile speed of the joint's selected samples.
+PLAIN_STRIBECK_GRID = 25
+
+
+def _plain_fixed(
+    velocity: np.ndarray,
+    acceleration: np.ndarray,
+    theta: np.ndarray,
+    modulation: np.ndarray | None,
+    harmonics: int,
+) -> np.ndarray:
+    """The plain fit's regressors but the Stribeck pair (:func:`plain_fit`): inertia (and its
+    elbow term), Coulomb per direction, viscous, then cos and sin of each harmonic."""
+    pos = (velocity > 0).astype(float)
+    cols = [acceleration]
+    if modulation is not None:
+        cols.append(modulation * acceleration)
+    cols += [pos, pos - 1.0, velocity]
+    phase = theta[:, None] * np.arange(1, harmonics + 1)[None, :]
+    return np.column_stack([*cols, np.cos(phase), np.sin(phase)])
+
+
+def _plain_stribeck(velocity: np.ndarray, stribeck_velocity: float) -> np.ndarray:
+    """The plain fit's Stribeck pair: ``[w > 0] s`` and ``-[w < 0] s``, ``s = exp(-(w/vs)^2)``."""
+    pos = (velocity > 0).astype(float)
+    s = np.exp(-((velocity / stribeck_velocity) ** 2))
+    return np.column_stack([pos * s, (pos - 1.0) * s])
+
+
+def _scaled_lstsq(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Least squares with unit-norm columns (the harmonics and the accelerations differ by
+    orders of magnitude)."""
+    scale = np.linalg.norm(x, axis=0)
+    scale[scale == 0] = 1.0
+    coef, *_ = np.linalg.lstsq(x / scale, y, rcond=None)
+    return np.asarray(coef / scale)
+
+
+def plain_fit(
+    robot: Robot,
+    logs: list[Log],
+    *,
+    window: float = 0.05,
+    harmonics: int = PLAIN_HARMONICS,
+    grid: int = PLAIN_STRIBECK_GRID,
+) -> Model:
+    """The naive baseline (issue 12): per joint, ordinary least squares over every sweep sample
+    where that joint moves alone, as a :class:`torquemap.model.Model` the ``model`` method runs.
+
+    Samples: each log sanitised as ``identify`` does (:func:`torquemap.sanitize.sanitize_log`:
+    cut at gaps, implausible samples left out), differentiated by the library's
+    :func:`torquemap.filters.differentiate` (local quadratic, ``window`` [s], the model's
+    default 0.05 s); for joint k the samples ``identify``'s whole fit uses for a joint moving
+    alone (``torquemap.identify._still_mask``: every other joint slower than 2 % of its own 99th
+    percentile speed and 5 % of joint k's) at motor speeds of at least 3 velocity resolutions
+    (one encoder count per window, ``torquemap.identify._velocity_resolution``; slower samples
+    are at rest, where friction is not a function of velocity).
+
+    Model, motor side, for motor velocity ``w``, acceleration ``a``, angle ``theta`` and
+    ``p = [w > 0]``, ``m = [w < 0]``, ``s = exp(-(|w| / vs)^2)``::
+
+        tau = J a (+ J_c cos(q_elbow) a) + C+ p - C- m + B w + S+ p s - S- m s
+              + sum_{n=1..40} (a_n cos(n theta) + b_n sin(n theta))
+
+    (the elbow column where the arm modulates the joint's inertia and the elbow angle varies
+    by 0.2 or more in its cosine, as ``identify`` does), by ordinary (unweighted) least squares;
+    one ``vs`` per joint, picked on a log grid of ``grid`` values by the residual sum of
+    squares. No delay of the torque channel, no significance test, no robust weights.
+
+    The fitted law is a :class:`torquemap.friction_law.StribeckFriction` (per-direction Coulomb
+    and Stribeck levels, one Stribeck velocity, exponent 2) with a linear transition of half
+    width one velocity resolution; the joint's notes say ``friction_fit = "whole"`` so that
+    the estimator treats the law as known through zero speed, as it treats the oracle's
+    (answers everywhere, bridging 4 transition widths around a reversal). The harmonics are
+    PDTV lines of orders 1..40 (direction ``"both"``). No uncertainty: the estimate has no sigma.
+
+    Raises
+    ------
+    InputError
+        When a joint has fewer samples than columns where it moves alone.
+    """
+    pieces: list[Log] = []
+    sound: list[np.ndarray] = []
+    for log in logs:
+        clean = sanitize_log(log, window=window)
+        for piece in clean.pieces:
+            pieces.append(piece.log)
+            sound.append(~clean.implausible[piece.rows])
+    derivs = [
+        [
+            differentiate(p.t, j.gear_ratio * p.q[:, k], window=window)
+            for k, j in enumerate(robot.joints)
+        ]
+        for p in pieces
+    ]
+    nj = len(robot.joints)
+    p99 = [
+        float(np.percentile(np.concatenate([np.abs(d[k].velocity) for d in derivs]), 99))
+        for k in range(nj)
+    ]
+    joints: dict[str, JointModel] = {}
+    joint_notes: dict[str, dict[str, Any]] = {}
+    for k, joint in enumerate(robot.joints):
+        resolution = _velocity_resolution(pieces, joint.gear_ratio, k, window)
+        parts: dict[str, list[np.ndarray]] = {"w": [], "a": [], "th": [], "mod": [], "y": []}
+        for p, d, ok in zip(pieces, derivs, sound, strict=True):
+            use = _still_mask(d, k, p99) & ok & (np.abs(d[k].velocity) >= 3.0 * resolution)
+            parts["w"].append(d[k].velocity[use])
+            parts["a"].append(d[k].acceleration[use])
+            parts["th"].append(joint.gear_ratio * p.q[use, k])
+            parts["mod"].append(robot.arm.inertia_modulation(p.q[use])[:, k])
+            parts["y"].append(p.motor_torque[use, k])
+        w, a, th, mod, y = (np.concatenate(parts[key]) for key in ("w", "a", "th", "mod", "y"))
+        modulation = mod if mod.size and float(mod.max() - mod.min()) >= 0.2 else None
+        n_cols = 6 + (modulation is not None) + 2 * harmonics
+        if w.size < 2 * n_cols:
+            raise InputError(
+                f"joint {joint.name}: {w.size} samples where it moves alone, fewer than twice "
+                f"the plain fit's {n_cols} columns"
+            )
+        speed = np.abs(w)
+        grid_vs = np.geomspace(float(speed.min()), float(np.percentile(speed, 99)), grid)
+        # only the Stribeck pair changes with vs: the normal equations of the rest once, the
+        # pair's cross terms per trial (residual sum of squares from the scaled normal
+        # equations); the pick refitted by lstsq
+        fixed = _plain_fixed(w, a, th, modulation, harmonics)
+        scale = np.linalg.norm(fixed, axis=0)
+        scale[scale == 0] = 1.0
+        fs = fixed / scale
+        gram, fy, yy = fs.T @ fs, fs.T @ y, float(y @ y)
+        rss_of = []
+        for vs in grid_vs:
+            pair = _plain_stribeck(w, float(vs))
+            ps = pair / np.maximum(np.linalg.norm(pair, axis=0), 1e-300)
+            cross = fs.T @ ps
+            g = np.block([[gram, cross], [cross.T, ps.T @ ps]])
+            r = np.concatenate([fy, ps.T @ y])
+            c, *_ = np.linalg.lstsq(g, r, rcond=None)
+            rss_of.append(yy - float(r @ c))
+        vs = float(grid_vs[int(np.argmin(rss_of))])
+        x = np.hstack([fixed, _plain_stribeck(w, vs)])
+        coef = _scaled_lstsq(x, y)
+        rss = float(np.sum((y - x @ coef) ** 2))
+        inertia = float(coef[0])
+        cos_elbow = float(coef[1]) if modulation is not None else 0.0
+        at = 1 + (modulation is not None)
+        c_pos, c_neg, viscous = (float(value) for value in coef[at : at + 3])
+        ca, sb = coef[at + 3 : at + 3 + harmonics], coef[at + 3 + harmonics : -2]
+        s_pos, s_neg = float(coef[-2]), float(coef[-1])
+        law = StribeckFriction(
+            coulomb_positive=c_pos,
+            coulomb_negative=c_neg,
+            viscous=viscous,
+            stribeck_positive=s_pos,
+            stribeck_negative=s_neg,
+            stribeck_velocity=vs,
+            zero_velocity=resolution,
+            transition="linear",
+        )
+        lines = tuple(
+            PdtvLine(
+                order=float(n + 1),
+                amplitude=float(math.hypot(ca[n], sb[n])),
+                phase=float(math.atan2(-sb[n], ca[n])),
+            )
+            for n in range(harmonics)
+        )
+        joints[joint.name] = JointModel(
+            inertia=InertiaModel(constant=inertia, cos_elbow=cos_elbow), friction=law, pdtv=lines
+        )
+        joint_notes[joint.name] = {
+            "friction_fit": "whole",
+            "plain_samples": int(w.size),
+            "plain_residual_rms": math.sqrt(rss / w.size),
+            "velocity_resolution": resolution,
+        }
+    notes = {"differentiation_window": window, "friction_fit": "plain", "joints": joint_notes}
+    return Model(robot=robot, joints=joints, notes=notes)
+
+
 # -- table 2: the family -------------------------------------------------------------------
 
 
@@ -178,7 +381,11 @@ def _score(est: Any, true_force: np.ndarray, spring: float) -> dict[str, Any]:
     }
     if "fx_sigma" in cols and "fy_sigma" in cols and ok.any():
         sigma = np.c_[cols["fx_sigma"], cols["fy_sigma"]][ok]
-        out["within"] = float(np.mean(np.abs(err[ok]) <= 2.0 * sigma))
+        # a model without uncertainty (passes' paper method, the oracle, plain) gives NaN
+        # sigmas: no share, not 0 %
+        if np.isfinite(sigma).any():
+            has = np.isfinite(sigma)
+            out["within"] = float(np.mean(np.abs(err[ok][has]) <= 2.0 * sigma[has]))
     return out
 
 
@@ -209,6 +416,14 @@ def family_robot(seed: int, cutoff: float) -> dict[str, Any]:
         except Exception as exc:  # a benchmark reports, it does not stop
             models[key] = f"identify failed: {type(exc).__name__}: {exc}"
         times[key] = time.perf_counter() - t1
+    t1 = time.perf_counter()
+    try:
+        models["plain"] = plain_fit(robot, [sweep])
+    except InputError as exc:
+        models["plain"] = f"plain fit refused: {exc.message}"
+    except Exception as exc:
+        models["plain"] = f"plain fit failed: {type(exc).__name__}: {exc}"
+    times["plain"] = time.perf_counter() - t1
     scores: dict[str, dict[str, Any]] = {}
     # the oracle: the better of the true laws through the same pipeline (static, and for a
     # LuGre law its bristles integrated along the circle's velocity)
@@ -235,19 +450,20 @@ def family_robot(seed: int, cutoff: float) -> dict[str, Any]:
             scores[method] = {"error": f"estimate failed: {type(exc).__name__}: {exc}"}
     o = dict(scores["oracle"])
     # where the sweeps hold steady data (the samples the pass model answers: every joint at or
-    # above its slowest steady pass, outside reversals) and elsewhere, the whole fit's ratio
+    # above its slowest steady pass, outside reversals) and elsewhere, the whole and the plain
+    # fits' ratios
     steady = scores["passes"].get("ok")
-    w = scores["whole"]
-    for part, mask in (("steady", steady), ("below", None if steady is None else ~steady)):
-        w["ratio_" + part] = math.nan
-        if mask is None or "ok" not in w or "ok" not in o:
-            continue
-        both = mask & w["ok"] & o["ok"]
-        den = float(np.mean(np.sum(o["err"][both] ** 2, axis=1))) if both.sum() >= 10 else 0.0
-        if den > 0:
-            num = float(np.mean(np.sum(w["err"][both] ** 2, axis=1)))
-            w["ratio_" + part] = math.sqrt(num / den)
-        w["share_" + part] = float(both.mean())
+    for w in (scores["whole"], scores["plain"]):
+        for part, mask in (("steady", steady), ("below", None if steady is None else ~steady)):
+            w["ratio_" + part] = math.nan
+            if mask is None or "ok" not in w or "ok" not in o:
+                continue
+            both = mask & w["ok"] & o["ok"]
+            den = float(np.mean(np.sum(o["err"][both] ** 2, axis=1))) if both.sum() >= 10 else 0.0
+            if den > 0:
+                num = float(np.mean(np.sum(w["err"][both] ** 2, axis=1)))
+                w["ratio_" + part] = math.sqrt(num / den)
+            w["share_" + part] = float(both.mean())
     for s in scores.values():
         s.setdefault("rms", math.nan)
         s.setdefault("flagged", 1.0)
@@ -344,18 +560,21 @@ def _split_table(results: list[dict[str, Any]]) -> str:
     ]
     head = f"{'part':<8}{'median share':>14}{'med ratio':>11}{'worst ratio':>13}{'worst robot':>13}"
     lines += [head, "-" * len(head)]
-    for part in ("steady", "below"):
-        whole = [r["scores"]["whole"] for r in results]
-        ratio = np.array([w.get("ratio_" + part, math.nan) for w in whole], dtype=float)
-        share = np.array([w.get("share_" + part, math.nan) for w in whole], dtype=float)
-        if not np.isfinite(ratio).any():
-            lines.append(f"{part:<8}{'-':>14}{'-':>11}{'-':>13}{'-':>13}")
-            continue
-        worst = int(np.nanargmax(ratio))
-        lines.append(
-            f"{part:<8}{np.nanmedian(share):>14.0%}{np.nanmedian(ratio):>11.2f}"
-            f"{ratio[worst]:>13.2f}{results[worst]['seed']:>13d}"
-        )
+    for method in ("whole", "plain"):
+        if method == "plain":
+            lines.append("plain / oracle, the same split:")
+        for part in ("steady", "below"):
+            rows = [r["scores"][method] for r in results]
+            ratio = np.array([w.get("ratio_" + part, math.nan) for w in rows], dtype=float)
+            share = np.array([w.get("share_" + part, math.nan) for w in rows], dtype=float)
+            if not np.isfinite(ratio).any():
+                lines.append(f"{part:<8}{'-':>14}{'-':>11}{'-':>13}{'-':>13}")
+                continue
+            worst = int(np.nanargmax(ratio))
+            lines.append(
+                f"{part:<8}{np.nanmedian(share):>14.0%}{np.nanmedian(ratio):>11.2f}"
+                f"{ratio[worst]:>13.2f}{results[worst]['seed']:>13d}"
+            )
     return "\n".join(lines)
 
 
@@ -368,7 +587,8 @@ def family_tables(results: list[dict[str, Any]], cutoff: float) -> str:
         f"cut-off {cutoff:g} Hz): RMS force error in % of each robot's spring force over the "
         "samples the method answers; ratio to the oracle over the samples both answer"
         + "; whole = model method on identify --friction whole, passes = model method on "
-        "--friction passes, paper = paper method on --friction passes"
+        "--friction passes, paper = paper method on --friction passes, plain = model method "
+        "on the plain least-squares baseline (plain_fit, no sigma)"
     ]
     head = (
         f"{'method':<8}{'median %':>10}{'worst %':>10}{'med ratio':>11}{'worst ratio':>13}"
@@ -456,7 +676,8 @@ def family_tables(results: list[dict[str, Any]], cutoff: float) -> str:
         f"total {total:.0f} s (simulate median "
         f"{np.median([r['t_sim'] for r in results]):.0f} s; identify median / worst: whole "
         f"{np.median(t_id['whole']):.0f} / {np.max(t_id['whole']):.0f} s, passes "
-        f"{np.median(t_id['passes']):.0f} / {np.max(t_id['passes']):.0f} s)"
+        f"{np.median(t_id['passes']):.0f} / {np.max(t_id['passes']):.0f} s, plain fit "
+        f"{np.median([r['t_identify'].get('plain', math.nan) for r in results]):.0f} s)"
     )
     return "\n".join(lines)
 

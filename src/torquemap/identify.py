@@ -466,7 +466,6 @@ def _identify_joint(
     # the sign of motion is trusted from two encoder counts per differentiator window on
     zero_velocity = 2.0 * resolution
     ff = fit_friction(speeds, means, stribeck=stribeck, zero_velocity=zero_velocity, joint=name)
-    warnings.extend(ff.warnings)
     friction = ff.friction
 
     elbow_k = _elbow_joint(rb, k)
@@ -523,6 +522,8 @@ def _identify_joint(
         ff = fit_friction(speeds, means, stribeck=stribeck, zero_velocity=zero_velocity, joint=name)
         friction = ff.friction
         inertia = inertia_fit((), 0.0)
+    # the warnings of the law the model keeps (the first fit's may not hold after the refit)
+    warnings.extend(ff.warnings)
     lines: tuple[PdtvLine, ...] = ()
     pd = _identify_pdtv(
         rb,

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -121,6 +121,23 @@ def friction_torque(velocity: ArrayLike, friction: FrictionLaw) -> NDArray[np.fl
     array([ 0.12, -0.22])
     """
     return friction.torque(velocity)
+
+
+def pdtv_summary(lines: Sequence[PdtvLine], top: int = 3) -> str:
+    """The ``top`` largest lines as one phrase, a directional line marked ``(+)`` or ``(-)``.
+
+    >>> pdtv_summary([PdtvLine(order=2.0, amplitude=0.004, phase=0.0),
+    ...               PdtvLine(order=2.0, amplitude=0.003, phase=0.0, direction="negative")])
+    '2 CPR 0.004 N m, 2 CPR (-) 0.003 N m'
+    >>> pdtv_summary([])
+    'none'
+    """
+    mark = {"both": "", "positive": " (+)", "negative": " (-)"}
+    best = sorted(lines, key=lambda ln: -ln.amplitude)[:top]
+    return (
+        ", ".join(f"{ln.order:g} CPR{mark[ln.direction]} {ln.amplitude:.3g} N m" for ln in best)
+        or "none"
+    )
 
 
 def pdtv_torque(

@@ -108,7 +108,7 @@ def _verify(args: argparse.Namespace) -> int:
 def identify_holds(model: Any, logs: Any, args: argparse.Namespace) -> int:
     """``identify --quasi-static``: PDTV lines from position holds; writes the model."""
 
-    from torquemap.model import save_model
+    from torquemap.model import pdtv_summary, save_model
     from torquemap.quasistatic import identify_quasi_static
 
     result = identify_quasi_static(model, logs, joints=args.joint, max_order=args.max_order)
@@ -116,8 +116,8 @@ def identify_holds(model: Any, logs: Any, args: argparse.Namespace) -> int:
     for w in result.warnings:
         print(f"torquemap: warning: {w}", file=sys.stderr)
     for name, jr in result.joints.items():
-        lines = sorted(result.model.joints[name].pdtv, key=lambda ln: -ln.amplitude)
-        top = ", ".join(f"{ln.order:g} CPR {ln.amplitude:.3g} N m" for ln in lines[:3]) or "none"
+        lines = result.model.joints[name].pdtv
+        top = pdtv_summary(lines)
         print(
             f"{name}: {jr.holds.torque.size} holds at {jr.positions} positions per revolution, "
             f"orders searched up to {jr.max_order} CPR, {len(lines)} PDTV lines (top: {top}), "

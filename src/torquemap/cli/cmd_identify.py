@@ -189,7 +189,7 @@ def _identify(args: argparse.Namespace) -> int:
 def _identify_logs(args: argparse.Namespace) -> int:
     from torquemap.identify import identify_model
     from torquemap.io import read_log, write_toml
-    from torquemap.model import load_model, model_to_dict
+    from torquemap.model import load_model, model_to_dict, pdtv_summary
 
     output_suffix(args.output, (".toml",), "model")
     check_outputs([(args.output, TOML)], [args.robot, *args.logs])
@@ -232,8 +232,7 @@ def _identify_logs(args: argparse.Namespace) -> int:
     for name, jr in result.joints.items():
         jm = result.model.joints[name]
         f = jm.friction.to_dict()
-        top = sorted(jm.pdtv, key=lambda ln: -ln.amplitude)[:3]
-        lines = ", ".join(f"{ln.order:g} CPR {ln.amplitude:.3g} N m" for ln in top) or "none"
+        lines = pdtv_summary(jm.pdtv)
         if "speeds" in f:  # a friction table (identify --friction whole)
             up, down = jm.friction.static_levels()
             law = (
