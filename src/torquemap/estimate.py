@@ -39,7 +39,7 @@ from numpy.typing import NDArray
 
 from torquemap._callable import make_callable as _make_callable
 from torquemap.errors import InputError
-from torquemap.filters import Rates, differentiate_rates, lowpass
+from torquemap.filters import Rates, differentiate_rates, lowpass, regular_step
 from torquemap.io import Log
 from torquemap.model import Model, friction_torque, pdtv_torque
 from torquemap.pdtv import (
@@ -226,23 +226,28 @@ def _signal(
         )
     gears = np.array([joint.gear_ratio for joint in robot.joints], dtype=np.float64)
     thetas = log.q * gears  # each column as gear_ratio * q
-    if rates is None:
-        # every joint in one call: they share the time axis, and on irregular time the
-        # windows and their sums of time powers are found once
-        try:
+    both = None
+    try:
+        if rates is None and nj > 1 and regular_step(log.t, rtol=1e-9) is None:
+            # irregular time: every joint in one call, the windows and their sums of time
+            # powers found once (a regular log's Savitzky-Golay runs per column anyway)
             both = differentiate_rates(log.t, thetas, window=window)
-        except InputError as exc:
-            raise InputError(exc.message, path=log.path) from None
+    except InputError as exc:
+        raise InputError(exc.message, path=log.path) from None
     for k, joint in enumerate(robot.joints):
-        theta = thetas[:, k]
-        d = (
-            Rates(
+        theta = np.ascontiguousarray(thetas[:, k])
+        if rates is not None:
+            d = rates[k]
+        elif both is not None:
+            d = Rates(
                 velocity=np.ascontiguousarray(both.velocity[:, k]),
                 acceleration=np.ascontiguousarray(both.acceleration[:, k]),
             )
-            if rates is None
-            else rates[k]
-        )
+        else:
+            try:
+                d = differentiate_rates(log.t, theta, window=window)
+            except InputError as exc:
+                raise InputError(exc.message, path=log.path) from None
         jm = model.joints[joint.name]
         inertia = jm.inertia.constant + jm.inertia.cos_elbow * modulation[:, k]
         t_est[:, k] = (

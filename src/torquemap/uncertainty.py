@@ -126,9 +126,11 @@ def parameter_variance(
 
     ``rate="decimated"`` (the default) runs the low-pass and the factor's product at a rate
     at least :data:`torquemap.multirate.DECIMATED_RATE` cut-offs (:mod:`torquemap.multirate`)
-    where the log is regular and fast enough (an odd factor ``m >= 3`` and enough samples),
-    within :data:`torquemap.multirate.VARIANCE_RTOL` of the full rate (7.9e-5 relative at
-    worst on the SCARA bench's circle); ``"full"`` at every sample. ``phasor``: ``(cos
+    where the log is fast enough (an odd factor ``m >= 3`` and enough samples), within
+    :data:`torquemap.multirate.VARIANCE_RTOL` of the full rate (7.9e-5 relative at worst on
+    the SCARA bench's circle); an irregular log on the grid :func:`torquemap.filters.lowpass`
+    resamples it to (:func:`torquemap.multirate.resample_grid`), within the same bound of the
+    direct formula; ``"full"`` at every sample. ``phasor``: ``(cos
     theta, sin theta)`` when the caller has them (the same numbers, computed once).
 
     Notes
@@ -147,8 +149,9 @@ def parameter_variance(
     with ``C`` is formed: one (n, p) array instead of four. At the full rate, equal to
     :func:`parameter_variance_direct` to rounding (1e-10 relative on the SCARA bench's
     model; tests/test_uncertainty.py); the covariance's negative eigenvalues (rounding) are
-    taken as zero. On irregular time stamps, a filter other than the order-2 Butterworth or
-    non-finite inputs, the direct formula is used.
+    taken as zero. On irregular time stamps not decimated (``rate="full"``, a slow or short
+    log), a filter other than the order-2 Butterworth or non-finite inputs, the direct
+    formula is used.
     """
     signals = {
         "t": t,
@@ -214,8 +217,8 @@ def _parameter_variance_by_directions(
     phasor: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
 ) -> NDArray[np.float64] | None:
     """:func:`parameter_variance` by a triangular factor of the covariance (compiled
-    kernels), or None where that does not apply (irregular time, an invalid cut-off: the direct formula
-    handles or refuses those)."""
+    kernels), or None where that does not apply (irregular time at the full rate, an invalid
+    cut-off: the direct formula handles or refuses those)."""
     from torquemap import multirate
     from torquemap._kernels import decimated_variance, lowpassed_variance, max_abs
     from torquemap.filters import _butter_lowpass, _initial_state, regular_step
