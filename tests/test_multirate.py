@@ -62,6 +62,18 @@ def _irregular(t: np.ndarray, columns: np.ndarray, cutoff: float) -> tuple[np.nd
     return full, multirate.variance_at(t, grid.times, var, steps)
 
 
+def _random_combinations(t: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Five random combinations (5, n) of signals with content at every frequency: a chirp,
+    random steps, a slow drift, white noise and a constant."""
+    n = t.size
+    chirp = np.sin(2 * np.pi * (0.1 + 20.0 * t / t[-1]) * t)
+    steps = np.cumsum(rng.random(n) < 2e-4) % 2 - 0.5
+    drift = np.cumsum(rng.standard_normal(n)) / np.sqrt(n)
+    noise = rng.standard_normal(n)
+    columns = np.stack([chirp, steps, drift, noise, 1.0 + 0.0 * t])
+    return np.ascontiguousarray(rng.standard_normal((5, 5)) @ columns)
+
+
 def _jittered(n: int, fs: float, rng: np.random.Generator) -> np.ndarray:
     """Stamps at ``fs`` jittered by up to 3 % of a step, with one sample in 50 dropped."""
     t = (np.arange(n) + rng.uniform(-0.03, 0.03, n)) / fs
@@ -115,13 +127,7 @@ def test_random_regressor_within_the_stated_accuracy(seed: int) -> None:
     rng = np.random.default_rng(seed)
     fs, n = 2000.0, 60_000
     t = np.arange(n) / fs
-    chirp = np.sin(2 * np.pi * (0.1 + 20.0 * t / t[-1]) * t)
-    steps = np.cumsum(rng.random(n) < 2e-4) % 2 - 0.5
-    drift = np.cumsum(rng.standard_normal(n)) / np.sqrt(n)
-    noise = rng.standard_normal(n)
-    columns = np.stack([chirp, steps, drift, noise, 1.0 + 0.0 * t])
-    mix = rng.standard_normal((5, 5))
-    full, fast = _both(_dense_spec(np.ascontiguousarray(mix @ columns)), fs, 2.0)
+    full, fast = _both(_dense_spec(_random_combinations(t, rng)), fs, 2.0)
     np.testing.assert_allclose(fast, full, rtol=multirate.VARIANCE_RTOL, atol=0.0)
 
 
@@ -142,14 +148,6 @@ def test_irregular_stamps_sinusoids_within_the_stated_bound(fs: float) -> None:
 @pytest.mark.parametrize("seed", [0, 1])
 def test_irregular_stamps_random_regressor_within_the_stated_accuracy(seed: int) -> None:
     rng = np.random.default_rng(seed)
-    fs = 2000.0
-    t = _jittered(60_000, fs, rng)
-    n = t.size
-    chirp = np.sin(2 * np.pi * (0.1 + 20.0 * t / t[-1]) * t)
-    steps = np.cumsum(rng.random(n) < 2e-4) % 2 - 0.5
-    drift = np.cumsum(rng.standard_normal(n)) / np.sqrt(n)
-    noise = rng.standard_normal(n)
-    columns = np.stack([chirp, steps, drift, noise, 1.0 + 0.0 * t])
-    mix = rng.standard_normal((5, 5))
-    full, fast = _irregular(t, np.ascontiguousarray(mix @ columns), 2.0)
+    t = _jittered(60_000, 2000.0, rng)
+    full, fast = _irregular(t, _random_combinations(t, rng), 2.0)
     np.testing.assert_allclose(fast, full, rtol=multirate.VARIANCE_RTOL, atol=0.0)

@@ -50,6 +50,31 @@ def _covariance(p: int, rng: np.random.Generator, *, rank: int | None = None) ->
     return np.asarray((scales[:, None] * a) @ (scales[:, None] * a).T)
 
 
+def _stribeck() -> StribeckFriction:
+    """A law whose basis is dense (no table)."""
+    return StribeckFriction(
+        coulomb_positive=0.05,
+        coulomb_negative=0.06,
+        viscous=1e-3,
+        stribeck_positive=0.02,
+        stribeck_negative=0.01,
+        stribeck_velocity=0.5,
+        zero_velocity=0.01,
+    )
+
+
+def _table_law(rng: np.random.Generator) -> SpeedTableFriction:
+    """A speed table of 9 knots with levels drawn from ``rng``."""
+    return SpeedTableFriction(
+        speeds=tuple(np.geomspace(0.05, 40.0, 9)),
+        positive=tuple(0.05 + 0.01 * rng.random(9)),
+        negative=tuple(0.06 + 0.01 * rng.random(9)),
+        viscous=1e-4,
+        viscous_negative=2e-4,
+        zero_velocity=0.02,
+    )
+
+
 def _names_table(law: SpeedTableFriction) -> list[str]:
     pdtv = [
         f"pdtv.{order}.{direction}.{part}"
@@ -72,14 +97,7 @@ def _names_table(law: SpeedTableFriction) -> list[str]:
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_table_law_matches_direct_formula(seed: int) -> None:
     rng = np.random.default_rng(seed)
-    law = SpeedTableFriction(
-        speeds=tuple(np.geomspace(0.05, 40.0, 9)),
-        positive=tuple(0.05 + 0.01 * rng.random(9)),
-        negative=tuple(0.06 + 0.01 * rng.random(9)),
-        viscous=1e-4,
-        viscous_negative=2e-4,
-        zero_velocity=0.02,
-    )
+    law = _table_law(rng)
     names = _names_table(law)
     cov = _covariance(len(names), rng)
     x = _signals(20_000, rng=rng)
@@ -95,15 +113,7 @@ def test_table_law_matches_direct_formula(seed: int) -> None:
 def test_rank_deficient_covariance_and_dense_law() -> None:
     # a singular C (fewer samples than parameters in a fit) and a law whose basis is dense
     rng = np.random.default_rng(7)
-    law = StribeckFriction(
-        coulomb_positive=0.05,
-        coulomb_negative=0.06,
-        viscous=1e-3,
-        stribeck_positive=0.02,
-        stribeck_negative=0.01,
-        stribeck_velocity=0.5,
-        zero_velocity=0.01,
-    )
+    law = _stribeck()
     names = ["inertia.constant", "pdtv.4.both.a", "pdtv.4.both.b"] + [
         f"friction.{k}" for k in law.linear_parameter_names
     ]
@@ -127,14 +137,7 @@ def test_irregular_time_decimated_on_the_resampled_grid(seed: int) -> None:
     # the signals are), held to the accuracy multirate states; rate="full" keeps the direct
     # formula itself
     rng = np.random.default_rng(seed)
-    law = SpeedTableFriction(
-        speeds=tuple(np.geomspace(0.05, 40.0, 9)),
-        positive=tuple(0.05 + 0.01 * rng.random(9)),
-        negative=tuple(0.06 + 0.01 * rng.random(9)),
-        viscous=1e-4,
-        viscous_negative=2e-4,
-        zero_velocity=0.02,
-    )
+    law = _table_law(rng)
     names = _names_table(law)
     cov = _covariance(len(names), rng)
     x = _signals(20_000, rng=rng)
@@ -152,15 +155,7 @@ def test_irregular_time_decimated_on_the_resampled_grid(seed: int) -> None:
 def test_irregular_short_log_takes_the_direct_formula() -> None:
     # too few decimated samples on the grid: the direct formula, bit for bit
     rng = np.random.default_rng(4)
-    law = StribeckFriction(
-        coulomb_positive=0.05,
-        coulomb_negative=0.06,
-        viscous=1e-3,
-        stribeck_positive=0.02,
-        stribeck_negative=0.01,
-        stribeck_velocity=0.5,
-        zero_velocity=0.01,
-    )
+    law = _stribeck()
     names = ["inertia.constant"] + [f"friction.{k}" for k in law.linear_parameter_names]
     cov = _covariance(len(names), rng)
     x = _signals(600, rng=rng)  # 29 decimated samples on the grid, fewer than MIN_DECIMATED
