@@ -821,11 +821,13 @@ def _estimate_piece(
                 smoothed_at[k] = len(jobs)
                 jobs.append((t_est[:, k], k))
     first_external = len(jobs)
+    residuals: dict[int, NDArray[np.float64]] = {}  # t_est less PDTV, for the noise level
     if method == "model":
         for k in lined:
             lines = model.joints[robot.joints[k].name].pdtv
             pdtv = pdtv_torque(angle[:, k], lines, velocity=velocity[:, k])
-            jobs.append((t_est[:, k] - pdtv, k))
+            residuals[k] = t_est[:, k] - pdtv
+            jobs.append((residuals[k], k))
     plans: list[tuple[int, int, Any]] = []
     columns: list[NDArray[np.float64]] = []
     for x, k in jobs:
@@ -886,9 +888,17 @@ def _estimate_piece(
                 )
     sigma = np.full((n, nj), np.nan)
     if method == "model":
-        from torquemap.uncertainty import bridge_departure, joint_sigma
+        from torquemap.uncertainty import bridge_departure, joint_sigma, noise_excess
 
         for k, joint in enumerate(robot.joints):
+            # white noise this log holds beyond the identification logs' (a slower logger)
+            extra = noise_excess(
+                model,
+                joint.name,
+                t=log.t,
+                residual=residuals.get(k, t_est[:, k]),
+                velocity=velocity[:, k],
+            )
             sigma[:, k] = joint_sigma(
                 model,
                 joint.name,
@@ -899,6 +909,7 @@ def _estimate_piece(
                 modulation=modulation[:, k],
                 cutoff=cutoff,
                 bridged=rests[k],
+                extra_psd=extra,
             )
             if rests[k].any() and joint.name in whole:
                 # where the answer is a line carried over a bridged run: the load's departure
