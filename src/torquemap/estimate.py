@@ -858,13 +858,15 @@ def _estimate_piece(
     first_external = len(jobs)
     # cos and sin of each lined joint's motor angle, for its PDTV and its sigma's regressor
     phasors: dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
+    residuals: dict[int, NDArray[np.float64]] = {}  # t_est less PDTV, for the noise level
     if method == "model":
         for k in lined:
             lines = model.joints[robot.joints[k].name].pdtv
             theta = np.ascontiguousarray(angle[:, k])
             phasors[k] = (np.cos(theta), np.sin(theta))
             pdtv = pdtv_torque(theta, lines, velocity=velocity[:, k], phasor=phasors[k])
-            jobs.append((t_est[:, k] - pdtv, k))
+            residuals[k] = t_est[:, k] - pdtv
+            jobs.append((residuals[k], k))
     plans: list[tuple[int, int, Any]] = []
     columns: list[NDArray[np.float64]] = []
     for x, k in jobs:
@@ -925,9 +927,17 @@ def _estimate_piece(
                 )
     sigma = np.full((n, nj), np.nan)
     if method == "model":
-        from torquemap.uncertainty import bridge_departure, joint_sigma
+        from torquemap.uncertainty import bridge_departure, joint_sigma, noise_excess
 
         for k, joint in enumerate(robot.joints):
+            # white noise this log holds beyond the identification logs' (a slower logger)
+            extra = noise_excess(
+                model,
+                joint.name,
+                t=log.t,
+                residual=residuals.get(k, t_est[:, k]),
+                velocity=velocity[:, k],
+            )
             sigma[:, k] = joint_sigma(
                 model,
                 joint.name,
@@ -939,6 +949,7 @@ def _estimate_piece(
                 cutoff=cutoff,
                 bridged=rests[k],
                 phasor=phasors.get(k),
+                extra_psd=extra,
             )
             if runs[k] and joint.name in whole:
                 # where the answer is a line carried over a bridged run: the load's departure

@@ -1171,6 +1171,11 @@ def _identify_whole(
         new_joints[name] = _whole_joint_model(fit)
         entry = joint_notes.get(name, {})
         entry.update(_whole_notes(fit, resolution))
+        high = _noise_high_psd(
+            rb, k, new_joints[name], pieces, derivs, sound, max(fit.law.zero_velocity, resolution)
+        )
+        if math.isfinite(high):  # estimation compares a log's level with it (noise_level)
+            entry["uncertainty"]["noise_high_psd"] = high
         joint_notes[name] = entry
         results[name] = dataclasses.replace(res, channel_delay=fit.delay)
     notes["joints"] = joint_notes
@@ -1210,6 +1215,43 @@ def _whole_joint_model(fit: Any) -> JointModel:
                 )
             )
     return JointModel(inertia=inertia, friction=fit.law, pdtv=tuple(lines))
+
+
+def _noise_high_psd(
+    rb: Robot,
+    k: int,
+    jm: JointModel,
+    pieces: Sequence[Log],
+    derivs: Sequence[Sequence[Derivatives]],
+    sound: Sequence[NDArray[np.bool_]],
+    width: float,
+) -> float:
+    """White-noise PSD [N^2 m^2/Hz] above the estimate's band of the motor torque less the
+    joint model (:func:`torquemap.noise_level.high_band_psd`), over the pieces' sound samples
+    sliding faster than 4 transition widths ``width`` [rad/s], weighted by their counts; NaN
+    when no piece can be measured (logs slower than 80 Hz, say)."""
+    from torquemap.noise_level import high_band_psd
+
+    joint = rb.joints[k]
+    levels, counts = [], []
+    for log, d, ok in zip(pieces, derivs, sound, strict=True):
+        modulation = rb.arm.inertia_modulation(log.q)[:, k]
+        theta = joint.gear_ratio * log.q[:, k]
+        v = d[k].velocity
+        x = (
+            log.motor_torque[:, k]
+            - (jm.inertia.constant + jm.inertia.cos_elbow * modulation) * d[k].acceleration
+            - friction_torque(v, jm.friction)
+            - pdtv_torque(theta, jm.pdtv, velocity=v)
+        )
+        use = ok & (np.abs(v) > 4.0 * width)
+        level = high_band_psd(log.t, x, use)
+        if math.isfinite(level):
+            levels.append(level)
+            counts.append(int(np.count_nonzero(use)))
+    if not levels:
+        return math.nan
+    return float(np.average(levels, weights=counts))
 
 
 def _whole_notes(fit: Any, resolution: float) -> dict[str, Any]:

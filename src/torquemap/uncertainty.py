@@ -411,6 +411,40 @@ def sign_sigma(law: Any, velocity: NDArray[np.float64], width: float) -> NDArray
     return np.asarray(np.sqrt(p * (1.0 - p)) * np.abs(band), dtype=np.float64)
 
 
+def sliding_width(model: Model, joint: str) -> float:
+    """Half width [rad/s] of the joint's friction transition through zero: its law's, or the
+    velocity resolution identification measured when larger."""
+    joints = model.notes.get("joints", {})
+    entry = joints.get(joint, {}) if isinstance(joints, Mapping) else {}
+    resolution = float(entry.get("velocity_resolution", 0.0)) if isinstance(entry, Mapping) else 0.0
+    law = model.joints[joint].friction
+    return max(float(getattr(law, "zero_velocity", 0.0)), resolution, 1e-9)
+
+
+def noise_excess(
+    model: Model,
+    joint: str,
+    *,
+    t: NDArray[np.float64],
+    residual: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+) -> float:
+    """White-noise PSD [N^2 m^2/Hz] of ``residual`` (the motor torque less the model's
+    inertia, friction and PDTV on a log) above the model's own, from their levels above the
+    estimate's band (:func:`torquemap.noise_level.high_band_psd`, on the samples sliding
+    faster than 4 transition widths); 0 when the model records no level or this log's cannot
+    be measured (too slow, too short), or when it is not higher."""
+    from torquemap.noise_level import high_band_psd
+
+    table = joint_uncertainty(model, joint)
+    own = float(table.get("noise_high_psd", math.nan)) if table is not None else math.nan
+    if not math.isfinite(own):
+        return 0.0
+    use = np.abs(velocity) > 4.0 * sliding_width(model, joint)
+    level = high_band_psd(t, residual, use)
+    return max(level - own, 0.0) if math.isfinite(level) else 0.0
+
+
 def joint_sigma(
     model: Model,
     joint: str,
@@ -423,12 +457,15 @@ def joint_sigma(
     cutoff: float,
     bridged: NDArray[np.bool_] | None = None,
     phasor: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+    extra_psd: float = 0.0,
 ) -> NDArray[np.float64]:
     """One standard deviation [N m, motor side] of a joint's external-torque estimate.
 
     ``bridged`` marks the samples whose answer is bridged over (estimation's reversal band):
     there friction's sign is taken as unknown (half the band between the two branches).
     ``phasor``: ``(cos theta, sin theta)`` when the caller has them.
+    ``extra_psd`` [N^2 m^2/Hz]: white noise this log holds beyond the identification logs'
+    (:func:`noise_excess`), added to the model's residual PSD.
 
     NaN everywhere when the model holds no uncertainty for the joint (a model identified by
     the pass method, or written by hand).
@@ -459,7 +496,8 @@ def joint_sigma(
         phasor=phasor,
     )
     psd = float(table.get("residual_psd", 0.0))
-    noise = np.full(n, max(psd, 0.0) * LOWPASS_ENB * cutoff)
+    extra = extra_psd if math.isfinite(extra_psd) and extra_psd > 0 else 0.0
+    noise = np.full(n, (max(psd, 0.0) + extra) * LOWPASS_ENB * cutoff)
     measured = table.get("residual")
     misfit_level = None
     if isinstance(measured, Mapping) and joint_uncertainty_table_ok(measured):
@@ -471,8 +509,7 @@ def joint_sigma(
         )
     joints = model.notes.get("joints", {})
     entry = joints.get(joint, {}) if isinstance(joints, Mapping) else {}
-    resolution = float(entry.get("velocity_resolution", 0.0)) if isinstance(entry, Mapping) else 0.0
-    width = max(float(getattr(law, "zero_velocity", 0.0)), resolution, 1e-9)
+    width = sliding_width(model, joint)
     levels = getattr(law, "levels", None)
     if callable(levels):
         level, spread, (up, down) = _table_sign_terms(law, velocity, width, _slowest(entry))
