@@ -1171,17 +1171,16 @@ def _identify_whole(
         new_joints[name] = _whole_joint_model(fit)
         entry = joint_notes.get(name, {})
         entry.update(_whole_notes(fit, resolution))
-        high = _noise_high_psd(
-            rb, k, new_joints[name], pieces, derivs, sound, max(fit.law.zero_velocity, resolution)
-        )
-        if math.isfinite(high):  # estimation compares a log's level with it (noise_level)
-            entry["uncertainty"]["noise_high_psd"] = high
         joint_notes[name] = entry
         results[name] = dataclasses.replace(res, channel_delay=fit.delay)
     notes["joints"] = joint_notes
     notes["logs"] = [log.path for log in logs]
     notes["warnings"] = list(warnings)
     notes["friction_fit"] = "whole"
+    model = Model(robot=rb, joints=new_joints, notes=notes)
+    # the logs' noise level above the estimate's band, which estimation compares a log's with
+    for name, high in _noise_levels(model, pieces, derivs, window).items():
+        joint_notes[name]["uncertainty"]["noise_high_psd"] = high
     model = Model(robot=rb, joints=new_joints, notes=notes)
     return Identification(model=model, joints=results, warnings=tuple(warnings))
 
@@ -1217,41 +1216,37 @@ def _whole_joint_model(fit: Any) -> JointModel:
     return JointModel(inertia=inertia, friction=fit.law, pdtv=tuple(lines))
 
 
-def _noise_high_psd(
-    rb: Robot,
-    k: int,
-    jm: JointModel,
+def _noise_levels(
+    model: Model,
     pieces: Sequence[Log],
     derivs: Sequence[Sequence[Derivatives]],
-    sound: Sequence[NDArray[np.bool_]],
-    width: float,
-) -> float:
-    """White-noise PSD [N^2 m^2/Hz] above the estimate's band of the motor torque less the
-    joint model (:func:`torquemap.noise_level.high_band_psd`), over the pieces' sound samples
-    sliding faster than 4 transition widths ``width`` [rad/s], weighted by their counts; NaN
-    when no piece can be measured (logs slower than 80 Hz, say)."""
-    from torquemap.noise_level import high_band_psd
+    window: float,
+) -> dict[str, float]:
+    """Per joint with a whole-fit uncertainty table, the white-noise PSD [N^2 m^2/Hz] above the
+    estimate's band of the pieces' Eq 7 signal less PDTV (:func:`torquemap.uncertainty.
+    noise_level`, the estimate's own signal: :func:`torquemap.vertical.no_load_residuals`),
+    weighted by the pieces' sample counts; joints whose pieces cannot be measured (logs slower
+    than 80 Hz, say) are left out."""
+    from torquemap.uncertainty import joint_uncertainty, noise_level
+    from torquemap.vertical import no_load_residuals
 
-    joint = rb.joints[k]
-    levels, counts = [], []
-    for log, d, ok in zip(pieces, derivs, sound, strict=True):
-        modulation = rb.arm.inertia_modulation(log.q)[:, k]
-        theta = joint.gear_ratio * log.q[:, k]
-        v = d[k].velocity
-        x = (
-            log.motor_torque[:, k]
-            - (jm.inertia.constant + jm.inertia.cos_elbow * modulation) * d[k].acceleration
-            - friction_torque(v, jm.friction)
-            - pdtv_torque(theta, jm.pdtv, velocity=v)
-        )
-        use = ok & (np.abs(v) > 4.0 * width)
-        level = high_band_psd(log.t, x, use)
-        if math.isfinite(level):
-            levels.append(level)
-            counts.append(int(np.count_nonzero(use)))
-    if not levels:
-        return math.nan
-    return float(np.average(levels, weights=counts))
+    out: dict[str, float] = {}
+    signals = no_load_residuals(model, pieces, window=window, shortest=0.0, derivatives=derivs)
+    for name, parts in signals.items():
+        table = joint_uncertainty(model, name)
+        if table is None or "parameters" not in table:
+            continue
+        lines = model.joints[name].pdtv
+        levels, counts = [], []
+        for part in parts:
+            residual = part.eq7 - pdtv_torque(part.angle, lines, velocity=part.velocity)
+            level = noise_level(model, name, t=part.t, residual=residual, velocity=part.velocity)
+            if math.isfinite(level):
+                levels.append(level)
+                counts.append(part.t.size)
+        if levels:
+            out[name] = float(np.average(levels, weights=counts))
+    return out
 
 
 def _whole_notes(fit: Any, resolution: float) -> dict[str, Any]:

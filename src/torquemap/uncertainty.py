@@ -421,6 +421,25 @@ def sliding_width(model: Model, joint: str) -> float:
     return max(float(getattr(law, "zero_velocity", 0.0)), resolution, 1e-9)
 
 
+def noise_level(
+    model: Model,
+    joint: str,
+    *,
+    t: NDArray[np.float64],
+    residual: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+) -> float:
+    """White-noise PSD [N^2 m^2/Hz] above the estimate's band of ``residual`` (the motor
+    torque less the model's inertia, friction and PDTV on a log):
+    :func:`torquemap.noise_level.high_band_psd` on the samples sliding faster than 4
+    transition widths. Identification records it for its logs (``noise_high_psd``),
+    estimation measures it on the log it is given (:func:`noise_excess`)."""
+    from torquemap.noise_level import high_band_psd
+
+    use = np.abs(velocity) > 4.0 * sliding_width(model, joint)
+    return high_band_psd(t, residual, use)
+
+
 def noise_excess(
     model: Model,
     joint: str,
@@ -429,19 +448,14 @@ def noise_excess(
     residual: NDArray[np.float64],
     velocity: NDArray[np.float64],
 ) -> float:
-    """White-noise PSD [N^2 m^2/Hz] of ``residual`` (the motor torque less the model's
-    inertia, friction and PDTV on a log) above the model's own, from their levels above the
-    estimate's band (:func:`torquemap.noise_level.high_band_psd`, on the samples sliding
-    faster than 4 transition widths); 0 when the model records no level or this log's cannot
-    be measured (too slow, too short), or when it is not higher."""
-    from torquemap.noise_level import high_band_psd
-
+    """White-noise PSD [N^2 m^2/Hz] of ``residual`` above the model's own (:func:`noise_level`
+    on this log less the recorded ``noise_high_psd``); 0 when the model records no level or
+    this log's cannot be measured (too slow, too short), or when it is not higher."""
     table = joint_uncertainty(model, joint)
     own = float(table.get("noise_high_psd", math.nan)) if table is not None else math.nan
     if not math.isfinite(own):
         return 0.0
-    use = np.abs(velocity) > 4.0 * sliding_width(model, joint)
-    level = high_band_psd(t, residual, use)
+    level = noise_level(model, joint, t=t, residual=residual, velocity=velocity)
     return max(level - own, 0.0) if math.isfinite(level) else 0.0
 
 
