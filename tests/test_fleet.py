@@ -250,3 +250,32 @@ def test_a_taken_dashboard_port_does_not_stop_the_fleet(fleet_dir: Path, tmp_pat
                 read_fleet(fleet_dir / "FLEET.toml"), tmp_path / "o", workers=1, processes=False
             )
     assert [o.ok for o in run.outcomes] == [True, True, True, False]
+
+
+def test_two_days_are_a_change_against_their_errors(tmp_path: Path) -> None:
+    """Two days whose models hold standard errors: the trend is their difference and its
+    standard error the two errors combined (closed form); a robot with one day is listed."""
+    robot = robot_from_dict(ROBOT)
+    (tmp_path / "r").mkdir()
+    (tmp_path / "s").mkdir()
+    se = 2e-4
+    values = (0.050, 0.052)  # a change of 2 mN m: 7.1 combined standard errors
+    days = []
+    for name, count in (("r", 2), ("s", 1)):
+        for d in range(count):
+            date = dt.date(2026, 1, 1) + dt.timedelta(days=3 * d)
+            jm = JointModel(friction=FrictionModel(values[d], 0.05))
+            errors = {"friction.coulomb_positive": se, "friction.coulomb_negative": se}
+            model = Model(robot, {"m": jm}, {"joints": {"m": {"standard_errors": errors}}})
+            write_toml(tmp_path / name / f"{date}.toml", model_to_dict(model))
+            days.append({"robot": name, "date": date, "ok": True, "model": f"{name}/{date}.toml"})
+    write_toml(tmp_path / "fleet-run.toml", {"days": days})
+    drift = fleet_drift(tmp_path)
+    by = {s.parameter: s for s in drift.series}
+    wear = by["friction.coulomb_positive"]
+    assert_allclose(wear.change, values[1] - values[0], rtol=1e-9)
+    assert_allclose(wear.change_se, math.hypot(se, se), rtol=1e-9)
+    assert_allclose(wear.slope, (values[1] - values[0]) / 3.0, rtol=1e-9)
+    assert wear.flag and not by["friction.coulomb_negative"].flag
+    assert {s.robot for s in drift.series} == {"r"}
+    assert drift.too_few == ("s: 1 identified day",)

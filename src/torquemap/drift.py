@@ -12,6 +12,10 @@ the days before it by more than four of its standard errors (a loose belt, a wor
 Where a day's model holds no standard error for a parameter, the scatter of the days about the
 trend stands in (the regression's own residual variance, tested with Student's t at the same
 0.3 % level): with few days that test is weak, and it says so by flagging little.
+
+A series needs two days when the days' models hold standard errors (the change between them,
+against the two errors combined) and three otherwise (a scatter needs a degree of freedom); a
+robot with fewer is listed in :attr:`FleetDrift.too_few`, not dropped silently.
 """
 
 from __future__ import annotations
@@ -88,13 +92,17 @@ class FleetDrift:
     Attributes
     ----------
     series
-        Every parameter with at least three days, robots and joints in order.
+        Every parameter with enough days (module docstring), robots and joints in order.
     skipped
         Robot-days that failed identification, as ``robot date: reason``.
+    too_few
+        Robots with identified days but no series (too few days for a trend), as
+        ``robot: n identified day(s)``.
     """
 
     series: tuple[DriftSeries, ...]
     skipped: tuple[str, ...]
+    too_few: tuple[str, ...] = ()
 
     @property
     def flagged(self) -> tuple[DriftSeries, ...]:
@@ -158,14 +166,16 @@ def _series(
     v = np.array(values)
     day0 = np.datetime64(dates[0])
     days = np.array([(np.datetime64(d) - day0).astype(float) for d in dates])
-    if v.size < 3 or np.ptp(days) <= 0:
+    err = np.array(errors)
+    known = bool(np.all(np.isfinite(err) & (err > 0)))
+    # two days are a change against their own errors; a scatter needs a third
+    if v.size < (2 if known else 3) or np.ptp(days) <= 0:
         return None
     if not np.any(v):
         return None  # never identified (a term the data did not support)
-    err = np.array(errors)
     span = float(days[-1] - days[0])
     notes = []
-    if np.all(np.isfinite(err) & (err > 0)):
+    if known:
         source = "identification"
         a, slope, slope_se = trend(days, v, err)
         # Standard errors from one day's fit assume white residuals; where the days scatter
@@ -190,7 +200,8 @@ def _series(
     change, change_se = slope * span, slope_se * span
     if change_se > 0 and abs(change) > critical * change_se:
         notes.append(
-            f"changes {change:+.3g} over {span:g} days ({abs(change) / change_se:.1f} sigma)"
+            f"changes {change:+.3g} over {span:g} day{'' if span == 1 else 's'} "
+            f"({abs(change) / change_se:.1f} sigma)"
         )
     if source == "identification":
         for k in range(2, v.size):
@@ -228,7 +239,8 @@ def fleet_drift(out_dir: str | os.PathLike[str]) -> FleetDrift:
     Returns
     -------
     FleetDrift
-        One series per robot, joint and parameter present on at least three days.
+        One series per robot, joint and parameter present on enough days (two with standard
+        errors, else three), and the robots that have none.
 
     Raises
     ------
@@ -245,6 +257,7 @@ def fleet_drift(out_dir: str | os.PathLike[str]) -> FleetDrift:
         defaultdict(lambda: defaultdict(dict))
     )
     order: list[str] = []
+    days_of: dict[str, int] = defaultdict(int)
     for entry in sorted(runs, key=lambda e: (str(e.get("robot")), str(e.get("date")))):
         robot, date = str(entry.get("robot")), str(entry.get("date"))
         if not entry.get("ok"):
@@ -253,6 +266,7 @@ def fleet_drift(out_dir: str | os.PathLike[str]) -> FleetDrift:
         model = load_model(out / str(entry["model"]))
         if robot not in order:
             order.append(robot)
+        days_of[robot] += 1
         for joint in model.robot.joint_names:
             errors = _standard_errors(model, joint)
             for parameter, value in _parameters(model, joint).items():
@@ -261,13 +275,18 @@ def fleet_drift(out_dir: str | os.PathLike[str]) -> FleetDrift:
                 values.append(value)
                 errs.append(errors.get(parameter, math.nan))
     series = []
+    too_few = []
     for robot in order:
+        count = len(series)
         for joint, params in table[robot].items():
             for parameter, (dates, values, errs) in params.items():
                 s = _series(robot, joint, parameter, dates, values, errs)
                 if s is not None:
                     series.append(s)
-    return FleetDrift(series=tuple(series), skipped=tuple(skipped))
+        if len(series) == count:
+            n = days_of[robot]
+            too_few.append(f"{robot}: {n} identified day{'s' if n != 1 else ''}")
+    return FleetDrift(series=tuple(series), skipped=tuple(skipped), too_few=tuple(too_few))
 
 
 def drift_columns(drift: FleetDrift) -> dict[str, NDArray[Any]]:

@@ -148,12 +148,17 @@ def _drift(args: argparse.Namespace) -> int:
         write_table(args.output, drift_columns(drift))
     for line in drift.skipped:
         print(f"skipped {line}")
+    for line in drift.too_few:
+        print(
+            f"no trend for {line} (a trend needs two days whose models hold standard errors, "
+            "else three)"
+        )
     shown = drift.series if args.all else drift.flagged
     for s in shown:
         mark = "FLAG" if s.flag else "    "
         print(
             f"{mark} {s.robot} {s.joint} {s.parameter}: {s.values[0]:.4g} -> {s.values[-1]:.4g} "
-            f"over {len(s.dates)} days, trend {s.slope:+.3g}/day +/- {s.slope_se:.2g} "
+            f"on {len(s.dates)} days, trend {s.slope:+.3g}/day +/- {s.slope_se:.2g} "
             f"({s.sigma_source}){': ' + s.note if s.note else ''}"
         )
     print(
