@@ -274,7 +274,7 @@ def fleet_drift(out_dir: str | os.PathLike[str]) -> FleetDrift:
                 dates.append(date)
                 values.append(value)
                 errs.append(errors.get(parameter, math.nan))
-    series = []
+    series: list[DriftSeries] = []
     too_few = []
     for robot in order:
         count = len(series)
