@@ -927,8 +927,10 @@ def _estimate_piece(
                 )
     sigma = np.full((n, nj), np.nan)
     if method == "model":
+        from torquemap.tones import nominal_step
         from torquemap.uncertainty import bridge_departure, joint_sigma, noise_excess
 
+        rate = 1.0 / nominal_step(log.t) if n > 1 else math.nan
         for k, joint in enumerate(robot.joints):
             # white noise this log holds beyond the identification logs' (a slower logger)
             extra = noise_excess(
@@ -957,6 +959,12 @@ def _estimate_piece(
                     log.t, external[:, k], rests[k], cutoff=cutoff, runs=runs[k]
                 )
                 sigma[:, k] = np.hypot(sigma[:, k], departure)
+            folded = _folded_tones(model, joint.name, rate, cutoff, sigma[:, k])
+            if folded is not None:
+                sd, line = folded
+                sigma[:, k] = np.hypot(sigma[:, k], sd)
+                if line:
+                    warnings.append(line)
     arrays = {
         "rest": np.column_stack(rests).astype(np.float64) if nj else np.zeros((n, 0)),
         "angle": angle,
@@ -973,6 +981,42 @@ def _estimate_piece(
         any_pass=any_pass,
         warnings=tuple(warnings),
     )
+
+
+#: A folded tone is reported when it widens the joint's median sigma by more than this share.
+TONE_REPORT = 0.1
+
+
+def _folded_tones(
+    model: Model, joint: str, rate: float, cutoff: float, sigma: NDArray[np.float64]
+) -> tuple[float, str] | None:
+    """The standard deviation [N m, motor side] the model's tones add to this log's estimate of
+    ``joint`` once folded to the log's ``rate`` [Hz] (:func:`torquemap.tones.folded_sd`), and a
+    warning when it widens the median ``sigma`` by more than :data:`TONE_REPORT`; None when
+    none folds into the band."""
+    from torquemap.tones import folded, folded_sd
+    from torquemap.uncertainty import model_tones
+
+    tones = model_tones(model, joint)
+    if not tones or not (math.isfinite(rate) and math.isfinite(cutoff) and cutoff > 0):
+        return None
+    sd = folded_sd(tones, rate, cutoff)
+    if not sd > 0:
+        return None
+    base = float(np.nanmedian(sigma)) if np.isfinite(sigma).any() else 0.0
+    if math.hypot(base, sd) <= (1.0 + TONE_REPORT) * base:
+        return sd, ""
+    worst = max(tones, key=lambda x: folded_sd([x], rate, cutoff))
+    line = (
+        f"joint {joint}: the identification logs hold a {worst.frequency:.4g} Hz line of "
+        f"{worst.amplitude:.3g} N m in the motor torque (fixed in time: amplifier or supply "
+        f"ripple); this log, sampled at {rate:.4g} Hz, folds it to "
+        f"{folded(worst.frequency, rate):.2g} Hz, inside the estimate's {cutoff:g} Hz band, "
+        "where it reads as a load no filter can take out; the sigmas include it "
+        f"({sd:.3g} N m, motor side). Log at a rate that does not fold it near 0 Hz, or "
+        "through an anti-alias filter"
+    )
+    return sd, line
 
 
 def check_answered(

@@ -1179,8 +1179,11 @@ def _identify_whole(
     notes["friction_fit"] = "whole"
     model = Model(robot=rb, joints=new_joints, notes=notes)
     # the logs' noise level above the estimate's band, which estimation compares a log's with
-    for name, high in _noise_levels(model, pieces, derivs, window).items():
+    levels, tones = _noise_levels(model, pieces, derivs, window)
+    for name, high in levels.items():
         joint_notes[name]["uncertainty"]["noise_high_psd"] = high
+    for name, found in tones.items():
+        joint_notes[name]["uncertainty"]["tones"] = [[x.frequency, x.amplitude] for x in found]
     model = Model(robot=rb, joints=new_joints, notes=notes)
     return Identification(model=model, joints=results, warnings=tuple(warnings))
 
@@ -1221,16 +1224,19 @@ def _noise_levels(
     pieces: Sequence[Log],
     derivs: Sequence[Sequence[Derivatives]],
     window: float,
-) -> dict[str, float]:
+) -> tuple[dict[str, float], dict[str, tuple[Any, ...]]]:
     """Per joint with a whole-fit uncertainty table, the white-noise PSD [N^2 m^2/Hz] above the
     estimate's band of the pieces' Eq 7 signal less PDTV (:func:`torquemap.uncertainty.
     noise_level`, the estimate's own signal: :func:`torquemap.vertical.no_load_residuals`),
-    weighted by the pieces' sample counts; joints whose pieces cannot be measured (logs slower
-    than 80 Hz, say) are left out."""
+    weighted by the pieces' sample counts, and the same signal's fixed-frequency lines
+    (:func:`torquemap.tones.find_tones`, which a slower logger folds into the estimate); joints
+    whose pieces cannot be measured (logs slower than 80 Hz, say) are left out."""
+    from torquemap.tones import find_tones
     from torquemap.uncertainty import joint_uncertainty, noise_level
     from torquemap.vertical import no_load_residuals
 
     out: dict[str, float] = {}
+    tones: dict[str, tuple[Any, ...]] = {}
     signals = no_load_residuals(model, pieces, window=window, shortest=0.0, derivatives=derivs)
     for name, parts in signals.items():
         table = joint_uncertainty(model, name)
@@ -1238,15 +1244,18 @@ def _noise_levels(
             continue
         lines = model.joints[name].pdtv
         levels, counts = [], []
+        residuals = []
         for part in parts:
             residual = part.eq7 - pdtv_torque(part.angle, lines, velocity=part.velocity)
+            residuals.append((part.t, residual, part.velocity))
             level = noise_level(model, name, t=part.t, residual=residual, velocity=part.velocity)
             if math.isfinite(level):
                 levels.append(level)
                 counts.append(part.t.size)
         if levels:
             out[name] = float(np.average(levels, weights=counts))
-    return out
+            tones[name] = find_tones(residuals)
+    return out, tones
 
 
 def _whole_notes(fit: Any, resolution: float) -> dict[str, Any]:

@@ -459,6 +459,24 @@ def noise_excess(
     return max(level - own, 0.0) if math.isfinite(level) else 0.0
 
 
+def model_tones(model: Model, joint: str) -> tuple[Any, ...]:
+    """The fixed-frequency lines identification found in a joint's torque residual
+    (``uncertainty.tones``: ``[frequency Hz, amplitude N m]`` pairs, motor side) as
+    :class:`torquemap.tones.Tone`; empty when the model records none."""
+    from torquemap.tones import Tone
+
+    table = joint_uncertainty(model, joint)
+    raw = table.get("tones") if table is not None else None
+    out = []
+    for pair in raw if isinstance(raw, list) else []:
+        if isinstance(pair, list) and len(pair) == 2:
+            f, a = pair
+            if all(isinstance(v, int | float) and math.isfinite(v) for v in (f, a)):
+                if f > 0 and a > 0:
+                    out.append(Tone(frequency=float(f), amplitude=float(a)))
+    return tuple(out)
+
+
 def joint_sigma(
     model: Model,
     joint: str,
