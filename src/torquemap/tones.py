@@ -39,6 +39,9 @@ SEGMENT = 4.0
 FLOOR_BINS = 101
 #: Speed groups (of Welch's segments) a line fixed in time must stand out in, each.
 GROUPS = 3
+#: The most Welch segments averaged (spread over the pieces by their lengths): a chi-square of
+#: 1024 degrees of freedom, and a cost that stops growing with the log.
+MOST_SEGMENTS = 512
 #: The most tones kept per joint (the largest).
 MOST = 16
 
@@ -92,18 +95,24 @@ def _regular(
 
 
 def _segments(
-    x: NDArray[np.float64], speed: NDArray[np.float64], nper: int
+    x: NDArray[np.float64], speed: NDArray[np.float64], nper: int, most: int
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Welch's periodograms of ``x`` (Hann window, half overlap, a line taken out of each
-    segment; one-sided, density scaling) and each segment's mean speed."""
+    segment; one-sided, density scaling; at most ``most`` segments, evenly spread) and each
+    segment's mean speed."""
     from scipy import signal
 
     hop = nper // 2
     starts = np.arange(0, x.size - nper + 1, hop)
     if starts.size == 0:
         return np.zeros((0, nper // 2 + 1)), np.zeros(0)
+    if starts.size > most:  # evenly spread over the piece: the statistic needs no more
+        starts = starts[np.linspace(0, starts.size - 1, most).round().astype(np.int64)]
     frames = np.lib.stride_tricks.sliding_window_view(x, nper)[starts]
-    frames = signal.detrend(frames, axis=1, type="linear")
+    # each segment less its least-squares line (orthonormal mean and ramp)
+    ramp = np.arange(nper) - 0.5 * (nper - 1)
+    ramp /= math.sqrt(float(np.sum(ramp**2)))
+    frames = frames - frames.mean(axis=1, keepdims=True) - np.outer(frames @ ramp, ramp)
     window = signal.windows.hann(nper, sym=False)
     spectra = np.abs(np.fft.rfft(frames * window, axis=1)) ** 2 / float(np.sum(window**2))
     spectra[:, 1:-1] *= 2.0  # one-sided (per sample; divided by the rate by the caller)
@@ -173,7 +182,10 @@ def find_tones(
     nper = min(int(2 ** math.ceil(math.log2(SEGMENT * fs))), 2 ** int(math.log2(longest / 4)))
     if 0.5 * fs < 2.0 * split or 4 * nper < SEGMENT * fs:
         return ()
-    parts = [_segments(x, v, nper) for (x, v), _ in regular]
+    total = sum(r[0][0].size for r in regular)
+    parts = [
+        _segments(x, v, nper, max(2, MOST_SEGMENTS * x.size // total)) for (x, v), _ in regular
+    ]
     spectra = np.concatenate([p[0] for p in parts]) / fs
     speeds = np.concatenate([p[1] for p in parts])
     if speeds.size < 4:
