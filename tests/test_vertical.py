@@ -9,6 +9,7 @@ on the horizontal arm, make ``identify`` refuse with either friction method, and
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -22,7 +23,7 @@ from torquemap.estimate import estimate_forces
 from torquemap.identify import identify_model
 from torquemap.io import Log, write_table, write_toml
 from torquemap.model import model_from_dict
-from torquemap.vertical import check_no_load, gravity_basis
+from torquemap.vertical import check_no_load, checked_identification, gravity_basis
 
 GEAR = (50.0, 40.0)
 KT = (0.1, 0.1)
@@ -251,3 +252,24 @@ def test_cli_spectrum_draws_the_spectrum_of_any_no_load_log(
     # the simulated line: 2 CPR of 0.3 Coulomb; 5 %: the pass friction law's error and the
     # gravity's leakage (sub-CPR lines, the strongest) into it; the current noise adds ~1e-4
     assert float(rows[2.0][1]) == pytest.approx(0.3 * COULOMB[0], rel=0.05)
+
+
+def test_a_refusal_on_a_pass_model_that_misses_its_sweep_names_that_cause(
+    logs: dict[str, Log],
+) -> None:
+    # the gravity test assumes the model's friction is right; when the pass model's own check
+    # says it does not explain the sweep (random SCARA 105: horizontal, LuGre friction), the
+    # refusal must say that this misfit, not only a vertical arm, can be the cause
+    robot = truth_model().robot  # type: ignore[attr-defined]
+    log = logs["vertical"]
+    ident = identify_model(robot, [log], friction="passes", vertical="warn")
+    misfit = "joint a: the pass model does not explain the sweep"
+    # the gravity this arm has is itself a misfit of the pass model: its check says so
+    assert any(w.startswith(misfit) for w in ident.warnings)
+    kept = tuple(w for w in ident.warnings if not w.startswith(misfit))
+    with pytest.raises(InputError, match="vertical arm") as plain:
+        checked_identification(dataclasses.replace(ident, warnings=kept), [log], window=0.05)
+    assert "pass model is wrong" not in str(plain.value)
+    flagged = dataclasses.replace(ident, warnings=(*kept, misfit + " (ramps included): ..."))
+    with pytest.raises(InputError, match=r"vertical arm.*pass model is wrong.*--friction whole"):
+        checked_identification(flagged, [log], window=0.05)
