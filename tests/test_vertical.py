@@ -184,13 +184,11 @@ def test_estimate_warns_with_a_model_of_a_vertical_arm(logs: dict[str, Log]) -> 
     assert any("vertical arm" in w for w in est.warnings)
 
 
-def test_cli_identify_refuses_in_one_line(
-    logs: dict[str, Log], tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    log = logs["vertical"]
-    write_toml(tmp_path / "robot.toml", ROBOT)
+def _write_files(log: Log, folder: Path) -> None:
+    """``robot.toml`` and ``sweep.csv`` (currents) of ``log`` in ``folder``, for the CLI."""
+    write_toml(folder / "robot.toml", ROBOT)
     write_table(
-        tmp_path / "sweep.csv",
+        folder / "sweep.csv",
         {
             "t": log.t,
             "q_a": log.q[:, 0],
@@ -199,6 +197,12 @@ def test_cli_identify_refuses_in_one_line(
             "i_b": log.motor_torque[:, 1] / KT[1],
         },
     )
+
+
+def test_cli_identify_refuses_in_one_line(
+    logs: dict[str, Log], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    _write_files(logs["vertical"], tmp_path)
     out = tmp_path / "model.toml"
     argv = ["identify", str(tmp_path / "robot.toml"), str(tmp_path / "sweep.csv"), "-o", str(out)]
     assert main(argv) == 2
@@ -234,18 +238,7 @@ def test_cli_spectrum_draws_the_spectrum_of_any_no_load_log(
     # check (identify's decision about the model) must not refuse the spectrum. On a random
     # SCARA (horizontal, LuGre friction, a 0.13 s current delay) the pass model's misfit
     # looked like gravity, so spectrum refused a log that identify accepted.
-    log = logs["vertical"]
-    write_toml(tmp_path / "robot.toml", ROBOT)
-    write_table(
-        tmp_path / "sweep.csv",
-        {
-            "t": log.t,
-            "q_a": log.q[:, 0],
-            "q_b": log.q[:, 1],
-            "i_a": log.motor_torque[:, 0] / KT[0],
-            "i_b": log.motor_torque[:, 1] / KT[1],
-        },
-    )
+    _write_files(logs["vertical"], tmp_path)
     argv = ["spectrum", str(tmp_path / "robot.toml"), str(tmp_path / "sweep.csv"), "--joint", "a"]
     assert main(argv) == 0
     rows = {float(r.split(",")[0]): r.split(",") for r in capsys.readouterr().out.splitlines()[2:]}
