@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from hypothesis import given
@@ -123,6 +125,13 @@ def test_inertia_with_elbow_term_and_without() -> None:
     one = fit_inertia(acc, y, elbow_angle=np.full(5000, 0.5))
     assert one.inertia.cos_elbow == 0.0
     assert "one elbow angle" in one.warnings[0]
+    # random SCARA 102 swept joint a at 2.37, 2.64 and 2.66 rad: three angles, not one (the
+    # warning said "one"); their cosines differ by 0.17, under the 0.2 the term needs
+    close = fit_inertia(acc, y, elbow_angle=np.where(elbow > 0, 2.37, 2.66))
+    assert close.inertia.cos_elbow == 0.0
+    spread = math.cos(2.37) - math.cos(2.66)
+    assert f"2.37 to 2.66 rad only, whose cosines differ by {spread:.2g}" in close.warnings[0]
+    assert "differ by 0.2 or more" in close.warnings[0]
     assert "no accelerating segment" in fit_inertia([], []).warnings[0]
 
 

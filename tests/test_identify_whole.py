@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -588,3 +589,17 @@ def test_the_delay_rows_of_a_long_log_are_a_bounded_set_of_stretches() -> None:
     part = rows.subset(sub)
     np.testing.assert_array_equal(_torque(part, 0.02), _torque(rows, 0.02)[sub])
     np.testing.assert_array_equal(part.clusters, rows.clusters[sub])
+
+
+def test_a_high_resolution_log_from_another_robot_is_refused(delayed) -> None:  # type: ignore[no-untyped-def]
+    # random SCARA 104's model took SCARA 102's circle (2^20 counts, gear ratios 13 % apart):
+    # at speed each sample moved hundreds of counts, whole within the 2 % tolerance for any
+    # encoder; the steps of a few counts near rest tell. Model: one count of 2^20 at the motor
+    counts = 2**20
+    notes = {"joints": {"m": {"motor_angle_quantum": 2 * np.pi / counts}}}
+    model = dataclasses.replace(delayed.model, notes=notes)
+    other = simulate(counts=round(counts / 1.13), seed=5)
+    with pytest.raises(InputError, match="another robot"):
+        estimate_forces(model, other)
+    same = simulate(counts=counts, seed=5)
+    assert estimate_forces(model, same).tau_ext.shape == (same.t.size, 1)

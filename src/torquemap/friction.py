@@ -543,7 +543,19 @@ def fit_inertia(
             cols.append(acc * c)
             with_elbow = True
         else:
-            warnings.append(f"{name}was swept at one elbow angle only: inertia cos_elbow set to 0")
+            q = np.asarray(elbow_angle, dtype=np.float64)
+            lo, hi, spread = float(q.min()), float(q.max()), float(c.max() - c.min())
+            seen = (
+                f"at one elbow angle only ({lo:.3g} rad)"
+                if hi - lo < 1e-6
+                else f"at elbow angles {lo:.3g} to {hi:.3g} rad only, whose cosines differ by "
+                f"{spread:.2g}"
+            )
+            warnings.append(
+                f"{name}was swept {seen}: inertia cos_elbow set to 0; for an inertia that "
+                f"follows the elbow, sweep it at elbow angles whose cosines differ by "
+                f"{min_cos_spread:g} or more (0.6 and 2.6 rad, say)"
+            )
     a = np.column_stack(cols)
     coef, *_ = np.linalg.lstsq(a, y, rcond=None)
     dof = max(acc.size - a.shape[1], 1)

@@ -714,7 +714,7 @@ def _identify_pdtv(
     used = tuple(i for i, (_, p) in enumerate(passes) if p.samples_per_rev >= BIN_MARGIN * nb)
     if not used:
         used = (int(np.argmax([p.samples_per_rev for _, p in passes])),)
-    angle, resid, group, direction, rates = [], [], [], [], []
+    angle, resid, group, direction, rates, speeds = [], [], [], [], [], []
     for i in used:
         li, p = passes[i]
         d = derivs[li][k]
@@ -733,6 +733,7 @@ def _identify_pdtv(
         group.append(np.full(r.size, i))
         rates.append(torque_rates[li][s] if torque_rates is not None else np.zeros(r.size))
         direction.append(np.full(r.size, 1 if p.direction == "positive" else -1))
+        speeds.append(np.full(r.size, p.speed))
     theta = np.concatenate(angle)
     res = np.concatenate(resid)
     grp = np.concatenate(group)
@@ -792,6 +793,11 @@ def _identify_pdtv(
             fit = solve_harmonics(normals, orders=list(fit.order[keep]))
         elif not keep.any():
             fit = None
+    notes: tuple[str, ...] = ()
+    if fit is not None and normals is not None:
+        fit, notes = _without_time_lines(
+            name, theta, res, grp, np.concatenate(speeds), normals, fit
+        )
     if fit is None or normals is None:
         return _PdtvResult(
             used=used,
@@ -801,6 +807,7 @@ def _identify_pdtv(
             bins_per_rev=nb,
             max_order=top,
             torque_lag=lag,
+            warnings=notes,
         )
     lines = _directional_lines(normals, grp, sgn, fit, direction_significance)
     return _PdtvResult(
@@ -813,7 +820,37 @@ def _identify_pdtv(
         bins_per_rev=nb,
         max_order=top,
         torque_lag=lag,
+        warnings=notes,
     )
+
+
+def _without_time_lines(
+    name: str,
+    theta: NDArray[np.float64],
+    res: NDArray[np.float64],
+    grp: NDArray[np.int64],
+    speed: NDArray[np.float64],
+    normals: HarmonicNormals,
+    fit: HarmonicFit,
+) -> tuple[HarmonicFit | None, tuple[str, ...]]:
+    """``fit`` without the picked orders that follow time, not the motor angle (present at
+    one pass speed, absent at another: :mod:`torquemap.time_lines`), and a warning per order
+    left out."""
+    from torquemap.time_lines import time_frequency_lines
+
+    timed = time_frequency_lines(theta, res, orders=list(fit.order), groups=grp, speed=speed)
+    if not timed:
+        return fit, ()
+    notes = tuple(
+        f"joint {name}: the {ln.order:g} CPR line of the {ln.speed:.3g} rad/s passes "
+        f"({ln.present:.3g} N m) is absent at {ln.absent_speed:.3g} rad/s "
+        f"({ln.absent:.2g} N m): a ripple of {ln.frequency:.4g} Hz in time (the current "
+        "loop, PWM, mains), not of the motor angle; left out of PDTV"
+        for ln in timed
+    )
+    dropped = {ln.order for ln in timed}
+    rest = [float(o) for o in fit.order if float(o) not in dropped]
+    return (solve_harmonics(normals, orders=rest) if rest else None), notes
 
 
 def _directional_lines(

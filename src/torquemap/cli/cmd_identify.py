@@ -273,6 +273,9 @@ def _spectrum(args: argparse.Namespace) -> int:
             joints=[args.joint],
             window=model_window(model) if args.window is None else args.window,
             friction="passes",
+            # the spectrum is the log's, whatever the gravity check on this pass model says
+            # (identify decides on the model; a pass model's misfit can look like gravity)
+            vertical="warn",
         ),
     )
     jr = result.joints[args.joint]
