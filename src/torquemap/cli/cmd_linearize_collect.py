@@ -71,10 +71,10 @@ def add_settings_arguments(
     )
     parser.add_argument(
         "--bias-open",
-        action="store_true",
+        action=argparse.BooleanOptionalAction,
         default=None,
         help="read the bias with the contact open, not at rest (where cogging alone loads the "
-        "contact, the rows then hold the torque at rest)",
+        "contact, the rows then hold the torque at rest); --no-bias-open: at rest",
     )
     parser.add_argument(
         level_flag,
@@ -92,9 +92,11 @@ def add_settings_arguments(
     )
     parser.add_argument(
         "--transitions",
-        action="store_true",
+        action=argparse.BooleanOptionalAction,
         default=None,
-        help="also target every position where the ramp changes (the phases' hand-over)",
+        help="also target every position where the ramp changes (the phases' hand-over); "
+        "--no-transitions: the evenly spaced targets alone (e.g. the paper's settings on a "
+        "random bench whose draw targets them)",
     )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 
