@@ -88,3 +88,32 @@ def test_cli_home(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert "repeatability: std" in capsys.readouterr().out
     assert main(["linearize", "home", str(path), "--sim", "vr"]) == 2
     assert "the simulated vr motor has 3 and 512" in capsys.readouterr().err
+
+
+def test_cli_home_random_bench(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # `linearize home --random SEED` homes the family's bench SEED (the motor of `simulate rig
+    # --random SEED`): the homed offset is the free motor's hidden encoder offset
+    import json
+
+    from torquemap.sim.family import random_bench
+    from torquemap.sim.free_motor import free_motor_rig
+
+    seed = next(s for s in range(100) if random_bench(s).kind == "bldc")
+    bench = random_bench(seed)
+    spec = bench.rig.motor_spec(ramping=bench.ramping)
+    path = tmp_path / "motor.toml"
+    write_toml(path, motor_to_dict(spec))
+    argv = ["linearize", "home", str(path), "--random", str(seed), "--repeats", "3", "--json"]
+    assert main(argv) == 0
+    offset = json.loads(capsys.readouterr().out)["offset"]
+    # the same power-up (seed 0) the command draws, from the simulator's side
+    hidden = free_motor_rig(
+        "bldc", motor=bench.rig.motor, amplifier=bench.rig.amplifier, rng=0
+    ).encoder_offset
+    n = spec.positions_per_cycle
+    # bound: the motor file's equilibria are rounded (0.5) and each reading is rounded (0.5)
+    assert abs(float(circular_difference(offset, hidden, n))) <= 1.0
+    other = next(s for s in range(100) if random_bench(s).rig.phases != spec.phases)
+    assert main(["linearize", "home", str(path), "--random", str(other)]) == 2
+    err = capsys.readouterr().err
+    assert f"random motor {other} has" in err and str(path) in err and err.count("\n") == 1

@@ -20,11 +20,19 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         "energised alone, reached from below and from above), repeatedly, with the motor "
         "displaced by hand in between, and report the counter offset and its repeatability "
         "(Adept II paper, Table 1). See docs/linearize-homing.md.",
-        epilog="example:\n  torquemap linearize home rig/motor.toml --sim vr --repeats 20",
+        epilog="examples:\n  torquemap linearize home rig/motor.toml --sim vr --repeats 20\n"
+        "  torquemap linearize home rig/motor.toml --random 7 --tables tables.npz",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     home.add_argument("motor", metavar="MOTOR.toml", help="the motor file (equilibria)")
-    home.add_argument("--sim", choices=("vr", "bldc"), required=True, help="simulated motor")
+    which = home.add_mutually_exclusive_group(required=True)
+    which.add_argument("--sim", choices=("vr", "bldc"), help="simulated motor")
+    which.add_argument(
+        "--random",
+        type=int,
+        metavar="SEED",
+        help="the random motor of `simulate rig --random SEED`",
+    )
     home.add_argument(
         "--tables",
         metavar="TABLES.npz",
@@ -93,7 +101,8 @@ def _home(args: argparse.Namespace) -> int:
         source = args.tables
     results, _truth = home_on_sim(
         spec,
-        sim=args.sim,
+        sim=args.sim or "vr",
+        random=args.random,
         seed=args.seed,
         repeats=args.repeats,
         pulse_width=args.pulse_width,
