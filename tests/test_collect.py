@@ -337,6 +337,33 @@ def test_a_second_run_on_the_same_file_is_refused(tmp_path: Path) -> None:
     assert again.resumed_targets == 4 and not lock.exists()
 
 
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux's /proc")
+def test_lock_of_a_killed_unreaped_run_is_stale(tmp_path: Path) -> None:
+    # a run killed (kill -9) whose parent has not reaped it yet is a zombie: it answers
+    # kill(pid, 0) but writes nothing; its lock is stale (refused as 'another collection' before)
+    import signal
+    import time
+
+    out = tmp_path / "d.csv"
+    settings = CollectionSettings(readings=2, position_step=6, level_step=128)
+    collect_characterisation(FakeRig(), SPEC, out, settings)
+    proc = subprocess.Popen(["sleep", "30"])
+    try:
+        os.kill(proc.pid, signal.SIGKILL)
+        stat = Path(f"/proc/{proc.pid}/stat")
+        for _ in range(200):  # the kernel marks it Z within microseconds; not reaped: no wait()
+            if stat.read_text().rpartition(")")[2].split()[0] == "Z":
+                break
+            time.sleep(0.01)
+        assert stat.read_text().rpartition(")")[2].split()[0] == "Z"
+        lock = tmp_path / "d.csv.lock"
+        lock.write_text(f"{proc.pid}\n")
+        again = collect_characterisation(FakeRig(), SPEC, out, settings)
+        assert again.resumed_targets == 4 and not lock.exists()
+    finally:
+        proc.wait()
+
+
 def _dead_pid() -> int:
     proc = subprocess.Popen(["true"])
     proc.wait()
