@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from typing import Any
 
 
@@ -166,6 +167,8 @@ def _transfer(args: argparse.Namespace) -> int:
         f"{result.pulse_scale:.3f} w (curve {result.pulse_curve:+.3f}); misfit "
         f"{100 * result.residual:.1f} % (unchanged {100 * result.residual_unchanged:.1f} %)"
     )
+    for warning in result.warnings:
+        print(f"torquemap: warning: {args.second_motor}: {warning}", file=sys.stderr)
     return 0
 
 
