@@ -117,3 +117,34 @@ def test_cli_home_random_bench(tmp_path: Path, capsys: pytest.CaptureFixture[str
     assert main(["linearize", "home", str(path), "--random", str(other)]) == 2
     err = capsys.readouterr().err
     assert f"random motor {other} has" in err and str(path) in err and err.count("\n") == 1
+
+
+def test_cli_home_refuses_tables_of_another_motor(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # tables whose equilibria are another joint's (same phases and cycle) would home the motor
+    # to the wrong equilibria; like evaluate and collect, home refuses them in one line
+    import dataclasses
+
+    from torquemap.linearize.export import save_tables
+    from torquemap.linearize.tables import build_tables
+    from torquemap.sim.rig import sim_rig
+
+    spec = sim_rig("vr", rng=0).motor_spec()
+    path = tmp_path / "motor.toml"
+    write_toml(path, motor_to_dict(spec))
+    n = spec.positions_per_cycle
+    p, w = np.meshgrid(np.arange(0, n, 8), np.arange(0, 256, 32), indexing="ij")
+    torque = (w * (1.5 + np.cos(2 * np.pi * 3 * p / n))).ravel() / 255.0
+    other = dataclasses.replace(
+        spec, equilibrium_positions=tuple((e + 3) % n for e in spec.equilibrium_positions)
+    )
+    for name, s in (("own.npz", spec), ("other.npz", other)):
+        save_tables(tmp_path / name, build_tables(s, p.ravel(), w.ravel(), torque))
+    argv = ["linearize", "home", str(path), "--sim", "vr", "--repeats", "1", "--tables"]
+    assert main([*argv, str(tmp_path / "own.npz")]) == 0
+    capsys.readouterr()
+    assert main([*argv, str(tmp_path / "other.npz")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(tmp_path / "other.npz") in err
+    assert "tables are for another motor" in err and "equilibrium positions" in err

@@ -78,9 +78,9 @@ def _home(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from torquemap.errors import InputError
     from torquemap.linearize.export import load_tables
     from torquemap.linearize.homing import circular_difference, circular_mean
+    from torquemap.linearize.metrics import check_tables_fit
     from torquemap.linearize.motor import load_motor
     from torquemap.sim.free_motor import home_on_sim
 
@@ -88,16 +88,9 @@ def _home(args: argparse.Namespace) -> int:
     source = args.motor
     if args.tables:
         tables = load_tables(args.tables)
-        if (tables.phases.shape[0], tables.positions_per_cycle) != (
-            spec.phases,
-            spec.positions_per_cycle,
-        ):
-            raise InputError(
-                f"tables for {tables.phases.shape[0]} phases and {tables.positions_per_cycle} "
-                f"positions, the motor file has {spec.phases} and {spec.positions_per_cycle}: "
-                "tables for another motor?",
-                path=args.tables,
-            )
+        # phases, positions, bits, full scale and equilibria (only the phases and positions
+        # before: a sibling's tables homed to their own equilibria without a word)
+        check_tables_fit(spec, tables, path=args.tables)
         spec = dataclasses.replace(spec, equilibrium_positions=tables.equilibrium_positions)
         source = args.tables
     results, _truth = home_on_sim(
