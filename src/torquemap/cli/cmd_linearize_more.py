@@ -14,6 +14,8 @@ from typing import Any
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add ``home`` and ``transfer`` to the ``linearize`` group's sub-parsers."""
+    from torquemap.cli.cmd_linearize_collect import add_rig_choice
+
     home = subparsers.add_parser(
         "home",
         help="locate the table positions on the position counter from the phases' equilibria",
@@ -26,14 +28,7 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     home.add_argument("motor", metavar="MOTOR.toml", help="the motor file (equilibria)")
-    which = home.add_mutually_exclusive_group(required=True)
-    which.add_argument("--sim", choices=("vr", "bldc"), help="simulated motor")
-    which.add_argument(
-        "--random",
-        type=int,
-        metavar="SEED",
-        help="the random motor of `simulate rig --random SEED`",
-    )
+    add_rig_choice(home)
     home.add_argument(
         "--tables",
         metavar="TABLES.npz",
