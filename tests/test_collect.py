@@ -337,6 +337,33 @@ def test_a_second_run_on_the_same_file_is_refused(tmp_path: Path) -> None:
     assert again.resumed_targets == 4 and not lock.exists()
 
 
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux's /proc")
+def test_lock_of_a_killed_unreaped_run_is_stale(tmp_path: Path) -> None:
+    # a run killed (kill -9) whose parent has not reaped it yet is a zombie: it answers
+    # kill(pid, 0) but writes nothing; its lock is stale (refused as 'another collection' before)
+    import signal
+    import time
+
+    out = tmp_path / "d.csv"
+    settings = CollectionSettings(readings=2, position_step=6, level_step=128)
+    collect_characterisation(FakeRig(), SPEC, out, settings)
+    proc = subprocess.Popen(["sleep", "30"])
+    try:
+        os.kill(proc.pid, signal.SIGKILL)
+        stat = Path(f"/proc/{proc.pid}/stat")
+        for _ in range(200):  # the kernel marks it Z within microseconds; not reaped: no wait()
+            if stat.read_text().rpartition(")")[2].split()[0] == "Z":
+                break
+            time.sleep(0.01)
+        assert stat.read_text().rpartition(")")[2].split()[0] == "Z"
+        lock = tmp_path / "d.csv.lock"
+        lock.write_text(f"{proc.pid}\n")
+        again = collect_characterisation(FakeRig(), SPEC, out, settings)
+        assert again.resumed_targets == 4 and not lock.exists()
+    finally:
+        proc.wait()
+
+
 def _dead_pid() -> int:
     proc = subprocess.Popen(["true"])
     proc.wait()
@@ -425,6 +452,29 @@ def test_tables_validation_and_npz(tmp_path: Path) -> None:
     (tmp_path / "junk.npz").write_text("junk")
     with pytest.raises(InputError, match="cannot read tables"):
         read_tables_npz(tmp_path / "junk.npz", SPEC)
+    # a zip archive cut short (zipfile.BadZipFile before)
+    whole = (tmp_path / "t.npz").read_bytes()
+    (tmp_path / "cut.npz").write_bytes(whole[: len(whole) - 40])
+    with pytest.raises(InputError, match=r"cut\.npz: cannot read tables, corrupt or truncated"):
+        read_tables_npz(tmp_path / "cut.npz", SPEC)
+
+
+def test_tables_of_another_motor_are_refused(tmp_path: Path) -> None:
+    # TABLES.npz of `linearize build` carries its motor: a verification through tables built
+    # for other equilibria is refused before anything is collected
+    from torquemap.linearize.export import save_tables
+    from torquemap.linearize.tables import build_tables
+
+    p, w = np.meshgrid(np.arange(0, P, 2), np.arange(0, 256, 16), indexing="ij")
+    own = build_tables(SPEC, p.ravel(), w.ravel(), (w * (1 + p / P)).ravel() / 255.0)
+    other = dataclasses.replace(SPEC, equilibrium_positions=(1, 9, 17), name="other")
+    theirs = build_tables(other, p.ravel(), w.ravel(), (w * (1 + p / P)).ravel() / 255.0)
+    save_tables(tmp_path / "own.npz", own)
+    save_tables(tmp_path / "theirs.npz", theirs)
+    back = read_tables_npz(tmp_path / "own.npz", SPEC)
+    assert_array_equal(back["phase_1"], own.phases[0])
+    with pytest.raises(InputError, match=r"theirs\.npz: tables are for another motor"):
+        read_tables_npz(tmp_path / "theirs.npz", SPEC)
 
 
 @pytest.mark.parametrize(("bias_readings", "expected"), [(None, 30), (7, 7)])

@@ -150,3 +150,44 @@ def test_load_errors(tables: TableSet, tmp_path: Path) -> None:
     with pytest.raises(InputError, match="lacks 'torque_per_count'"):
         load_tables(partial)
     assert zipfile.is_zipfile(f)
+
+
+def _member_data_offset(path: Path, member: str) -> tuple[int, int]:
+    """Where a zip member's compressed bytes start, and how many (the local header's layout,
+    APPNOTE 4.3.7: 30 fixed bytes, then the name and the extra field)."""
+    with zipfile.ZipFile(path) as z:
+        info = z.getinfo(member)
+    raw = path.read_bytes()
+    start = info.header_offset
+    name_len = int.from_bytes(raw[start + 26 : start + 28], "little")
+    extra_len = int.from_bytes(raw[start + 28 : start + 30], "little")
+    return start + 30 + name_len + extra_len, info.compress_size
+
+
+def test_load_refuses_corrupt_contents(tables: TableSet, tmp_path: Path) -> None:
+    f = tmp_path / "t.npz"
+    save_tables(f, tables)
+    # one byte flipped inside a compressed table: at the start of the deflate stream zlib
+    # refuses it (zlib.error, a traceback before), further in the member's CRC-32 does
+    start, size = _member_data_offset(f, "phase_1.npy")
+    for offset in (0, size // 2):
+        raw = bytearray(f.read_bytes())
+        raw[start + offset] ^= 0xFF
+        flipped = tmp_path / "flipped.npz"
+        flipped.write_bytes(bytes(raw))
+        with pytest.raises(InputError, match=r"flipped\.npz: cannot read tables, corrupt or"):
+            load_tables(flipped)
+    arrays = dict(np.load(f))
+    # an entry beyond the full-scale pulse width (the builder writes 0 .. actuation_max only)
+    wide = arrays["phase_2"].astype(np.uint16)
+    wide[7, 9] = tables.actuation_max + 1
+    np.savez_compressed(tmp_path / "big.npz", **{**arrays, "phase_2": wide})
+    with pytest.raises(InputError, match=r"'phase_2' holds 256 at position 7, command 9"):
+        load_tables(tmp_path / "big.npz")
+    np.savez_compressed(tmp_path / "float.npz", **{**arrays, "phase_3": arrays["phase_3"] * 0.5})
+    with pytest.raises(InputError, match="'phase_3' must hold integers, got float64"):
+        load_tables(tmp_path / "float.npz")
+    for value in (np.nan, -1.0, 0.0):
+        np.savez_compressed(tmp_path / "scale.npz", **{**arrays, "torque_per_count": value})
+        with pytest.raises(InputError, match=r"torque_per_count is .*not a positive number"):
+            load_tables(tmp_path / "scale.npz")

@@ -88,3 +88,63 @@ def test_cli_home(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert "repeatability: std" in capsys.readouterr().out
     assert main(["linearize", "home", str(path), "--sim", "vr"]) == 2
     assert "the simulated vr motor has 3 and 512" in capsys.readouterr().err
+
+
+def test_cli_home_random_bench(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # `linearize home --random SEED` homes the family's bench SEED (the motor of `simulate rig
+    # --random SEED`): the homed offset is the free motor's hidden encoder offset
+    import json
+
+    from torquemap.sim.family import random_bench
+    from torquemap.sim.free_motor import free_motor_rig
+
+    seed = next(s for s in range(100) if random_bench(s).kind == "bldc")
+    bench = random_bench(seed)
+    spec = bench.rig.motor_spec(ramping=bench.ramping)
+    path = tmp_path / "motor.toml"
+    write_toml(path, motor_to_dict(spec))
+    argv = ["linearize", "home", str(path), "--random", str(seed), "--repeats", "3", "--json"]
+    assert main(argv) == 0
+    offset = json.loads(capsys.readouterr().out)["offset"]
+    # the same power-up (seed 0) the command draws, from the simulator's side
+    hidden = free_motor_rig(
+        "bldc", motor=bench.rig.motor, amplifier=bench.rig.amplifier, rng=0
+    ).encoder_offset
+    n = spec.positions_per_cycle
+    # bound: the motor file's equilibria are rounded (0.5) and each reading is rounded (0.5)
+    assert abs(float(circular_difference(offset, hidden, n))) <= 1.0
+    other = next(s for s in range(100) if random_bench(s).rig.phases != spec.phases)
+    assert main(["linearize", "home", str(path), "--random", str(other)]) == 2
+    err = capsys.readouterr().err
+    assert f"random motor {other} has" in err and str(path) in err and err.count("\n") == 1
+
+
+def test_cli_home_refuses_tables_of_another_motor(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # tables whose equilibria are another joint's (same phases and cycle) would home the motor
+    # to the wrong equilibria; like evaluate and collect, home refuses them in one line
+    import dataclasses
+
+    from torquemap.linearize.export import save_tables
+    from torquemap.linearize.tables import build_tables
+    from torquemap.sim.rig import sim_rig
+
+    spec = sim_rig("vr", rng=0).motor_spec()
+    path = tmp_path / "motor.toml"
+    write_toml(path, motor_to_dict(spec))
+    n = spec.positions_per_cycle
+    p, w = np.meshgrid(np.arange(0, n, 8), np.arange(0, 256, 32), indexing="ij")
+    torque = (w * (1.5 + np.cos(2 * np.pi * 3 * p / n))).ravel() / 255.0
+    other = dataclasses.replace(
+        spec, equilibrium_positions=tuple((e + 3) % n for e in spec.equilibrium_positions)
+    )
+    for name, s in (("own.npz", spec), ("other.npz", other)):
+        save_tables(tmp_path / name, build_tables(s, p.ravel(), w.ravel(), torque))
+    argv = ["linearize", "home", str(path), "--sim", "vr", "--repeats", "1", "--tables"]
+    assert main([*argv, str(tmp_path / "own.npz")]) == 0
+    capsys.readouterr()
+    assert main([*argv, str(tmp_path / "other.npz")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(tmp_path / "other.npz") in err
+    assert "tables are for another motor" in err and "equilibrium positions" in err

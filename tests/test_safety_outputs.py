@@ -249,6 +249,25 @@ def test_stale_temporaries_of_a_killed_run_are_removed(tmp_path: Path) -> None:
     assert remove_stale_temporaries(tmp_path) == []
 
 
+def test_a_killed_rig_simulations_collection_files_are_stale_temporaries(tmp_path: Path) -> None:
+    # `simulate rig` collects into .data.csv.tqm<pid>-<random>.tmp.csv, beside which the
+    # collection keeps its record and lock; killed (kill -9), all three stay behind, and the
+    # next write into the folder removed the partial data but not the record and lock before
+    from torquemap.linearize.resume import lock_path, record_path
+
+    proc = subprocess.Popen(["true"])
+    proc.wait()
+    partial = tmp_path / f".data.csv.tqm{proc.pid}-k9x_1.tmp.csv"
+    partial.write_text("position,pulse_width,torque\n0,0,0.1\n")
+    record_path(partial).write_text("{}")
+    lock_path(partial).write_text(f"{proc.pid}\n")
+    removed = remove_stale_temporaries(tmp_path)
+    assert sorted(p.name for p in removed) == sorted(
+        [partial.name, record_path(partial).name, lock_path(partial).name]
+    )
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_temporaries_are_removed_on_failure(tmp_path: Path) -> None:
     with pytest.raises(RuntimeError), atomic_output(tmp_path / "x.csv") as tmp:
         tmp.write_text("partial")

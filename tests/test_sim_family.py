@@ -104,3 +104,24 @@ def test_simulate_rig_random_and_collect_on_it(
     status = main([*argv, "--random", str(other), "--no-progress"])
     err = capsys.readouterr().err
     assert status == 2 and f"random motor {other} has" in err and err.count("\n") == 1
+
+
+def test_simulate_rig_random_paper_settings_on_a_dense_draw(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a bench whose draw targets the ramp's transitions can still be collected at the paper's
+    # settings (evenly spaced targets alone): --no-transitions overrides the draw
+    from torquemap.linearize.collect import collection_targets
+
+    seed = next(s for s in range(100) if random_bench(s).settings.transitions)
+    out = tmp_path / "bench"
+    fast = ["--readings", "2", "--position-step", "32", "--pulse-step", "255", "--no-progress"]
+    argv = ["simulate", "rig", "--random", str(seed), "--out", str(out), *fast]
+    assert main([*argv, "--no-transitions"]) == 0
+    spec = load_motor(out / "motor.toml")
+    data = read_table(out / "data.csv")
+    blocks = int(np.sum(np.asarray(data["pulse_width"]) == 0))
+    evenly = collection_targets(spec, positions=spec.positions_per_cycle // 32)
+    assert blocks == evenly.size
+    assert evenly.size < collection_targets(spec, positions=evenly.size, transitions=True).size
+    capsys.readouterr()

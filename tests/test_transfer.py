@@ -114,3 +114,40 @@ def test_cli_transfer_and_bad_input(
             joints["spec2"],  # type: ignore[arg-type]
             one,
         )
+
+
+def test_a_second_motor_file_that_misregisters_the_handful_warns(
+    joints: dict[str, object], capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the second joint's motor file with equilibria 20 positions off its own (the file of
+    # another joint): the registration s(p) then misplaces the first joint's surface and the
+    # transferred torque is worse than the first joint's taken unchanged, against the truth
+    spec2 = joints["spec2"]
+    wrong = dataclasses.replace(
+        spec2,  # type: ignore[type-var]
+        equilibrium_positions=tuple((e + 20) % 512 for e in spec2.equilibrium_positions),  # type: ignore[attr-defined]
+    )
+    r = transfer_characterisation(
+        joints["spec1"],  # type: ignore[arg-type]
+        joints["data1"],  # type: ignore[arg-type]
+        wrong,
+        joints["few"],  # type: ignore[arg-type]
+    )
+    data1: LinearizeData = joints["data1"]  # type: ignore[assignment]
+    truth = _sensed(joints["second"], data1, spec2.ramp)  # type: ignore[arg-type,attr-defined]
+    first = _sensed(joints["first"], data1, joints["spec1"].ramp)  # type: ignore[arg-type,attr-defined]
+    ok = truth > 0.1 * truth.max()
+    err_transfer = np.mean(np.abs(r.torque - truth)[ok] / truth[ok])
+    err_unchanged = np.mean(np.abs(first - truth)[ok] / truth[ok])
+    assert err_transfer > err_unchanged  # the warning's claim, checked against the truth
+    assert len(r.warnings) == 1 and "misfits the handful more" in r.warnings[0]
+    ok_result: TransferResult = joints["result"]  # type: ignore[assignment]
+    assert ok_result.warnings == ()  # the right motor file: no warning
+    tmp: Path = joints["tmp"]  # type: ignore[assignment]
+    write_toml(tmp / "m1.toml", motor_to_dict(joints["spec1"]))  # type: ignore[arg-type]
+    write_toml(tmp / "wrong.toml", motor_to_dict(wrong))
+    args = [str(tmp / n) for n in ("m1.toml", "first.csv", "wrong.toml", "few.csv")]
+    assert main(["linearize", "transfer", *args, "-o", str(tmp / "w.csv")]) == 0
+    err = capsys.readouterr().err
+    assert err.startswith(f"torquemap: warning: {tmp / 'wrong.toml'}: the transferred surface")
+    assert err.count("\n") == 1

@@ -27,9 +27,11 @@ Columns = dict[str, NDArray[Any]]
 Writer = Callable[[Path], object]
 
 
-#: Temporary files of a write in progress: ``.<name>.tqm<pid>-<random>.tmp`` (an optional second
-#: suffix follows when a writer needs the real one). A run removes the ones whose process is gone.
-TEMPORARY_PATTERN = re.compile(r"^\..*\.tqm(?P<pid>[0-9]+)-[A-Za-z0-9_]+\.tmp(\.[A-Za-z0-9]+)?$")
+#: Temporary files of a write in progress: ``.<name>.tqm<pid>-<random>.tmp`` (further suffixes
+#: follow when a writer needs the real one, and on the files kept beside such a temporary: a
+#: collection's ``.tmp.csv.collect.json`` record and ``.tmp.csv.lock``). A run removes the ones
+#: whose process is gone.
+TEMPORARY_PATTERN = re.compile(r"^\..*\.tqm(?P<pid>[0-9]+)-[A-Za-z0-9_]+\.tmp(\.[A-Za-z0-9_]+)*$")
 
 
 def _pid_alive(pid: int) -> bool:

@@ -34,14 +34,7 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     )
     collect.add_argument("motor", metavar="MOTOR.toml", help="the motor file")
     collect.add_argument("-o", "--out", metavar="DATA.csv", required=True, help="data file")
-    which = collect.add_mutually_exclusive_group(required=True)
-    which.add_argument("--sim", choices=("vr", "bldc"), help="simulated motor")
-    which.add_argument(
-        "--random",
-        type=int,
-        metavar="SEED",
-        help="the random motor of `simulate rig --random SEED`",
-    )
+    add_rig_choice(collect)
     collect.add_argument("--seed", type=int, default=0, help="noise seed, >= 0 (default 0)")
     collect.add_argument(
         "--tables", metavar="TABLES.npz", help="phase tables: verification run instead"
@@ -51,6 +44,18 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
 
     add_adaptive_arguments(collect)
     collect.set_defaults(handler=_collect)
+
+
+def add_rig_choice(parser: argparse.ArgumentParser) -> None:
+    """``--sim vr|bldc`` or ``--random SEED``: which simulated motor (one of them, required)."""
+    which = parser.add_mutually_exclusive_group(required=True)
+    which.add_argument("--sim", choices=("vr", "bldc"), help="simulated motor")
+    which.add_argument(
+        "--random",
+        type=int,
+        metavar="SEED",
+        help="the random motor of `simulate rig --random SEED`",
+    )
 
 
 def add_settings_arguments(
@@ -71,10 +76,10 @@ def add_settings_arguments(
     )
     parser.add_argument(
         "--bias-open",
-        action="store_true",
+        action=argparse.BooleanOptionalAction,
         default=None,
         help="read the bias with the contact open, not at rest (where cogging alone loads the "
-        "contact, the rows then hold the torque at rest)",
+        "contact, the rows then hold the torque at rest); --no-bias-open: at rest",
     )
     parser.add_argument(
         level_flag,
@@ -92,9 +97,11 @@ def add_settings_arguments(
     )
     parser.add_argument(
         "--transitions",
-        action="store_true",
+        action=argparse.BooleanOptionalAction,
         default=None,
-        help="also target every position where the ramp changes (the phases' hand-over)",
+        help="also target every position where the ramp changes (the phases' hand-over); "
+        "--no-transitions: the evenly spaced targets alone (e.g. the paper's settings on a "
+        "random bench whose draw targets them)",
     )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 

@@ -8,11 +8,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from typing import Any
 
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add ``home`` and ``transfer`` to the ``linearize`` group's sub-parsers."""
+    from torquemap.cli.cmd_linearize_collect import add_rig_choice
+
     home = subparsers.add_parser(
         "home",
         help="locate the table positions on the position counter from the phases' equilibria",
@@ -20,11 +23,12 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         "energised alone, reached from below and from above), repeatedly, with the motor "
         "displaced by hand in between, and report the counter offset and its repeatability "
         "(Adept II paper, Table 1). See docs/linearize-homing.md.",
-        epilog="example:\n  torquemap linearize home rig/motor.toml --sim vr --repeats 20",
+        epilog="examples:\n  torquemap linearize home rig/motor.toml --sim vr --repeats 20\n"
+        "  torquemap linearize home rig/motor.toml --random 7 --tables tables.npz",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     home.add_argument("motor", metavar="MOTOR.toml", help="the motor file (equilibria)")
-    home.add_argument("--sim", choices=("vr", "bldc"), required=True, help="simulated motor")
+    add_rig_choice(home)
     home.add_argument(
         "--tables",
         metavar="TABLES.npz",
@@ -69,9 +73,9 @@ def _home(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from torquemap.errors import InputError
     from torquemap.linearize.export import load_tables
     from torquemap.linearize.homing import circular_difference, circular_mean
+    from torquemap.linearize.metrics import check_tables_fit
     from torquemap.linearize.motor import load_motor
     from torquemap.sim.free_motor import home_on_sim
 
@@ -79,21 +83,15 @@ def _home(args: argparse.Namespace) -> int:
     source = args.motor
     if args.tables:
         tables = load_tables(args.tables)
-        if (tables.phases.shape[0], tables.positions_per_cycle) != (
-            spec.phases,
-            spec.positions_per_cycle,
-        ):
-            raise InputError(
-                f"tables for {tables.phases.shape[0]} phases and {tables.positions_per_cycle} "
-                f"positions, the motor file has {spec.phases} and {spec.positions_per_cycle}: "
-                "tables for another motor?",
-                path=args.tables,
-            )
+        # phases, positions, bits, full scale and equilibria (only the phases and positions
+        # before: a sibling's tables homed to their own equilibria without a word)
+        check_tables_fit(spec, tables, path=args.tables)
         spec = dataclasses.replace(spec, equilibrium_positions=tables.equilibrium_positions)
         source = args.tables
     results, _truth = home_on_sim(
         spec,
-        sim=args.sim,
+        sim=args.sim or "vr",
+        random=args.random,
         seed=args.seed,
         repeats=args.repeats,
         pulse_width=args.pulse_width,
@@ -157,6 +155,8 @@ def _transfer(args: argparse.Namespace) -> int:
         f"{result.pulse_scale:.3f} w (curve {result.pulse_curve:+.3f}); misfit "
         f"{100 * result.residual:.1f} % (unchanged {100 * result.residual_unchanged:.1f} %)"
     )
+    for warning in result.warnings:
+        print(f"torquemap: warning: {args.second_motor}: {warning}", file=sys.stderr)
     return 0
 
 

@@ -668,17 +668,17 @@ def read_tables_npz(path: str | os.PathLike[str], spec: MotorSpec) -> dict[str, 
     Raises
     ------
     InputError
-        On a missing or unreadable file, a missing table, a wrong shape, or entries that are
-        not integers in ``0 .. actuation_max``.
+        On a missing or unreadable file, a missing table, a wrong shape, entries that are
+        not integers in ``0 .. actuation_max``, or tables of ``linearize build`` (with their
+        metadata) built for another motor (:func:`torquemap.linearize.metrics.check_tables_fit`).
     """
+    from torquemap.linearize.export import load_tables, read_npz_arrays
+    from torquemap.linearize.metrics import check_tables_fit
+
     p = os.fspath(path)
-    try:
-        with np.load(p, allow_pickle=False) as npz:
-            tables = {name: np.asarray(npz[name]) for name in npz.files}
-    except FileNotFoundError:
-        raise InputError("file not found", path=p) from None
-    except (OSError, ValueError) as exc:
-        raise InputError(f"cannot read tables ({exc})", path=p) from None
+    tables = read_npz_arrays(p)
+    if "motor_name" in tables:  # a TABLES.npz of `linearize build`: for this motor?
+        check_tables_fit(spec, load_tables(p), path=p)
     try:
         stack = _phase_tables(spec, tables)
     except InputError as exc:

@@ -13,8 +13,10 @@ outputs before writing any, then writes each through a temporary file and a rena
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import zipfile
+import zlib
 from pathlib import Path
 from typing import Any
 
@@ -92,13 +94,14 @@ def save_tables(path: str | os.PathLike[str], tables: TableSet) -> None:
         _npz_bytes(tables, tmp)
 
 
-def load_tables(path: str | os.PathLike[str]) -> TableSet:
-    """Read TABLES.npz.
+def read_npz_arrays(path: str | os.PathLike[str]) -> dict[str, NDArray[Any]]:
+    """Every array of an ``.npz`` file, read whole.
 
     Raises
     ------
     InputError
-        On a missing, corrupt or truncated file, a missing array, or inconsistent shapes.
+        On a missing file, or one that is not a readable ``.npz`` (not a zip archive,
+        truncated, a member whose compressed bytes or checksum are corrupt, pickled objects).
     """
     p = os.fspath(path)
     if not Path(p).exists():
@@ -110,15 +113,51 @@ def load_tables(path: str | os.PathLike[str]) -> TableSet:
         )
     try:
         with open(p, "rb") as handle, np.load(handle, allow_pickle=False) as npz:
-            data = {name: np.asarray(npz[name]) for name in npz.files}
-    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile) as exc:
+            return {name: np.asarray(npz[name]) for name in npz.files}
+    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile, zlib.error) as exc:
+        # zlib.error: a corrupt byte inside a compressed member (np.savez_compressed)
         raise InputError(f"cannot read tables, corrupt or truncated ({exc})", path=p) from None
+
+
+def _check_entries(data: dict[str, NDArray[Any]], phases: int, top: int, path: str) -> None:
+    """Every phase table integer-valued and within ``0 .. top`` (the builder writes no other)."""
+    for k in range(phases):
+        name = f"phase_{k + 1}"
+        table = data[name]
+        if not np.issubdtype(table.dtype, np.integer):
+            raise InputError(f"table {name!r} must hold integers, got {table.dtype}", path=path)
+        if table.size and (table.min() < 0 or table.max() > top):
+            bad = np.argwhere((table < 0) | (table > top))[0]
+            raise InputError(
+                f"table {name!r} holds {table[tuple(bad)]} at position {bad[0]}, command "
+                f"{bad[1]}, outside 0 .. {top} (actuation_max): corrupt tables?",
+                path=path,
+            )
+
+
+def load_tables(path: str | os.PathLike[str]) -> TableSet:
+    """Read TABLES.npz.
+
+    Raises
+    ------
+    InputError
+        On a missing, corrupt or truncated file, a missing array, inconsistent shapes, table
+        entries that are not integers in ``0 .. actuation_max``, or a torque scale that is not
+        a positive number.
+    """
+    p = os.fspath(path)
+    data = read_npz_arrays(p)
     for name in (*_META, "base", "ramp", "phase_1"):
         if name not in data:
             raise InputError(f"tables file lacks {name!r}", path=p)
     m = 0
     while f"phase_{m + 1}" in data:
         m += 1
+    try:
+        top = int(data["actuation_max"])
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"tables file has malformed contents ({exc})", path=p) from None
+    _check_entries(data, m, top, p)
     try:
         phases = np.stack([data[f"phase_{k + 1}"].astype(np.int64) for k in range(m)])
         meta = {name: data[name].item() if data[name].ndim == 0 else data[name] for name in _META}
@@ -157,6 +196,11 @@ def load_tables(path: str | os.PathLike[str]) -> TableSet:
         )
     if tables.command_scaling not in ("linear", "log"):
         raise InputError(f"unknown command_scaling {tables.command_scaling!r}", path=p)
+    scales = ("torque_per_count", "torque_max")
+    for name in (*scales, "log_curvature") if tables.command_scaling == "log" else scales:
+        value = getattr(tables, name)
+        if not (math.isfinite(value) and value > 0):
+            raise InputError(f"{name} is {value}, not a positive number: corrupt tables?", path=p)
     return tables
 
 

@@ -56,7 +56,18 @@ def _alive(pid: int) -> bool:
         return False
     except PermissionError:
         return True  # someone else's live process
-    return True
+    return not _zombie(pid)
+
+
+def _zombie(pid: int) -> bool:
+    """A process that has exited (killed: ``kill -9``, ``timeout -s KILL``) but whose parent has
+    not reaped it yet still answers ``kill(pid, 0)``; Linux's /proc says so (state Z or X)."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False  # no /proc (not Linux) or gone meanwhile: kill(pid, 0) decides
+    state = stat.rpartition(")")[2].split()[:1]  # the name in parentheses may hold spaces
+    return state in (["Z"], ["X"])
 
 
 @contextlib.contextmanager

@@ -77,6 +77,10 @@ class TransferResult:
         ``beta = 1``, no registration).
     measurements
         Rows of the handful used.
+    warnings
+        One line each: the transferred surface misfits the handful more than the first
+        joint's taken unchanged (the scaling does not describe the second joint: its motor
+        file's equilibria, or a handful of another joint).
     """
 
     position: NDArray[np.int64]
@@ -90,6 +94,7 @@ class TransferResult:
     residual: float
     residual_unchanged: float
     measurements: int
+    warnings: tuple[str, ...] = ()
 
 
 class _Surface:
@@ -239,6 +244,18 @@ def transfer_characterisation(
     g, resid = gains(x)
     scale = float(np.sqrt(np.mean(tau**2))) or 1.0
     unchanged = tau - surface(pos, level)
+    residual = float(np.sqrt(np.mean(resid**2))) / scale
+    residual_unchanged = float(np.sqrt(np.mean(unchanged**2))) / scale
+    warnings = []
+    if residual > residual_unchanged:
+        # the fit's family holds the unchanged surface only without registration: a worse fit
+        # means the equilibria registered (the motor files) do not match the handful
+        warnings.append(
+            f"the transferred surface misfits the handful more than the first joint's taken "
+            f"unchanged ({100 * residual:.1f} % against {100 * residual_unchanged:.1f} % RMS): "
+            "the scaling does not describe this joint; are the second motor file's "
+            "equilibrium positions this joint's, and the handful its rows?"
+        )
     # the second joint's torque at the first joint's (position, pulse width) rows
     p_first = first.position.astype(np.float64)
     w_first = shares(p_first)
@@ -252,9 +269,10 @@ def transfer_characterisation(
         pulse_scale=float(x[1]),
         pulse_curve=float(x[2]),
         position_shift=shift,
-        residual=float(np.sqrt(np.mean(resid**2))) / scale,
-        residual_unchanged=float(np.sqrt(np.mean(unchanged**2))) / scale,
+        residual=residual,
+        residual_unchanged=residual_unchanged,
         measurements=int(tau.size),
+        warnings=tuple(warnings),
     )
 
 

@@ -180,6 +180,7 @@ def home_on_sim(
     pulse_width: int | None = None,
     friction_fraction: float = 0.01,
     path: str | None = None,
+    random: int | None = None,
 ) -> tuple[list[HomingResult], float]:
     """Home a simulated free motor ``repeats`` times, displaced to a random position in between.
 
@@ -202,6 +203,10 @@ def home_on_sim(
         Bearing friction as a fraction of one phase's peak torque.
     path
         The motor or tables file, named in error messages.
+    random
+        Home the motor and amplifier of the family's bench ``random``
+        (:func:`torquemap.sim.family.random_bench`, ``simulate rig --random``) instead of the
+        default ``sim`` motor.
 
     Returns
     -------
@@ -220,12 +225,26 @@ def home_on_sim(
         raise InputError(f"repeats must be a positive integer, got {repeats!r}")
     if not 0 <= friction_fraction < 1:
         raise InputError(f"friction fraction must be in [0, 1), got {friction_fraction}")
-    rig = free_motor_rig(sim, rng=seed, friction_fraction=friction_fraction)
+    what = f"simulated {sim} motor"
+    motor = amplifier = None
+    if random is not None:
+        from torquemap.sim.family import random_bench
+
+        bench = random_bench(random)
+        motor, amplifier, what = bench.rig.motor, bench.rig.amplifier, f"random motor {random}"
+    rig = free_motor_rig(
+        sim, motor=motor, amplifier=amplifier, rng=seed, friction_fraction=friction_fraction
+    )
     if (spec.phases, spec.positions_per_cycle) != (rig.phases, rig.positions_per_cycle):
         raise InputError(
-            f"the motor file has {spec.phases} phases and {spec.positions_per_cycle} positions "
-            f"per cycle; the simulated {sim} motor has {rig.phases} and "
-            f"{rig.positions_per_cycle}",
+            f"the motor has {spec.phases} phases and {spec.positions_per_cycle} positions "
+            f"per cycle; the {what} has {rig.phases} and {rig.positions_per_cycle}",
+            path=path,
+        )
+    if spec.actuation_max != rig.amplifier.actuation_max:
+        raise InputError(
+            f"actuation_max {spec.actuation_max} does not match the {what}'s amplifier's "
+            f"{rig.amplifier.actuation_max}",
             path=path,
         )
     results = []
