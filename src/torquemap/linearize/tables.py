@@ -887,6 +887,44 @@ def _paper_inverse(
 MAX_GRID_CELLS = 1 << 21
 
 
+#: A phase whose peak torque is under this share of the strongest phase's is reported: the
+#: phases of one motor are built alike (the simulated family's gains differ by 0.85 .. 1.15).
+WEAK_PHASE = 0.5
+
+
+def weak_phase_advice(reach: NDArray[np.float64], ramp: NDArray[np.float64]) -> str:
+    """A line when one phase reaches less than :data:`WEAK_PHASE` of the strongest phase's
+    torque (each phase's: the median over the positions where its ramp leads of the largest
+    torque reached there, ``reach`` [N m] per position), else "". The tables' full scale is the
+    smallest torque reached anywhere, so a weak phase cuts it for every position.
+
+    >>> ramp = np.repeat(np.eye(3), 4, axis=0)  # 12 positions, one phase each in turn
+    >>> weak_phase_advice(np.r_[np.full(4, 2.0), np.full(4, 0.4), np.full(4, 2.1)], ramp)[:36]
+    'phase 1 reaches 0.4 N m at most (19%'
+    """
+    if ramp.ndim != 2 or ramp.shape[1] < 2 or ramp.shape[0] != reach.size:
+        return ""
+    lead = np.argmax(ramp, axis=1)
+    peaks = np.array(
+        [
+            float(np.median(reach[lead == k])) if np.any(lead == k) else np.nan
+            for k in range(ramp.shape[1])
+        ]
+    )
+    if not np.isfinite(peaks).any():
+        return ""
+    strong = int(np.nanargmax(peaks))
+    low = int(np.nanargmin(peaks))
+    if not peaks[low] < WEAK_PHASE * peaks[strong]:
+        return ""
+    return (
+        f"phase {low} reaches {peaks[low]:.3g} N m at most ({peaks[low] / peaks[strong]:.0%} of "
+        f"phase {strong}'s {peaks[strong]:.3g} N m), which sets the tables' full scale for every "
+        "position: a weak winding, connector or amplifier channel? Check that phase before using "
+        "the tables"
+    )
+
+
 def build_tables(
     spec: MotorSpec,
     position: ArrayLike,
@@ -1048,6 +1086,7 @@ def build_tables(
         )
     torque_max = float(reach.min())
     cmax = (1 << (spec.command_bits - 1)) - 1
+    weak = weak_phase_advice(reach, np.asarray(spec.ramp, dtype=np.float64))
     law = {
         "torque_max": torque_max,
         "command_max": cmax,
@@ -1055,7 +1094,7 @@ def build_tables(
         "log_curvature": log_curvature,
     }
     surface_used = False
-    warnings: list[str] = []
+    warnings: list[str] = [weak] if weak else []
     if method == "interp":
         target = torque_from_command(np.arange(cmax + 1), **law)  # type: ignore[arg-type]
         if onset:
@@ -1106,7 +1145,7 @@ def build_tables(
     else:
         index = command_from_torque(tau, **law)  # type: ignore[arg-type]
         base, voids, averaged = _paper_inverse(spec, pos, pw, tau, index, cmax, gap)
-    if spec.cogging_periods is not None and not warnings:
+    if spec.cogging_periods is not None and len(warnings) == bool(weak):
         stated = check_stated_cogging(spec.cogging_periods, np.unique(pos[pw == 0]), n)
         if stated:
             warnings.append(stated)
