@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 
 import numpy as np
@@ -377,6 +378,28 @@ def test_a_task_slower_than_the_slowest_pass_says_what_to_record(delayed) -> Non
     assert "record sweep passes down to about 0.21 rad/s" in said[0]
     same = estimate_forces(delayed.model, simulate(seed=4)).warnings
     assert not any("sweep pass" in w for w in same)
+
+
+def test_a_task_between_passes_far_apart_says_what_to_record(delayed) -> None:  # type: ignore[no-untyped-def]
+    # identified from passes at 0.5, 2 and 8 rad/s (4 times apart): a task cruising at 3 to
+    # 5 rad/s runs where the table between 2 and 8 rad/s is its prior's, not a pass's
+    t = np.arange(0.0, 6.0, 1e-3)
+    theta = 3.0 * t + (2.0 / 12.0) * t**2  # 3 -> 5 rad/s, evenly in time
+    tau = LAW.torque(np.gradient(theta, t)) + pdtv_torque(theta, LINES)
+    q = np.round(theta * 8000 / (2 * np.pi)) * (2 * np.pi / 8000)
+    task = Log(t=t, q=q[:, None], motor_torque=tau[:, None], joint_names=("m",), path="g.csv")
+    said = [w for w in estimate_forces(delayed.model, task).warnings if "apart in speed" in w]
+    assert len(said) == 1
+    passes = sorted(abs(x) for x in delayed.model.notes["joints"]["m"]["speeds"] if x > 0)
+    lo, hi = next((a, b) for a, b in itertools.pairwise(passes) if a < 3.0 < b)
+    assert f"({lo:.3g} and {hi:.3g} rad/s)" in said[0]
+    # the samples between 1.25 lo and hi / 1.25 (every one from 3 to 5 rad/s here), and their
+    # median speed, 4 rad/s at the middle of the log
+    assert said[0].startswith("joint m: 100% of the samples")
+    assert "record sweep passes near 4 rad/s" in said[0]
+    # the sweeps' own log spends less than SLOW_TASK_SHARE between its passes
+    same = estimate_forces(delayed.model, simulate(seed=4)).warnings
+    assert not any("apart in speed" in w for w in same)
 
 
 def test_a_knot_at_each_steady_speed() -> None:

@@ -29,6 +29,7 @@ end effector is ``F = J(q)^-T tau_ext``, flagged near singular poses.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -649,6 +650,7 @@ def estimate_forces(
                 "where friction is undetermined (flagged)"
             )
     warnings += slow_task_warnings(model, out["velocity"])
+    warnings += gap_task_warnings(model, out["velocity"])
     warnings += fast_task_warnings(model, out["velocity"])
     warnings += unidentified_joint_warnings(model)
     gear = np.array([j.gear_ratio for j in robot.joints])
@@ -1300,6 +1302,66 @@ def slow_task_warnings(model: Model, velocity: NDArray[np.float64]) -> list[str]
             f"below {low:.3g} rad/s), where friction is extrapolated from ramps and the "
             f"identification's prior; record sweep passes down to about {low:.2g} rad/s"
         )
+    return out
+
+
+#: Steady passes farther apart than this speed ratio leave knots of the friction table that only
+#: its prior holds (two of the table's knot steps, ``identify_whole.KNOT_RATIO ** 2``).
+PASS_GAP = 1.8**2
+
+
+def gap_task_warnings(model: Model, velocity: NDArray[np.float64]) -> list[str]:
+    """One line per whole-fit joint whose log runs, on at least ``SLOW_TASK_SHARE`` of its
+    samples each, between two steady sweep passes of one direction more than :data:`PASS_GAP`
+    apart in speed (and a quarter beyond each, clear of their speed
+    ripple): there the friction table is interpolated by its prior, not measured, and is off by
+    what the law bends between the passes (random SCARA 107: 3.2 mN m at -20 rad/s between
+    passes at 9.2 and 41.6 rad/s, 31 % of the spring force with its sigma under it).
+    ``velocity`` is the motor velocity [rad/s], shape (n, n_joints).
+
+    Examples
+    --------
+    >>> from torquemap.robot import robot_from_dict
+    >>> rb = robot_from_dict({"robot": {"name": "m", "kinematics": "none"}, "joints": {"a": {
+    ...     "gear_ratio": 1.0, "torque_constant": 0.1, "encoder_counts_per_rev": 4096}}})
+    >>> notes = {"joints": {"a": {"friction_fit": "whole", "speeds": [1.0, 10.0, -1.0, -1.5]}}}
+    >>> m = Model(robot=rb, joints={}, notes=notes)
+    >>> gap_task_warnings(m, np.linspace(2.0, 6.0, 100)[:, None])[0][:62]
+    'joint a: 100% of the samples run between steady sweep passes m'
+    """
+    whole = whole_fit_joints(model)
+    joints = model.notes.get("joints", {})
+    out: list[str] = []
+    for k, name in enumerate(model.robot.joint_names):
+        entry = joints.get(name) if isinstance(joints, Mapping) else None
+        raw = entry.get("speeds") if isinstance(entry, Mapping) else None
+        if name not in whole or not isinstance(raw, list | tuple):
+            continue
+        signed = [float(v) for v in raw if isinstance(v, int | float) and math.isfinite(v)]
+        v = velocity[:, k]
+        v = v[np.isfinite(v)]
+        if v.size == 0:
+            continue
+        gaps, count, near = [], 0, []
+        for sign in (1.0, -1.0):
+            passes = sorted({abs(x) for x in signed if x * sign > 0})
+            speed = np.abs(v[v * sign > 0])
+            for lo, hi in itertools.pairwise(passes):
+                if hi <= PASS_GAP * lo:
+                    continue
+                inside = speed[(speed > 1.25 * lo) & (speed < hi / 1.25)]
+                if inside.size < SLOW_TASK_SHARE * v.size:
+                    continue
+                count += inside.size
+                gaps.append(f"{sign * lo:.3g} and {sign * hi:.3g}")
+                near.append(f"{sign * float(np.median(inside)):.2g}")
+        if gaps:
+            out.append(
+                f"joint {name}: {count / v.size:.0%} of the samples run between steady sweep "
+                f"passes more than {PASS_GAP:.2g} times apart in speed ({'; '.join(gaps)} "
+                "rad/s), where friction is interpolated by the identification's prior, not "
+                f"measured; record sweep passes near {', '.join(near)} rad/s"
+            )
     return out
 
 
