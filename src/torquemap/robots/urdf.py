@@ -671,7 +671,11 @@ def urdf_arm(
             f"{', '.join(links)})",
             path=p,
         )
-    frame = model.getFrameId(end_effector)
+    # a URDF may give a link and the fixed joint above it one name (Unitree's Z1): both
+    # frames sit at the link's origin; take the link's
+    kinds = [f.type for f in model.frames if f.name == end_effector]
+    kind = pin.FrameType.BODY if pin.FrameType.BODY in kinds else kinds[0]
+    frame = model.getFrameId(end_effector, kind)
     index = []
     for j in joint_names:
         jid = model.getJointId(j)
