@@ -1,6 +1,6 @@
 """Wrench accuracy on the MuJoCo benches: the URDF as given, identified, and an oracle.
 
-One command: ``python benchmarks/arm_accuracy.py [--seeds 0 1 2] [--arms panda ur5 leg]``. For
+One command: ``python benchmarks/arm_accuracy.py [--seeds 0 1 2] [--arms panda ur5 xarm7 z1 leg]``. For
 each arm and seed it simulates the bench (``torquemap simulate arm``: MuJoCo, true masses within
 15 % of the URDF, a tool the URDF lacks, gears, rotor inertia, a friction law of another form
 than the fitted one, torque ripple, encoder quantisation, current noise, computed-torque control
@@ -268,7 +268,7 @@ def _print(rows: list[tuple[str, str, Errors]], seeds: list[str]) -> None:
             cells.append(cell)
         print(f"| {seed} | {label} | " + " | ".join(cells) + " |")
     print()
-    for group in ("panda", "ur5", "leg", ""):
+    for group in (*sim.ARM_NAMES, ""):
         keys = [s for s in seeds if s.startswith(group)]
         if not keys:
             continue
