@@ -144,6 +144,7 @@ class _Index:
     idx_q: int
     nq: int
     idx_v: int
+    turns: bool = True  # revolute or continuous, not prismatic
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -279,6 +280,13 @@ class UrdfArm:
                 lo[k] = m.lowerPositionLimit[ix.idx_q]
                 hi[k] = m.upperPositionLimit[ix.idx_q]
         return lo, hi
+
+    @property
+    def angle_period(self) -> NDArray[np.float64]:
+        """Shape (nj,): the travel after which each joint's pose repeats, ``2 pi`` [rad] for
+        a revolute or continuous joint (its kinematics and dynamics are ``2 pi``-periodic,
+        whatever its limits), ``inf`` for a prismatic one."""
+        return np.array([2.0 * np.pi if ix.turns else np.inf for ix in self._index])
 
     @property
     def velocity_limits(self) -> NDArray[np.float64]:
@@ -636,7 +644,7 @@ def urdf_arm(
     """
     file = Path(urdf_path)
     p = None if path is None else os.fspath(path)
-    check_urdf(file)
+    joint_types = {j.get("name"): j.get("type") for j in check_urdf(file).findall("joint")}
     try:
         full = pin.buildModelFromXML(file.read_text())
     except (ValueError, RuntimeError) as exc:
@@ -684,7 +692,8 @@ def urdf_arm(
             raise InputError(
                 f"joint {j!r} has {jm.nv} degrees of freedom; torquemap needs 1", path=p
             )
-        index.append(_Index(joint_id=jid, idx_q=jm.idx_q, nq=jm.nq, idx_v=jm.idx_v))
+        turns = joint_types.get(j) != "prismatic"
+        index.append(_Index(joint_id=jid, idx_q=jm.idx_q, nq=jm.nq, idx_v=jm.idx_v, turns=turns))
     body_names = tuple(model.names[i] for i in range(1, model.njoints))
     nominal = np.concatenate(
         [np.asarray(model.inertias[i].toDynamicParameters()) for i in range(1, model.njoints)]
