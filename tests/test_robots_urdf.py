@@ -26,6 +26,7 @@ G = 9.81
 XARM7 = [f"joint{i}" for i in range(1, 8)]
 Z1 = [f"joint{i}" for i in range(1, 7)]
 JACO2 = [f"j2s6s200_joint_{i}" for i in range(1, 7)]
+SO100 = ["shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll"]
 
 
 def _two_link(gravity: tuple[float, float, float] = (0.0, -G, 0.0)) -> UrdfArm:
@@ -125,6 +126,8 @@ def test_two_link_wrench_inverts_jacobian_transpose() -> None:
         ("xarm_description/urdf/xarm7.urdf", XARM7, "link_eef", None),
         ("z1_description/urdf/z1.urdf", Z1, "gripperStator", None),
         ("kinova_description/robots/kinova.urdf", JACO2, "j2s6s200_end_effector", None),
+        # five joints, the jaw locked: its joint is named as the link it hangs from
+        ("so_arm_description/urdf/so100.urdf", SO100, "gripper", None),
     ],
 )
 def test_example_arms(urdf: str, joints: list[str], ee: str, base_count: int | None) -> None:
@@ -445,6 +448,7 @@ def test_excite_spans_the_ranges_within_one_turn() -> None:
         ("xarm_description/urdf/xarm7.urdf", XARM7[::-1]),  # the robot file's order, not the tree's
         ("z1_description/urdf/z1.urdf", Z1),
         ("kinova_description/robots/kinova.urdf", JACO2),
+        ("so_arm_description/urdf/so100.urdf", SO100),
     ],
 )  # fmt: skip
 def test_inverse_dynamics_matches_mujoco(urdf: str, joints: list[str]) -> None:
@@ -482,5 +486,5 @@ def test_inverse_dynamics_matches_mujoco(urdf: str, joints: list[str]) -> None:
 
 def arm_ee(urdf: str) -> str:
     ends = {"panda": "panda_hand_tcp", "xarm": "link_eef", "z1": "gripperStator"}
-    ends["kinova"] = "j2s6s200_end_effector"
+    ends |= {"kinova": "j2s6s200_end_effector", "so_arm": "gripper"}
     return next((e for k, e in ends.items() if f"{k}_description" in urdf), "tool0")

@@ -644,7 +644,8 @@ def urdf_arm(
     """
     file = Path(urdf_path)
     p = None if path is None else os.fspath(path)
-    joint_types = {j.get("name"): j.get("type") for j in check_urdf(file).findall("joint")}
+    root = check_urdf(file)
+    joint_types = {j.get("name"): j.get("type") for j in root.findall("joint")}
     try:
         full = pin.buildModelFromXML(file.read_text())
     except (ValueError, RuntimeError) as exc:
@@ -670,7 +671,7 @@ def urdf_arm(
     ):
         raise InputError("[robot] gravity must be [gx, gy, gz], finite numbers [m/s^2]", path=p)
     locked = [i for i in range(1, full.njoints) if names[i] not in joint_names]
-    model = pin.buildReducedModel(full, locked, pin.neutral(full)) if locked else full
+    model = _locked(full, locked, root, joint_names) if locked else full
     model.gravity = pin.Motion(np.array(gravity, dtype=float), np.zeros(3))
     if not model.existFrame(end_effector):
         links = [f.name for f in model.frames if f.type == pin.FrameType.BODY]
@@ -679,8 +680,8 @@ def urdf_arm(
             f"{', '.join(links)})",
             path=p,
         )
-    # a URDF may give a link and the fixed joint above it one name (Unitree's Z1): both
-    # frames sit at the link's origin; take the link's
+    # a URDF may give a link and a joint one name (Unitree's Z1: the link and the fixed joint
+    # above it; the SO-100's gripper link and the jaw's joint on it): the name is the link's
     kinds = [f.type for f in model.frames if f.name == end_effector]
     kind = pin.FrameType.BODY if pin.FrameType.BODY in kinds else kinds[0]
     frame = model.getFrameId(end_effector, kind)
@@ -725,6 +726,20 @@ def urdf_arm(
             pi[10 * b : 10 * b + 10] = _body_parameters(spec, where, p)
         arm = replace(arm.with_full_parameters(pi), nominal_parameters=nominal)
     return arm
+
+
+def _locked(full: Any, locked: list[int], root: ET.Element, joint_names: Sequence[str]) -> Any:
+    """``full`` with the joints ``locked`` fixed at zero (Pinocchio's neutral pose)."""
+    try:
+        return pin.buildReducedModel(full, locked, pin.neutral(full))
+    except ValueError:
+        # Pinocchio cannot lock a joint that shares its name with a link (the SO-100's
+        # gripper); the same model from the URDF with those joints made fixed (at zero)
+        copy = ET.fromstring(ET.tostring(root))
+        for joint in copy.findall("joint"):
+            if joint.get("type") in _MOVABLE and joint.get("name") not in joint_names:
+                joint.set("type", "fixed")
+        return pin.buildModelFromXML(ET.tostring(copy, encoding="unicode"))
 
 
 def _random_states(
