@@ -302,6 +302,53 @@ def test_extrapolation_is_warned_and_widens_the_sigmas(bench: dict[str, object])
     assert_allclose(est.tau_ext, base.tau_ext)  # the estimate itself is unchanged
 
 
+def test_a_turn_further_is_no_extrapolation(bench: dict[str, object]) -> None:
+    """A revolute joint's pose repeats every turn: the task log with the shoulder one turn
+    up and the elbow one turn down (encoders counting turns, a continuous joint) is the
+    same motion; the rigid-body torques are equal (Pinocchio at q and q + 2 pi), and so are
+    the estimate, its sigmas, its reach and its warnings (the elbow's real 0.66 rad beyond
+    the identified range is still reported, not 2 pi more)."""
+    task, result = bench["task"], bench["result"]
+    assert isinstance(task, Log)
+    model = result.model  # type: ignore[attr-defined]
+    arm = model.robot.arm
+    turn = np.array([2.0 * np.pi, -2.0 * np.pi])
+    assert_allclose(arm.angle_period, 2.0 * np.pi)
+    q, qd = task.q[::500], np.ones_like(task.q[::500])
+    # the same rigid bodies one turn on: equal up to the rounding of cos and sin (1e-15)
+    assert_allclose(
+        arm.inverse_dynamics(q + turn, qd, qd), arm.inverse_dynamics(q, qd, qd), atol=1e-10
+    )
+    base = estimate_arm(model, task)
+    shifted = estimate_arm(model, dataclasses.replace(task, q=task.q + turn))
+    assert shifted.warnings == base.warnings
+    assert_allclose(shifted.extrapolation, base.extrapolation, atol=1e-9)
+    assert_allclose(shifted.tau_ext_sigma, base.tau_ext_sigma, rtol=1e-9)
+    assert_allclose(shifted.wrench, base.wrench, atol=1e-9)
+
+
+def test_a_prismatic_joint_does_not_repeat(tmp_path: Path) -> None:
+    """A slide's pose never repeats: its distance from the identified range is the plain
+    one, a revolute joint's the distance to the range's nearest turn (closed forms)."""
+    from torquemap.estimate_arm import _beyond_range
+
+    text = TWO_LINK.read_text().replace(
+        'name="elbow" type="revolute"', 'name="elbow" type="prismatic"'
+    )
+    assert 'type="prismatic"' in text
+    (tmp_path / "slide.urdf").write_text(text)
+    arm = urdf_arm(tmp_path / "slide.urdf", ["shoulder", "elbow"], end_effector="tool")
+    assert_allclose(arm.angle_period, [2.0 * np.pi, np.inf])
+    q = np.array([[1.0, 1.0], [5.0, 5.0], [-0.6, -0.6], [6.0, 6.0]])
+    lo, hi = np.array([-0.5, -0.5]), np.array([0.5, 0.5])
+    beyond = _beyond_range(q, lo, hi, arm.angle_period)
+    # 5 rad turns as -1.28 rad: 0.78 rad below the range; 6 rad as -0.28 rad: inside it
+    assert_allclose(beyond[:, 0], [0.5, 2.0 * np.pi - 5.0 - 0.5, 0.1, 0.0], atol=1e-12)
+    assert_allclose(beyond[:, 1], [0.5, 4.5, 0.1, 5.5], atol=1e-12)
+    # a range of a full turn or more holds every pose
+    assert_allclose(_beyond_range(q, lo - 3.2, hi + 3.2, arm.angle_period)[:, 0], 0.0)
+
+
 def _sound(flag: np.ndarray) -> np.ndarray:
     ok = flag == 0
     ok[:2000] = ok[-2000:] = False  # the filters' start-up and end effects

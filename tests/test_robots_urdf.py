@@ -23,6 +23,10 @@ ROBOTS = next(iter(ERD), None)
 L1, LC1, M1, I1 = 0.4, 0.2, 2.0, 0.03
 L2, LC2, M2, I2 = 0.3, 0.12, 1.2, 0.01
 G = 9.81
+XARM7 = [f"joint{i}" for i in range(1, 8)]
+Z1 = [f"joint{i}" for i in range(1, 7)]
+JACO2 = [f"j2s6s200_joint_{i}" for i in range(1, 7)]
+SO100 = ["shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll"]
 
 
 def _two_link(gravity: tuple[float, float, float] = (0.0, -G, 0.0)) -> UrdfArm:
@@ -116,6 +120,14 @@ def test_two_link_wrench_inverts_jacobian_transpose() -> None:
             "tool0",
             None,
         ),
+        # arms no bench of ours was tuned on: a 7-axis xArm, Unitree's Z1 (its end-effector
+        # link shares its name with the fixed joint above it) and Kinova's Jaco2, whose
+        # continuous joints Pinocchio stores as (cos, sin)
+        ("xarm_description/urdf/xarm7.urdf", XARM7, "link_eef", None),
+        ("z1_description/urdf/z1.urdf", Z1, "gripperStator", None),
+        ("kinova_description/robots/kinova.urdf", JACO2, "j2s6s200_end_effector", None),
+        # five joints, the jaw locked: its joint is named as the link it hangs from
+        ("so_arm_description/urdf/so100.urdf", SO100, "gripper", None),
     ],
 )
 def test_example_arms(urdf: str, joints: list[str], ee: str, base_count: int | None) -> None:
@@ -433,6 +445,10 @@ def test_excite_spans_the_ranges_within_one_turn() -> None:
         ("ur_description/urdf/ur5_robot.urdf",
          ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint",
           "wrist_2_joint", "wrist_3_joint"]),
+        ("xarm_description/urdf/xarm7.urdf", XARM7[::-1]),  # the robot file's order, not the tree's
+        ("z1_description/urdf/z1.urdf", Z1),
+        ("kinova_description/robots/kinova.urdf", JACO2),
+        ("so_arm_description/urdf/so100.urdf", SO100),
     ],
 )  # fmt: skip
 def test_inverse_dynamics_matches_mujoco(urdf: str, joints: list[str]) -> None:
@@ -469,4 +485,6 @@ def test_inverse_dynamics_matches_mujoco(urdf: str, joints: list[str]) -> None:
 
 
 def arm_ee(urdf: str) -> str:
-    return "panda_hand_tcp" if "panda" in urdf else "tool0"
+    ends = {"panda": "panda_hand_tcp", "xarm": "link_eef", "z1": "gripperStator"}
+    ends |= {"kinova": "j2s6s200_end_effector", "so_arm": "gripper"}
+    return next((e for k, e in ends.items() if f"{k}_description" in urdf), "tool0")

@@ -24,23 +24,31 @@ class _Pin:
     def __init__(self, text: str, frame: str) -> None:
         self.model = pin.buildModelFromXML(text)
         self.data = self.model.createData()
-        self.frame = self.model.getFrameId(frame)
+        self.frame = self.model.getFrameId(frame, pin.FrameType.BODY)
+
+    def config(self, q: np.ndarray) -> np.ndarray:
+        """Joint angles (tree order) to Pinocchio's configuration: (cos, sin) when continuous."""
+        parts = []
+        for joint, angle in zip(list(self.model.joints)[1:], q, strict=True):
+            parts.append([np.cos(angle), np.sin(angle)] if joint.nq == 2 else [angle])
+        return np.concatenate(parts)
 
     def inverse_dynamics(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
         m, d = self.model, self.data
-        return np.array([pin.rnea(m, d, *x).copy() for x in zip(q, qd, qdd, strict=True)])
+        rows = zip(q, qd, qdd, strict=True)
+        return np.array([pin.rnea(m, d, self.config(x), v, a).copy() for x, v, a in rows])
 
     def position(self, q: np.ndarray) -> np.ndarray:
         out = []
         for x in q:
-            pin.framesForwardKinematics(self.model, self.data, x)
+            pin.framesForwardKinematics(self.model, self.data, self.config(x))
             out.append(self.data.oMf[self.frame].translation.copy())
         return np.array(out)
 
     def jacobian(self, q: np.ndarray) -> np.ndarray:
         world = pin.LOCAL_WORLD_ALIGNED
         m, d, f = self.model, self.data, self.frame
-        return np.array([pin.computeFrameJacobian(m, d, x, f, world)[:3] for x in q])
+        return np.array([pin.computeFrameJacobian(m, d, self.config(x), f, world)[:3] for x in q])
 
 
 @pytest.fixture(scope="module")
@@ -133,8 +141,10 @@ def test_cli_refuses_a_negative_seed(capsys: pytest.CaptureFixture[str], tmp_pat
     assert not (tmp_path / "b").exists()
 
 
-def test_ur5_obeys_pinocchio() -> None:
-    spec = sim.UR5
+@pytest.mark.parametrize("spec", [sim.UR5, sim.XARM7, sim.Z1, sim.JACO2], ids=lambda s: s.name)
+def test_arm_obeys_pinocchio(spec: sim.ArmSpec) -> None:
+    """Each bench arm: MuJoCo's drive torque plus J^T F equals Pinocchio's RNEA on truth.urdf
+    plus the rotor inertia (two engines on the same bodies: rounding), and the task presses."""
     nominal = sim._stripped(sim.panda_urdf(spec), spec)
     truth = sim.random_truth(4, nominal, len(spec.joints))
     true_text = sim.true_urdf(nominal, truth, spec)
@@ -149,3 +159,19 @@ def test_ur5_obeys_pinocchio() -> None:
     contact = np.einsum("nij,ni->nj", arm.jacobian(run.q), run.wrench[:, :3])
     assert run.wrench[run.t > 2.0, 2].min() > 4.0
     assert_allclose(run.drive + contact, rigid, atol=1e-9 * np.abs(run.drive).max())
+    # the ready pose points the tool down: it hangs its offset straight below the end effector
+    tool = _Pin(true_text, "tool")
+    ready = np.asarray([spec.ready])
+    below = arm.position(ready)[0] - tool.position(ready)[0]
+    # the ready poses are rounded to 1e-4 rad: the tool sits within 0.1 mm of the vertical
+    assert_allclose(below, [0.0, 0.0, np.linalg.norm(spec.tool_offset)], atol=1e-4)
+
+
+def test_cli_offers_every_bench_arm() -> None:
+    """``simulate arm --arm`` lists its choices without importing MuJoCo: the same as the sim's."""
+    from torquemap.cli.main import build_parser, subparsers
+
+    command = subparsers(subparsers(build_parser())["simulate"])["arm"]
+    arm = command._option_string_actions["--arm"]
+    assert arm.choices is not None
+    assert tuple(arm.choices) == sim.ARM_NAMES

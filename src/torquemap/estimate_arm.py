@@ -176,6 +176,29 @@ def _speed_coverage(
     return under, near
 
 
+def _beyond_range(
+    q: NDArray[np.float64],
+    lowest: NDArray[np.float64],
+    highest: NDArray[np.float64],
+    period: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """Distance [rad or m] of each angle ``q`` (n, nj) from the range ``[lowest, highest]``
+    (nj,) its joint was identified over, 0 inside. A joint whose pose repeats every
+    ``period`` (nj,; a revolute joint's 2 pi, ``inf`` for a prismatic one) is as near as
+    its nearest turn: a wrist one turn further is at a pose the model saw."""
+    linear = np.maximum(np.maximum(lowest - q, q - highest), 0.0)
+    finite = np.isfinite(period)
+    if not finite.any():
+        return linear
+    p = np.where(finite, period, 1.0)
+    width = highest - lowest
+    d = np.mod(q - lowest, p)  # [0, p): how far above the range's start, within a turn
+    wrapped = np.where(d <= width, 0.0, np.minimum(d - width, p - d))
+    wrapped = np.where(width >= p, 0.0, wrapped)
+    out: NDArray[np.float64] = np.where(finite, wrapped, linear)
+    return out
+
+
 def _extrapolation(
     info: Mapping[str, Any] | None, robot: Any, joints: Mapping[str, Any], signals: ArmSignals
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], list[str]]:
@@ -200,8 +223,8 @@ def _extrapolation(
     pos = np.asarray(info.get("position_range", []), dtype=float)
     if pos.shape == (nj, 2):
         width = np.maximum(pos[:, 1] - pos[:, 0], 1e-3)
-        beyond = np.maximum(pos[:, 0] - signals.q, signals.q - pos[:, 1])
-        beyond = np.maximum(beyond, 0.0)
+        period = np.asarray(getattr(robot.arm, "angle_period", np.full(nj, np.inf)), dtype=float)
+        beyond = _beyond_range(signals.q, pos[:, 0], pos[:, 1], period)
         reach = np.max(beyond / width, axis=1)
         far = beyond > POSE_TOLERANCE * width
         if far.any():

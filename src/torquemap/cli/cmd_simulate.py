@@ -82,10 +82,10 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     figures.set_defaults(handler=_figures)
     arm = benches.add_parser(
         "arm",
-        help="a Panda (or UR5, or a leg) in MuJoCo unlike its URDF: free.csv, task.csv (5-20 N on a surface), truth",
-        description="Simulate a Panda or a UR5 (example-robot-data) in MuJoCo whose true masses differ "
+        help="a Panda (or UR5, xArm7, Z1, Jaco2, or a leg) in MuJoCo unlike its URDF: free.csv, task.csv (5-20 N on a surface), truth",
+        description="Simulate a Panda, UR5, xArm7, Z1 or Jaco2 (example-robot-data) in MuJoCo whose true masses differ "
         "from its URDF by up to 15 %% and which carries a 0.8 kg tool, and write robot.toml, "
-        "panda.urdf (or ur5.urdf), free.csv, task.csv, truth.csv, truth.toml and truth.urdf into DIR "
+        "panda.urdf (or <arm>.urdf), free.csv, task.csv, truth.csv, truth.toml and truth.urdf into DIR "
         "(docs/arm.md). --arm leg: a vertical two-link leg (gravity in its plane, a 0.3 kg mass "
         "its URDF lacks) whose foot steps on a compliant ground in task.csv; leg.urdf "
         "(docs/arm-bench.md).",
@@ -101,9 +101,10 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     )
     arm.add_argument(
         "--arm",
-        choices=("panda", "ur5", "leg"),
+        choices=("panda", "ur5", "xarm7", "z1", "jaco2", "leg"),
         default="panda",
-        help="the example-robot-data arm, or the two-link leg (default panda)",
+        help="the example-robot-data arm (a 7-axis Panda or xArm7; a 6-axis UR5, Unitree Z1 "
+        "or Kinova Jaco2), or the two-link leg (default panda)",
     )
     arm.add_argument(
         "--free-duration",

@@ -144,6 +144,7 @@ class _Index:
     idx_q: int
     nq: int
     idx_v: int
+    turns: bool = True  # revolute or continuous, not prismatic
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -279,6 +280,13 @@ class UrdfArm:
                 lo[k] = m.lowerPositionLimit[ix.idx_q]
                 hi[k] = m.upperPositionLimit[ix.idx_q]
         return lo, hi
+
+    @property
+    def angle_period(self) -> NDArray[np.float64]:
+        """Shape (nj,): the travel after which each joint's pose repeats, ``2 pi`` [rad] for
+        a revolute or continuous joint (its kinematics and dynamics are ``2 pi``-periodic,
+        whatever its limits), ``inf`` for a prismatic one."""
+        return np.array([2.0 * np.pi if ix.turns else np.inf for ix in self._index])
 
     @property
     def velocity_limits(self) -> NDArray[np.float64]:
@@ -636,7 +644,8 @@ def urdf_arm(
     """
     file = Path(urdf_path)
     p = None if path is None else os.fspath(path)
-    check_urdf(file)
+    root = check_urdf(file)
+    joint_types = {j.get("name"): j.get("type") for j in root.findall("joint")}
     try:
         full = pin.buildModelFromXML(file.read_text())
     except (ValueError, RuntimeError) as exc:
@@ -662,7 +671,7 @@ def urdf_arm(
     ):
         raise InputError("[robot] gravity must be [gx, gy, gz], finite numbers [m/s^2]", path=p)
     locked = [i for i in range(1, full.njoints) if names[i] not in joint_names]
-    model = pin.buildReducedModel(full, locked, pin.neutral(full)) if locked else full
+    model = _locked(full, locked, root, joint_names) if locked else full
     model.gravity = pin.Motion(np.array(gravity, dtype=float), np.zeros(3))
     if not model.existFrame(end_effector):
         links = [f.name for f in model.frames if f.type == pin.FrameType.BODY]
@@ -671,7 +680,11 @@ def urdf_arm(
             f"{', '.join(links)})",
             path=p,
         )
-    frame = model.getFrameId(end_effector)
+    # a URDF may give a link and a joint one name (Unitree's Z1: the link and the fixed joint
+    # above it; the SO-100's gripper link and the jaw's joint on it): the name is the link's
+    kinds = [f.type for f in model.frames if f.name == end_effector]
+    kind = pin.FrameType.BODY if pin.FrameType.BODY in kinds else kinds[0]
+    frame = model.getFrameId(end_effector, kind)
     index = []
     for j in joint_names:
         jid = model.getJointId(j)
@@ -680,7 +693,8 @@ def urdf_arm(
             raise InputError(
                 f"joint {j!r} has {jm.nv} degrees of freedom; torquemap needs 1", path=p
             )
-        index.append(_Index(joint_id=jid, idx_q=jm.idx_q, nq=jm.nq, idx_v=jm.idx_v))
+        turns = joint_types.get(j) != "prismatic"
+        index.append(_Index(joint_id=jid, idx_q=jm.idx_q, nq=jm.nq, idx_v=jm.idx_v, turns=turns))
     body_names = tuple(model.names[i] for i in range(1, model.njoints))
     nominal = np.concatenate(
         [np.asarray(model.inertias[i].toDynamicParameters()) for i in range(1, model.njoints)]
@@ -712,6 +726,20 @@ def urdf_arm(
             pi[10 * b : 10 * b + 10] = _body_parameters(spec, where, p)
         arm = replace(arm.with_full_parameters(pi), nominal_parameters=nominal)
     return arm
+
+
+def _locked(full: Any, locked: list[int], root: ET.Element, joint_names: Sequence[str]) -> Any:
+    """``full`` with the joints ``locked`` fixed at zero (Pinocchio's neutral pose)."""
+    try:
+        return pin.buildReducedModel(full, locked, pin.neutral(full))
+    except ValueError:
+        # Pinocchio cannot lock a joint that shares its name with a link (the SO-100's
+        # gripper); the same model from the URDF with those joints made fixed (at zero)
+        copy = ET.fromstring(ET.tostring(root))
+        for joint in copy.findall("joint"):
+            if joint.get("type") in _MOVABLE and joint.get("name") not in joint_names:
+                joint.set("type", "fixed")
+        return pin.buildModelFromXML(ET.tostring(copy, encoding="unicode"))
 
 
 def _random_states(

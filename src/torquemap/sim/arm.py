@@ -1,5 +1,8 @@
 """The simulated arm bench: a Panda in MuJoCo whose truth differs from its URDF (docs/arm.md).
 
+The same bench runs the other arms of :data:`ARMS` (UR5, xArm7, Unitree Z1, Kinova Jaco2;
+docs/arm-bench.md).
+
 MuJoCo (an engine independent of the Pinocchio model torquemap fits) simulates the Panda of
 ``example-robot-data`` with every link's mass and inertia scaled by up to +-15 % and a 0.8 kg
 tool the URDF lacks, driven through gears with rotor inertia (``dof_armature``), a motor-side
@@ -18,7 +21,7 @@ import math
 import os
 import sys
 import xml.etree.ElementTree as ET
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -45,7 +48,7 @@ class ArmSpec:
     Attributes
     ----------
     name
-        ``"panda"`` or ``"ur5"``.
+        ``"panda"``, ``"ur5"``, ``"xarm7"`` or ``"z1"``.
     urdf
         Path under the ``robots`` folder.
     joints
@@ -114,7 +117,39 @@ UR5 = ArmSpec(
     ready=(0.0, -1.9, 1.9, -1.57, -1.57, 0.0),
     tool_parent="tool0",
 )
-ARMS = {"panda": PANDA, "ur5": UR5}
+XARM7 = ArmSpec(
+    name="xarm7",
+    urdf="xarm_description/urdf/xarm7.urdf",
+    joints=tuple(f"joint{k}" for k in range(1, 8)),
+    end_effector="link_eef",
+    gear=(100.0, 100.0, 100.0, 100.0, 80.0, 80.0, 80.0),
+    armature=(2e-5, 2e-5, 1.5e-5, 1.5e-5, 1e-5, 1e-5, 1e-5),
+    ready=(0.0, 0.0, 0.0, 0.7, 0.0, 0.7, 0.0),  # the flange 0.40 m ahead, 0.25 m up
+    tool_parent="link_eef",
+)
+JACO2 = ArmSpec(
+    name="jaco2",
+    urdf="kinova_description/robots/kinova.urdf",
+    joints=tuple(f"j2s6s200_joint_{k}" for k in range(1, 7)),  # 1, 4 and 6 continuous
+    end_effector="j2s6s200_end_effector",
+    gear=(100.0, 100.0, 100.0, 80.0, 80.0, 80.0),
+    armature=(2e-5, 2e-5, 2e-5, 1e-5, 1e-5, 1e-5),
+    ready=(0.0, 3.6, 1.45, 0.0, 4.1332, 0.0),  # q2 - q3 + q5 = 2 pi: 0.45 m along -y, 0.2 m up
+    tool_parent="j2s6s200_end_effector",
+    tool_offset=(0.1, 0.0, 0.0),  # the hand points along the end effector's x axis
+)
+Z1 = ArmSpec(
+    name="z1",
+    urdf="z1_description/urdf/z1.urdf",
+    joints=tuple(f"joint{k}" for k in range(1, 7)),
+    end_effector="gripperStator",  # a link, and the fixed joint above it
+    gear=(60.0, 60.0, 60.0, 40.0, 40.0, 40.0),
+    armature=(3e-5, 3e-5, 3e-5, 1.5e-5, 1.5e-5, 1.5e-5),
+    ready=(0.0, 2.0, -1.3, 0.8708, 0.0, 0.0),  # 0.35 m ahead, 0.15 m up
+    tool_parent="gripperStator",
+    tool_offset=(0.1, 0.0, 0.0),  # the gripper points along its x axis
+)
+ARMS = {"panda": PANDA, "ur5": UR5, "xarm7": XARM7, "z1": Z1, "jaco2": JACO2}
 JOINTS = PANDA.joints
 END_EFFECTOR = PANDA.end_effector
 GEAR = PANDA.gear
@@ -126,7 +161,7 @@ MASS_SPREAD = 0.15
 TIMESTEP = 1e-3  # [s], MuJoCo and the controller
 
 
-ARM_NAMES = ("panda", "ur5", "leg")
+ARM_NAMES = ("panda", "ur5", "xarm7", "z1", "jaco2", "leg")
 """The benches :func:`write_arm_bench` simulates (``leg``: :mod:`torquemap.sim.leg`)."""
 
 
@@ -337,6 +372,33 @@ def _pin_model(urdf_text: str) -> tuple[Any, Any]:
     return model, model.createData()
 
 
+def _configuration(
+    model: Any, joints: Sequence[str]
+) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
+    """A function from joint angles (nj,) [rad], ``joints``' order, to Pinocchio's
+    configuration of ``model``: a continuous joint (the Jaco2's) is stored as (cos, sin)."""
+    kinds = []
+    for k, name in enumerate(joints):
+        joint = model.joints[model.getJointId(name)]
+        if joint.idx_v != k:  # Pinocchio's velocities must be in the spec's order
+            raise InputError(f"joint {name!r} is not the {k + 1}th of the chain")
+        kinds.append((joint.nq == 2, joint.idx_q))
+    if model.nq == len(joints):
+        return lambda q: q
+    index = np.array([i for _, i in kinds], dtype=np.intp)
+    pair = np.array([p for p, _ in kinds], dtype=bool)
+    neutral = np.asarray(pin.neutral(model), dtype=np.float64)
+
+    def configuration(q: NDArray[np.float64]) -> NDArray[np.float64]:
+        out = neutral.copy()
+        out[index[~pair]] = q[~pair]
+        out[index[pair]] = np.cos(q[pair])
+        out[index[pair] + 1] = np.sin(q[pair])
+        return out
+
+    return configuration
+
+
 def run_arm(
     true_text: str,
     nominal_text: str,
@@ -357,6 +419,7 @@ def run_arm(
     model = _mujoco_model(true_text, armature, spec)
     data = mujoco.MjData(model)
     nominal, ndata = _pin_model(nominal_text)
+    configuration = _configuration(nominal, spec.joints)
     q_ref, qd_ref, qdd_ref = reference
     n, nj = q_ref.shape
     rng = np.random.default_rng(seed + 1000)
@@ -372,7 +435,7 @@ def run_arm(
         q = data.qpos.copy()
         qd = data.qvel.copy()
         a = qdd_ref[k] + kp * (q_ref[k] - q) + kd * (qd_ref[k] - qd)
-        tau = pin.rnea(nominal, ndata, q, qd, a) + armature * a  # computed torque, nominal
+        tau = pin.rnea(nominal, ndata, configuration(q), qd, a) + armature * a  # nominal
         i_cmd = tau / gear / TORQUE_CONSTANT
         drive = gear * (
             TORQUE_CONSTANT * i_cmd - friction(truth, gear * qd) - ripple(truth, gear * q)
@@ -431,9 +494,10 @@ def task_reference(
     Returns the reference (q, qd, qdd) at 1 kHz and the surface height [m].
     """
     model, data = _pin_model(nominal_text)
-    frame = model.getFrameId(spec.end_effector)
+    frame = model.getFrameId(spec.end_effector, pin.FrameType.BODY)  # a link (see Z1)
+    configuration = _configuration(model, spec.joints)
     q0 = np.asarray(spec.ready)
-    pin.framesForwardKinematics(model, data, q0)
+    pin.framesForwardKinematics(model, data, configuration(q0))
     start = data.oMf[frame].copy()
     surface = float(start.translation[2]) - 0.01
     rng = np.random.default_rng(seed + 2000)
@@ -451,11 +515,11 @@ def task_reference(
             [radius * (math.cos(angle) - 1.0), radius * math.sin(angle), -0.01 - depth]
         )
         for _ in range(30):
-            pin.framesForwardKinematics(model, data, q)
+            pin.framesForwardKinematics(model, data, configuration(q))
             err = pin.log6(data.oMf[frame].actInv(target)).vector
             if np.linalg.norm(err) < 1e-10:
                 break
-            J = pin.computeFrameJacobian(model, data, q, frame, pin.LOCAL)
+            J = pin.computeFrameJacobian(model, data, configuration(q), frame, pin.LOCAL)
             q = q + J.T @ np.linalg.solve(J @ J.T + 1e-8 * np.eye(6), err)
         knots.append(q.copy())
     t = np.arange(round(duration / TIMESTEP), dtype=np.float64) * TIMESTEP
@@ -542,7 +606,8 @@ def write_arm_bench(
     ``task.csv`` (logs ``t, q_<j>`` [counts], ``i_<j>`` [A]), ``truth.csv`` (``t, fx, fy, fz,
     mx, my, mz``: the wrench by the surface on the end effector during the task, base frame),
     ``truth.toml`` (the hidden deviations) and ``truth.urdf`` (the true arm, tool included).
-    ``arm`` is ``"panda"``, ``"ur5"`` (the URDF is then ``ur5.urdf``) or ``"leg"`` (the
+    ``arm`` is ``"panda"``, ``"ur5"``, ``"xarm7"``, ``"z1"``, ``"jaco2"`` (the URDF is then
+    ``<arm>.urdf``; :data:`ARMS`) or ``"leg"`` (the
     vertical two-link leg of :mod:`torquemap.sim.leg`, ``leg.urdf``, stepping on a compliant
     ground in ``task.csv``; ``free.csv`` is its motion in the air). ``iterations`` is the
     exciting trajectory's random search (``torquemap.excite``); ``free_centre`` the pose it
@@ -550,7 +615,8 @@ def write_arm_bench(
     ``"task"``, the task's start pose (``excite --centre``: excite where the robot works);
     ``free_period`` and ``free_speeds`` its path's period [s] and speed schedule (the
     defaults of ``torquemap excite``: twice the slowest joint's swing over its range at its
-    speed limit, 19.2 s for the Panda, 18 s for the UR5 and 2.9 s for the leg; full speed then
+    speed limit, 19.2 s for the Panda, 18 s for the UR5 and the xArm7, 12.8 s for the Z1,
+    71.9 s for the slow Jaco2 (0.63-0.84 rad/s) and 2.9 s for the leg; full speed then
     a quarter; whole traversals up to ``free_duration``).
 
     Returns
