@@ -47,7 +47,7 @@ def _report(args: argparse.Namespace) -> int:
     figures = sum(len(s.figures) + len(s.charts) for s in report.sections)
     print(
         f"wrote {args.output} ({len(report.sections)} sections, {figures} figures, "
-        f"{warnings} warnings)"
+        f"{warnings} warning{'' if warnings == 1 else 's'})"
     )
     for section in report.sections:
         for w in section.warnings:
