@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -70,7 +71,9 @@ def time_frequency_lines(
     each other); at each level the ``orders`` are fitted jointly by least squares
     (:func:`torquemap.pdtv.fit_harmonics`, one offset per group). An order is a time line when
     at some level its amplitude is under ``ABSENT_SHARE`` of its largest and differs from it
-    by more than ``SIGNIFICANCE_Z`` combined standard errors. With one level nothing can be
+    by more than ``SIGNIFICANCE_Z`` combined standard errors, and that level holds a line at the
+    same time frequency (``order * v_present / v_absent`` CPR) of at least half the amplitude: a
+    line of the motor angle can fade with speed, a ripple moves. With one level nothing can be
     told and nothing is returned.
 
     Parameters
@@ -126,7 +129,22 @@ def time_frequency_lines(
         hi = int(np.nanargmax(a))
         for lo in np.flatnonzero(np.isfinite(a)):
             gap = a[hi] - a[lo]
-            if a[lo] < ABSENT_SHARE * a[hi] and gap > SIGNIFICANCE_Z * math.hypot(s[hi], s[lo]):
+            if not (
+                a[lo] < ABSENT_SHARE * a[hi] and gap > SIGNIFICANCE_Z * math.hypot(s[hi], s[lo])
+            ):
+                continue
+            # a line of the motor angle can fade with speed too (the differentiator's window
+            # smooths the acceleration that carries it at high frequency: random SCARA 7's
+            # true 39 CPR line, 4.1 mN m at 6.75 rad/s, under a quarter at 10.1): a ripple
+            # fixed in time must show at the absent level at its own frequency
+            if _moved_there(
+                theta,
+                y,
+                grp,
+                level_of == lo,
+                float(order) * centres[hi] / centres[lo],
+                float(a[hi]),
+            ):
                 out.append(
                     TimeLine(
                         order=float(order),
@@ -139,6 +157,27 @@ def time_frequency_lines(
                 )
                 break
     return tuple(out)
+
+
+def _moved_there(
+    theta: NDArray[np.float64],
+    y: NDArray[np.float64],
+    grp: NDArray[Any],
+    sel: NDArray[np.bool_],
+    order: float,
+    present: float,
+) -> bool:
+    """Whether the samples ``sel`` (one speed level) hold a line at ``order`` [CPR] of at least
+    half the ``present`` amplitude, ``SIGNIFICANCE_Z`` standard errors clear of zero: where a
+    time ripple seen at another speed lands. False when the order is beyond the level's
+    position Nyquist (half its samples per revolution), where it cannot be told."""
+    steps = np.abs(np.diff(theta[sel]))
+    steps = steps[(steps > 0) & (steps < math.pi)]
+    if steps.size == 0 or order >= math.pi / float(np.median(steps)):
+        return False
+    fit = fit_harmonics(theta[sel], y[sel], orders=[order], groups=grp[sel])
+    amp, se = float(fit.amplitude[0]), float(fit.amplitude_se[0])
+    return amp >= 0.5 * present and amp > SIGNIFICANCE_Z * se
 
 
 def _levels(speed: NDArray[np.float64]) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
