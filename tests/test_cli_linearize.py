@@ -286,3 +286,28 @@ def test_tables_for_another_motor_and_saturated_data(
     err = capsys.readouterr().err
     assert status == 2 and "sat.csv: every row has pulse width 255" in err
     assert not (tmp_path / "s.npz").exists()
+
+
+def test_a_verification_of_some_positions_says_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # between the positions a verification reads the tables interpolate: its APMD does not
+    # see them, and evaluate says how many it read (a QA bench: 0.86 % at every 4th position,
+    # the characterisation's own, against 1.54 % over every position)
+    write_case(tmp_path)
+    d = str(tmp_path)
+    assert main(["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv", "-o", f"{d}/t.npz"]) == 0
+    for step, warned in ((1, False), (4, True)):
+        p, c = np.meshgrid(np.arange(0, N, step), np.arange(128), indexing="ij")
+        write_table(
+            tmp_path / "v.csv",
+            {"position": p.ravel(), "command": c.ravel(), "torque": (c * 0.01).ravel()},
+        )
+        capsys.readouterr()
+        args = ["linearize", "evaluate", f"{d}/motor.toml", f"{d}/v.csv", "--tables", f"{d}/t.npz"]
+        assert main(args) == 0
+        err = capsys.readouterr().err
+        assert ("verification read" in err) is warned
+        if warned:
+            assert f"read {len(range(0, N, 4))} of the {N} positions (one in 4 from 0)" in err
+            assert "v.csv" in err

@@ -232,6 +232,12 @@ def _evaluate(args: argparse.Namespace) -> int:
         lambda: evaluate_linearity(spec, data, tables=tables, tables_path=args.tables),
     )
     print(format_report(report, title=f"{kind} data {args.data}"))
+    if kind == "verification":
+        from torquemap.linearize.metrics import coverage_advice
+
+        advice = coverage_advice(data.position, spec.positions_per_cycle)
+        if advice:
+            print(f"torquemap: warning: {args.data}: {advice}", file=sys.stderr)
     if args.out:
         with atomic_output(args.out) as tmp:
             tmp.write_text(json.dumps(report_to_dict(report), indent=2) + "\n")
