@@ -1166,19 +1166,19 @@ def identified_slowest_speeds(model: Model) -> dict[str, float]:
     return {name: min(values) for name, values in _identified_speeds(model).items()}
 
 
-def _identified_speeds(model: Model) -> dict[str, list[float]]:
+def _identified_speeds(model: Model, *, signed: bool = False) -> dict[str, list[float]]:
     """Per joint, the steady motor speeds [rad/s] of ``[identification.joints.<j>] speeds``
-    (magnitudes, finite and positive); joints without any are left out."""
+    (finite and nonzero; magnitudes unless ``signed``); joints without any are left out."""
     out: dict[str, list[float]] = {}
     joints = model.notes.get("joints", {})
     if isinstance(joints, Mapping):
         for name, entry in joints.items():
             speeds = entry.get("speeds") if isinstance(entry, Mapping) else None
             if isinstance(speeds, list | tuple):
-                values = [abs(float(v)) for v in speeds if isinstance(v, int | float)]
-                values = [v for v in values if math.isfinite(v) and v > 0]
+                values = [float(v) for v in speeds if isinstance(v, int | float)]
+                values = [v for v in values if math.isfinite(v) and v != 0]
                 if values:
-                    out[str(name)] = values
+                    out[str(name)] = values if signed else [abs(v) for v in values]
     return out
 
 
@@ -1330,14 +1330,12 @@ def gap_task_warnings(model: Model, velocity: NDArray[np.float64]) -> list[str]:
     'joint a: 100% of the samples run between steady sweep passes m'
     """
     whole = whole_fit_joints(model)
-    joints = model.notes.get("joints", {})
+    identified = _identified_speeds(model, signed=True)
     out: list[str] = []
     for k, name in enumerate(model.robot.joint_names):
-        entry = joints.get(name) if isinstance(joints, Mapping) else None
-        raw = entry.get("speeds") if isinstance(entry, Mapping) else None
-        if name not in whole or not isinstance(raw, list | tuple):
+        signed = identified.get(name)
+        if name not in whole or signed is None:
             continue
-        signed = [float(v) for v in raw if isinstance(v, int | float) and math.isfinite(v)]
         v = velocity[:, k]
         v = v[np.isfinite(v)]
         if v.size == 0:
