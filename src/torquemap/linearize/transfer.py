@@ -106,8 +106,8 @@ class TransferResult:
         Each scaling's held-out error on the handful (:func:`held_out_error`); infinite for
         an amplifier law fitted onto a bound.
     warnings
-        One line each: the handful predicts the first joint's characterisation unchanged
-        better than any scaling of it (the rows are then written unchanged).
+        One line each: the handful predicts the first joint's characterisation unchanged as
+        well as any scaling of it, within ``TIE`` (the rows are then written unchanged).
     """
 
     position: NDArray[np.int64]
@@ -257,9 +257,10 @@ def transfer_characterisation(
         if scaling == "auto":
             other = min(scores["gains"], scores["full"])
             warnings.append(
-                "the handful's held-out readings are predicted better by the first joint's "
-                f"characterisation unchanged ({100 * scores['unchanged']:.1f} % mean relative "
-                f"error) than by any scaling of it ({100 * other:.1f} %): wrote the first "
+                "the handful's held-out readings are predicted as well (within "
+                f"{100 * TIE:.0f} %) by the first joint's characterisation unchanged "
+                f"({100 * scores['unchanged']:.1f} % mean relative error) as by any scaling of "
+                f"it ({100 * other:.1f} %): wrote the first "
                 "joint's rows unchanged (its tables apply as they are); is the handful this "
                 "joint's, of a motor of the first's type?"
             )
