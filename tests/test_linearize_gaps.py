@@ -91,15 +91,14 @@ def test_tables_between_uneven_measured_positions_stay_near_the_full_grid(
     # 1.77x over four noise draws. The swing of the unconstrained series is 7.7x (18 %).
     assert full_apmd < 0.03  # the full grid itself is sound (2.3 %)
     assert thin_apmd < 2.0 * full_apmd, (thin_apmd, full_apmd)
-    # the cogging (16 positions a period) is sampled at most twice a period across the gaps of
-    # 8: the builder says so, naming them and what to measure
-    assert len(thin.warnings) == 1
-    assert "73 .. 79" in thin.warnings[0] and "collect positions" in thin.warnings[0]
-    assert " 76," in thin.warnings[0]
-    assert not full.warnings  # every 2nd position holds it
+    # the cogging (16 positions a period) is periodic and the dense stretches fix its series:
+    # across the gaps of 8 it is held (the held-out gap test, torquemap.linearize.gaps, finds
+    # no excess error; the rule before warned here on the period alone), so no warning
+    assert not thin.warnings
+    assert not full.warnings  # every 2nd position
 
 
-def test_linearize_build_warns_in_one_line_naming_the_file(
+def test_linearize_build_is_silent_where_the_gaps_hold_the_ripple(
     collected: tuple[Path, LinearizeData],
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
@@ -122,8 +121,7 @@ def test_linearize_build_warns_in_one_line_naming_the_file(
     code = main(["linearize", "build", str(motor), str(thin), "-o", str(tmp_path / "t.npz")])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 0
-    assert len(err) == 1 and err[0].startswith(f"torquemap: warning: {thin}: ")
-    assert "cannot hold" in err[0] and "collect positions" in err[0]
+    assert err == []  # held across its gaps (above); the firing case: test_linearize_gap_check
 
 
 def test_aliased_gaps_flags_gaps_of_half_a_period_or_more() -> None:

@@ -155,6 +155,14 @@ def _transfer(args: argparse.Namespace) -> int:
         f"{result.pulse_scale:.3f} w (curve {result.pulse_curve:+.3f}); misfit "
         f"{100 * result.residual:.1f} % (unchanged {100 * result.residual_unchanged:.1f} %)"
     )
+    scores = ", ".join(
+        f"{k} {100 * v:.1f} %" if v < float("inf") else f"{k}: amplifier law on a bound"
+        for k, v in result.held_out.items()
+    )
+    print(
+        f"scaling {result.model}: chosen by the handful's held-out error (each position "
+        f"predicted from the others: {scores})"
+    )
     for warning in result.warnings:
         print(f"torquemap: warning: {args.second_motor}: {warning}", file=sys.stderr)
     return 0

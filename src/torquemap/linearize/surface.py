@@ -42,7 +42,7 @@ from scipy.optimize import nnls
 from scipy.sparse.linalg import spsolve
 
 from torquemap.linearize.detent import loo_press
-from torquemap.linearize.sampling import SIGNIFICANT, aliased_gaps
+from torquemap.linearize.gaps import check_gaps
 
 #: Most alternating least-squares rounds.
 ROUNDS = 40
@@ -116,23 +116,14 @@ class RestSeries:
     def unheld_at(
         self, anchors: NDArray[np.int64], *, matters: float
     ) -> tuple[NDArray[np.bool_], float]:
-        """The positions where the measured positions do not hold the ripple, and its
-        shortest period there [table positions]: the refused harmonics' positions, and the
-        gaps that sample the fastest kept harmonic at most twice a period
-        (:func:`torquemap.linearize.sampling.aliased_gaps`), of those whose amplitude is
-        ``matters`` [N m] or more and stands out of the noise (``SIGNIFICANT`` times the
-        median amplitude of a harmonic fitted to noise alone, as in
-        :func:`torquemap.linearize.sampling.check_position_sampling`)."""
+        """The positions inside the widest gaps between measured positions when the torque at
+        rest's interpolation across them errs by ``matters`` [N m] or more, at a stated
+        false-alarm rate (:func:`torquemap.linearize.gaps.check_gaps`), and the shortest
+        period of the series [table positions]."""
         n = self.rest.size
-        mask, period = self.unheld.copy(), self.unheld_period
-        bound = max(matters, SIGNIFICANT * self.noise_amplitude)
-        big = [h for h, a in zip(self.harmonics, self.amplitudes, strict=True) if a >= bound]
-        if big:
-            aliased = aliased_gaps(anchors, n, max(big))
-            if aliased.any():
-                mask |= aliased
-                period = min(period, n / max(big))
-        return mask, period
+        test = check_gaps(self.rest, anchors, self.harmonics, n, matters=matters)
+        period = n / max(self.harmonics) if self.harmonics else 2.0 * test.width
+        return test.unheld, float(period)
 
 
 def _leverage(x: NDArray[np.float64], harmonics: list[int], n: int) -> NDArray[np.float64]:

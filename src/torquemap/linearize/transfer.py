@@ -5,19 +5,22 @@ motor (e.g., phase equilibrium positions, and the torques at the middle of the t
 regions and at the middle of the single phase regions)" and applying them "to modify the
 existing data of the same motor type by means of systematic scaling". Here the scaling is:
 
-``T2(p, w) = a(p) T1(p + s(p), v(w))``
+``T2(p, w) = a(p) T1(p, v(w))``
 
 * ``T1`` is the first joint's torque surface: its full characterisation, denoised
   (:func:`torquemap.linearize.denoise.denoise_blocks`), averaged per (position, pulse width)
   cell, made monotone in pulse width and interpolated linearly in pulse width and (cyclically)
   in position.
-* ``s(p)`` registers the phases: the first joint's equilibria minus the second's (both motor
-  files), weighted by the phases' shares.
 * ``v(w) = alpha + W (beta u + gamma u (1 - u))``, ``u = w / W``, absorbs the amplifiers'
   differences (dead band, gain, curve), common to every phase and position.
 * ``a(p) = sum_k g_k w_k(p)`` is the torque ratio: one gain per phase, weighted by each phase's
-  share of the torque at ``p`` (:func:`phase_shares`); ``s(p)`` likewise weighs the phases'
-  equilibrium shifts.
+  share of the torque at ``p`` (:func:`phase_shares`).
+
+The phases' equilibria are not registered (an earlier release sampled ``T1`` at
+``p + s(p)``, ``s`` the two motor files' equilibria apart): ``T1`` is the torque along the
+ramp, whose hand-overs sit at the same table positions on both joints, and shifting the
+surface moved them with the phases; on the random benches 101 to 110 that cost 2.6 points of
+median APMD (docs/linearize-transfer.md).
 
 The handful is ordinary collection data (``position, pulse_width, torque``) of the second joint
 at a few positions and pulse widths (``2 m`` targets, pulse widths every 64): with the standard
@@ -28,6 +31,14 @@ regions, the paper's suggestion. The phase gains are a linear least-squares fit 
 the first joint's amplifier (where torque is linear in current, gain and pulse-width scale
 trade off).
 
+Which scaling is written is the handful's choice (:func:`held_out_error`): the first joint's
+characterisation unchanged, its phase gains alone, or gains and the amplifier law, each scored
+on every position of the handful with the scaling fitted to the other positions; the simplest
+within ``TIE`` of the best wins, and an amplifier law fitted onto a bound of its box (the
+handful pushes it beyond a plausible amplifier: a gain traded against a pulse-width scale) is
+not a candidate. When the unchanged characterisation wins, its rows are written as they are
+(scaled by one common factor, to which the tables are blind) with a warning.
+
 The result is the first joint's rows, re-scaled: DATA.csv for the second joint, which
 :func:`torquemap.linearize.tables.build_tables` turns into tables like any other.
 
@@ -36,7 +47,8 @@ This module never imports the simulator.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -51,6 +63,16 @@ from torquemap.linearize.tables import LinearizeData, fill_voids
 #: Weight of the prior on the amplifier law, relative to the handful's torque energy (1e-3: a
 #: tie-break; 0.05 measured worse on the BLDC siblings of benchmarks/transfer.py).
 PRIOR = 1e-3
+#: The scalings, simplest first: the first joint's surface unchanged (one common scale), its
+#: phases' gains (registered by the motor files' equilibria), gains and the amplifier law.
+Scaling = Literal["unchanged", "gains", "full"]
+MODELS: tuple[Scaling, ...] = ("unchanged", "gains", "full")
+#: A richer scaling is taken only when its held-out error is below the simplest's within this
+#: fraction of the best.
+TIE = 0.05
+#: Readings below this fraction of the handful's largest torque are not scored (a relative
+#: error there is the sensor's noise).
+READABLE = 0.02
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -69,7 +91,8 @@ class TransferResult:
         the torque the second joint's amplifier gives at ``w`` is
         ``alpha + W (beta u + gamma u (1 - u))`` with ``u = w / W``, ``W`` the full scale.
     position_shift
-        First joint's equilibrium minus the second's, per phase [table positions], shape (m,).
+        First joint's equilibrium minus the second's, per phase [table positions], shape (m,)
+        (from the motor files; reported, not applied).
     residual
         RMS misfit of the handful after the fit, relative to its RMS torque.
     residual_unchanged
@@ -77,10 +100,14 @@ class TransferResult:
         ``beta = 1``, no registration).
     measurements
         Rows of the handful used.
+    model
+        The scaling written: ``"unchanged"``, ``"gains"`` or ``"full"`` (:data:`MODELS`).
+    held_out
+        Each scaling's held-out error on the handful (:func:`held_out_error`); infinite for
+        an amplifier law fitted onto a bound.
     warnings
-        One line each: the transferred surface misfits the handful more than the first
-        joint's taken unchanged (the scaling does not describe the second joint: its motor
-        file's equilibria, or a handful of another joint).
+        One line each: the handful predicts the first joint's characterisation unchanged as
+        well as any scaling of it, within ``TIE`` (the rows are then written unchanged).
     """
 
     position: NDArray[np.int64]
@@ -94,6 +121,8 @@ class TransferResult:
     residual: float
     residual_unchanged: float
     measurements: int
+    model: Scaling = "full"
+    held_out: dict[str, float] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
 
 
@@ -146,6 +175,8 @@ def transfer_characterisation(
     first: LinearizeData,
     second_spec: MotorSpec,
     few: LinearizeData,
+    *,
+    scaling: Scaling | Literal["auto"] = "auto",
 ) -> TransferResult:
     """Characterisation data for a second joint: the first joint's, scaled to a handful.
 
@@ -156,11 +187,13 @@ def transfer_characterisation(
     first
         The first joint's full characterisation (DATA.csv rows, in collection order).
     second_spec
-        The second joint's motor file (its equilibria register the phases); same phases,
+        The second joint's motor file (its equilibria weigh the phases' shares); same phases,
         positions per cycle and full-scale pulse width as the first.
     few
         The second joint's handful: characterisation rows at a few positions (at least 2,
         better ``2 m``) and a few pulse widths (at least 2 above zero).
+    scaling
+        ``"auto"``: the handful chooses (:func:`held_out_error`); or one of :data:`MODELS`.
 
     Returns
     -------
@@ -198,72 +231,46 @@ def transfer_characterisation(
     e2 = np.asarray(b_spec.equilibrium_positions, dtype=np.float64)
     shift = circular_difference(e1, e2, n)
     ramp = np.asarray(b_spec.ramp, dtype=np.float64)
-
-    def shares(p: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Each phase's share of the torque at positions ``p``, shape (len(p), m)."""
-        return phase_shares(p, ramp, e2, n)
-
+    top = float(a_spec.actuation_max)
+    model = _Model(surface, ramp, e2, n, top)
     pos = few.position.astype(np.float64)
     level = few.level.astype(np.float64)
     tau = few.torque
-    w_few = shares(pos)
-    p1 = pos + w_few @ shift
-
-    def gains(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        t1 = surface(p1, warp(x, level))
-        design = w_few * t1[:, None]
-        g: NDArray[np.float64] = np.asarray(
-            np.linalg.lstsq(design, tau, rcond=None)[0], dtype=np.float64
-        )
-        return g, tau - design @ g
-
-    energy = float(np.sum(tau**2)) or 1.0
-
-    def cost(x: NDArray[np.float64]) -> float:
-        # a weak prior on the amplifier law: where the torque is linear in the current (BLDC),
-        # a gain and a pulse-width scale trade off, and the plausible amplifier is the first's
-        prior: float = PRIOR * energy * ((x[1] - 1.0) ** 2 + x[2] ** 2)
-        return float(np.sum(gains(x)[1] ** 2)) + prior
-
-    top = float(a_spec.actuation_max)
-
-    def warp(x: NDArray[np.float64], w: NDArray[np.float64]) -> NDArray[np.float64]:
-        u = w / top
-        out: NDArray[np.float64] = x[0] + top * (x[1] * u + x[2] * u * (1.0 - u))
-        return out
-
-    bounds = [(-0.15 * top, 0.15 * top), (0.8, 1.25), (-0.3, 0.3)]
-    best = min(
-        (
-            minimize(cost, np.array([a0, 1.0, 0.0]), method="Nelder-Mead", bounds=bounds)
-            for a0 in (-10.0, 0.0, 10.0)
-        ),
-        key=lambda r: float(r.fun),
-    )
-    x = np.asarray(best.x, dtype=np.float64)
-    g, resid = gains(x)
+    scores: dict[str, float] = {n_: held_out_error(model, n_, pos, level, tau) for n_ in MODELS}
+    x, g = model.fit("full", pos, level, tau)
+    if model.on_bound(x):
+        scores["full"] = float("inf")
+    if scaling == "auto":
+        # the simplest scaling within TIE of the best: a richer one must earn its parameters
+        # on readings it was not fitted to
+        best = min(scores.values())
+        chosen: Scaling = next(name for name in MODELS if scores[name] <= best * (1.0 + TIE))
+    else:
+        chosen = scaling
     scale = float(np.sqrt(np.mean(tau**2))) or 1.0
-    unchanged = tau - surface(pos, level)
-    residual = float(np.sqrt(np.mean(resid**2))) / scale
-    residual_unchanged = float(np.sqrt(np.mean(unchanged**2))) / scale
+    residual = float(np.sqrt(np.mean((tau - model.predict(x, g, pos, level)) ** 2))) / scale
+    residual_unchanged = float(np.sqrt(np.mean((tau - surface(pos, level)) ** 2))) / scale
+    x, g = model.fit(chosen, pos, level, tau)
     warnings = []
-    if residual > residual_unchanged:
-        # the fit's family holds the unchanged surface only without registration: a worse fit
-        # means the equilibria registered (the motor files) do not match the handful
-        warnings.append(
-            f"the transferred surface misfits the handful more than the first joint's taken "
-            f"unchanged ({100 * residual:.1f} % against {100 * residual_unchanged:.1f} % RMS): "
-            "the scaling does not describe this joint; are the second motor file's "
-            "equilibrium positions this joint's, and the handful its rows?"
-        )
-    # the second joint's torque at the first joint's (position, pulse width) rows
-    p_first = first.position.astype(np.float64)
-    w_first = shares(p_first)
-    t1 = surface(p_first + w_first @ shift, warp(x, first.level.astype(np.float64)))
+    if chosen == "unchanged":
+        torque = g[0] * first.torque
+        if scaling == "auto":
+            other = min(scores["gains"], scores["full"])
+            warnings.append(
+                "the handful's held-out readings are predicted as well (within "
+                f"{100 * TIE:.0f} %) by the first joint's characterisation unchanged "
+                f"({100 * scores['unchanged']:.1f} % mean relative error) as by any scaling of "
+                f"it ({100 * other:.1f} %): wrote the first "
+                "joint's rows unchanged (its tables apply as they are); is the handful this "
+                "joint's, of a motor of the first's type?"
+            )
+    else:
+        p_first = first.position.astype(np.float64)
+        torque = model.predict(x, g, p_first, first.level.astype(np.float64), name=chosen)
     return TransferResult(
         position=first.position.copy(),
         pulse_width=first.level.copy(),
-        torque=(w_first @ g) * t1,
+        torque=torque,
         gain=g,
         pulse_offset=float(x[0]),
         pulse_scale=float(x[1]),
@@ -272,8 +279,125 @@ def transfer_characterisation(
         residual=residual,
         residual_unchanged=residual_unchanged,
         measurements=int(tau.size),
+        model=chosen,
+        held_out=scores,
         warnings=tuple(warnings),
     )
+
+
+class _Model:
+    """``T2(p, w) = a(p) T1(p, v(w))`` and its fits to rows of the handful."""
+
+    def __init__(
+        self,
+        surface: _Surface,
+        ramp: NDArray[np.float64],
+        equilibrium: NDArray[np.float64],
+        period: int,
+        top: float,
+    ) -> None:
+        self.surface, self.ramp, self.equilibrium = surface, ramp, equilibrium
+        self.period, self.top = period, top
+        self.bounds = [(-0.15 * top, 0.15 * top), (0.8, 1.25), (-0.3, 0.3)]
+
+    def on_bound(self, x: NDArray[np.float64]) -> bool:
+        """Whether an amplifier law sits on a bound of its box (within 0.1 % of its width)."""
+        return any(
+            min(v - lo, hi - v) <= 1e-3 * (hi - lo)
+            for v, (lo, hi) in zip(x.tolist(), self.bounds, strict=True)
+        )
+
+    def shares(self, p: NDArray[np.float64]) -> NDArray[np.float64]:
+        return phase_shares(p, self.ramp, self.equilibrium, self.period)
+
+    def warp(self, x: NDArray[np.float64], w: NDArray[np.float64]) -> NDArray[np.float64]:
+        u = w / self.top
+        out: NDArray[np.float64] = x[0] + self.top * (x[1] * u + x[2] * u * (1.0 - u))
+        return out
+
+    def predict(
+        self,
+        x: NDArray[np.float64],
+        g: NDArray[np.float64],
+        p: NDArray[np.float64],
+        w: NDArray[np.float64],
+        *,
+        name: Scaling = "full",
+    ) -> NDArray[np.float64]:
+        if name == "unchanged":
+            out: NDArray[np.float64] = g[0] * self.surface(p, w)
+            return out
+        sh = self.shares(p)
+        out = (sh @ g) * self.surface(p, self.warp(x, w))
+        return out
+
+    def fit(
+        self,
+        name: Scaling,
+        p: NDArray[np.float64],
+        w: NDArray[np.float64],
+        tau: NDArray[np.float64],
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The scaling's parameters ``(alpha, beta, gamma)`` and phase gains fitted to rows."""
+        identity = np.array([0.0, 1.0, 0.0])
+        m = self.ramp.shape[1]
+        if name == "unchanged":
+            t1 = self.surface(p, w)
+            common = float(t1 @ tau) / (float(t1 @ t1) or 1.0)
+            return identity, np.full(m, common)
+        sh = self.shares(p)
+
+        def gains(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+            design = sh * self.surface(p, self.warp(x, w))[:, None]
+            g: NDArray[np.float64] = np.asarray(
+                np.linalg.lstsq(design, tau, rcond=None)[0], dtype=np.float64
+            )
+            return g, tau - design @ g
+
+        if name == "gains":
+            return identity, gains(identity)[0]
+        energy = float(np.sum(tau**2)) or 1.0
+
+        def cost(x: NDArray[np.float64]) -> float:
+            # a weak prior on the amplifier law: where the torque is linear in the current
+            # (BLDC), a gain and a pulse-width scale trade off, and the plausible amplifier is
+            # the first's
+            prior: float = PRIOR * energy * ((x[1] - 1.0) ** 2 + x[2] ** 2)
+            return float(np.sum(gains(x)[1] ** 2)) + prior
+
+        best = min(
+            (
+                minimize(cost, np.array([a0, 1.0, 0.0]), method="Nelder-Mead", bounds=self.bounds)
+                for a0 in (-10.0, 0.0, 10.0)
+            ),
+            key=lambda r: float(r.fun),
+        )
+        x = np.asarray(best.x, dtype=np.float64)
+        return x, gains(x)[0]
+
+
+def held_out_error(
+    model: _Model,
+    name: Scaling,
+    position: NDArray[np.float64],
+    pulse_width: NDArray[np.float64],
+    torque: NDArray[np.float64],
+) -> float:
+    """Mean relative error of a scaling on each position of the handful, fitted to the others.
+
+    Leave one position out: the scaling is fitted to the handful's other positions and
+    predicts this one's readings; the error is ``|tau - tau_hat| / tau`` over the readings
+    above ``READABLE`` of the handful's largest torque (relative, as the tables' APMD weighs
+    the low commands). The unchanged surface has one parameter, a common scale (to which the
+    tables are blind).
+    """
+    out = np.full(torque.size, np.nan)
+    for b in np.unique(position):
+        test = position == b
+        x, g = model.fit(name, position[~test], pulse_width[~test], torque[~test])
+        out[test] = model.predict(x, g, position[test], pulse_width[test], name=name)
+    use = torque > READABLE * float(np.max(torque))
+    return float(np.mean(np.abs(torque[use] - out[use]) / torque[use]))
 
 
 def phase_shares(
