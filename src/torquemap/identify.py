@@ -423,7 +423,9 @@ def pass_ripple(acceleration: NDArray[np.float64]) -> float:
     third of the ramps' (random SCARA 214: 95 rad/s^2, the ramps 283), so no ramp stood out of
     three ripples and the inertia was left at 0. A ripple (PDTV, noise) never reaches 5 robust
     standard deviations: a sinusoid's peak is 1.35 of them, so for a clean log the value is the
-    plain RMS.
+    plain RMS. Identification uses it only when no ramp sample clears three plain RMS (the
+    plain RMS keeps the ramps' strong part alone, where a ramp's ends, smoothed by the
+    differentiator, would bias the inertia).
 
     Examples
     --------
@@ -482,10 +484,15 @@ def _identify_joint(
     # Ramps identify inertia only where their acceleration stands out of the speed ripple of
     # the passes (PDTV makes the speed ripple, so ripple-driven acceleration is correlated with
     # the PDTV torque and would bias the inertia).
-    ripple = pass_ripple(
-        np.concatenate([derivs[li][k].acceleration[p.start : p.stop] for li, p in passes])
-    )
-    ramps = [(li, m & (np.abs(derivs[li][k].acceleration) > 3.0 * ripple)) for li, m in ramps]
+    in_passes = np.concatenate([derivs[li][k].acceleration[p.start : p.stop] for li, p in passes])
+    ripple = float(np.sqrt(np.mean(in_passes**2)))
+    cleared = [(li, m & (np.abs(derivs[li][k].acceleration) > 3.0 * ripple)) for li, m in ramps]
+    if sum(int(m.sum()) for _, m in cleared) < 3:
+        # no ramp clears the plain RMS: ramp samples inside short fast passes may have made
+        # it (pass_ripple); the ripple of the pass samples without them
+        ripple = pass_ripple(in_passes)
+        cleared = [(li, m & (np.abs(derivs[li][k].acceleration) > 3.0 * ripple)) for li, m in ramps]
+    ramps = cleared
     speeds = np.array([p.speed for _, p in passes])
     means = np.array([p.mean_torque for _, p in passes])
     # the sign of motion is trusted from two encoder counts per differentiator window on

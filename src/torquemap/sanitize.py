@@ -6,8 +6,8 @@ Before anything is differentiated or filtered, :func:`sanitize_log`
    drive updated; one warning);
 2. finds implausible samples per channel: a torque (current) or a joint angle that leaves the
    running median of its neighbours by far more than the signal ever moves between samples (a
-   corrupted current of 1e6 A, an encoder glitch) for at most ``GLITCH_DURATION`` (2 ms, one
-   sample at the least; longer excursions are motion, judged in time, not in samples). Such a value is replaced, for the filters, by
+   corrupted current of 1e6 A, an encoder glitch) for at most ``GLITCH_DURATION`` (10 ms, one
+   to four samples; longer excursions are motion, judged in time, not in samples). Such a value is replaced, for the filters, by
    the straight line between its sound neighbours, so that it spoils nothing around it; the
    sample is flagged;
 3. cuts the log where the time between two samples exceeds what the filters can bridge
@@ -40,11 +40,13 @@ from torquemap.io import Log
 SPIKE_SIGMAS = 50.0
 #: The longest running median [samples]: it removes excursions of up to 4 samples.
 MEDIAN_SPAN = 9
-#: An excursion from the neighbours that lasts at most this long [s] is a glitch (a corrupted
-#: reading, an encoder error), longer ones are motion or torque the robot really had (an
-#: acceleration pulse of a 14 ms speed ramp): the running median spans twice this in time
-#: (:func:`median_span_for`), so that the same motion is judged alike at 281 Hz and at 2 kHz.
-GLITCH_DURATION = 2e-3
+#: An excursion from the neighbours that lasts at most this long [s] (and at most
+#: ``MEDIAN_SPAN // 2`` samples) is a glitch (a corrupted reading, an encoder error, or a
+#: torque pulse too short for the log to resolve), longer ones are motion or torque the robot
+#: really had (the acceleration pulse of a 14 ms speed ramp): the running median spans twice
+#: this in time (:func:`median_span_for`), so that a ramp's pulse is judged alike at 281 Hz and
+#: at 2 kHz. From 400 Hz up the span is the 9 samples it always was.
+GLITCH_DURATION = 10e-3
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -101,13 +103,15 @@ def median_span_for(t: NDArray[np.float64]) -> int:
 
     A running median of ``2 h + 1`` removes excursions of up to ``h`` samples: those are judged
     by :func:`implausible_samples`, longer ones follow the median and are never flagged. A span
-    fixed in samples judged by the sampling rate instead of the motion: a 14 ms acceleration
-    pulse is 4 samples at 281 Hz (removed by a median of 9, flagged) and 28 at 2 kHz (kept).
+    fixed at 9 samples judged by the sampling rate instead of the motion: a 14 ms acceleration
+    pulse is 4 samples at 281 Hz (removed by a median of 9, flagged) and 28 at 2 kHz (kept);
+    with a span of 5 at 281 Hz only excursions of up to 2 samples (7 ms) stand out. At 400 Hz
+    and above the span is 9, as before.
 
     Examples
     --------
-    >>> [median_span_for(np.arange(50) / rate) for rate in (100.0, 281.0, 1000.0, 2000.0, 1e4)]
-    [3, 3, 5, 9, 9]
+    >>> [median_span_for(np.arange(50) / rate) for rate in (100.0, 281.0, 340.0, 400.0, 2e3)]
+    [3, 5, 7, 9, 9]
     """
     if t.size < 2:
         return 3
