@@ -164,10 +164,11 @@ def test_inertia_from_ramps_when_fast_passes_are_mostly_ramp() -> None:
     # constant-acceleration ramps (300 rad/s^2, as random SCARA 214's sweep) into passes of
     # 2 revolutions: at 50 rad/s the ramps take 0.17 s and 0.66 revolution each, so the pass
     # (where the revolution-averaged speed is within 20 % of the run's) holds ramp samples.
-    # Before, their acceleration entered the passes' speed ripple as an RMS (92 rad/s^2 here,
+    # Before, their acceleration entered the passes' speed ripple as an RMS (121 rad/s^2 here,
     # the ramps 300): no ramp stood out of 3 ripples, "no accelerating segment: inertia set
     # to 0" (random SCARA 209 and 214; 214's model then looked like a vertical arm). The
-    # ripple is now the RMS of the pass samples within 5 robust standard deviations.
+    # ripple is now, when no ramp clears the plain RMS, the RMS of the pass samples within 5
+    # robust standard deviations (identify.pass_ripple).
     rng = np.random.default_rng(3)
     h, accel = 1e-3, 300.0
     vel: list[np.ndarray] = [np.zeros(300)]
