@@ -6,7 +6,8 @@ Before anything is differentiated or filtered, :func:`sanitize_log`
    drive updated; one warning);
 2. finds implausible samples per channel: a torque (current) or a joint angle that leaves the
    running median of its neighbours by far more than the signal ever moves between samples (a
-   corrupted current of 1e6 A, an encoder glitch). Such a value is replaced, for the filters, by
+   corrupted current of 1e6 A, an encoder glitch) for at most ``GLITCH_DURATION`` (10 ms, one
+   to four samples; longer excursions are motion, judged in time, not in samples). Such a value is replaced, for the filters, by
    the straight line between its sound neighbours, so that it spoils nothing around it; the
    sample is flagged;
 3. cuts the log where the time between two samples exceeds what the filters can bridge
@@ -37,7 +38,15 @@ from torquemap.io import Log
 #: this many robust standard deviations of that deviation (and by more than the largest step
 #: the channel makes in normal operation, see :func:`implausible_samples`).
 SPIKE_SIGMAS = 50.0
+#: The longest running median [samples]: it removes excursions of up to 4 samples.
 MEDIAN_SPAN = 9
+#: An excursion from the neighbours that lasts at most this long [s] (and at most
+#: ``MEDIAN_SPAN // 2`` samples) is a glitch (a corrupted reading, an encoder error, or a
+#: torque pulse too short for the log to resolve), longer ones are motion or torque the robot
+#: really had (the acceleration pulse of a 14 ms speed ramp): the running median spans twice
+#: this in time (:func:`median_span_for`), so that a ramp's pulse is judged alike at 281 Hz and
+#: at 2 kHz. From 400 Hz up the span is the 9 samples it always was.
+GLITCH_DURATION = 10e-3
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -87,11 +96,39 @@ class CleanLog:
     warnings: tuple[str, ...]
 
 
-def implausible_samples(x: NDArray[np.float64]) -> NDArray[np.bool_]:
+def median_span_for(t: NDArray[np.float64]) -> int:
+    """The running median's span [samples] for a log stamped ``t`` [s]: ``2 h + 1`` where ``h``
+    samples last ``GLITCH_DURATION`` at the median time step, at least 1 (a single sample is
+    the shortest excursion a log shows) and at most 4 (``MEDIAN_SPAN``).
+
+    A running median of ``2 h + 1`` removes excursions of up to ``h`` samples: those are judged
+    by :func:`implausible_samples`, longer ones follow the median and are never flagged. A span
+    fixed at 9 samples judged by the sampling rate instead of the motion: a 14 ms acceleration
+    pulse is 4 samples at 281 Hz (removed by a median of 9, flagged) and 28 at 2 kHz (kept);
+    with a span of 5 at 281 Hz only excursions of up to 2 samples (7 ms) stand out. At 400 Hz
+    and above the span is 9, as before.
+
+    Examples
+    --------
+    >>> [median_span_for(np.arange(50) / rate) for rate in (100.0, 281.0, 340.0, 400.0, 2e3)]
+    [3, 5, 7, 9, 9]
+    """
+    if t.size < 2:
+        return 3
+    step = float(np.median(np.diff(t)))
+    if not step > 0:
+        return MEDIAN_SPAN
+    h = int(min(MEDIAN_SPAN // 2, max(1, math.floor(GLITCH_DURATION / step * (1 + 1e-9)))))
+    return 2 * h + 1
+
+
+def implausible_samples(x: NDArray[np.float64], *, span: int = MEDIAN_SPAN) -> NDArray[np.bool_]:
     """Samples of one channel that leave the running median of their neighbours implausibly far.
 
-    The deviation from a running median over ``MEDIAN_SPAN`` samples follows steps and ramps of
-    the signal, so only isolated excursions stand out. A sample is implausible when its
+    The deviation from a running median over ``span`` samples (odd, 3 to ``MEDIAN_SPAN``;
+    :func:`median_span_for` the log's time step) follows steps and ramps of the signal and
+    excursions longer than half the span, so only excursions of at most ``span // 2`` samples
+    stand out. A sample is implausible when its
     deviation exceeds both ``SPIKE_SIGMAS`` robust standard deviations of all deviations and
     ten times the 99th percentile of the channel's sample-to-sample change (what the signal does
     in normal operation) and ten times its typical nonzero step (an encoder count).
@@ -107,6 +144,8 @@ def implausible_samples(x: NDArray[np.float64]) -> NDArray[np.bool_]:
 
     from torquemap._kernels import max_abs
 
+    if span % 2 == 0 or not 3 <= span <= MEDIAN_SPAN:
+        raise ValueError(f"span must be odd, 3 to {MEDIAN_SPAN}, not {span}")
     v = np.ascontiguousarray(x, dtype=np.float64)
     if v.size < MEDIAN_SPAN:
         return np.zeros(v.size, dtype=bool)
@@ -114,13 +153,13 @@ def implausible_samples(x: NDArray[np.float64]) -> NDArray[np.bool_]:
     big = max_abs(v)
     if not math.isfinite(big) or big == 0.0:
         return np.zeros(v.size, dtype=bool)
-    if _none_beyond(v, big, max(10.0 * _median_at_least(v, big), 1e-12)):
+    if _none_beyond(v, big, max(10.0 * _median_at_least(v, big), 1e-12), span):
         return np.zeros(v.size, dtype=bool)
     u = v / big
     du = np.abs(np.diff(u))
     moves = du[du > 0]
     typical = float(np.median(moves)) if moves.size else 0.0
-    med = median_filter(u, size=MEDIAN_SPAN, mode="nearest")
+    med = median_filter(u, size=span, mode="nearest")
     dev = np.abs(u - med)
     scale = 1.4826 * float(np.median(dev))
     step = float(np.percentile(np.abs(np.diff(med)), 99))
@@ -154,20 +193,21 @@ def _median_at_least(v: NDArray[np.float64], big: float) -> float:
     return float(np.median(every)) if every.size else 0.0
 
 
-def _none_beyond(v: NDArray[np.float64], big: float, bound: float) -> bool:
-    """Whether no sample of ``u = v / big`` leaves the running median of ``MEDIAN_SPAN`` by
-    more than ``bound``.
+def _none_beyond(v: NDArray[np.float64], big: float, bound: float, span: int) -> bool:
+    """Whether no sample of ``u = v / big`` leaves the running median of ``span`` (3 to
+    ``MEDIAN_SPAN``) by more than ``bound``.
 
     A cheap exact test before the running median of every sample. The median of a window of
     ``2 h + 1`` values lies between the smallest and the largest of ANY ``h + 1`` of them
     (at most ``h`` values lie strictly above the median, and at most ``h`` below), so a
-    sample leaves it by at most its distance to the farthest of the ``h + 1`` samples centred
-    on it (one compiled pass, :func:`torquemap._kernels.median_reach_suspects`). Only the
+    sample leaves it by at most its distance to the farthest of ``h + 1`` samples of the
+    window including itself; the 5 samples centred on it hold such a set for every ``h <= 4``
+    (one compiled pass, :func:`torquemap._kernels.median_reach_suspects`). Only the
     samples where that distance exceeds ``bound`` get their median computed.
     """
     from torquemap._kernels import median_reach_suspects
 
-    half = MEDIAN_SPAN // 2
+    half = span // 2
     suspect = median_reach_suspects(v, big, bound)
     if suspect.size == 0:
         return True
@@ -319,11 +359,12 @@ def sanitize_log(log: Log, *, window: float, min_piece: float | None = None) -> 
                 "what is computed from it is not the robot's"
             )
     bad_any = np.zeros(keep.size, dtype=bool)
+    span = median_span_for(tk)
     for k in range(q.shape[1]):
         for arr, what in ((tau, "torque"), (q, "angle")):
             bad = np.zeros(tk.size, dtype=bool)
             for _ in range(4):  # a wild value hides lesser ones: look again once it is bridged
-                new = implausible_samples(arr[:, k]) & ~bad
+                new = implausible_samples(arr[:, k], span=span) & ~bad
                 if not new.any():
                     break
                 bad |= new
