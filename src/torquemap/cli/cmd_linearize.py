@@ -189,6 +189,7 @@ def _build(args: argparse.Namespace) -> int:
             bias_weight=args.bias_weight,
             log_curvature=args.log_curvature,
             actuation_bits=args.actuation_bits,
+            bias=data.bias,
             path=args.data,
         ),
     )
