@@ -17,16 +17,21 @@ So ``c`` is never negative and is zero over part of the cycle, while ``s`` is sm
 
 1. The standard error of one block's bias, ``sigma_b``, from the rows at zero pulse width
    (they read the same state as the bias: ``var = sigma^2 (1 / R + 1 / B)``, and the bias
-   weighs ``B / R = bias_weight`` rows), ``sigma_b = sd(rows at 0) / sqrt(1 + bias_weight)``.
-2. The drift ``s``: a Fourier series over the cycle of the fewest harmonics ``K`` whose fit
-   to the blocks it does not call loaded is consistent with ``sigma_b`` (chi-square, level
-   :data:`ALPHA`); a block is called loaded while it lies more than ``Z`` standard errors above
-   the fit (an asymmetric fit: a load only adds, so a block below the drift must be explained
-   by the drift). The unloaded blocks must be at least half: cogging averages zero over its
+   weighs ``B / R = bias_weight`` rows), ``sigma_b = sd(rows at 0) / sqrt(1 + bias_weight)``,
+   ``sd`` the root mean square of those below zero (with the bias read on an open contact, the
+   rows at 0 hold the load where there is one; it only adds).
+2. The drift ``s``: a Fourier series over the cycle, fitted to the blocks it does not call
+   loaded (a block is loaded while it lies more than ``Z`` standard errors above the fit: a
+   load only adds), its harmonics added one at a time while each explains significantly more
+   of those blocks (chi-square of 2 degrees of freedom against ``sigma_b``, level
+   :data:`ALPHA`). It must then leave the blocks below it within ``sigma_b`` (their chi-square,
+   level :data:`ALPHA`): a block below the drift is the drift and its noise, while loads too
+   small to single out may lie above it. Else the load cannot be told from the drift. The unloaded blocks must be at least half: cogging averages zero over its
    period and exceeds the friction over less than half of it (a fit that keeps fewer has sunk
    to the lowest blocks of a drift it does not follow).
 3. The bias varies beyond its noise when the chi-square of every block about the drift is
-   beyond what ``sigma_b`` explains (level :data:`ALPHA`).
+   beyond what ``sigma_b`` explains (level :data:`ALPHA`) and some block lies above it (a
+   load's signature).
 
 When it does, each block's bias's excess over the drift, ``b - s`` (the load ``c`` where loaded,
 the bias's own error elsewhere), is added back to the block's rows: they become the readings
@@ -62,7 +67,8 @@ class BiasCheck:
     Attributes
     ----------
     position
-        Each block's position (its lowest level's row, where the bias was read), shape (k,).
+        Each block's position (its lowest level's row, where the bias was read), ascending,
+        shape (k,).
     bias
         Each block's bias [N m], shape (k,).
     drift
@@ -154,20 +160,63 @@ def _lower_fit(
 def _blocks(
     position: NDArray[np.int64], level: NDArray[np.float64], bias: NDArray[np.float64]
 ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]]:
-    """One entry per block (rows sharing one bias): its position at its lowest level, its bias,
-    and each row's block."""
+    """One entry per block (rows sharing one bias), by position: its position at its lowest
+    level, its bias, and each row's block."""
     values, inverse = np.unique(bias, return_inverse=True)
     order = np.lexsort((level, inverse))  # by block, then level
     first = order[np.unique(inverse[order], return_index=True)[1]]
-    return position[first].astype(np.int64), values, inverse.astype(np.int64)
+    at = position[first].astype(np.int64)
+    by_position = np.argsort(at, kind="stable")
+    rank = np.empty_like(by_position)
+    rank[by_position] = np.arange(by_position.size)
+    return at[by_position], values[by_position], rank[inverse].astype(np.int64)
 
 
 def _standard_error(
     level: NDArray[np.float64], torque: NDArray[np.float64], bias_weight: float, scale: float
 ) -> float:
+    # the rows at level 0 below zero: a load at rest (in the rows of a collection with the bias
+    # read on an open contact) only adds, so those are the noise alone, half-normal
     zero = torque[level == 0]
-    sd = float(1.4826 * np.median(np.abs(zero - np.median(zero)))) if zero.size >= 4 else 0.0
+    low = zero[zero < 0]
+    sd = math.sqrt(float(np.mean(low**2))) if low.size >= 4 else 0.0
     return max(sd / math.sqrt(1.0 + bias_weight), PRECISION * scale, 1e-300)
+
+
+def _rss(design: NDArray[np.float64], b: NDArray[np.float64], rows: NDArray[np.bool_]) -> float:
+    coef, *_ = np.linalg.lstsq(design[rows], b[rows], rcond=None)
+    r = b[rows] - design[rows] @ coef
+    return float(r @ r)
+
+
+def _drift(
+    at: NDArray[np.int64], b: NDArray[np.float64], sigma: float, n: int
+) -> tuple[NDArray[np.float64], NDArray[np.bool_], int, bool]:
+    """The drift at each block, the blocks it does not call loaded, its harmonics, and whether
+    it leaves the blocks below it within their noise (else the load cannot be told from it)."""
+    k = b.size
+    top = max(0, (k // 4 - 1) // 2)  # at least four blocks a coefficient
+    x = at.astype(np.float64)
+    fit, keep = _lower_fit(_fourier(x, 0, n), b, sigma)
+    h = 0
+    while h < top:
+        design = _fourier(x, h + 1, n)
+        fit_next, keep_next = _lower_fit(design, b, sigma)
+        if int(keep_next.sum()) <= design.shape[1]:
+            break
+        # the next harmonic is kept while it explains significantly more of the unloaded
+        # blocks (chi-square of 2 degrees of freedom), or while the fit sank below the drift
+        # to the lowest blocks (fewer than half kept)
+        gain = (_rss(_fourier(x, h, n), b, keep_next) - _rss(design, b, keep_next)) / sigma**2
+        if 2 * keep.sum() >= k and chi2.sf(gain, 2) >= ALPHA:
+            break
+        fit, keep, h = fit_next, keep_next, h + 1
+    # a load only adds: the blocks below the drift are its noise alone (half-normal, and the
+    # fit took about half of its coefficients' degrees of freedom from them)
+    below = b - fit < 0
+    dof = max(float(below.sum()) - (h + 0.5), 1.0)
+    held = chi2.sf(float(np.sum(((b - fit)[below] / sigma) ** 2)), dof) >= ALPHA
+    return fit, keep, h, bool(held and 2 * keep.sum() >= k)
 
 
 def check_bias(
@@ -222,24 +271,12 @@ def check_bias(
     scale = float(np.max(np.abs(b_row), initial=0.0))
     sigma = _standard_error(pw, tau, bias_weight, scale)
     k = b.size
-    top = max(0, (k // 4 - 1) // 2)  # at least four blocks a coefficient
-    drift, base, harmonics, separated = np.full(k, float(np.mean(b))), np.ones(k, bool), 0, False
-    for h in range(top + 1):
-        design = _fourier(at.astype(np.float64), h, n)
-        fit, keep = _lower_fit(design, b, sigma)
-        dof = int(keep.sum()) - design.shape[1]
-        if dof <= 0:
-            break
-        drift, base, harmonics = fit, keep, h
-        if 2 * keep.sum() < k:
-            continue  # the fit sank below the drift to the lowest blocks
-        if chi2.sf(float(np.sum(((b - fit)[keep] / sigma) ** 2)), dof) >= ALPHA:
-            separated = True
-            break
+    drift, base, harmonics, separated = _drift(at, b, sigma, n)
     dof = max(k - (2 * harmonics + 1), 1)
     total = float(np.sum(((b - drift) / sigma) ** 2))
     p_value = float(chi2.sf(total, dof))
-    varies = k > 2 * harmonics + 1 and p_value < ALPHA
+    # beyond the noise, and with the signature of a load: blocks above the drift
+    varies = k > 2 * harmonics + 1 and p_value < ALPHA and not base.all()
     loaded = ~base if varies else np.zeros(k, dtype=bool)
     restore = np.zeros(pos.size)
     if varies and separated:
