@@ -83,14 +83,18 @@ def test_a_load_in_the_bias_is_found_and_restored() -> None:
 def test_no_load_stays_silent() -> None:
     # cogging below the friction (0.04 < 0.05) everywhere: the contact is never loaded at rest;
     # the bias varies by 0.8 N m over the cycle (the sensor's drift) and nothing is said
-    cols, load, _ = _closed_form(0.04)
+    cols, load, se = _closed_form(0.04)
     assert not load.any()
     check = check_bias(
         cols["position"], cols["pulse_width"], cols["torque"], cols["bias"], positions_per_cycle=N
     )
     assert np.ptp(check.bias) > 0.7
-    assert not check.varies and not check.loaded.any() and not check.restore.any()
+    assert not check.varies and not check.loaded.any() and check.separated
     assert check.p_value > 1e-3
+    # the rows are re-zeroed on the drift: what is restored is each block's bias noise (5
+    # standard errors: the largest of 64 normal draws, and the drift's fit)
+    assert_allclose(check.restore, 0.0, atol=5 * se)
+    assert np.std(check.restore) > 0.5 * se
 
 
 def test_a_bias_the_drift_cannot_follow_is_warned_not_restored() -> None:
@@ -189,10 +193,17 @@ def test_no_load_at_rest_on_the_rig_is_silent(tmp_path: Path, cogging: float) ->
     spec = rig.motor_spec()
     data = _collect(rig, spec, tmp_path / "d.csv", bias_open=False)
     assert data.bias is not None and np.ptp(data.bias) > 0.3
+    check = check_bias(data.position, data.level, data.torque, data.bias, positions_per_cycle=256)
+    assert not check.varies and check.separated
+    # re-zeroed on the drift: each block's bias noise, 0.02 N m / sqrt(100), within 5 of it
+    assert_allclose(check.restore, 0.0, atol=5 * rig.settings.noise / 10)
     with_bias = build_tables(spec, data.position, data.level, data.torque, bias=data.bias)
     without = build_tables(spec, data.position, data.level, data.torque)
-    assert with_bias.warnings == without.warnings
-    assert_array_equal(with_bias.phases, without.phases)
+    assert with_bias.warnings == without.warnings  # silent
+    kept = build_tables(
+        spec, data.position, data.level, data.torque, bias=data.bias, restore_bias=False
+    )
+    assert_array_equal(kept.phases, without.phases)
 
 
 @pytest.mark.xdist_group("bias_rig")

@@ -1026,12 +1026,14 @@ def build_tables(
         predicted from their neighbours, confirm it predicts better.
     bias
         The bias the collection subtracted from each row (DATA.csv's ``bias`` column) [N m],
-        shape (n,); None when the file has none. When it varies over the cycle beyond its
-        noise and a smooth drift (:func:`torquemap.linearize.bias.check_bias`: read at rest,
-        it holds the torque at rest where cogging alone loads the contact), a warning says so
-        and, with ``restore_bias``, that load is added back to its blocks' rows.
+        shape (n,); None when the file has none. Split into the sensor's smooth drift and what
+        lies above it (:func:`torquemap.linearize.bias.check_bias`): with ``restore_bias`` the
+        rows are re-zeroed on the drift, which restores the torque at rest a bias read at rest
+        swallowed (where cogging alone loads the contact) and replaces each block's own bias
+        error by the drift's; when the bias varies beyond its noise and the drift, a warning
+        says so.
     restore_bias
-        Add the load found in the bias back to the rows (else warn only).
+        Re-zero the rows on the bias's drift (else use them as measured, and warn only).
     path
         The data file, named in error messages.
 
@@ -1089,9 +1091,9 @@ def build_tables(
     if bias is not None:
         b = _check_bias_column(bias, pos.size, src)
         found = check_bias(pos, pw, tau, b, positions_per_cycle=n, bias_weight=bias_weight)
+        restored = restore_bias and found.separated
+        tau = tau + found.restore if restored else tau
         if found.varies:
-            restored = restore_bias and found.separated
-            tau = tau + found.restore if restored else tau
             bias_advice = found.advice(restored=restored)
     gap = max(1, n // (4 * m)) if max_gap is None else int(max_gap)
     floor = _noise_floor(pw, tau)
