@@ -151,6 +151,10 @@ class TableSet:
         What the data cannot hold and what to collect instead, one line each (for example
         cogging sampled at most twice a period: :mod:`torquemap.linearize.sampling`); not
         saved with the tables.
+    bias_drift
+        Harmonics of the bias column's smooth drift the rows were re-zeroed on
+        (:mod:`torquemap.linearize.bias`); -1 when they were used as measured (no ``bias``
+        column, or a bias whose drift could not be told from a load). Not saved.
     """
 
     phases: NDArray[np.int64]
@@ -177,6 +181,7 @@ class TableSet:
     detent_harmonics: tuple[int, ...] = ()
     surface: bool = False
     warnings: tuple[str, ...] = ()
+    bias_drift: int = -1
 
     @property
     def command_max(self) -> int:
@@ -1087,12 +1092,13 @@ def build_tables(
         )
     pos, pw, tau = _check_rows(spec, position, pulse_width, torque, src)
     n, m = spec.positions_per_cycle, spec.phases
-    bias_advice = ""
+    bias_advice, bias_drift = "", -1
     if bias is not None:
         b = _check_bias_column(bias, pos.size, src)
         found = check_bias(pos, pw, tau, b, positions_per_cycle=n, bias_weight=bias_weight)
         restored = restore_bias and found.separated
-        tau = tau + found.restore if restored else tau
+        if restored:
+            tau, bias_drift = tau + found.restore, found.harmonics
         if found.varies:
             bias_advice = found.advice(restored=restored)
     gap = max(1, n // (4 * m)) if max_gap is None else int(max_gap)
@@ -1238,6 +1244,7 @@ def build_tables(
         detent_harmonics=harmonics,
         surface=surface_used,
         warnings=tuple(warnings),
+        bias_drift=bias_drift,
     )
 
 
