@@ -19,7 +19,10 @@ So ``c`` is never negative and is zero over part of the cycle, while ``s`` is sm
    (they read the same state as the bias: ``var = sigma^2 (1 / R + 1 / B)``, and the bias
    weighs ``B / R = bias_weight`` rows), ``sigma_b = sd(rows at 0) / sqrt(1 + bias_weight)``,
    ``sd`` the root mean square of those below zero (with the bias read on an open contact, the
-   rows at 0 hold the load where there is one; it only adds).
+   rows at 0 hold the load where there is one; it only adds). Every test below counts that
+   estimate's own scatter: a chi-square in units of ``sigma_b**2`` over its degrees of freedom
+   is tested as F-distributed, with as many degrees of freedom in the denominator as rows went
+   into ``sd``.
 2. The drift ``s``: a Fourier series over the cycle, fitted to the blocks it does not call
    loaded (a block is loaded while it lies more than ``Z`` standard errors above the fit: a
    load only adds), its harmonics added one at a time while each explains significantly more
@@ -52,7 +55,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.stats import chi2
+from scipy.stats import f as f_distribution
 
 #: Significance level of the chi-square tests (the drift's order, and whether the bias varies
 #: beyond its noise).
@@ -62,6 +65,8 @@ Z = 3.0
 #: Relative precision of a bias written with ten significant digits: the standard error is
 #: never taken below it (a noise-free rig).
 PRECISION = 1e-9
+#: Degrees of freedom of a standard error known exactly (the precision above).
+KNOWN = 1e12
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -178,13 +183,23 @@ def _blocks(
 
 def _standard_error(
     level: NDArray[np.float64], torque: NDArray[np.float64], bias_weight: float, scale: float
-) -> float:
+) -> tuple[float, float]:
+    """The bias's standard error and the degrees of freedom of its estimate."""
     # the rows at level 0 below zero: a load at rest (in the rows of a collection with the bias
     # read on an open contact) only adds, so those are the noise alone, half-normal
     zero = torque[level == 0]
     low = zero[zero < 0]
     sd = math.sqrt(float(np.mean(low**2))) if low.size >= 4 else 0.0
-    return max(sd / math.sqrt(1.0 + bias_weight), PRECISION * scale, 1e-300)
+    sigma = sd / math.sqrt(1.0 + bias_weight)
+    floor = max(PRECISION * scale, 1e-300)
+    return (sigma, float(low.size)) if sigma > floor else (floor, KNOWN)
+
+
+def _p(chi_square: float, dof: float, dof_sigma: float) -> float:
+    """P-value of a chi-square in units of an estimated variance: ``(chi_square / dof)`` is
+    F-distributed with ``(dof, dof_sigma)`` degrees of freedom (the estimate's own scatter
+    counted; with few rows at level 0 it is far from exact)."""
+    return float(f_distribution.sf(chi_square / dof, dof, dof_sigma))
 
 
 def _rss(design: NDArray[np.float64], b: NDArray[np.float64], rows: NDArray[np.bool_]) -> float:
@@ -194,7 +209,7 @@ def _rss(design: NDArray[np.float64], b: NDArray[np.float64], rows: NDArray[np.b
 
 
 def _drift(
-    at: NDArray[np.int64], b: NDArray[np.float64], sigma: float, n: int
+    at: NDArray[np.int64], b: NDArray[np.float64], sigma: float, dof_sigma: float, n: int
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_], int, bool]:
     """The drift at each block, the blocks it does not call loaded, its harmonics, and whether
     it leaves the blocks below it within their noise (else the load cannot be told from it)."""
@@ -212,14 +227,14 @@ def _drift(
         # blocks (chi-square of 2 degrees of freedom), or while the fit sank below the drift
         # to the lowest blocks (fewer than half kept)
         gain = (_rss(_fourier(x, h, n), b, keep_next) - _rss(design, b, keep_next)) / sigma**2
-        if 2 * keep.sum() >= k and chi2.sf(gain, 2) >= ALPHA:
+        if 2 * keep.sum() >= k and _p(gain, 2.0, dof_sigma) >= ALPHA:
             break
         fit, keep, h = fit_next, keep_next, h + 1
     # a load only adds: the blocks below the drift are its noise alone (half-normal, and the
     # fit took about half of its coefficients' degrees of freedom from them)
     below = b - fit < 0
     dof = max(float(below.sum()) - (h + 0.5), 1.0)
-    held = chi2.sf(float(np.sum(((b - fit)[below] / sigma) ** 2)), dof) >= ALPHA
+    held = _p(float(np.sum(((b - fit)[below] / sigma) ** 2)), dof, dof_sigma) >= ALPHA
     return fit, keep, h, bool(held and 2 * keep.sum() >= k)
 
 
@@ -273,12 +288,12 @@ def check_bias(
     n = int(positions_per_cycle)
     at, b, block = _blocks(pos, pw, b_row)
     scale = float(np.max(np.abs(b_row), initial=0.0))
-    sigma = _standard_error(pw, tau, bias_weight, scale)
+    sigma, dof_sigma = _standard_error(pw, tau, bias_weight, scale)
     k = b.size
-    drift, base, harmonics, separated = _drift(at, b, sigma, n)
+    drift, base, harmonics, separated = _drift(at, b, sigma, dof_sigma, n)
     dof = max(k - (2 * harmonics + 1), 1)
     total = float(np.sum(((b - drift) / sigma) ** 2))
-    p_value = float(chi2.sf(total, dof))
+    p_value = _p(total, dof, dof_sigma)
     # beyond the noise, and with the signature of a load: blocks above the drift
     varies = k > 2 * harmonics + 1 and p_value < ALPHA and not base.all()
     loaded = ~base if varies else np.zeros(k, dtype=bool)
