@@ -3,7 +3,9 @@ family of random motors at the paper's collection settings.
 
 Run: ``.venv/bin/python benchmarks/linearize.py`` (the four joints, then 20 random motors);
 ``--no-joints`` for the random motors alone, ``--quick`` for them noise-free only (no
-verification runs: for iterating), ``--motors N --first-seed S`` for other members of the family.
+verification runs: for iterating), ``--motors N --first-seed S`` for other members of the family,
+``--bias-rest`` to measure the CLI's default path beside them: the same collection with the bias
+read at rest, its tables built with DATA.csv's ``bias`` column and without it.
 
 Random motors (``torquemap.sim.family.paper_bench``): each collected at the paper's settings (10
 readings a row, every 4th table position and pulse width) with the bias read on an open contact
@@ -192,8 +194,14 @@ def verification_settings(spec: MotorSpec) -> CollectionSettings:
     )  # fmt: skip
 
 
-def family_row(seed: int, tmp: Path, *, verify: bool) -> dict[str, float | str]:
-    """One random motor at the paper's collection: interp, paper method and floor."""
+def family_row(
+    seed: int, tmp: Path, *, verify: bool, bias_rest: bool = False
+) -> dict[str, float | str]:
+    """One random motor at the paper's collection: interp, paper method and floor; with
+    ``bias_rest``, also the CLI's default path: the same collection with the bias read at rest
+    (the same sensor-noise seed, so the same readings), its tables built with DATA.csv's
+    ``bias`` column (``rest``: the load it holds restored, :mod:`torquemap.linearize.bias`) and
+    without it (``rest_plain``: the rows as measured, what an older file gives)."""
     bench = paper_bench(seed)
     rig = bench.rig
     spec = rig.motor_spec(ramping=bench.ramping)
@@ -210,6 +218,14 @@ def family_row(seed: int, tmp: Path, *, verify: bool) -> dict[str, float | str]:
     }
     tables["floor"] = floor_tables(rig, spec, tables["interp"])
     row["warnings"] = " | ".join(tables["interp"].warnings)
+    if bias_rest:
+        rest_out = tmp / f"family-{seed}-rest.csv"
+        rest_settings = dataclasses.replace(bench.settings, bias_open=False)
+        collect_characterisation(paper_bench(seed).rig, spec, rest_out, rest_settings)
+        rest = read_data(rest_out, spec, kind="characterisation")
+        tables["rest"] = build_tables(spec, rest.position, rest.level, rest.torque, bias=rest.bias)
+        tables["rest_plain"] = build_tables(spec, rest.position, rest.level, rest.torque)
+        row["rest_warned"] = float(any("bias read at rest" in w for w in tables["rest"].warnings))
     for name, t in tables.items():
         report = noise_free(rig, t)
         row[f"{name}_nf"] = report.apmd
@@ -230,11 +246,39 @@ def family_row(seed: int, tmp: Path, *, verify: bool) -> dict[str, float | str]:
     return row
 
 
+def _f(row: dict[str, float | str], key: str) -> float:
+    return float(row[key])
+
+
+def rest_tables(rows: list[dict[str, float | str]], *, verify: bool) -> None:
+    """The bias read at rest (the CLI's default) beside the bias on an open contact."""
+    kinds = ["nf", "meas"] if verify else ["nf"]
+    for kind in kinds:
+        label = "measured (same verification run)" if kind == "meas" else "noise-free"
+        print(f"\nrandom motors, paper collection, bias read AT REST (CLI default), {label}")
+        print(f"{'motor':<24}{'rest/floor':>12}{'plain/floor':>13}{'open/floor':>12}{'warned':>8}")
+        ratios: dict[str, list[float]] = {"rest": [], "rest_plain": [], "interp": []}
+        for row in rows:
+            fl = _f(row, f"floor_{kind}")
+            for name, values in ratios.items():
+                values.append(_f(row, f"{name}_{kind}") / fl)
+            print(
+                f"{str(row['motor'])[:22]:<24}{ratios['rest'][-1]:>12.2f}"
+                f"{ratios['rest_plain'][-1]:>13.2f}{ratios['interp'][-1]:>12.2f}"
+                f"{'yes' if _f(row, 'rest_warned') else '':>8}"
+            )
+        for name, label in (
+            ("rest", "at rest, bias column used"),
+            ("rest_plain", "at rest, rows as measured"),
+            ("interp", "bias on an open contact"),
+        ):
+            v = np.array(ratios[name])
+            print(f"  {label:<28} / floor: median {np.median(v):.2f}, worst {v.max():.2f}")
+
+
 def family_tables(rows: list[dict[str, float | str]], *, verify: bool) -> None:
     """Print the per-motor table and the median / worst summary."""
-
-    def f(row: dict[str, float | str], key: str) -> float:
-        return float(row[key])
+    f = _f
 
     kinds = ["nf", "meas"] if verify else ["nf"]
     for kind in kinds:
@@ -265,15 +309,17 @@ def family_tables(rows: list[dict[str, float | str]], *, verify: bool) -> None:
             f"{100 * float(np.median([f(r, f'{name}_c{c}') for r in rows])):.1f}" for c in (1, 2, 3)
         ]
         print(f"  {name:<8}" + "".join(f"{v:>9}" for v in values))
+    if "rest_warned" in rows[0]:
+        rest_tables(rows, verify=verify)
 
 
-def family(seeds: list[int], *, verify: bool) -> None:
+def family(seeds: list[int], *, verify: bool, bias_rest: bool = False) -> None:
     """The random-motor section."""
     start = time.perf_counter()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for seed in seeds:
-            rows.append(family_row(seed, Path(tmp), verify=verify))
+            rows.append(family_row(seed, Path(tmp), verify=verify, bias_rest=bias_rest))
             print(f"  seed {seed} done ({time.perf_counter() - start:.0f} s)", file=sys.stderr)
     family_tables(rows, verify=verify)
     print(f"({len(seeds)} motors in {time.perf_counter() - start:.0f} s)")
@@ -408,6 +454,12 @@ def main() -> int:
     )
     parser.add_argument("--first-seed", type=int, default=0, help="first seed (default 0)")
     parser.add_argument("--no-joints", action="store_true", help="skip the four joints")
+    parser.add_argument(
+        "--bias-rest",
+        action="store_true",
+        help="random motors: also the CLI's default collection, the bias read at rest, its "
+        "tables with and without DATA.csv's bias column (a second collection per motor)",
+    )
     args = parser.parse_args()
     seeds = list(range(args.first_seed, args.first_seed + args.motors))
     if args.motors < 0:
@@ -415,7 +467,7 @@ def main() -> int:
     if not (args.quick or args.no_joints):
         joints_section()
     if seeds:  # --motors 0: the four joints alone
-        family(seeds, verify=not args.quick)
+        family(seeds, verify=not args.quick, bias_rest=args.bias_rest)
     return 0
 
 

@@ -52,7 +52,7 @@ def test_simulate_rig_writes_motor_and_data(
     assert spec.positions_per_cycle == 256 and spec.ramping == "wide"
     assert spec.equilibrium_positions == rig.equilibrium_positions()
     data = read_table(out / "data.csv")
-    assert list(data) == ["position", "pulse_width", "torque"]
+    assert list(data) == ["position", "pulse_width", "torque", "bias"]
     assert_array_equal(np.unique(data["pulse_width"]), [*range(0, 255, 32), 255])
     assert sorted({int(p) // 32 for p in data["position"]}) == list(range(8))
     # same seed, same file; the output is a function of the arguments
@@ -141,7 +141,7 @@ def test_linearize_collect_verification(tmp_path: Path, capsys: pytest.CaptureFi
     status, _ = _collect(argv, capsys)
     assert status == 0
     rows = read_table(after)
-    assert list(rows) == ["position", "command", "torque"]
+    assert list(rows) == ["position", "command", "torque", "bias"]
     assert_array_equal(np.unique(rows["command"]), [0, 32, 64, 96, 127])
 
 

@@ -118,7 +118,7 @@ def test_rows_columns_and_bias_free_torque(tmp_path: Path) -> None:
     out = tmp_path / "data.csv"
     result = collect_characterisation(rig, SPEC, out, S(readings=3, level_step=50, position_step=1))
     data = read_table(out)
-    assert list(data) == ["position", "pulse_width", "torque"]
+    assert list(data) == ["position", "pulse_width", "torque", "bias"]
     levels = [0, 50, 100, 150, 200, 250, 255]  # the step grid, then full scale
     assert result.rows == P * len(levels) == data["torque"].size
     assert_array_equal(data["pulse_width"], np.tile(levels, P))
@@ -127,7 +127,9 @@ def test_rows_columns_and_bias_free_torque(tmp_path: Path) -> None:
     act = ramped_actuation(data["pulse_width"], data["position"], SPEC.ramp)
     expected = 0.1 * act.sum(axis=1) * (1 + data["position"] / P)
     assert_allclose(data["torque"], expected, rtol=1e-9, atol=1e-9)  # 10 significant digits written
-    assert result.resumed_targets == 0 and result.saturated_targets == 0
+    # ... and kept in its column: the fake's known bias at each target (all phases off)
+    assert_allclose(data["bias"], 5.0 + 0.25 * data["position"], rtol=1e-9)
+    assert result.resumed_targets == 0 and result.saturated_targets == 0 and result.bias_column
 
 
 def test_ramp_consulted_at_current_position_after_compliance(tmp_path: Path) -> None:
@@ -373,8 +375,18 @@ def _dead_pid() -> int:
 def test_resume_refuses_other_files(tmp_path: Path) -> None:
     out = tmp_path / "data.csv"
     out.write_text("a,b,c\n1,2,3\n")
-    with pytest.raises(InputError, match="header must be 'position,pulse_width,torque'"):
+    with pytest.raises(
+        InputError,
+        match="header must be 'position,pulse_width,torque,bias' or, from an older version, "
+        "'position,pulse_width,torque'",
+    ):
         collect_characterisation(FakeRig(), SPEC, out, S())
+    out.write_text("position,pulse_width,torque,bias\n0,0,0.0,nan\n0,2,1.0,0.5\n")
+    with pytest.raises(InputError, match="malformed row at line 2"):  # a NaN bias
+        collect_characterisation(FakeRig(), SPEC, out, S(level_step=2))
+    out.write_text("position,pulse_width,torque,bias\n0,0,0.0\n0,2,1.0,0.5\n")
+    with pytest.raises(InputError, match="malformed row at line 2"):  # the bias missing
+        collect_characterisation(FakeRig(), SPEC, out, S(level_step=2))
     out.write_text("position,pulse_width,torque\n0,0,0.0\n0,3,1.0\n")
     with pytest.raises(InputError, match="level 3 at line 3 is not on this run's grid"):
         collect_characterisation(FakeRig(), SPEC, out, S(level_step=2))
@@ -417,7 +429,7 @@ def test_verification_looks_up_tables(tmp_path: Path) -> None:
         rig, SPEC, tables, out, S(readings=1, level_step=16, position_step=4)
     )
     data = read_table(out)
-    assert list(data) == ["position", "command", "torque"]
+    assert list(data) == ["position", "command", "torque", "bias"]
     commands = [0, 16, 32, 48, 64, 80, 96, 112, 127]
     assert result.rows == 6 * len(commands)
     assert_array_equal(data["command"], np.tile(commands, 6))
@@ -520,3 +532,32 @@ def test_bias_read_on_an_open_contact_keeps_the_torque_at_rest(tmp_path: Path) -
     assert_allclose(rows[False][1], 0.0, atol=0.01)
     with pytest.raises(InputError, match="open_contact"):
         collect_characterisation(FakeRig(), SPEC, tmp_path / "x.csv", S(bias_open=True))
+
+
+def _without_bias(data: bytes) -> str:
+    """A file of the older format: the same rows, the ``bias`` column dropped."""
+    return "".join(line.rpartition(",")[0] + "\n" for line in data.decode().splitlines())
+
+
+@pytest.mark.parametrize("record", [True, False])
+def test_an_older_file_without_the_bias_column_is_resumed_in_its_format(
+    tmp_path: Path, whole_run: tuple[bytes, int, int], record: bool
+) -> None:
+    whole = whole_run[0]
+    assert whole.decode().startswith("position,pulse_width,torque,bias\n")
+    old = _without_bias(whole)
+    part = tmp_path / "part.csv"
+    with pytest.raises(Interrupt):  # a record (a newer run's) of the first blocks
+        collect_characterisation(InterruptingRig(FakeRig(), 70), SPEC, part, RESUME)
+    done = len(part.read_text().splitlines())
+    part.write_text("".join(old.splitlines(keepends=True)[:done]))  # the older file
+    if not record:
+        (tmp_path / "part.csv.collect.json").unlink()
+    result = collect_characterisation(FakeRig(), SPEC, part, RESUME)
+    assert part.read_text() == old and not result.bias_column
+    assert result.resumed_targets >= 2  # kept, not measured again
+    # an older file with its header alone holds nothing to keep: it gets the column
+    part.write_text("position,pulse_width,torque\n")
+    (tmp_path / "part.csv.collect.json").unlink()
+    result = collect_characterisation(FakeRig(), SPEC, part, RESUME)
+    assert part.read_bytes() == whole and result.bias_column

@@ -189,6 +189,7 @@ def _build(args: argparse.Namespace) -> int:
             bias_weight=args.bias_weight,
             log_curvature=args.log_curvature,
             actuation_bits=args.actuation_bits,
+            bias=data.bias,
             path=args.data,
         ),
     )
@@ -205,6 +206,11 @@ def _build(args: argparse.Namespace) -> int:
     )
     if tables.denoise_rank:
         print(f"rows denoised: low-rank fit of the collection's blocks, rank {tables.denoise_rank}")
+    if tables.bias_drift >= 0:
+        print(
+            "rows re-zeroed on the bias column's smooth drift over the cycle "
+            f"({tables.bias_drift} harmonic{'s' if tables.bias_drift != 1 else ''})"
+        )
     if tables.surface:
         print(
             "between measured positions: the structured torque surface (the ramp hands over there)"

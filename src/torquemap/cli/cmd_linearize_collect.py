@@ -6,6 +6,7 @@ Registered into the ``linearize`` group by :mod:`torquemap.cli.cmd_linearize`.
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
@@ -172,4 +173,10 @@ def _collect(args: argparse.Namespace) -> int:
         f"wrote {result.rows} rows ({result.new_rows} new{resumed}; "
         f"{result.targets.size} positions) to {args.out}"
     )
+    if not result.bias_column:
+        print(
+            f"torquemap: note: {args.out}: an older file without the bias column, resumed in its "
+            "format: linearize build cannot check what the bias held",
+            file=sys.stderr,
+        )
     return 0

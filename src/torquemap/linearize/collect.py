@@ -8,7 +8,9 @@ full scale or until the sensor saturates; at each level it consults the ramping 
 tables) at the CURRENT position, applies the per-phase actuations, lets the position settle,
 averages ``readings`` sensor readings, subtracts the bias (itself the mean of ``bias_readings``,
 by default ten times as many, since its error is common to the whole block) and appends the
-row, stored under the current position. If the position moves while settling (compliance), the
+row, stored under the current position, with the bias it subtracted in a fourth column ``bias``
+(so that the table builder can see what the bias held: read at rest, it holds the torque at rest
+where cogging alone loads the contact, :mod:`torquemap.linearize.bias`). If the position moves while settling (compliance), the
 actuation is looked up again at the new position before measuring (up to 8 times), and the row
 is stored under the position the actuation was looked up at, so every row satisfies the DATA.csv
 contract.
@@ -57,6 +59,9 @@ from torquemap.progress import NULL, Progress, reporter
 
 CHARACTERISATION_COLUMNS = ("position", "pulse_width", "torque")
 VERIFICATION_COLUMNS = ("position", "command", "torque")
+#: The column after those: the bias subtracted from the row [N m] (an extension of the
+#: contract: files without it are still read, and resumed without it).
+BIAS_COLUMN = "bias"
 #: Default bias readings per target, in multiples of the readings per row.
 BIAS_READINGS_FACTOR = 10
 
@@ -111,6 +116,9 @@ class CollectResult:
         Targets (of this call) whose inner loop stopped at sensor saturation.
     elapsed
         Wall time of this call [s].
+    bias_column
+        Whether the file has the ``bias`` column (False: an older file resumed in its own
+        three-column format).
     """
 
     path: str
@@ -120,6 +128,7 @@ class CollectResult:
     resumed_targets: int
     saturated_targets: int
     elapsed: float
+    bias_column: bool = True
 
 
 def collection_targets(
@@ -285,25 +294,34 @@ def _levels(top: int, step: int) -> list[int]:
     return levels
 
 
-def _parse_rows(path: Path, header: str, levels: list[int]) -> list[str]:
-    """The data lines of ``path`` (a last line torn by an interruption dropped), checked."""
+def _parse_rows(path: Path, columns: tuple[str, ...], levels: list[int]) -> tuple[list[str], bool]:
+    """The data lines of ``path`` (a last line torn by an interruption dropped), checked, and
+    whether the file has the ``bias`` column (an older file has the three columns alone; an
+    empty or absent file gets it)."""
     if not path.exists() or path.stat().st_size == 0:
-        return []
+        return [], True
     lines = path.read_text().splitlines()
-    if not lines or lines[0].strip() != header:
+    header = ",".join((*columns, BIAS_COLUMN))
+    old = ",".join(columns)
+    if not lines or lines[0].strip() not in (header, old):
         raise InputError(
-            f"existing file is not collection data (header must be {header!r})", path=path
+            f"existing file is not collection data (header must be {header!r} or, from an "
+            f"older version, {old!r})",
+            path=path,
         )
+    has_bias = lines[0].strip() == header
+    width = len(columns) + has_bias
     allowed = set(levels)
     rows: list[str] = []
     for number, line in enumerate(lines[1:], start=2):
         parts = line.split(",")
         try:
-            if len(parts) != 3:
+            if len(parts) != width:
                 raise ValueError
             int(parts[0])
             level = int(parts[1])
-            float(parts[2])
+            if not all(np.isfinite(float(v)) for v in parts[2:]):
+                raise ValueError
         except ValueError:
             if number == len(lines):
                 break  # a row torn by the interruption
@@ -315,7 +333,7 @@ def _parse_rows(path: Path, header: str, levels: list[int]) -> list[str]:
                 path=path,
             )
         rows.append(line)
-    return rows
+    return rows, has_bias or not rows
 
 
 def _infer_done(
@@ -369,18 +387,19 @@ def _move_to(rig: Rig, target: int, n: int, off: list[int], max_steps: int) -> N
 
 def _resume_state(
     path: Path,
-    header: str,
+    columns: tuple[str, ...],
     levels: list[int],
     targets: NDArray[np.int64],
     record: CollectionRecord,
     n: int,
-) -> tuple[list[str], tuple[tuple[int, int], ...]]:
-    """Rows to keep and targets done, from the file and its record; refuses other settings."""
-    rows = _parse_rows(path, header, levels)
+) -> tuple[list[str], tuple[tuple[int, int], ...], bool]:
+    """Rows to keep, targets done and whether the file has the bias column, from the file and
+    its record; refuses other settings."""
+    rows, has_bias = _parse_rows(path, columns, levels)
     old = read_record(path) if path.exists() else None  # no data: a record left alone is stale
     if old is None:
         if not rows:
-            return [], ()
+            return [], (), True
         done = _infer_done(path, rows, targets, n)
     else:
         problems = []
@@ -411,7 +430,7 @@ def _resume_state(
             f"{len(rows)} (was the file edited?)",
             path=path,
         )
-    return rows[:total], done
+    return rows[:total], done, has_bias or total == 0
 
 
 def _collect(
@@ -434,7 +453,6 @@ def _collect(
         raise InputError("output folder does not exist", path=path.parent)
     n = spec.positions_per_cycle
     targets = settings.targets(spec)
-    header = ",".join(columns)
     kind = "characterisation" if columns == CHARACTERISATION_COLUMNS else "verification"
     record = CollectionRecord(
         kind=kind,
@@ -448,7 +466,8 @@ def _collect(
     new_rows = 0
     saturated = 0
     with collection_lock(path):
-        kept, done = _resume_state(path, header, levels, targets, record, n)
+        kept, done, has_bias = _resume_state(path, columns, levels, targets, record, n)
+        header = ",".join((*columns, BIAS_COLUMN) if has_bias else columns)
         with atomic_output(path) as tmp:
             tmp.write_text("\n".join([header, *kept]) + "\n")
         finished = {t for t, _ in done}
@@ -484,7 +503,8 @@ def _collect(
                         saturated += 1
                         break
                     torque = float(np.mean(values)) - bias
-                    handle.write(f"{consulted},{level},{torque:.10g}\n")
+                    tail = f",{bias:.10g}" if has_bias else ""
+                    handle.write(f"{consulted},{level},{torque:.10g}{tail}\n")
                     handle.flush()
                     block += 1
                 os.fsync(handle.fileno())
@@ -502,6 +522,7 @@ def _collect(
         resumed_targets=resumed,
         saturated_targets=saturated,
         elapsed=time.perf_counter() - start,
+        bias_column=has_bias,
     )
 
 
@@ -529,8 +550,10 @@ def collect_characterisation(
     spec
         The motor: cycle length, phases, full-scale pulse width, ramp.
     out_csv
-        DATA.csv: columns ``position, pulse_width, torque`` [N m], appended row by row;
-        resumed if it exists (by the targets its record lists, see the module docstring).
+        DATA.csv: columns ``position, pulse_width, torque, bias`` [N m], appended row by row
+        (``bias``: the bias subtracted from the row's torque); resumed if it exists (by the
+        targets its record lists, see the module docstring). An older file without the
+        ``bias`` column is resumed in its own format.
     settings
         Readings, bias, steps, transitions, progress (default: the paper's,
         :class:`CollectionSettings`). ``level_step`` is the base pulse width's step.
@@ -615,7 +638,7 @@ def collect_verification(
     As :func:`collect_characterisation`, but the inner loop steps the torque command
     ``c = 0 .. 2**(bits - 1) - 1`` (by ``settings.level_step``) and phase ``k`` receives
     ``tables["phase_k"][p, c mod 2**bits]`` at the current position ``p``. Writes
-    ``position, command, torque``. A resumed run must use the same tables (their digest is in
+    ``position, command, torque, bias``. A resumed run must use the same tables (their digest is in
     the record).
 
     Parameters

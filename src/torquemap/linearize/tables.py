@@ -41,6 +41,7 @@ from scipy.optimize import isotonic_regression
 
 from torquemap.errors import InputError
 from torquemap.io import numeric_column, read_table
+from torquemap.linearize.bias import check_bias
 from torquemap.linearize.denoise import denoise_blocks
 from torquemap.linearize.detent import detent_correction, fit_detent
 from torquemap.linearize.handover import check_handover, fill_handover
@@ -78,6 +79,9 @@ class LinearizeData:
         ``"characterisation"`` or ``"verification"``.
     path
         The file, or None.
+    bias
+        The bias the collection subtracted from each row [N m], shape (n,); None for a file
+        without the ``bias`` column (an older collection, or data from elsewhere).
     """
 
     position: NDArray[np.int64]
@@ -85,6 +89,7 @@ class LinearizeData:
     torque: NDArray[np.float64]
     kind: DataKind
     path: str | None
+    bias: NDArray[np.float64] | None = None
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -146,6 +151,10 @@ class TableSet:
         What the data cannot hold and what to collect instead, one line each (for example
         cogging sampled at most twice a period: :mod:`torquemap.linearize.sampling`); not
         saved with the tables.
+    bias_drift
+        Harmonics of the bias column's smooth drift the rows were re-zeroed on
+        (:mod:`torquemap.linearize.bias`); -1 when they were used as measured (no ``bias``
+        column, or a bias whose drift could not be told from a load). Not saved.
     """
 
     phases: NDArray[np.int64]
@@ -172,6 +181,7 @@ class TableSet:
     detent_harmonics: tuple[int, ...] = ()
     surface: bool = False
     warnings: tuple[str, ...] = ()
+    bias_drift: int = -1
 
     @property
     def command_max(self) -> int:
@@ -207,8 +217,8 @@ def _integer_column(
 
 
 def read_data(path: str | os.PathLike[str], spec: MotorSpec, *, kind: DataKind) -> LinearizeData:
-    """Read DATA.csv (``position, pulse_width, torque``) or verification data (``position,
-    command, torque``), CSV or Parquet.
+    """Read DATA.csv (``position, pulse_width, torque`` and, optionally, ``bias``) or
+    verification data (``position, command, torque``, optionally ``bias``), CSV or Parquet.
 
     Parameters
     ----------
@@ -228,7 +238,8 @@ def read_data(path: str | os.PathLike[str], spec: MotorSpec, *, kind: DataKind) 
     Raises
     ------
     InputError
-        On a missing file or column, NaN, non-integer or out-of-range positions and levels.
+        On a missing file or column, NaN, non-integer or out-of-range positions and levels, a
+        ``bias`` column that holds anything but finite numbers.
     """
     p = os.fspath(path)
     columns = read_table(p)
@@ -240,7 +251,10 @@ def read_data(path: str | os.PathLike[str], spec: MotorSpec, *, kind: DataKind) 
         half = 1 << (spec.command_bits - 1)
         level = _integer_column(columns, "command", p, -half, half - 1)
     torque = numeric_column(columns, "torque", p)
-    return LinearizeData(position=position, level=level, torque=torque, kind=kind, path=p)
+    bias = numeric_column(columns, "bias", p) if "bias" in columns else None
+    return LinearizeData(
+        position=position, level=level, torque=torque, kind=kind, path=p, bias=bias
+    )
 
 
 # -- the command law --------------------------------------------------------------------------
@@ -543,6 +557,16 @@ def _check_rows(
             path=path,
         )
     return pos.astype(np.int64), pw, tau
+
+
+def _check_bias_column(bias: ArrayLike, rows: int, path: str | None) -> NDArray[np.float64]:
+    b = np.asarray(bias, dtype=np.float64)
+    if b.shape != (rows,):
+        raise ValueError("bias must be a 1-D array as long as the rows")
+    if not np.isfinite(b).all():
+        row = int(np.argmax(~np.isfinite(b)))
+        raise InputError(f"bias holds NaN or inf (data row {row + 1})", path=path)
+    return b
 
 
 def _noise_floor(pw: NDArray[np.float64], tau: NDArray[np.float64]) -> float:
@@ -944,6 +968,8 @@ def build_tables(
     detent: bool = True,
     surface: bool = True,
     knee: bool = True,
+    bias: ArrayLike | None = None,
+    restore_bias: bool = True,
     path: str | os.PathLike[str] | None = None,
 ) -> TableSet:
     """Build the per-phase torque-linearisation tables from characterisation data (paper §4.3).
@@ -1003,6 +1029,16 @@ def build_tables(
         position's knee, carry what the surface misses between measured positions in the
         uncensored torque (:mod:`torquemap.linearize.knee`), when the measured positions,
         predicted from their neighbours, confirm it predicts better.
+    bias
+        The bias the collection subtracted from each row (DATA.csv's ``bias`` column) [N m],
+        shape (n,); None when the file has none. Split into the sensor's smooth drift and what
+        lies above it (:func:`torquemap.linearize.bias.check_bias`): with ``restore_bias`` the
+        rows are re-zeroed on the drift, which restores the torque at rest a bias read at rest
+        swallowed (where cogging alone loads the contact) and replaces each block's own bias
+        error by the drift's; when the bias varies beyond its noise and the drift, a warning
+        says so.
+    restore_bias
+        Re-zero the rows on the bias's drift (else use them as measured, and warn only).
     path
         The data file, named in error messages.
 
@@ -1056,6 +1092,15 @@ def build_tables(
         )
     pos, pw, tau = _check_rows(spec, position, pulse_width, torque, src)
     n, m = spec.positions_per_cycle, spec.phases
+    bias_advice, bias_drift = "", -1
+    if bias is not None:
+        b = _check_bias_column(bias, pos.size, src)
+        found = check_bias(pos, pw, tau, b, positions_per_cycle=n, bias_weight=bias_weight)
+        restored = restore_bias and found.separated
+        if restored:
+            tau, bias_drift = tau + found.restore, found.harmonics
+        if found.varies:
+            bias_advice = found.advice(restored=restored)
     gap = max(1, n // (4 * m)) if max_gap is None else int(max_gap)
     floor = _noise_floor(pw, tau)
     _check_signal(pos, pw, tau, src)
@@ -1149,6 +1194,8 @@ def build_tables(
         stated = check_stated_cogging(spec.cogging_periods, np.unique(pos[pw == 0]), n)
         if stated:
             warnings.append(stated)
+    if bias_advice:
+        warnings.append(bias_advice)
     base[:, 0] = 0.0
     base = np.clip(base, 0.0, float(spec.actuation_max))
 
@@ -1197,6 +1244,7 @@ def build_tables(
         detent_harmonics=harmonics,
         surface=surface_used,
         warnings=tuple(warnings),
+        bias_drift=bias_drift,
     )
 
 
