@@ -261,3 +261,21 @@ def test_a_bad_bias_is_one_line_naming_the_file(
             spec, cols["position"], cols["pulse_width"], cols["torque"], bias=bias,
             path=tmp_path / "d.csv",
         )  # fmt: skip
+
+
+def test_build_takes_the_bias_weight_from_the_collection_record(tmp_path: Path) -> None:
+    """The bias's weight in rows is the record's bias readings over its readings per row
+    (written by ``linearize collect``), so a collection with other settings than the default
+    ratio of 10 is not misjudged; without a record (or an unreadable one) the default."""
+    from torquemap.cli.cmd_linearize import _bias_weight
+    from torquemap.linearize.collect import BIAS_READINGS_FACTOR
+    from torquemap.linearize.resume import CollectionRecord, record_path, write_record
+
+    data = tmp_path / "data.csv"
+    assert _bias_weight(None, str(data)) == BIAS_READINGS_FACTOR
+    settings = {"readings": 10, "bias_readings": 30}
+    write_record(data, CollectionRecord("characterisation", settings, {}, ()))
+    assert _bias_weight(None, str(data)) == 3.0
+    assert _bias_weight(7.0, str(data)) == 7.0  # an explicit weight wins
+    record_path(data).write_text("{not json")
+    assert _bias_weight(None, str(data)) == BIAS_READINGS_FACTOR

@@ -26,6 +26,28 @@ def _weight(text: str) -> float:
     return value
 
 
+def _bias_weight(given: float | None, data: str) -> float:
+    """``--bias-weight`` as given, else the collection record's bias readings over its readings
+    per row (the record ``DATA.csv.collect.json`` beside the data), else the collection's
+    default ratio."""
+    from torquemap.errors import InputError
+    from torquemap.linearize.collect import BIAS_READINGS_FACTOR
+    from torquemap.linearize.resume import read_record
+
+    if given is not None:
+        return given
+    try:
+        record = read_record(data)
+    except InputError:  # the record serves resuming; the data themselves are checked on reading
+        record = None
+    if record is None or record.kind != "characterisation":
+        return float(BIAS_READINGS_FACTOR)
+    try:
+        return float(record.settings["bias_readings"]) / float(record.settings["readings"])
+    except (KeyError, TypeError, ValueError, ZeroDivisionError):
+        return float(BIAS_READINGS_FACTOR)
+
+
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add the ``linearize`` group and its sub-commands."""
     from torquemap.cli import cmd_linearize_collect, cmd_linearize_more
@@ -103,10 +125,11 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     build.add_argument(
         "--bias-weight",
         type=_weight,
-        default=10.0,
+        default=None,
         metavar="W",
         help="interp: weight of each position's bias measurement in rows, the collection's "
-        "bias readings over its readings per row (default 10, the collection's default)",
+        "bias readings over its readings per row (default: from the collection's record "
+        "DATA.csv.collect.json beside the data, else 10, the collection's default)",
     )
     build.set_defaults(handler=_build)
 
@@ -175,6 +198,7 @@ def _build(args: argparse.Namespace) -> int:
     data = args.progress.run(
         "read the data", lambda: read_data(args.data, spec, kind="characterisation")
     )
+    bias_weight = _bias_weight(args.bias_weight, args.data)
     tables = args.progress.run(
         "build the phase tables",
         lambda: build_tables(
@@ -186,7 +210,7 @@ def _build(args: argparse.Namespace) -> int:
             method=args.method,
             monotonic=not args.no_monotonic,
             denoise=not args.no_denoise,
-            bias_weight=args.bias_weight,
+            bias_weight=bias_weight,
             log_curvature=args.log_curvature,
             actuation_bits=args.actuation_bits,
             bias=data.bias,
