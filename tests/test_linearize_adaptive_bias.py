@@ -272,3 +272,36 @@ def test_build_restores_the_load_an_adaptive_bias_at_rest_swallowed(
     rig = random_bench(COGGING_SEED).rig
     assert _apmd(rig, restored) < 0.7 * _apmd(rig, plain)
     assert _apmd(rig, restored) < 1.15 * _apmd(rig, open_tables)
+
+
+def test_cli_resumes_an_older_file_with_a_note(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from torquemap.cli.main import main
+    from torquemap.io import write_toml
+    from torquemap.linearize.motor import motor_to_dict
+
+    motor = tmp_path / "motor.toml"
+    write_toml(motor, motor_to_dict(sim_rig("bldc", rng=0).motor_spec()))
+    out = tmp_path / "data.csv"
+    args = ["linearize", "collect", str(motor), "--sim", "bldc", "-o", str(out), "--adaptive"]
+    args += ["--position-step", "16", "--step", "32", "--readings", "4", "--no-progress"]
+    assert main([*args, "--budget", "0.9"]) == 0
+    whole = out.read_text().splitlines()
+    assert whole[0] == HEADER
+    assert capsys.readouterr().err == ""
+    # as an older version would have left it after two blocks: three columns, its record
+    blocks = _blocks(out)[:2]
+    count = sum(c for _, _, c in blocks)
+    out.write_text("\n".join(",".join(x.split(",")[:3]) for x in whole[: 1 + count]) + "\n")
+    out.with_name("data.csv.adaptive.json").write_text(json.dumps({"blocks": blocks}))
+    assert main([*args, "--budget", "0.9"]) == 0
+    std = capsys.readouterr()
+    assert "resumed after 2 blocks" in std.out
+    assert std.err == (
+        f"torquemap: note: {out}: an older file without the bias column, resumed in its format: "
+        "linearize build cannot check what the bias held\n"
+    )
+    lines = out.read_text().splitlines()
+    assert lines[0] == "position,pulse_width,torque" and len(lines) == len(whole)
+    assert all(len(x.split(",")) == 3 for x in lines)

@@ -487,8 +487,8 @@ def measure_block(
     Returns
     -------
     rows, saturated
-        The rows written, as (position, level, torque [N m]), and whether the block stopped at
-        the sensor's saturation.
+        The rows written, as (position, level, torque [N m]) with the torque as written (10
+        significant digits), and whether the block stopped at the sensor's saturation.
     """
     if open_contact is not None:
         open_contact()
@@ -507,10 +507,10 @@ def measure_block(
         values = [rig.read_torque() for _ in range(settings.readings)]
         if limit is not None and max(abs(v) for v in values) >= limit:
             return rows, True
-        torque = float(np.mean(values)) - bias
-        handle.write(f"{consulted},{level},{torque:.10g}{tail}\n")
+        torque = f"{float(np.mean(values)) - bias:.10g}"
+        handle.write(f"{consulted},{level},{torque}{tail}\n")
         handle.flush()
-        rows.append((consulted, level, torque))
+        rows.append((consulted, level, float(torque)))  # as written: a resume reads the same
     return rows, False
 
 
