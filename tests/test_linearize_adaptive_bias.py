@@ -12,12 +12,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
+from test_linearize_bias import _apmd  # noise-free APMD of the sensed torque
 
 from torquemap.errors import InputError
 from torquemap.linearize.adaptive import collect_adaptive
 from torquemap.linearize.collect import CollectionSettings
-from torquemap.linearize.metrics import apmd_report
-from torquemap.linearize.tables import TableSet, build_tables, read_data
+from torquemap.linearize.tables import build_tables, read_data
 from torquemap.sim.family import random_bench
 from torquemap.sim.rig import SimRig, sim_rig
 
@@ -213,18 +213,6 @@ def test_the_bias_on_an_open_contact(whole: Path, tmp_path: Path) -> None:
 #: `simulate rig --random 107` (BLDC, 3 phases, 192 positions): a full grid with the bias at
 #: rest warns (docs/linearize.md, "The bias read at rest").
 COGGING_SEED = 107
-
-
-def _apmd(rig: SimRig, tables: TableSet) -> float:
-    """Noise-free APMD of the sensed torque (motor less friction) through the tables."""
-    n, cmax = tables.positions_per_cycle, tables.command_max
-    act = np.moveaxis(tables.phases[:, :, : cmax + 1], 0, -1)
-    p = np.arange(n)[:, None]
-    sensed = np.maximum(rig.true_torque(p, act) - rig.settings.friction, 0.0)
-    pp, cc = np.meshgrid(np.arange(n), np.arange(cmax + 1), indexing="ij")
-    return apmd_report(
-        pp.ravel(), cc.ravel(), sensed.ravel(), command_max=cmax, positions_per_cycle=n
-    ).apmd
 
 
 def test_build_restores_the_load_an_adaptive_bias_at_rest_swallowed(
