@@ -174,9 +174,14 @@ def _collect(args: argparse.Namespace) -> int:
         f"{result.targets.size} positions) to {args.out}"
     )
     if not result.bias_column:
-        print(
-            f"torquemap: note: {args.out}: an older file without the bias column, resumed in its "
-            "format: linearize build cannot check what the bias held",
-            file=sys.stderr,
-        )
+        note_without_bias(args.out)
     return 0
+
+
+def note_without_bias(out: str) -> None:
+    """On stderr: ``out`` is an older file without the bias column, resumed in its format."""
+    print(
+        f"torquemap: note: {out}: an older file without the bias column, resumed in its "
+        "format: linearize build cannot check what the bias held",
+        file=sys.stderr,
+    )

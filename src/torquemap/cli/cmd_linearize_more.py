@@ -212,4 +212,8 @@ def collect_adaptive_command(args: argparse.Namespace, spec: Any, settings: Any)
         f"of a budget of {result.budget} ({100 * result.readings / result.grid_readings:.0f} % "
         "of the grid's)"
     )
+    if not result.bias_column:
+        from torquemap.cli.cmd_linearize_collect import note_without_bias
+
+        note_without_bias(args.out)
     return 0

@@ -19,14 +19,18 @@ fewer readings each beat fewer rows):
    error across it, from the curvature at its ends); the midpoints of the highest-scoring
    gaps are measured at the kept levels, until the budget is spent.
 
-Every block starts at level 0 after a bias measurement, exactly as in
-:func:`torquemap.linearize.collect.collect_characterisation`, so DATA.csv has the usual format
-and ``linearize build`` (and its low-rank denoising, which completes the levels a block skipped)
-reads it unchanged.
+Every block is measured by :func:`torquemap.linearize.collect.measure_block`, as in
+:func:`torquemap.linearize.collect.collect_characterisation`: it starts at level 0 after a bias
+measurement (at rest, or on an open contact with ``settings.bias_open``), and each row keeps the
+bias subtracted from it in the ``bias`` column. DATA.csv has the usual format
+(``position, pulse_width, torque, bias``) and ``linearize build`` (its bias check, and its
+low-rank denoising, which completes the levels a block skipped) reads it unchanged.
 
 Resuming: a record ``DATA.csv.adaptive.json`` lists the blocks done as (target position, pulse
-widths, rows). The plan is a function of the data alone, so a rerun re-plans from the rows kept
-and continues with the first block not done; a block cut short is measured again.
+widths, rows) and whether the bias was read on an open contact. The plan is a function of the
+data alone, so a rerun re-plans from the rows kept and continues with the first block not done;
+a block cut short is measured again. An older file of three columns (without ``bias``) is
+resumed in its own format; a run whose ``bias_open`` differs from the record's is refused.
 
 This module talks to hardware only through the :class:`~torquemap.linearize.collect.Rig`
 protocol; it never imports the simulator.
@@ -45,7 +49,16 @@ from numpy.typing import NDArray
 
 from torquemap.errors import InputError
 from torquemap.io import atomic_output
-from torquemap.linearize.collect import CHARACTERISATION_COLUMNS, CollectionSettings, Rig
+from torquemap.linearize.collect import (
+    CHARACTERISATION_COLUMNS,
+    CollectionSettings,
+    Rig,
+    bias_opener,
+    data_header,
+    measure_block,
+    move_to_target,
+    parse_data_rows,
+)
 from torquemap.linearize.denoise import denoise_blocks
 from torquemap.linearize.motor import MotorSpec, ramped_actuation
 
@@ -78,6 +91,9 @@ class AdaptiveResult:
         Sensor readings averaged per row (:func:`coarse_readings` unless given).
     elapsed
         Wall time of this call [s].
+    bias_column
+        Whether the file has the ``bias`` column (False: an older file resumed in its own
+        three-column format).
     """
 
     path: str
@@ -91,6 +107,7 @@ class AdaptiveResult:
     resumed_blocks: int
     row_readings: int
     elapsed: float
+    bias_column: bool = True
 
 
 def _grid_levels(top: int, step: int) -> list[int]:
@@ -270,44 +287,38 @@ def position_scores(
 
 
 def _read_state(
-    path: Path, record_path: Path
-) -> tuple[list[tuple[int, int, float]], list[tuple[int, list[int], int]]]:
-    header = ",".join(CHARACTERISATION_COLUMNS)
-    if not path.exists() or path.stat().st_size == 0:
-        return [], []
-    lines = path.read_text().splitlines()
-    if not lines or lines[0].strip() != header:
-        raise InputError(
-            f"existing file is not collection data (header must be {header!r})", path=path
-        )
+    path: Path, record_path: Path, top: int, bias_open: bool
+) -> tuple[list[str], list[tuple[int, list[int], int]], bool]:
+    """The data lines the record lists, the blocks done and whether the file has the ``bias``
+    column (an older file of three columns keeps its format; a new or empty one gets it)."""
+    lines, has_bias = parse_data_rows(path, CHARACTERISATION_COLUMNS, list(range(top + 1)))
     if not record_path.exists():
-        if len(lines) > 1:
+        if lines:
             raise InputError(
                 f"cannot resume an adaptive collection without its record {record_path.name}",
                 path=path,
             )
-        return [], []
+        return [], [], True
     try:
         record = json.loads(record_path.read_text())
         blocks = [(int(t), [int(v) for v in lv], int(c)) for t, lv, c in record["blocks"]]
-    except (ValueError, KeyError, TypeError) as exc:
+        opened = record.get("bias_open", False)  # older records: the bias was read at rest
+    except (ValueError, KeyError, TypeError, AttributeError) as exc:
         raise InputError(f"unreadable adaptive record ({exc})", path=record_path) from None
-    rows = []
-    for number, line in enumerate(lines[1:], start=2):
-        parts = line.split(",")
-        try:
-            rows.append((int(parts[0]), int(parts[1]), float(parts[2])))
-        except (ValueError, IndexError):
-            if number == len(lines):
-                break
-            raise InputError(f"cannot resume: malformed row at line {number}", path=path) from None
-    total = sum(c for _, _, c in blocks)
-    if total > len(rows):
+    if opened != bias_open:
+        where = {True: "on an open contact", False: "at rest"}
         raise InputError(
-            f"cannot resume: the record lists {total} rows, the file holds {len(rows)}",
+            f"cannot resume: the file's bias was read {where[bool(opened)]}, this run reads it "
+            f"{where[bias_open]} (use the file's --bias-open setting, or another output file)",
             path=path,
         )
-    return rows[:total], blocks
+    total = sum(c for _, _, c in blocks)
+    if total > len(lines):
+        raise InputError(
+            f"cannot resume: the record lists {total} rows, the file holds {len(lines)}",
+            path=path,
+        )
+    return lines[:total], blocks, has_bias or total == 0
 
 
 def collect_adaptive(
@@ -333,11 +344,13 @@ def collect_adaptive(
     spec
         The motor.
     out_csv
-        DATA.csv (``position, pulse_width, torque``); resumed if it exists with its record.
+        DATA.csv (``position, pulse_width, torque, bias``); resumed if it exists with its
+        record (an older file without ``bias`` in its own format).
     settings
-        Readings per row and per bias, and the grid whose readings the budget is a fraction of
-        (``position_step``, ``level_step``; default the paper's). ``transitions`` and
-        ``bias_open`` are not used.
+        Readings per row and per bias, where the bias is read (``bias_open``: on an open
+        contact, the rig's ``open_contact()``), and the grid whose readings the budget is a
+        fraction of (``position_step``, ``level_step``; default the paper's). ``transitions``
+        is not used.
     fraction
         Budget: this fraction of the grid's readings (rows and biases), in (0, 1].
     tolerance
@@ -366,8 +379,10 @@ def collect_adaptive(
     Raises
     ------
     InputError
-        A fraction outside (0, 1] or a budget below the coarse pass, an output folder that does not exist, or a file that cannot
-        be resumed (no record, malformed rows, a record listing more rows than the file has).
+        A fraction outside (0, 1] or a budget below the coarse pass, an output folder that does
+        not exist, the bias to be read on an open contact on a rig without ``open_contact()``,
+        or a file that cannot be resumed (no record, malformed rows, a record listing more rows
+        than the file has, the bias read otherwise than the record says).
     """
     start = time.perf_counter()
     grid = CollectionSettings.paper() if settings is None else settings
@@ -390,19 +405,22 @@ def collect_adaptive(
     s = CollectionSettings(
         readings=per_row,
         bias_readings=max(1, round(grid.bias_count * per_row / grid.readings)),
+        bias_open=grid.bias_open,
         position_step=grid.position_step,
         level_step=grid.level_step,
         progress=False,
     )
+    open_contact = bias_opener(rig, s)
     path = Path(out_csv)
     if not path.parent.exists():
         raise InputError("output folder does not exist", path=path.parent)
     record_path = path.with_name(path.name + ".adaptive.json")
-    rows, done = _read_state(path, record_path)
+    kept_lines, done, has_bias = _read_state(path, record_path, top, s.bias_open)
+    rows = [(int(p), int(lv), float(t)) for p, lv, t, *_ in (x.split(",") for x in kept_lines)]
     resumed = len(done)
-    header = ",".join(CHARACTERISATION_COLUMNS)
     with atomic_output(path) as tmp:
-        tmp.write_text("\n".join([header] + [f"{p},{lv},{t:.10g}" for p, lv, t in rows]) + "\n")
+        header = data_header(CHARACTERISATION_COLUMNS, bias=has_bias)
+        tmp.write_text("\n".join([header, *kept_lines]) + "\n")
     limit = saturation if saturation is not None else getattr(rig, "saturation", None)
     off = [0] * spec.phases
     cursor = 0  # planned blocks so far; the first ``len(done)`` are in the file
@@ -422,8 +440,10 @@ def collect_adaptive(
 
     def save_record() -> None:
         with atomic_output(record_path) as tmp:
-            tmp.write_text(json.dumps({"blocks": [[t, lv, c] for t, lv, c in done]}))
+            blocks = [[t, lv, c] for t, lv, c in done]
+            tmp.write_text(json.dumps({"blocks": blocks, "bias_open": s.bias_open}))
 
+    save_record()  # from the first reading on, a rerun finds the record and resumes
     handle = path.open("a")
 
     def measure(target: int, levels: list[int]) -> None:
@@ -437,28 +457,20 @@ def collect_adaptive(
                     path=path,
                 )
             return
-        _move(rig, target, n, off)
-        bias = float(np.mean([rig.read_torque() for _ in range(s.bias_count)]))
-        count = 0
-        for level in levels:
-            position = rig.read_position()
-            for _ in range(8):
-                consulted = position
-                rig.apply(ramped_actuation(level, consulted, spec.ramp).tolist())
-                rig.settle()
-                position = rig.read_position()
-                if position == consulted:
-                    break
-            values = [rig.read_torque() for _ in range(s.readings)]
-            if limit is not None and max(abs(v) for v in values) >= limit:
-                break
-            torque = float(np.mean(values)) - bias
-            handle.write(f"{consulted},{level},{torque:.10g}\n")
-            handle.flush()
-            rows.append((consulted, level, torque))
-            count += 1
+        move_to_target(rig, target, n, off, max_steps=100 * n)
+        measured, _ = measure_block(
+            rig,
+            handle,
+            levels,
+            lambda level, position: ramped_actuation(level, position, spec.ramp).tolist(),
+            s,
+            limit=limit,
+            bias_column=has_bias,
+            open_contact=open_contact,
+        )
+        rows.extend(measured)
         os.fsync(handle.fileno())
-        done.append((target, levels, count))
+        done.append((target, levels, len(measured)))
         save_record()
 
     try:
@@ -520,6 +532,7 @@ def collect_adaptive(
         resumed_blocks=resumed,
         row_readings=s.readings,
         elapsed=time.perf_counter() - start,
+        bias_column=has_bias,
     )
 
 
@@ -534,20 +547,3 @@ def _fill_levels(curves: NDArray[np.float64]) -> NDArray[np.float64]:
             idx = np.maximum.accumulate(np.where(~bad, np.arange(row.size), 0))
             row[:] = row[idx]
     return out
-
-
-def _move(rig: Rig, target: int, n: int, off: list[int]) -> None:
-    """Phases off; step the secondary joint until the position reaches ``target``."""
-    rig.apply(off)
-    rig.settle()
-    distance = (target - rig.read_position()) % n
-    for _ in range(100 * n):
-        if distance == 0:
-            return
-        rig.step_secondary()
-        rig.settle()
-        new = (target - rig.read_position()) % n
-        if new > distance:
-            return  # stepped over the target: measured where it stands
-        distance = new
-    raise RuntimeError(f"the position did not reach {target} after {100 * n} secondary steps")

@@ -38,7 +38,7 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Protocol, runtime_checkable
+from typing import Any, Protocol, TextIO, cast, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -294,7 +294,9 @@ def _levels(top: int, step: int) -> list[int]:
     return levels
 
 
-def _parse_rows(path: Path, columns: tuple[str, ...], levels: list[int]) -> tuple[list[str], bool]:
+def parse_data_rows(
+    path: Path, columns: tuple[str, ...], levels: list[int]
+) -> tuple[list[str], bool]:
     """The data lines of ``path`` (a last line torn by an interruption dropped), checked, and
     whether the file has the ``bias`` column (an older file has the three columns alone; an
     empty or absent file gets it)."""
@@ -365,7 +367,7 @@ def _infer_done(
     return tuple(done)
 
 
-def _move_to(rig: Rig, target: int, n: int, off: list[int], max_steps: int) -> None:
+def move_to_target(rig: Rig, target: int, n: int, off: list[int], max_steps: int) -> None:
     """Phases off; step the secondary joint until the position reaches ``target``."""
     rig.apply(off)
     rig.settle()
@@ -395,7 +397,7 @@ def _resume_state(
 ) -> tuple[list[str], tuple[tuple[int, int], ...], bool]:
     """Rows to keep, targets done and whether the file has the bias column, from the file and
     its record; refuses other settings."""
-    rows, has_bias = _parse_rows(path, columns, levels)
+    rows, has_bias = parse_data_rows(path, columns, levels)
     old = read_record(path) if path.exists() else None  # no data: a record left alone is stale
     if old is None:
         if not rows:
@@ -433,6 +435,85 @@ def _resume_state(
     return rows[:total], done, has_bias or total == 0
 
 
+def data_header(columns: Sequence[str], *, bias: bool) -> str:
+    """DATA.csv's header line: ``columns`` and, with ``bias``, the :data:`BIAS_COLUMN`.
+
+    Examples
+    --------
+    >>> data_header(CHARACTERISATION_COLUMNS, bias=True)
+    'position,pulse_width,torque,bias'
+    """
+    return ",".join((*columns, BIAS_COLUMN) if bias else columns)
+
+
+def bias_opener(rig: Rig, settings: CollectionSettings) -> Callable[[], None] | None:
+    """The rig's ``open_contact()`` when ``settings.bias_open`` (None when the bias is read at
+    rest).
+
+    Raises
+    ------
+    InputError
+        If the settings read the bias on an open contact and the rig has no ``open_contact()``.
+    """
+    if not settings.bias_open:
+        return None
+    opener = getattr(rig, "open_contact", None)
+    if not callable(opener):
+        raise InputError("reading the bias on an open contact needs a rig with open_contact()")
+    return cast("Callable[[], None]", opener)
+
+
+def measure_block(
+    rig: Rig,
+    handle: TextIO,
+    levels: Sequence[int],
+    actuation: Callable[[int, int], Sequence[int]],
+    settings: CollectionSettings,
+    *,
+    limit: float | None,
+    bias_column: bool,
+    open_contact: Callable[[], None] | None,
+) -> tuple[list[tuple[int, int, float]], bool]:
+    """One block at the target the rig stands at (phases off): the bias, then the levels.
+
+    The bias is the mean of ``settings.bias_count`` readings (after ``open_contact()`` when
+    given: the sensor then reads its bias alone, without the torque at rest). Each level's
+    actuation is looked up at the current position, applied and settled (looked up again at
+    the new position if it moved, up to 8 times); the mean of ``settings.readings`` readings
+    minus the bias is appended to ``handle`` as a row ``position,level,torque`` (and ``,bias``
+    with ``bias_column``) and flushed. A reading at or beyond ``limit`` [N m] ends the block,
+    unstored. The caller syncs the file.
+
+    Returns
+    -------
+    rows, saturated
+        The rows written, as (position, level, torque [N m]) with the torque as written (10
+        significant digits), and whether the block stopped at the sensor's saturation.
+    """
+    if open_contact is not None:
+        open_contact()
+    bias = float(np.mean([rig.read_torque() for _ in range(settings.bias_count)]))
+    tail = f",{bias:.10g}" if bias_column else ""
+    rows: list[tuple[int, int, float]] = []
+    for level in levels:
+        position = rig.read_position()
+        for _ in range(8):
+            consulted = position
+            rig.apply(actuation(level, consulted))
+            rig.settle()
+            position = rig.read_position()
+            if position == consulted:
+                break
+        values = [rig.read_torque() for _ in range(settings.readings)]
+        if limit is not None and max(abs(v) for v in values) >= limit:
+            return rows, True
+        torque = f"{float(np.mean(values)) - bias:.10g}"
+        handle.write(f"{consulted},{level},{torque}{tail}\n")
+        handle.flush()
+        rows.append((consulted, level, float(torque)))  # as written: a resume reads the same
+    return rows, False
+
+
 def _collect(
     rig: Rig,
     spec: MotorSpec,
@@ -446,8 +527,7 @@ def _collect(
     extra: Mapping[str, Any],
 ) -> CollectResult:
     start = time.perf_counter()
-    if settings.bias_open and not callable(getattr(rig, "open_contact", None)):
-        raise InputError("reading the bias on an open contact needs a rig with open_contact()")
+    open_contact = bias_opener(rig, settings)
     path = Path(out_csv)
     if not path.parent.exists():
         raise InputError("output folder does not exist", path=path.parent)
@@ -461,13 +541,12 @@ def _collect(
         done=(),
     )
     limit = saturation if saturation is not None else getattr(rig, "saturation", None)
-    open_contact = getattr(rig, "open_contact", None) if settings.bias_open else None
     off = [0] * spec.phases
     new_rows = 0
     saturated = 0
     with collection_lock(path):
         kept, done, has_bias = _resume_state(path, columns, levels, targets, record, n)
-        header = ",".join((*columns, BIAS_COLUMN) if has_bias else columns)
+        header = data_header(columns, bias=has_bias)
         with atomic_output(path) as tmp:
             tmp.write_text("\n".join([header, *kept]) + "\n")
         finished = {t for t, _ in done}
@@ -484,29 +563,19 @@ def _collect(
         ):
             bar.advance(resumed)
             for target in todo:
-                _move_to(rig, target, n, off, max_steps=100 * n)
-                if open_contact is not None:
-                    open_contact()  # the sensor reads its bias alone, without the torque at rest
-                bias = float(np.mean([rig.read_torque() for _ in range(settings.bias_count)]))
-                block = 0
-                for level in levels:
-                    position = rig.read_position()
-                    for _ in range(8):
-                        consulted = position
-                        rig.apply(actuation(level, consulted))
-                        rig.settle()
-                        position = rig.read_position()
-                        if position == consulted:
-                            break
-                    values = [rig.read_torque() for _ in range(settings.readings)]
-                    if limit is not None and max(abs(v) for v in values) >= limit:
-                        saturated += 1
-                        break
-                    torque = float(np.mean(values)) - bias
-                    tail = f",{bias:.10g}" if has_bias else ""
-                    handle.write(f"{consulted},{level},{torque:.10g}{tail}\n")
-                    handle.flush()
-                    block += 1
+                move_to_target(rig, target, n, off, max_steps=100 * n)
+                measured, stopped = measure_block(
+                    rig,
+                    handle,
+                    levels,
+                    actuation,
+                    settings,
+                    limit=limit,
+                    bias_column=has_bias,
+                    open_contact=open_contact,
+                )
+                saturated += stopped
+                block = len(measured)
                 os.fsync(handle.fileno())
                 done_list.append((target, block))
                 write_record(path, dataclasses.replace(record, done=tuple(done_list)))
