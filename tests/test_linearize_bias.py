@@ -279,3 +279,16 @@ def test_build_takes_the_bias_weight_from_the_collection_record(tmp_path: Path) 
     assert _bias_weight(7.0, str(data)) == 7.0  # an explicit weight wins
     record_path(data).write_text("{not json")
     assert _bias_weight(None, str(data)) == BIAS_READINGS_FACTOR
+
+
+def test_build_takes_the_bias_weight_from_an_adaptive_record(tmp_path: Path) -> None:
+    """``linearize collect --adaptive`` scales the bias readings with its readings per row and
+    notes both in its own record; the build's weight is their ratio."""
+    import json
+
+    from torquemap.cli.cmd_linearize import _bias_weight
+
+    data = tmp_path / "data.csv"
+    record = {"blocks": [], "bias_open": False, "readings": 4, "bias_readings": 10}
+    (tmp_path / "data.csv.adaptive.json").write_text(json.dumps(record))
+    assert _bias_weight(None, str(data)) == 2.5

@@ -7,7 +7,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
+from pathlib import Path
 from typing import Any
 
 from torquemap.cli.argtypes import float_in, int_in
@@ -36,16 +38,24 @@ def _bias_weight(given: float | None, data: str) -> float:
 
     if given is not None:
         return given
+    settings: dict[str, Any] = {}
     try:
         record = read_record(data)
     except InputError:  # the record serves resuming; the data themselves are checked on reading
         record = None
-    if record is None or record.kind != "characterisation":
-        return float(BIAS_READINGS_FACTOR)
+    if record is not None and record.kind == "characterisation":
+        settings = dict(record.settings)
+    else:  # an adaptive collection's record (linearize collect --adaptive)
+        try:
+            raw = json.loads(Path(data).with_name(Path(data).name + ".adaptive.json").read_text())
+            settings = dict(raw) if isinstance(raw, dict) else {}
+        except (OSError, ValueError):
+            settings = {}
     try:
-        return float(record.settings["bias_readings"]) / float(record.settings["readings"])
+        weight = float(settings["bias_readings"]) / float(settings["readings"])
     except (KeyError, TypeError, ValueError, ZeroDivisionError):
         return float(BIAS_READINGS_FACTOR)
+    return weight if math.isfinite(weight) and weight >= 0 else float(BIAS_READINGS_FACTOR)
 
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:

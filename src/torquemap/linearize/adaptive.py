@@ -441,7 +441,16 @@ def collect_adaptive(
     def save_record() -> None:
         with atomic_output(record_path) as tmp:
             blocks = [[t, lv, c] for t, lv, c in done]
-            tmp.write_text(json.dumps({"blocks": blocks, "bias_open": s.bias_open}))
+            tmp.write_text(
+                json.dumps(
+                    {
+                        "blocks": blocks,
+                        "bias_open": s.bias_open,
+                        "readings": s.readings,  # linearize build's bias weight
+                        "bias_readings": s.bias_count,
+                    }
+                )
+            )
 
     save_record()  # from the first reading on, a rerun finds the record and resumes
     handle = path.open("a")
