@@ -282,9 +282,8 @@ def check_no_load(
         for p in pieces:
             residual = p.eq7 - pdtv_torque(p.angle, lines, velocity=p.velocity)
             moving = np.abs(p.velocity) > MOVING_SHARE * top
-            try:
-                low = moving_lowpass(p.t, residual, moving)
-                v_low = moving_lowpass(p.t, p.velocity, moving)
+            try:  # one filter pass over both signals and the mask
+                low, v_low = moving_lowpass(p.t, np.c_[residual, p.velocity], moving).T
             except InputError:
                 continue
             rows.append((p.t, p.q, p.velocity, v_low, low))
@@ -295,7 +294,8 @@ def check_no_load(
 def moving_lowpass(
     t: NDArray[np.float64], x: NDArray[np.float64], moving: NDArray[np.bool_]
 ) -> NDArray[np.float64]:
-    """Low-pass ``x`` at ``CUTOFF`` over the ``moving`` samples alone (normalised convolution):
+    """Low-pass ``x`` (shape (n,) or (n, k)) at ``CUTOFF`` over the ``moving`` samples alone
+    (normalised convolution):
     ``lowpass(x m) / lowpass(m)`` with ``m`` the mask, NaN where less than ``MOVING_WEIGHT``
     of the filter's weight lies on moving samples.
 
@@ -315,11 +315,15 @@ def moving_lowpass(
     >>> bool(np.nanmax(np.abs(low - 1.0)) < 1e-6), bool(np.isnan(low[2000]))
     (True, True)
     """
-    m = moving.astype(np.float64)
-    weight = lowpass(t, m, cutoff=CUTOFF)
-    low = lowpass(t, np.where(moving, x, 0.0), cutoff=CUTOFF)
+    columns = x.reshape(x.shape[0], -1)
+    # the mask and the masked signals through one call (the filter acts on each column alike)
+    both = lowpass(
+        t, np.c_[moving.astype(np.float64), np.where(moving[:, None], columns, 0.0)], cutoff=CUTOFF
+    )
+    weight, low = both[:, :1], both[:, 1:]
     with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(weight >= MOVING_WEIGHT, low / weight, np.nan)
+        out = np.where(weight >= MOVING_WEIGHT, low / weight, np.nan)
+    return out.reshape(x.shape)
 
 
 def _test_joint(
