@@ -47,6 +47,7 @@ This module never imports the simulator.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -152,9 +153,13 @@ class _Surface:
     def __call__(
         self, position: NDArray[np.float64], pulse_width: NDArray[np.float64]
     ) -> NDArray[np.float64]:
-        w = np.clip(pulse_width, self.levels[0], self.levels[-1])
-        j = np.clip(np.searchsorted(self.levels, w, side="right") - 1, 0, self.levels.size - 2)
-        fw = (w - self.levels[j]) / (self.levels[j + 1] - self.levels[j])
+        return self.at_positions(position)(pulse_width)
+
+    def at_positions(
+        self, position: NDArray[np.float64]
+    ) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
+        """``T1(position, .)``: the positions' interpolation done once, for a fit that
+        evaluates the surface at the same positions many times (the scaling's search)."""
         knots = np.concatenate([self.positions, [self.positions[0] + self.period]])
         p = np.mod(position, self.period)
         p = np.where(p < knots[0], p + self.period, p)
@@ -162,12 +167,19 @@ class _Surface:
         fp = (p - knots[i]) / (knots[i + 1] - knots[i])
         i1 = (i + 1) % self.positions.size
 
-        def at(r: NDArray[np.int64]) -> NDArray[np.float64]:
-            out: NDArray[np.float64] = self.grid[r, j] * (1 - fw) + self.grid[r, j + 1] * fw
-            return out
+        def of(pulse_width: NDArray[np.float64]) -> NDArray[np.float64]:
+            w = np.clip(pulse_width, self.levels[0], self.levels[-1])
+            j = np.clip(np.searchsorted(self.levels, w, side="right") - 1, 0, self.levels.size - 2)
+            fw = (w - self.levels[j]) / (self.levels[j + 1] - self.levels[j])
 
-        result: NDArray[np.float64] = at(i) * (1 - fp) + at(i1) * fp
-        return result
+            def at(r: NDArray[np.int64]) -> NDArray[np.float64]:
+                out: NDArray[np.float64] = self.grid[r, j] * (1 - fw) + self.grid[r, j + 1] * fw
+                return out
+
+            result: NDArray[np.float64] = at(i) * (1 - fp) + at(i1) * fp
+            return result
+
+        return of
 
 
 def transfer_characterisation(
@@ -346,9 +358,10 @@ class _Model:
             common = float(t1 @ tau) / (float(t1 @ t1) or 1.0)
             return identity, np.full(m, common)
         sh = self.shares(p)
+        surface = self.surface.at_positions(p)
 
         def gains(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-            design = sh * self.surface(p, self.warp(x, w))[:, None]
+            design = sh * surface(self.warp(x, w))[:, None]
             g: NDArray[np.float64] = np.asarray(
                 np.linalg.lstsq(design, tau, rcond=None)[0], dtype=np.float64
             )
