@@ -466,7 +466,9 @@ def _rig(
     data = read_data(d / "data.csv", spec, kind="characterisation")
     tables = steps.run(
         f"build the {kind} look-up tables",
-        lambda: build_tables(spec, data.position, data.level, data.torque),
+        lambda: build_tables(
+            spec, data.position, data.level, data.torque, bias=data.bias, path=str(d / "data.csv")
+        ),
     )
     save_tables(d / "TABLES.npz", tables)
     steps.run(
@@ -477,7 +479,9 @@ def _rig(
             sim=motor,
             seed=seed + 100,
             tables=d / "TABLES.npz",
-            settings=CollectionSettings(level_step=2, progress=steps),
+            # the bias on an open contact: the joint's torque, not the torque above the one at
+            # rest (which a bias read at rest subtracts where cogging loads the contact)
+            settings=CollectionSettings(level_step=2, bias_open=True, progress=steps),
         ),
     )
     verify = read_data(d / "verify.csv", spec, kind="verification")

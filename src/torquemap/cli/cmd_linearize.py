@@ -43,7 +43,7 @@ def _bias_weight(given: float | None, data: str) -> float:
         record = read_record(data)
     except InputError:  # the record serves resuming; the data themselves are checked on reading
         record = None
-    if record is not None and record.kind == "characterisation":
+    if record is not None:
         settings = dict(record.settings)
     else:  # an adaptive collection's record (linearize collect --adaptive)
         try:
@@ -278,11 +278,42 @@ def _evaluate(args: argparse.Namespace) -> int:
         advice = coverage_advice(data.position, spec.positions_per_cycle)
         if advice:
             print(f"torquemap: warning: {args.data}: {advice}", file=sys.stderr)
+        rest = _verification_bias_advice(data, spec.positions_per_cycle, args.data)
+        if rest:
+            print(f"torquemap: warning: {args.data}: {rest}", file=sys.stderr)
     if args.out:
         with atomic_output(args.out) as tmp:
             tmp.write_text(json.dumps(report_to_dict(report), indent=2) + "\n")
         print(f"wrote {args.out}")
     return 0
+
+
+def _verification_bias_advice(data: Any, positions_per_cycle: int, path: str) -> str:
+    """One line when a verification's bias, read at rest, holds a load (cogging beyond
+    friction): its rows are then the torque above the torque at rest, and its APMD is not the
+    joint's (tables that restore the load score worse on it than they are); else ''."""
+    from torquemap.linearize.bias import check_bias
+
+    if data.bias is None or data.position.size < 2:
+        return ""
+    check = check_bias(
+        data.position,
+        data.level,
+        data.torque,
+        data.bias,
+        positions_per_cycle=positions_per_cycle,
+        bias_weight=_bias_weight(None, path),
+    )
+    if not check.varies:
+        return ""
+    load = check.load()
+    return (
+        f"the verification's bias read at rest holds up to {float(load.max(initial=0.0)):.3g} "
+        f"N m more at {int(check.loaded.sum())} of {check.loaded.size} positions (cogging "
+        "loading the contact at rest): its rows, and this APMD, are the torque above the "
+        "torque at rest, not the joint's; verify with the bias on an open contact "
+        "(linearize collect --tables ... --bias-open)"
+    )
 
 
 def _figures(args: argparse.Namespace) -> int:
