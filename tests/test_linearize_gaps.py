@@ -23,7 +23,7 @@ from torquemap.cli.main import main
 from torquemap.io import write_table, write_toml
 from torquemap.linearize.collect import CollectionSettings, collect_characterisation
 from torquemap.linearize.motor import motor_to_dict
-from torquemap.linearize.sampling import aliased_gaps, unheld_gap_advice
+from torquemap.linearize.sampling import unheld_gap_advice
 from torquemap.linearize.tables import LinearizeData, TableSet, build_tables, read_data
 from torquemap.sim.family import random_bench
 from torquemap.sim.rig import SimRig
@@ -124,13 +124,10 @@ def test_linearize_build_is_silent_where_the_gaps_hold_the_ripple(
     assert err == []  # held across its gaps (above); the firing case: test_linearize_gap_check
 
 
-def test_aliased_gaps_flags_gaps_of_half_a_period_or_more() -> None:
-    # closed form: a gap of d positions samples h periods per cycle of P more than twice a
-    # period when 2 d h < P
+def test_the_gap_advice_names_the_gaps_and_their_midpoints() -> None:
     a = np.array([0, 2, 4, 12, 14, 16, 18, 26, 28, 30])  # gaps of 8 after 4 and after 18
-    mask = aliased_gaps(a, 32, 2)  # a period of 16: a gap of 8 is half of it
-    assert np.flatnonzero(mask).tolist() == [5, 6, 7, 8, 9, 10, 11, 19, 20, 21, 22, 23, 24, 25]
-    assert not aliased_gaps(a, 32, 1).any()  # a period of 32
+    mask = np.zeros(32, dtype=bool)
+    mask[5:12] = mask[19:26] = True  # the positions inside those gaps
     text = unheld_gap_advice(mask, a, 32, period=16.0)
     assert "5 .. 11, 19 .. 25" in text and "collect positions 8, 22 too" in text
     assert unheld_gap_advice(np.zeros(32, dtype=bool), a, 32, period=16.0) == ""

@@ -203,52 +203,6 @@ def check_stated_cogging(cogging_periods: int, anchors: ArrayLike, positions_per
     )
 
 
-def aliased_gaps(anchors: ArrayLike, positions_per_cycle: int, harmonic: int) -> NDArray[np.bool_]:
-    """The table positions inside gaps between measured positions that sample a harmonic at
-    most twice a period.
-
-    A ripple of ``h`` periods per cycle of ``P`` positions is sampled more than twice a period
-    across a gap of ``d`` positions only when ``2 d h < P``. Evenly spaced measured positions
-    (``K`` of them) satisfy this for every ``h < K / 2``, all a fit over them may keep; on
-    unevenly spaced ones (an adaptive collection, a grid with positions missing) the dense
-    stretches can fix a harmonic that the wide gaps cannot measure: there the tables rely on
-    the ripple repeating exactly.
-
-    Parameters
-    ----------
-    anchors
-        The measured positions, ascending, shape (K,).
-    positions_per_cycle
-        ``P``.
-    harmonic
-        ``h``, periods per cycle (0: nothing to sample).
-
-    Returns
-    -------
-    ndarray of bool
-        True inside every such gap, shape (P,).
-
-    Examples
-    --------
-    >>> a = np.setdiff1d(np.arange(0, 96, 4), [40])  # a gap of 8 around 40
-    >>> np.flatnonzero(aliased_gaps(a, 96, 6)).tolist()  # 16 positions a period
-    [37, 38, 39, 40, 41, 42, 43]
-    >>> aliased_gaps(np.arange(0, 96, 4), 96, 6).any()
-    np.False_
-    """
-    a = np.asarray(anchors, dtype=np.int64)
-    n = int(positions_per_cycle)
-    out = np.zeros(n, dtype=bool)
-    if harmonic < 1 or a.size < 2:
-        return out
-    width = (np.roll(a, -1) - a) % n
-    width[width == 0] = n
-    for start, d in zip(a.tolist(), width.tolist(), strict=True):
-        if d > 1 and 2 * d * harmonic >= n:
-            out[(start + np.arange(1, d)) % n] = True
-    return out
-
-
 def unheld_gap_advice(
     unheld: ArrayLike, anchors: ArrayLike, positions_per_cycle: int, *, period: float
 ) -> str:

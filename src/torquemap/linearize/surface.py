@@ -99,19 +99,14 @@ LEVERAGE_MAX = 4.0
 
 @dataclass(frozen=True, slots=True, eq=False)
 class RestSeries:
-    """``o`` on every position, the harmonics of its Fourier part, and the positions where
-    the measured positions do not hold the ripple: where a harmonic the data asked for was
-    refused (its prediction's variance above ``LEVERAGE_MAX`` there) or where a gap samples
-    the fastest harmonic kept at most twice a period
-    (:func:`torquemap.linearize.sampling.aliased_gaps`); and the shortest such period
-    [table positions]."""
+    """``o`` on every position, the harmonics of its Fourier part (amplitudes [N m]) and the
+    median amplitude of a harmonic fitted to noise alone; :meth:`unheld_at` tells where the
+    measured positions do not hold the ripple."""
 
     rest: NDArray[np.float64]
     harmonics: tuple[int, ...]
     amplitudes: tuple[float, ...]
     noise_amplitude: float
-    unheld: NDArray[np.bool_]
-    unheld_period: float
 
     def unheld_at(
         self, anchors: NDArray[np.int64], *, matters: float
@@ -150,8 +145,6 @@ def _interpolate_rest(rest: NDArray[np.float64], anchors: NDArray[np.int64], n: 
     y = rest[anchors]
     top = (anchors.size - 1) // 2
     kept: list[int] = []
-    unheld = np.zeros(n, dtype=bool)
-    unheld_period = np.inf
     best, coef = loo_press(np.ones((x.size, 1)), y)
     while 2 * len(kept) + 3 < anchors.size:
         trials = []
@@ -168,8 +161,6 @@ def _interpolate_rest(rest: NDArray[np.float64], anchors: NDArray[np.int64], n: 
             if lev.max() <= LEVERAGE_MAX:
                 chosen = h
                 break
-            if not unheld.any() and loo_press(_fourier_set(x, [*kept, h], n), y)[0] < best:
-                unheld, unheld_period = lev > LEVERAGE_MAX, n / h
         if chosen is None:
             break
         press, sol = loo_press(_fourier_set(x, [*kept, chosen], n), y)
@@ -188,9 +179,7 @@ def _interpolate_rest(rest: NDArray[np.float64], anchors: NDArray[np.int64], n: 
     # the median amplitude of a harmonic fitted to noise alone (Rayleigh, scale
     # sigma sqrt(2 / K)), sigma from the leave-one-out residuals
     noise = 1.177 * np.sqrt(best / y.size) * np.sqrt(2.0 / y.size)
-    return RestSeries(
-        out, tuple(kept), tuple(amplitude.tolist()), float(noise), unheld, float(unheld_period)
-    )
+    return RestSeries(out, tuple(kept), tuple(amplitude.tolist()), float(noise))
 
 
 def _fourier_set(p: NDArray[np.float64], harmonics: list[int], n: int) -> NDArray[np.float64]:
