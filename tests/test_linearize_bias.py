@@ -20,8 +20,13 @@ from torquemap.cli.main import main
 from torquemap.errors import InputError
 from torquemap.io import read_table, write_table, write_toml
 from torquemap.linearize.bias import check_bias
-from torquemap.linearize.collect import CollectionSettings, collect_characterisation
-from torquemap.linearize.metrics import apmd_report
+from torquemap.linearize.collect import (
+    CollectionSettings,
+    collect_characterisation,
+    collect_verification,
+)
+from torquemap.linearize.export import save_tables
+from torquemap.linearize.metrics import apmd_report, evaluate_linearity
 from torquemap.linearize.motor import MotorSpec, load_motor, motor_to_dict
 from torquemap.linearize.tables import LinearizeData, TableSet, build_tables, read_data
 from torquemap.sim.motors import BrushlessDcMotor
@@ -302,16 +307,11 @@ def test_evaluate_says_a_verification_read_at_rest_is_not_the_joints_torque(
     rest, measures the torque above the torque at rest: worse than the same tables verified
     on an open contact (the joint's torque). ``linearize evaluate`` says so, from the
     verification's bias column; on an open contact it is silent."""
-    from torquemap.linearize.collect import collect_verification
-    from torquemap.linearize.metrics import evaluate_linearity
-
     tmp: Path = cogging_rig["tmp"]  # type: ignore[assignment]
     spec: MotorSpec = cogging_rig["spec"]  # type: ignore[assignment]
     rest: LinearizeData = cogging_rig["data_False"]  # type: ignore[assignment]
     tables = build_tables(spec, rest.position, rest.level, rest.torque, bias=rest.bias)
     save = tmp / "restored.npz"
-    from torquemap.linearize.export import save_tables
-
     save_tables(save, tables)
     write_toml(tmp / "mv.toml", motor_to_dict(spec))
     apmd = {}

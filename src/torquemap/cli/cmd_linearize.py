@@ -9,7 +9,6 @@ import argparse
 import json
 import math
 import sys
-from pathlib import Path
 from typing import Any
 
 from torquemap.cli.argtypes import float_in, int_in
@@ -33,6 +32,7 @@ def _bias_weight(given: float | None, data: str) -> float:
     per row (the record ``DATA.csv.collect.json`` beside the data), else the collection's
     default ratio."""
     from torquemap.errors import InputError
+    from torquemap.linearize.adaptive import adaptive_record_path
     from torquemap.linearize.collect import BIAS_READINGS_FACTOR
     from torquemap.linearize.resume import read_record
 
@@ -47,7 +47,7 @@ def _bias_weight(given: float | None, data: str) -> float:
         settings = dict(record.settings)
     else:  # an adaptive collection's record (linearize collect --adaptive)
         try:
-            raw = json.loads(Path(data).with_name(Path(data).name + ".adaptive.json").read_text())
+            raw = json.loads(adaptive_record_path(data).read_text())
             settings = dict(raw) if isinstance(raw, dict) else {}
         except (OSError, ValueError):
             settings = {}

@@ -321,6 +321,12 @@ def _read_state(
     return lines[:total], blocks, has_bias or total == 0
 
 
+def adaptive_record_path(path: str | os.PathLike[str]) -> Path:
+    """``DATA.csv`` -> ``DATA.csv.adaptive.json``, the adaptive collection's record."""
+    p = Path(path)
+    return p.with_name(p.name + ".adaptive.json")
+
+
 def collect_adaptive(
     rig: Rig,
     spec: MotorSpec,
@@ -414,7 +420,7 @@ def collect_adaptive(
     path = Path(out_csv)
     if not path.parent.exists():
         raise InputError("output folder does not exist", path=path.parent)
-    record_path = path.with_name(path.name + ".adaptive.json")
+    record_path = adaptive_record_path(path)
     kept_lines, done, has_bias = _read_state(path, record_path, top, s.bias_open)
     rows = [(int(p), int(lv), float(t)) for p, lv, t, *_ in (x.split(",") for x in kept_lines)]
     resumed = len(done)
