@@ -57,6 +57,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.stats import f as f_distribution
 
+from torquemap.linearize.gaps import fourier_design
+
 #: Significance level of the chi-square tests (the drift's order, and whether the bias varies
 #: beyond its noise).
 ALPHA = 1e-3
@@ -145,9 +147,8 @@ class BiasCheck:
 
 
 def _fourier(p: NDArray[np.float64], harmonics: int, n: int) -> NDArray[np.float64]:
-    x = 2.0 * np.pi * p[:, None] / n
-    h = np.arange(1, harmonics + 1, dtype=np.float64)[None, :]
-    return np.concatenate([np.ones((p.size, 1)), np.cos(x * h), np.sin(x * h)], axis=1)
+    """The series of harmonics 1 .. ``harmonics`` (:func:`torquemap.linearize.gaps.fourier_design`)."""
+    return fourier_design(p, range(1, harmonics + 1), n)
 
 
 def _lower_fit(

@@ -28,6 +28,7 @@ This module never imports the simulator.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -78,7 +79,9 @@ class GapTest:
         return bool(self.unheld.any())
 
 
-def _series(p: NDArray[np.float64], harmonics: tuple[int, ...], n: int) -> NDArray[np.float64]:
+def fourier_design(p: NDArray[np.float64], harmonics: Sequence[int], n: int) -> NDArray[np.float64]:
+    """The Fourier series' design over positions ``p`` of a cycle of ``n``: a constant, then
+    the cosines and the sines of ``harmonics`` (periods per cycle); shape (len(p), 1 + 2 H)."""
     x = 2.0 * np.pi * p[:, None] / n
     h = np.asarray(harmonics, dtype=np.float64)[None, :]
     return np.concatenate([np.ones((p.size, 1)), np.cos(x * h), np.sin(x * h)], axis=1)
@@ -95,11 +98,11 @@ def predict_across(
     them): the series with ``harmonics`` fitted to them, plus its residuals interpolated
     linearly (cyclically) between the two measured positions around ``at``."""
     x = anchors.astype(np.float64)
-    design = _series(x, harmonics, n)
+    design = fourier_design(x, harmonics, n)
     coef, *_ = np.linalg.lstsq(design, rest, rcond=None)
     resid = rest - design @ coef
     ext = np.concatenate([x - n, x, x + n])
-    smooth = float((_series(np.array([float(at)]), harmonics, n) @ coef)[0])
+    smooth = float((fourier_design(np.array([float(at)]), harmonics, n) @ coef)[0])
     return smooth + float(np.interp(float(at), ext, np.tile(resid, 3)))
 
 

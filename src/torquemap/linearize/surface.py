@@ -42,7 +42,7 @@ from scipy.optimize import nnls
 from scipy.sparse.linalg import spsolve
 
 from torquemap.linearize.detent import loo_press
-from torquemap.linearize.gaps import check_gaps
+from torquemap.linearize.gaps import check_gaps, fourier_design
 
 #: Most alternating least-squares rounds.
 ROUNDS = 40
@@ -123,8 +123,8 @@ class RestSeries:
 
 def _leverage(x: NDArray[np.float64], harmonics: list[int], n: int) -> NDArray[np.float64]:
     """Variance of the series' prediction at every position, in units of one sample's."""
-    design = _fourier_set(x, harmonics, n)
-    every = _fourier_set(np.arange(n, dtype=np.float64), harmonics, n)
+    design = fourier_design(x, harmonics, n)
+    every = fourier_design(np.arange(n, dtype=np.float64), harmonics, n)
     inverse = np.linalg.pinv(design.T @ design)
     out: NDArray[np.float64] = np.einsum("ij,jk,ik->i", every, inverse, every)
     return out
@@ -151,7 +151,7 @@ def _interpolate_rest(rest: NDArray[np.float64], anchors: NDArray[np.int64], n: 
         for h in range(1, top + 1):
             if h in kept:
                 continue
-            d = _fourier_set(x, [*kept, h], n)
+            d = fourier_design(x, [*kept, h], n)
             sol, *_ = np.linalg.lstsq(d, y, rcond=None)
             rr = y - d @ sol
             trials.append((float(rr @ rr), h))
@@ -163,14 +163,14 @@ def _interpolate_rest(rest: NDArray[np.float64], anchors: NDArray[np.int64], n: 
                 break
         if chosen is None:
             break
-        press, sol = loo_press(_fourier_set(x, [*kept, chosen], n), y)
+        press, sol = loo_press(fourier_design(x, [*kept, chosen], n), y)
         if not press < best:
             break
         best, coef = press, sol
         kept.append(chosen)
     allp = np.arange(n, dtype=np.float64)
-    smooth = _fourier_set(allp, kept, n) @ coef
-    resid = y - _fourier_set(x, kept, n) @ coef
+    smooth = fourier_design(allp, kept, n) @ coef
+    resid = y - fourier_design(x, kept, n) @ coef
     ext = np.concatenate([anchors - n, anchors, anchors + n])
     out = smooth + np.interp(allp, ext, np.tile(resid, 3))
     out[anchors] = y
@@ -180,12 +180,6 @@ def _interpolate_rest(rest: NDArray[np.float64], anchors: NDArray[np.int64], n: 
     # sigma sqrt(2 / K)), sigma from the leave-one-out residuals
     noise = 1.177 * np.sqrt(best / y.size) * np.sqrt(2.0 / y.size)
     return RestSeries(out, tuple(kept), tuple(amplitude.tolist()), float(noise))
-
-
-def _fourier_set(p: NDArray[np.float64], harmonics: list[int], n: int) -> NDArray[np.float64]:
-    x = 2.0 * np.pi * p[:, None] / n
-    h = np.asarray(harmonics, dtype=np.float64)[None, :]
-    return np.concatenate([np.ones((p.size, 1)), np.cos(x * h), np.sin(x * h)], axis=1)
 
 
 def _lift(kx: NDArray[np.float64], d: float, n: float, join: float) -> NDArray[np.float64]:
