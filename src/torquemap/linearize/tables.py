@@ -924,7 +924,7 @@ def weak_phase_advice(reach: NDArray[np.float64], ramp: NDArray[np.float64]) -> 
 
     >>> ramp = np.repeat(np.eye(3), 4, axis=0)  # 12 positions, one phase each in turn
     >>> weak_phase_advice(np.r_[np.full(4, 2.0), np.full(4, 0.4), np.full(4, 2.1)], ramp)[:36]
-    'phase 1 reaches 0.4 N m at most (19%'
+    'phase 2 reaches 0.4 N m at most (19%'
     """
     if ramp.ndim != 2 or ramp.shape[1] < 2 or ramp.shape[0] != reach.size:
         return ""
@@ -942,8 +942,8 @@ def weak_phase_advice(reach: NDArray[np.float64], ramp: NDArray[np.float64]) -> 
     if not peaks[low] < WEAK_PHASE * peaks[strong]:
         return ""
     return (
-        f"phase {low} reaches {peaks[low]:.3g} N m at most ({peaks[low] / peaks[strong]:.0%} of "
-        f"phase {strong}'s {peaks[strong]:.3g} N m), which sets the tables' full scale for every "
+        f"phase {low + 1} reaches {peaks[low]:.3g} N m at most ({peaks[low] / peaks[strong]:.0%} "
+        f"of phase {strong + 1}'s {peaks[strong]:.3g} N m), which sets the tables' full scale for every "
         "position: a weak winding, connector or amplifier channel? Check that phase before using "
         "the tables"
     )
