@@ -216,3 +216,37 @@ def differences(ours: Mapping[str, Any], theirs: Mapping[str, Any], what: str) -
             else:
                 out.append(f"{what}{key} (this run {a!r}, the file's {b!r})")
     return out
+
+
+def check_collected_through(
+    data_path: str | os.PathLike[str],
+    stack: NDArray[np.int64],
+    tables_path: str | os.PathLike[str] | None = None,
+) -> None:
+    """Refuse tables other than those the verification run ``data_path`` was collected through.
+
+    The record beside a verification run holds the digest of its tables
+    (:func:`tables_digest`); rows measured through one set of tables say nothing about
+    another. Silent when there is no readable record (data from elsewhere, an older run).
+
+    Raises
+    ------
+    InputError
+        Naming the data file, when its record holds another digest than ``stack``'s.
+    """
+    try:
+        record = read_record(data_path)
+    except InputError:
+        return  # an unreadable record is resume's business, not the evaluation's
+    if record is None or record.kind != "verification":
+        return
+    digest = record.motor.get("tables_sha256")
+    if digest is None or digest == tables_digest(stack):
+        return
+    given = "the tables given" if tables_path is None else os.fspath(tables_path)
+    raise InputError(
+        f"was collected through other tables than {given} (its record "
+        f"{record_path(data_path).name} holds another digest): evaluate it with the tables it "
+        "ran through",
+        path=data_path,
+    )
