@@ -116,6 +116,31 @@ def test_cli_transfer_and_bad_input(
         )
 
 
+def test_a_handful_that_leaves_a_phase_unmeasured_is_refused(
+    joints: dict[str, object], capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a handful inside one phase's region (QA: the first 11 rows of a sibling's handful, at
+    # positions 0 to 37 of 192) never sees phase 2: its least-squares gain was 0.000 and the
+    # transferred rows had no torque where phase 2 leads, exit 0 (build then blamed them)
+    few: LinearizeData = joints["few"]  # type: ignore[assignment]
+    spec2 = joints["spec2"]
+    n = spec2.positions_per_cycle  # type: ignore[attr-defined]
+    keep = few.position < n // 6  # the first sixth: phase 1's single-phase region and below
+    assert np.unique(few.position[keep]).size >= 2
+    part = dataclasses.replace(
+        few, position=few.position[keep], level=few.level[keep], torque=few.torque[keep]
+    )
+    with pytest.raises(
+        InputError, match=r"few\.csv: the handful measures no position where phase 2"
+    ):
+        transfer_characterisation(
+            joints["spec1"],  # type: ignore[arg-type]
+            joints["data1"],  # type: ignore[arg-type]
+            spec2,  # type: ignore[arg-type]
+            part,
+        )
+
+
 def test_the_handful_chooses_to_transfer_where_the_transfer_helps(
     joints: dict[str, object],
 ) -> None:

@@ -74,6 +74,11 @@ TIE = 0.05
 #: Readings below this fraction of the handful's largest torque are not scored (a relative
 #: error there is the sensor's noise).
 READABLE = 0.02
+#: A phase's gain is fitted from the handful's rows where it carries torque: below this share
+#: of the torque (:func:`phase_shares`) at every position measured above pulse width 0, the
+#: handful does not see the phase and its least-squares gain is 0 (QA: a handful of 3
+#: positions of one phase's region wrote a phase gain of 0.000, exit 0).
+HANDFUL_SHARE = 0.25
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -215,7 +220,8 @@ def transfer_characterisation(
     Raises
     ------
     InputError
-        Motors of another type (phases, cycle, full scale), or a handful too small to fit.
+        Motors of another type (phases, cycle, full scale), a handful too small to fit, or
+        one that leaves a phase unmeasured (:data:`HANDFUL_SHARE`).
 
     Examples
     --------
@@ -238,11 +244,23 @@ def transfer_characterisation(
         raise InputError(
             "the handful needs at least 2 positions and 2 pulse widths above zero", path=few.path
         )
-    surface = _Surface(a_spec, first)
     e1 = np.asarray(a_spec.equilibrium_positions, dtype=np.float64)
     e2 = np.asarray(b_spec.equilibrium_positions, dtype=np.float64)
-    shift = circular_difference(e1, e2, n)
     ramp = np.asarray(b_spec.ramp, dtype=np.float64)
+    lit = few.position[few.level > 0].astype(np.float64)
+    reach = phase_shares(lit, ramp, e2, n).max(axis=0)
+    unseen = np.flatnonzero(reach < HANDFUL_SHARE)
+    if unseen.size:
+        k = int(unseen[0])
+        raise InputError(
+            f"the handful measures no position where phase {k + 1} carries torque (at most "
+            f"{reach[k]:.0%} of it above pulse width 0): its gain cannot be fitted; measure the "
+            f"{2 * a_spec.phases} region middles (linearize collect --position-step "
+            f"{-(-n // (2 * a_spec.phases))} --step 64)",
+            path=few.path,
+        )
+    surface = _Surface(a_spec, first)
+    shift = circular_difference(e1, e2, n)
     top = float(a_spec.actuation_max)
     model = _Model(surface, ramp, e2, n, top)
     pos = few.position.astype(np.float64)
