@@ -970,6 +970,7 @@ def build_tables(
     knee: bool = True,
     bias: ArrayLike | None = None,
     restore_bias: bool = True,
+    bias_open: bool = False,
     path: str | os.PathLike[str] | None = None,
 ) -> TableSet:
     """Build the per-phase torque-linearisation tables from characterisation data (paper §4.3).
@@ -1039,6 +1040,9 @@ def build_tables(
         says so.
     restore_bias
         Re-zero the rows on the bias's drift (else use them as measured, and warn only).
+    bias_open
+        The collection read the bias on an open contact (its record's ``bias_open``): the
+        warning then does not take what lies above the drift for a load at rest.
     path
         The data file, named in error messages.
 
@@ -1100,7 +1104,7 @@ def build_tables(
         if restored:
             tau, bias_drift = tau + found.restore, found.harmonics
         if found.varies:
-            bias_advice = found.advice(restored=restored)
+            bias_advice = found.advice(restored=restored, bias_open=bias_open)
     gap = max(1, n // (4 * m)) if max_gap is None else int(max_gap)
     floor = _noise_floor(pw, tau)
     _check_signal(pos, pw, tau, src)
