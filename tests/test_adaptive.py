@@ -202,3 +202,21 @@ def test_resume_refuses_other_settings_or_another_ramp(tmp_path: Path) -> None:
     assert out.read_text() == lines  # nothing written by the refused runs
     resumed = collect_adaptive(flaky, spec, out, SETTINGS, fraction=0.9)
     assert resumed.resumed_blocks > 0
+
+
+def test_a_grid_and_an_adaptive_collection_are_not_resumed_as_each_other(tmp_path: Path) -> None:
+    # QA bench 316: the grid's collection on an adaptive file read "two blocks for target
+    # position 136 (line 2654); was the file collected with other settings?", and the adaptive
+    # one on a grid file "without its record": each now names the other's record
+    from torquemap.linearize.collect import collect_characterisation
+
+    rig = _rig()
+    spec = rig.motor_spec()
+    adaptive = tmp_path / "a.csv"
+    collect_adaptive(rig, spec, adaptive, SETTINGS, fraction=0.9, row_readings=4)
+    with pytest.raises(InputError, match=r"a\.csv: cannot resume: the file is an adaptive collect"):
+        collect_characterisation(rig, spec, adaptive, SETTINGS)
+    grid = tmp_path / "g.csv"
+    collect_characterisation(rig, spec, grid, SETTINGS)
+    with pytest.raises(InputError, match=r"g\.csv.collect\.json is a grid collection's"):
+        collect_adaptive(rig, spec, grid, SETTINGS, fraction=0.9, row_readings=4)

@@ -63,7 +63,14 @@ from torquemap.linearize.collect import (
 )
 from torquemap.linearize.denoise import denoise_blocks
 from torquemap.linearize.motor import MotorSpec, ramped_actuation
-from torquemap.linearize.resume import differences, motor_identity
+from torquemap.linearize.resume import (
+    adaptive_record_path,
+    differences,
+    motor_identity,
+)
+from torquemap.linearize.resume import (
+    record_path as grid_record_path,
+)
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -307,8 +314,15 @@ def _read_state(
     lines, has_bias = parse_data_rows(path, CHARACTERISATION_COLUMNS, list(range(top + 1)))
     if not record_path.exists():
         if lines:
+            grid = grid_record_path(path)
             raise InputError(
-                f"cannot resume an adaptive collection without its record {record_path.name}",
+                f"cannot resume an adaptive collection without its record {record_path.name}"
+                + (
+                    f" (its record {grid.name} is a grid collection's: resume it without "
+                    "--adaptive)"
+                    if grid.exists()
+                    else ""
+                ),
                 path=path,
             )
         return [], [], True
@@ -342,12 +356,6 @@ def _read_state(
             path=path,
         )
     return lines[:total], blocks, has_bias or total == 0
-
-
-def adaptive_record_path(path: str | os.PathLike[str]) -> Path:
-    """``DATA.csv`` -> ``DATA.csv.adaptive.json``, the adaptive collection's record."""
-    p = Path(path)
-    return p.with_name(p.name + ".adaptive.json")
 
 
 def collect_adaptive(

@@ -48,6 +48,7 @@ from torquemap.io import atomic_output
 from torquemap.linearize.motor import MotorSpec, ramped_actuation
 from torquemap.linearize.resume import (
     CollectionRecord,
+    adaptive_record_path,
     collection_lock,
     differences,
     motor_identity,
@@ -402,6 +403,12 @@ def _resume_state(
     if old is None:
         if not rows:
             return [], (), True
+        if adaptive_record_path(path).exists():
+            raise InputError(
+                f"cannot resume: the file is an adaptive collection (its record "
+                f"{adaptive_record_path(path).name}): resume it with --adaptive",
+                path=path,
+            )
         done = _infer_done(path, rows, targets, n)
     else:
         problems = []

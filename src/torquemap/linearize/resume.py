@@ -41,6 +41,13 @@ def record_path(path: str | os.PathLike[str]) -> Path:
     return p.with_name(p.name + RECORD_SUFFIX)
 
 
+def adaptive_record_path(path: str | os.PathLike[str]) -> Path:
+    """``DATA.csv`` -> ``DATA.csv.adaptive.json``, the adaptive collection's record
+    (:mod:`torquemap.linearize.adaptive`)."""
+    p = Path(path)
+    return p.with_name(p.name + ".adaptive.json")
+
+
 def lock_path(path: str | os.PathLike[str]) -> Path:
     """``DATA.csv`` -> ``DATA.csv.lock``."""
     p = Path(path)
