@@ -47,8 +47,7 @@ def _record_settings(data: str) -> dict[str, Any]:
     """The settings of the collection record beside ``data`` (the grid's
     ``DATA.csv.collect.json`` or the adaptive ``DATA.csv.adaptive.json``), {} without one."""
     from torquemap.errors import InputError
-    from torquemap.linearize.resume import adaptive_record_path
-    from torquemap.linearize.resume import read_record
+    from torquemap.linearize.resume import adaptive_record_path, read_record
 
     settings: dict[str, Any] = {}
     try:
