@@ -117,6 +117,17 @@ def test_cli_home_random_bench(tmp_path: Path, capsys: pytest.CaptureFixture[str
     assert main(["linearize", "home", str(path), "--random", str(other)]) == 2
     err = capsys.readouterr().err
     assert f"random motor {other} has" in err and str(path) in err and err.count("\n") == 1
+    # a bench of the same shape: homed to this file's equilibria, exit 0 (QA: bench 304's file
+    # with --random 321, equilibria 1 to 2 positions apart)
+    shape = (spec.phases, spec.positions_per_cycle)
+    twin = next(
+        s
+        for s in range(seed + 1, 300)
+        if (random_bench(s).rig.phases, random_bench(s).rig.positions_per_cycle) == shape
+    )
+    assert main(["linearize", "home", str(path), "--random", str(twin)]) == 2
+    err = capsys.readouterr().err
+    assert f"the motor file is 'random-{seed}'" in err and err.count("\n") == 1
 
 
 def test_cli_home_refuses_tables_of_another_motor(
