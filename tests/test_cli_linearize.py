@@ -377,3 +377,26 @@ def test_figures_refuse_tables_of_another_motor(
     err = capsys.readouterr().err
     assert f"{d}/t.npz: tables are for another motor" in err and err.count("\n") == 1
     assert not (tmp_path / "figs").exists()
+
+
+def test_a_closed_stdout_pipe_ends_quietly(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # `torquemap linearize evaluate ... | head -1` closes the pipe before the report is printed:
+    # it said "torquemap: error: Broken pipe" with exit 2, as for bad input; a pipeline expects
+    # the silent end of a writer whose reader is gone (exit 128 + SIGPIPE)
+    import sys
+
+    write_case(tmp_path)
+    d = str(tmp_path)
+
+    class Closed:
+        def write(self, text: str) -> int:
+            raise BrokenPipeError(32, "Broken pipe")
+
+        def flush(self) -> None:
+            raise BrokenPipeError(32, "Broken pipe")
+
+    monkeypatch.setattr(sys, "stdout", Closed())
+    assert main(["linearize", "evaluate", f"{d}/motor.toml", f"{d}/data.csv"]) == 141
+    assert capsys.readouterr().err == ""
