@@ -141,6 +141,34 @@ def test_a_handful_that_leaves_a_phase_unmeasured_is_refused(
         )
 
 
+def test_a_handful_no_scaling_predicts_is_warned(joints: dict[str, object]) -> None:
+    # a second motor of the same shape but not of the first's type (QA: bench 328's handful on
+    # bench 321's characterisation, both VR 3 x 128): phase gains 3.2, held-out error 41.7 %,
+    # transferred tables at 82.5 % APMD against 1.14 % for its own, exit 0 and no word
+    first: SimRig = joints["first"]  # type: ignore[assignment]
+    data1: LinearizeData = joints["data1"]  # type: ignore[assignment]
+    tmp: Path = joints["tmp"]  # type: ignore[assignment]
+    motor = dataclasses.replace(
+        first.motor, second_harmonic=-0.25, saturation_current=3.0, mutual_saturation=0.4
+    )
+    other = sim_rig("vr", rng=3, motor=motor)
+    spec = other.motor_spec()
+    collect_characterisation(
+        other, spec, tmp / "other.csv", Settings(position_step=43, level_step=32, progress=False)
+    )
+    few = read_data(tmp / "other.csv", spec, kind="characterisation")
+    r = transfer_characterisation(joints["spec1"], data1, spec, few)  # type: ignore[arg-type]
+    lines = [w for w in r.warnings if w.startswith("no scaling of the first joint's")]
+    assert len(lines) == 1 and "characterise it in full" in lines[0]
+    # and the warning is right: the transferred rows are far from that joint's true torque
+    truth = _sensed(other, data1, spec.ramp)
+    ok = truth > 0.1 * truth.max()
+    assert np.mean(np.abs(r.torque - truth)[ok] / truth[ok]) > 0.10
+    # a joint of the first's type (the fixture's: gains and a wider dead band) is not warned
+    same: TransferResult = joints["result"]  # type: ignore[assignment]
+    assert not [w for w in same.warnings if w.startswith("no scaling")]
+
+
 def test_the_handful_chooses_to_transfer_where_the_transfer_helps(
     joints: dict[str, object],
 ) -> None:

@@ -74,6 +74,13 @@ TIE = 0.05
 #: Readings below this fraction of the handful's largest torque are not scored (a relative
 #: error there is the sensor's noise).
 READABLE = 0.02
+#: Held-out error (:func:`held_out_error`) of the chosen scaling beyond which no scaling of the
+#: first joint describes the second, and a warning says so. Chosen on the QA benches 301 to 330
+#: (siblings, ``sim.twins.sibling``: 1.1 to 8.1 %; another bench of the same shape: 8.2 to 41 %,
+#: 9 of 10 above), checked on 101 to 140 (siblings 1.4 to 9.7 % but 108, 12.9 %, whose
+#: transferred tables an earlier QA measured at 22.9 % APMD against 11.8 % unchanged; other
+#: benches 13.4 to 144 %, 10 of 10 above); docs/linearize-transfer.md.
+MISFIT = 0.10
 #: A phase's gain is fitted from the handful's rows where it carries torque: below this share
 #: of the torque (:func:`phase_shares`) at every position measured above pulse width 0, the
 #: handful does not see the phase and its least-squares gain is 0 (QA: a handful of 3
@@ -297,6 +304,14 @@ def transfer_characterisation(
     else:
         p_first = first.position.astype(np.float64)
         torque = model.predict(x, g, p_first, first.level.astype(np.float64), name=chosen)
+    if scores[chosen] > MISFIT:
+        warnings.append(
+            f"no scaling of the first joint's characterisation predicts the handful within "
+            f"{100 * MISFIT:.0f} % (held out, each position from the others: {chosen} "
+            f"{100 * scores[chosen]:.1f} % mean relative error): is this joint's motor of the "
+            "first's type? Its transferred tables may be far from its own; characterise it in "
+            "full"
+        )
     return TransferResult(
         position=first.position.copy(),
         pulse_width=first.level.copy(),
