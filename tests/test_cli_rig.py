@@ -244,3 +244,33 @@ def test_verification_refuses_tables_in_other_units(
         assert status == 2 and err.count("\n") == 1
         assert f"t{bits}.npz: table entries run 0 .. {top} (built with --actuation-bits)" in err
         assert not out.exists()
+
+
+def test_data_is_read_with_the_motor_file_it_was_collected_with(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # DATA.csv's pulse widths were ramped through the motor file's ramp: built with the file
+    # edited from wide to narrow after the collection, the tables were 52 % APMD against 2 %
+    # with exit 0 (QA bench 316). The collection's record holds the ramp's digest.
+    motor = _motor_file(tmp_path)
+    data = tmp_path / "data.csv"
+    status, _ = _collect(
+        [str(motor), "-o", str(data), "--sim", "bldc", "--step", "64", *FAST], capsys
+    )
+    assert status == 0
+    text = motor.read_text()
+    assert 'ramping = "wide"' in text
+    narrow = tmp_path / "narrow.toml"
+    narrow.write_text(text.replace('ramping = "wide"', 'ramping = "narrow"'))
+    capsys.readouterr()
+    assert main(["linearize", "build", str(narrow), str(data), "-o", str(tmp_path / "t.npz")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert f"{data}: was collected with another motor file than {narrow} (another ramp" in err
+    assert not (tmp_path / "t.npz").exists()
+    # the same rows without their record (data from elsewhere): nothing to compare, read
+    from torquemap.linearize.resume import record_path
+    from torquemap.linearize.tables import read_data
+
+    record_path(data).unlink()
+    assert read_data(data, load_motor(narrow), kind="characterisation").position.size > 0

@@ -48,6 +48,7 @@ from torquemap.linearize.handover import check_handover, fill_handover
 from torquemap.linearize.knee import check_uncensored, uncensored_residual
 from torquemap.linearize.motor import MotorSpec
 from torquemap.linearize.onset import extend_below, fit_onset
+from torquemap.linearize.resume import check_collected_for
 from torquemap.linearize.sampling import (
     MATTERS,
     check_position_sampling,
@@ -239,10 +240,12 @@ def read_data(path: str | os.PathLike[str], spec: MotorSpec, *, kind: DataKind) 
     ------
     InputError
         On a missing file or column, NaN, non-integer or out-of-range positions and levels, a
-        ``bias`` column that holds anything but finite numbers.
+        ``bias`` column that holds anything but finite numbers, or a collection record beside
+        the file that names another motor (:func:`torquemap.linearize.resume.check_collected_for`).
     """
     p = os.fspath(path)
     columns = read_table(p)
+    check_collected_for(p, spec, kind)
     n = spec.positions_per_cycle
     position = _integer_column(columns, "position", p, 0, n - 1)
     if kind == "characterisation":
