@@ -169,6 +169,23 @@ def test_a_handful_no_scaling_predicts_is_warned(joints: dict[str, object]) -> N
     assert not [w for w in same.warnings if w.startswith("no scaling")]
 
 
+def test_motor_files_with_other_ramps_are_refused(joints: dict[str, object]) -> None:
+    # the transferred rows are the first joint's base pulse widths through its ramp; under a
+    # second motor file with another ramp they built tables at 86.9 % APMD (QA bench 305: first
+    # narrow, SECOND.toml wide), with exit 0
+    spec1 = joints["spec1"]
+    other = "narrow" if spec1.ramping == "wide" else "wide"  # type: ignore[attr-defined]
+    second: SimRig = joints["second"]  # type: ignore[assignment]
+    spec2 = second.motor_spec(ramping=other)  # type: ignore[arg-type]
+    with pytest.raises(InputError, match=rf"ramp \({other}\) is not the first's"):
+        transfer_characterisation(
+            spec1,  # type: ignore[arg-type]
+            joints["data1"],  # type: ignore[arg-type]
+            spec2,
+            joints["few"],  # type: ignore[arg-type]
+        )
+
+
 def test_the_handful_chooses_to_transfer_where_the_transfer_helps(
     joints: dict[str, object],
 ) -> None:

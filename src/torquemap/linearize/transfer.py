@@ -227,8 +227,8 @@ def transfer_characterisation(
     Raises
     ------
     InputError
-        Motors of another type (phases, cycle, full scale), a handful too small to fit, or
-        one that leaves a phase unmeasured (:data:`HANDFUL_SHARE`).
+        Motors of another type (phases, cycle, full scale) or ramp, a handful too small to
+        fit, or one that leaves a phase unmeasured (:data:`HANDFUL_SHARE`).
 
     Examples
     --------
@@ -243,6 +243,15 @@ def transfer_characterisation(
         raise InputError(
             "the second joint's motor is not of the first's type (phases, positions per cycle "
             "or full-scale pulse width differ)",
+            path=b_spec.path,
+        )
+    if not np.array_equal(np.asarray(a_spec.ramp), np.asarray(b_spec.ramp)):
+        # the output is the first joint's rows, base pulse widths through the first's ramp: built
+        # with another (QA: narrow rows under a wide SECOND.toml) its tables were 86.9 % APMD
+        raise InputError(
+            f"the second joint's ramp ({b_spec.ramping}) is not the first's ({a_spec.ramping}): "
+            "the transferred rows are the first's pulse widths through its ramp; give both "
+            "motor files the same ramping",
             path=b_spec.path,
         )
     n = a_spec.positions_per_cycle
