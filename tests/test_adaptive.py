@@ -164,6 +164,11 @@ def test_cli_collect_adaptive(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     assert out.with_name("data.csv.adaptive.json").exists()
     assert main([*args, *small, "--budget", "0.05"]) == 2
     assert "does not cover the coarse pass" in capsys.readouterr().err
+    # --budget without --adaptive collected the whole grid without a word (QA bench 305)
+    grid = ["linearize", "collect", str(motor), "--sim", "bldc", "-o", str(tmp_path / "g.csv")]
+    assert main([*grid, *small, "--budget", "0.5"]) == 2
+    assert "--budget is the adaptive collection's" in capsys.readouterr().err
+    assert not (tmp_path / "g.csv").exists()
 
 
 def test_resume_refuses_other_settings_or_another_ramp(tmp_path: Path) -> None:
