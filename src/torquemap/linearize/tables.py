@@ -952,6 +952,37 @@ def weak_phase_advice(reach: NDArray[np.float64], ramp: NDArray[np.float64]) -> 
     )
 
 
+#: A row's noise (one reading's over the square root of the readings a row) beyond this many
+#: times the torque of one command count (``torque_max / command_max``) sets the lowest
+#: commands' tables by the noise: the family's benches at the paper's and dense settings read
+#: 0.08 to 1.2 times (QA benches 301 to 330), a sensor 5 times noisier 3.0 and 5.8 times, its
+#: tables at 3.1x and 9.0x the floor against 1.5x and 2.9x; checked on benches 101 to 120 at
+#: the paper's settings: 0.13 to 1.6 times, and 2.3 on 112 (noise 1 % of full torque, the
+#: family's largest; its tables at 2.95x the floor) (docs/linearize.md).
+NOISY_ROWS = 2.0
+
+
+def noise_advice(row_noise: float, torque_per_count: float) -> str:
+    """A line when the rows' noise [N m] exceeds :data:`NOISY_ROWS` times the torque of one
+    command count [N m], else "".
+
+    >>> noise_advice(0.3, 0.1)[:52]
+    "the rows' noise (0.3 N m, from the rows at pulse wid"
+    >>> noise_advice(0.1, 0.1)
+    ''
+    """
+    if not (torque_per_count > 0 and row_noise > NOISY_ROWS * torque_per_count):
+        return ""
+    ratio = row_noise / torque_per_count
+    return (
+        f"the rows' noise ({row_noise:.3g} N m, from the rows at pulse width 0) is "
+        f"{ratio:.1f} times the torque of one command count ({torque_per_count:.3g} N m): the "
+        "lowest commands are set by the sensor's noise; collect with more readings per row "
+        f"(--readings; about {math.ceil(ratio**2)} times as many for one count, the noise "
+        "falling as their square root)"
+    )
+
+
 def build_tables(
     spec: MotorSpec,
     position: ArrayLike,
@@ -1099,6 +1130,9 @@ def build_tables(
         )
     pos, pw, tau = _check_rows(spec, position, pulse_width, torque, src)
     n, m = spec.positions_per_cycle, spec.phases
+    # the rows' noise from their level-0 rows as read: the bias's re-zeroing below restores
+    # the load at rest to some of them, which is not noise
+    measured_noise = _row_noise(pw, tau)
     bias_advice, bias_drift = "", -1
     if bias is not None:
         b = _check_bias_column(bias, pos.size, src)
@@ -1147,6 +1181,7 @@ def build_tables(
     }
     surface_used = False
     warnings: list[str] = [weak] if weak else []
+    noisy = noise_advice(measured_noise, torque_max / cmax)
     if method == "interp":
         target = torque_from_command(np.arange(cmax + 1), **law)  # type: ignore[arg-type]
         if onset:
@@ -1203,6 +1238,8 @@ def build_tables(
             warnings.append(stated)
     if bias_advice:
         warnings.append(bias_advice)
+    if noisy:
+        warnings.append(noisy)
     base[:, 0] = 0.0
     base = np.clip(base, 0.0, float(spec.actuation_max))
 
