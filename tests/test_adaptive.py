@@ -164,3 +164,64 @@ def test_cli_collect_adaptive(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     assert out.with_name("data.csv.adaptive.json").exists()
     assert main([*args, *small, "--budget", "0.05"]) == 2
     assert "does not cover the coarse pass" in capsys.readouterr().err
+    # --budget without --adaptive collected the whole grid without a word (QA bench 305)
+    grid = ["linearize", "collect", str(motor), "--sim", "bldc", "-o", str(tmp_path / "g.csv")]
+    assert main([*grid, *small, "--budget", "0.5"]) == 2
+    assert "--budget is the adaptive collection's" in capsys.readouterr().err
+    assert not (tmp_path / "g.csv").exists()
+
+
+def test_resume_refuses_other_settings_or_another_ramp(tmp_path: Path) -> None:
+    # a run cut after its first blocks and resumed with other readings (QA bench 316: 64 blocks
+    # at 5 readings a row, the rest at 11, the record rewritten to say 11) or through a motor
+    # file with another ramp (wide blocks, then narrow ones) mixed both into one file, exit 0:
+    # the recorded blocks were the plan's under either. The record now holds the settings and
+    # the motor, and a resume that differs is refused naming what differs.
+    class Interrupted(Exception):
+        pass
+
+    class Flaky(SimRig):
+        reads = 0
+
+        def read_torque(self) -> float:
+            Flaky.reads += 1
+            if Flaky.reads == 300:
+                raise Interrupted
+            return super().read_torque()
+
+    base = _rig()
+    spec = base.motor_spec()
+    flaky = Flaky(base.motor, base.amplifier, base.settings, rng=0)
+    out = tmp_path / "cut.csv"
+    with pytest.raises(Interrupted):
+        collect_adaptive(flaky, spec, out, SETTINGS, fraction=0.9)
+    lines = out.read_text()
+    more = dataclasses.replace(SETTINGS, readings=8)
+    with pytest.raises(InputError, match=r"cut\.csv: cannot resume: .*readings \(this run 8"):
+        collect_adaptive(flaky, spec, out, more, fraction=0.9)
+    with pytest.raises(InputError, match=r"budget \(this run 0\.8, the file's 0\.9\)"):
+        collect_adaptive(flaky, spec, out, SETTINGS, fraction=0.8)
+    narrow = base.motor_spec(ramping="narrow")
+    with pytest.raises(InputError, match=r"cannot resume: .*motor ramp \(differs\)"):
+        collect_adaptive(flaky, narrow, out, SETTINGS, fraction=0.9)
+    assert out.read_text() == lines  # nothing written by the refused runs
+    resumed = collect_adaptive(flaky, spec, out, SETTINGS, fraction=0.9)
+    assert resumed.resumed_blocks > 0
+
+
+def test_a_grid_and_an_adaptive_collection_are_not_resumed_as_each_other(tmp_path: Path) -> None:
+    # QA bench 316: the grid's collection on an adaptive file read "two blocks for target
+    # position 136 (line 2654); was the file collected with other settings?", and the adaptive
+    # one on a grid file "without its record": each now names the other's record
+    from torquemap.linearize.collect import collect_characterisation
+
+    rig = _rig()
+    spec = rig.motor_spec()
+    adaptive = tmp_path / "a.csv"
+    collect_adaptive(rig, spec, adaptive, SETTINGS, fraction=0.9, row_readings=4)
+    with pytest.raises(InputError, match=r"a\.csv: cannot resume: the file is an adaptive collect"):
+        collect_characterisation(rig, spec, adaptive, SETTINGS)
+    grid = tmp_path / "g.csv"
+    collect_characterisation(rig, spec, grid, SETTINGS)
+    with pytest.raises(InputError, match=r"g\.csv.collect\.json is a grid collection's"):
+        collect_adaptive(rig, spec, grid, SETTINGS, fraction=0.9, row_readings=4)

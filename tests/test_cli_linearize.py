@@ -311,3 +311,92 @@ def test_a_verification_of_some_positions_says_so(
         if warned:
             assert f"read {len(range(0, N, 4))} of the {N} positions (one in 4 from 0)" in err
             assert "v.csv" in err
+
+
+def test_a_verification_is_evaluated_through_its_own_tables(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a verification run measures the tables it ran through; evaluated with other tables (a
+    # rebuild by the other method) evaluate printed the first tables' APMD under the second's
+    # name with exit 0 (QA on bench 305). Its record holds the digest of the tables it ran
+    # through, as the collection writes it: refused in one line naming the data file.
+    from torquemap.linearize.collect import read_tables_npz
+    from torquemap.linearize.motor import load_motor
+    from torquemap.linearize.resume import CollectionRecord, tables_digest, write_record
+
+    write_case(tmp_path)
+    d = str(tmp_path)
+    assert main(["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv", "-o", f"{d}/t.npz"]) == 0
+    build_paper = ["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv", "-o", f"{d}/p.npz"]
+    assert main([*build_paper, "--method", "paper"]) == 0
+    p, c = np.meshgrid(np.arange(N), np.arange(128), indexing="ij")
+    v = tmp_path / "v.csv"
+    write_table(v, {"position": p.ravel(), "command": c.ravel(), "torque": (c * 0.01).ravel()})
+    ran = read_tables_npz(tmp_path / "t.npz", load_motor(tmp_path / "motor.toml"))
+    stack = np.stack([ran[f"phase_{k + 1}"] for k in range(3)])
+    write_record(
+        v,
+        CollectionRecord(
+            kind="verification",
+            settings={},
+            motor={"tables_sha256": tables_digest(stack)},
+            done=((0, N * 128),),
+        ),
+    )
+    evaluate = ["linearize", "evaluate", f"{d}/motor.toml", f"{d}/v.csv", "--tables"]
+    capsys.readouterr()
+    assert main([*evaluate, f"{d}/t.npz"]) == 0
+    assert main([*evaluate, f"{d}/p.npz"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert f"{d}/v.csv: was collected through other tables than {d}/p.npz" in err
+    figures = ["linearize", "figures", f"{d}/motor.toml", f"{d}/data.csv", "-o", f"{d}/figs"]
+    assert main([*figures, "--tables", f"{d}/p.npz", "--verification", f"{d}/v.csv"]) == 2
+    assert "other tables than" in capsys.readouterr().err
+    # figures: a verification without its tables was dropped without a word
+    assert main([*figures, "--verification", f"{d}/v.csv"]) == 2
+    assert "v.csv: a verification run is drawn beside the tables" in capsys.readouterr().err
+    assert not (tmp_path / "figs").exists()
+
+
+def test_figures_refuse_tables_of_another_motor(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # tables for another motor were drawn beside this motor's data, exit 0 (QA: bench 328's
+    # tables with bench 305's files); evaluate and collect refused them already
+    write_case(tmp_path)
+    d = str(tmp_path)
+    assert main(["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv", "-o", f"{d}/t.npz"]) == 0
+    motor = (tmp_path / "motor.toml").read_text().replace("[8, 24, 40]", "[9, 25, 41]")
+    motor = motor.replace("8,\n    24,\n    40,", "9,\n    25,\n    41,")
+    (tmp_path / "other.toml").write_text(motor)
+    assert "9" in motor and "8" not in motor.split("equilibrium_positions")[1]
+    capsys.readouterr()
+    args = ["linearize", "figures", f"{d}/other.toml", f"{d}/data.csv", "--tables", f"{d}/t.npz"]
+    assert main([*args, "-o", f"{d}/figs"]) == 2
+    err = capsys.readouterr().err
+    assert f"{d}/t.npz: tables are for another motor" in err and err.count("\n") == 1
+    assert not (tmp_path / "figs").exists()
+
+
+def test_a_closed_stdout_pipe_ends_quietly(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # `torquemap linearize evaluate ... | head -1` closes the pipe before the report is printed:
+    # it said "torquemap: error: Broken pipe" with exit 2, as for bad input; a pipeline expects
+    # the silent end of a writer whose reader is gone (exit 128 + SIGPIPE)
+    import sys
+
+    write_case(tmp_path)
+    d = str(tmp_path)
+
+    class Closed:
+        def write(self, text: str) -> int:
+            raise BrokenPipeError(32, "Broken pipe")
+
+        def flush(self) -> None:
+            raise BrokenPipeError(32, "Broken pipe")
+
+    monkeypatch.setattr(sys, "stdout", Closed())
+    assert main(["linearize", "evaluate", f"{d}/motor.toml", f"{d}/data.csv"]) == 141
+    assert capsys.readouterr().err == ""

@@ -210,3 +210,67 @@ def test_transitions_option(tmp_path: Path, capsys: pytest.CaptureFixture[str]) 
     assert status == 0
     again = read_table(out / "c.csv")
     assert int(np.sum(np.asarray(again["pulse_width"]) == 0)) == wanted.size
+
+
+def test_verification_refuses_tables_in_other_units(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # tables built with --actuation-bits 6 hold entries 0 .. 63 for a 0 .. 255 amplifier: the
+    # verification applied them as pulse widths (QA bench 305: APMD 1475 %, exit 0), and 10-bit
+    # ones were refused as "values outside 0 .. 255"
+    from torquemap.linearize.export import save_tables
+    from torquemap.linearize.tables import build_tables
+
+    motor = _motor_file(tmp_path)
+    spec = load_motor(motor)
+    n = spec.positions_per_cycle
+    p, w = np.meshgrid(np.arange(0, n, 8), np.arange(0, 256, 16), indexing="ij")
+    tau = (2.0 + np.cos(2 * np.pi * 3 * p / n)) * (w / 255.0) ** 2
+    for bits in (6, 10):
+        tables = build_tables(spec, p.ravel(), w.ravel(), tau.ravel(), actuation_bits=bits)
+        save_tables(tmp_path / f"t{bits}.npz", tables)
+        out = tmp_path / f"after{bits}.csv"
+        argv = [
+            str(motor),
+            "-o",
+            str(out),
+            "--sim",
+            "bldc",
+            "--tables",
+            str(tmp_path / f"t{bits}.npz"),
+        ]
+        status, err = _collect([*argv, *FAST], capsys)
+        top = (1 << bits) - 1
+        assert status == 2 and err.count("\n") == 1
+        assert f"t{bits}.npz: table entries run 0 .. {top} (built with --actuation-bits)" in err
+        assert not out.exists()
+
+
+def test_data_is_read_with_the_motor_file_it_was_collected_with(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # DATA.csv's pulse widths were ramped through the motor file's ramp: built with the file
+    # edited from wide to narrow after the collection, the tables were 52 % APMD against 2 %
+    # with exit 0 (QA bench 316). The collection's record holds the ramp's digest.
+    motor = _motor_file(tmp_path)
+    data = tmp_path / "data.csv"
+    status, _ = _collect(
+        [str(motor), "-o", str(data), "--sim", "bldc", "--step", "64", *FAST], capsys
+    )
+    assert status == 0
+    text = motor.read_text()
+    assert 'ramping = "wide"' in text
+    narrow = tmp_path / "narrow.toml"
+    narrow.write_text(text.replace('ramping = "wide"', 'ramping = "narrow"'))
+    capsys.readouterr()
+    assert main(["linearize", "build", str(narrow), str(data), "-o", str(tmp_path / "t.npz")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert f"{data}: was collected with another motor file than {narrow} (another ramp" in err
+    assert not (tmp_path / "t.npz").exists()
+    # the same rows without their record (data from elsewhere): nothing to compare, read
+    from torquemap.linearize.resume import record_path
+    from torquemap.linearize.tables import read_data
+
+    record_path(data).unlink()
+    assert read_data(data, load_motor(narrow), kind="characterisation").position.size > 0

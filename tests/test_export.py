@@ -191,3 +191,21 @@ def test_load_refuses_corrupt_contents(tables: TableSet, tmp_path: Path) -> None
         np.savez_compressed(tmp_path / "scale.npz", **{**arrays, "torque_per_count": value})
         with pytest.raises(InputError, match=r"torque_per_count is .*not a positive number"):
             load_tables(tmp_path / "scale.npz")
+
+
+def test_load_names_a_missing_phase_table_or_equilibrium(tables: TableSet, tmp_path: Path) -> None:
+    # both were reported as "tables have shape (1, 512, 256), the metadata says (1, 512, 256)":
+    # a shape beside the same shape, naming neither the table nor the equilibria
+    f = tmp_path / "t.npz"
+    save_tables(f, tables)
+    arrays = dict(np.load(f))
+    gap = {k: v for k, v in arrays.items() if k != "phase_2"}
+    np.savez_compressed(tmp_path / "gap.npz", **gap)
+    with pytest.raises(
+        InputError, match=r"gap\.npz: tables file lacks 'phase_2' but holds phase_3"
+    ):
+        load_tables(tmp_path / "gap.npz")
+    two = {**arrays, "equilibrium_positions": arrays["equilibrium_positions"][:2]}
+    np.savez_compressed(tmp_path / "two.npz", **two)
+    with pytest.raises(InputError, match=r"two\.npz: tables hold 3 phase tables and 2 equilibrium"):
+        load_tables(tmp_path / "two.npz")

@@ -69,8 +69,14 @@ def test_dead_phase_and_wrong_motor_file_are_input_errors() -> None:
     dead = FreeMotorRig(
         _sine_motor(phase_gain=(1.0, 0.0, 1.0)), Amplifier(), friction=1.0, friction_spread=0.0
     )
-    with pytest.raises(InputError, match="phase 2 did not pull the motor"):
+    with pytest.raises(InputError, match="phase 2 did not pull the motor") as info:
         home_motor(dead, _spec())  # type: ignore[arg-type]
+    assert "pulse width" not in str(info.value)  # at full scale: the phase, not the width
+    # below the amplifier's dead band (20 of 255) no phase moves the motor: the message named
+    # only "a phase that produces no torque?" (QA: --pulse-width 3 on bench 323)
+    live = FreeMotorRig(_sine_motor(), Amplifier(), friction=1.0, friction_spread=0.0)
+    with pytest.raises(InputError, match=r"Or a pulse width \(3\) too small to move it"):
+        home_motor(live, _spec(), pulse_width=3)  # type: ignore[arg-type]
     rig = FreeMotorRig(_sine_motor(), Amplifier(), friction=1.0, friction_spread=0.0)
     with pytest.raises(InputError, match="another motor"):
         home_motor(rig, _spec((213, 300, 43)))  # type: ignore[arg-type]
@@ -117,6 +123,17 @@ def test_cli_home_random_bench(tmp_path: Path, capsys: pytest.CaptureFixture[str
     assert main(["linearize", "home", str(path), "--random", str(other)]) == 2
     err = capsys.readouterr().err
     assert f"random motor {other} has" in err and str(path) in err and err.count("\n") == 1
+    # a bench of the same shape: homed to this file's equilibria, exit 0 (QA: bench 304's file
+    # with --random 321, equilibria 1 to 2 positions apart)
+    shape = (spec.phases, spec.positions_per_cycle)
+    twin = next(
+        s
+        for s in range(seed + 1, 300)
+        if (random_bench(s).rig.phases, random_bench(s).rig.positions_per_cycle) == shape
+    )
+    assert main(["linearize", "home", str(path), "--random", str(twin)]) == 2
+    err = capsys.readouterr().err
+    assert f"the motor file is 'random-{seed}'" in err and err.count("\n") == 1
 
 
 def test_cli_home_refuses_tables_of_another_motor(

@@ -10,7 +10,14 @@ import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
 from torquemap.errors import InputError
-from torquemap.io import atomic_output, read_log, read_table, write_table, write_toml
+from torquemap.io import (
+    atomic_output,
+    numeric_column,
+    read_log,
+    read_table,
+    write_table,
+    write_toml,
+)
 from torquemap.robot import Joint, Robot, read_toml
 
 ROBOT = Robot(
@@ -136,6 +143,17 @@ def test_bad_csv_log(tmp_path: Path, text: str, message: str) -> None:
     with pytest.raises(InputError, match=message) as info:
         read_log(p, ROBOT)
     assert str(info.value).startswith(f"{p}: ")  # names the file
+
+
+def test_a_bad_cell_deep_in_a_csv_column_is_named_not_the_first(tmp_path: Path) -> None:
+    # one word among numbers: the CSV reader types the whole column as text, and the message
+    # named data row 1 and its (good) number; it must name the cell that is not a number
+    rows = [f"{k},{k},{0.25 * k}" for k in range(8)]
+    rows[5] = "5,5,abc"
+    p = tmp_path / "d.csv"
+    p.write_text("position,pulse_width,torque\n" + "\n".join(rows) + "\n")
+    with pytest.raises(InputError, match=r"'torque' is not numeric \(data row 6: 'abc'\)"):
+        numeric_column(read_table(p), "torque", p)
 
 
 def test_csv_cut_mid_line(tmp_path: Path) -> None:

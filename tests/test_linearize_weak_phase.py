@@ -36,7 +36,7 @@ def _rows(
     [
         ((1.0, 1.0, 1.0, 1.0), None),
         ((1.0, 0.85, 1.15, 1.0), None),  # the simulated family's spread of gains
-        ((1.0, 1.0, 0.2, 1.0), 2),  # a failing phase: a fifth of its peak torque
+        ((1.0, 1.0, 0.2, 1.0), 3),  # a failing phase: a fifth of its peak torque
     ],
 )
 def test_a_weak_phase_is_named(scale: tuple[float, ...], weak: int | None) -> None:
@@ -46,7 +46,10 @@ def test_a_weak_phase_is_named(scale: tuple[float, ...], weak: int | None) -> No
     if weak is None:
         assert lines == []
         return
+    # phases are numbered from 1, as in phase_1 .. phase_m and every other message (the third
+    # was named "phase 2", beside the strongest "phase 0")
     assert len(lines) == 1 and lines[0].startswith(f"phase {weak} reaches")
+    assert "of phase 0's" not in lines[0]
     # the peak of a phase is (A - 20)^2 / A^2 times its gain: 0.2 of the others'
     share = float(lines[0].split("(")[1].split("%")[0]) / 100.0
     assert abs(share - 0.2) < 0.02 and share < WEAK_PHASE

@@ -91,6 +91,12 @@ def test_simulate_rig_random_and_collect_on_it(
     printed = capsys.readouterr().out
     bench = random_bench(3)
     assert bench.describe() in printed
+    # --ramping overrides the draw: the printed line says the ramp collected, not the draw's
+    other = "narrow" if bench.ramping == "wide" else "wide"
+    again = ["simulate", "rig", "--random", "3", "--out", str(tmp_path / "b2"), *fast]
+    assert main([*again, "--ramping", other]) == 0
+    assert f"{other} ramp" in capsys.readouterr().out
+    assert load_motor(tmp_path / "b2" / "motor.toml").ramping == other
     spec = load_motor(out / "motor.toml")
     assert spec.phases == bench.rig.phases
     assert spec.positions_per_cycle == bench.rig.positions_per_cycle
@@ -104,6 +110,18 @@ def test_simulate_rig_random_and_collect_on_it(
     status = main([*argv, "--random", str(other), "--no-progress"])
     err = capsys.readouterr().err
     assert status == 2 and f"random motor {other} has" in err and err.count("\n") == 1
+    # and one of the same shape (phases, positions, full scale) too: it was collected
+    # under this file, exit 0 (QA: bench 304's file with --random 321)
+    shape = (bench.rig.phases, bench.rig.positions_per_cycle)
+    twin = next(
+        s
+        for s in range(4, 200)
+        if (random_bench(s).rig.phases, random_bench(s).rig.positions_per_cycle) == shape
+    )
+    status = main([*argv, "--random", str(twin), "--no-progress"])
+    err = capsys.readouterr().err
+    assert status == 2 and err.count("\n") == 1
+    assert f"the motor file is 'random-3' (simulate rig --random 3); the random motor {twin}" in err
 
 
 def test_simulate_rig_random_paper_settings_on_a_dense_draw(

@@ -116,6 +116,76 @@ def test_cli_transfer_and_bad_input(
         )
 
 
+def test_a_handful_that_leaves_a_phase_unmeasured_is_refused(
+    joints: dict[str, object], capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a handful inside one phase's region (QA: the first 11 rows of a sibling's handful, at
+    # positions 0 to 37 of 192) never sees phase 2: its least-squares gain was 0.000 and the
+    # transferred rows had no torque where phase 2 leads, exit 0 (build then blamed them)
+    few: LinearizeData = joints["few"]  # type: ignore[assignment]
+    spec2 = joints["spec2"]
+    n = spec2.positions_per_cycle  # type: ignore[attr-defined]
+    keep = few.position < n // 6  # the first sixth: phase 1's single-phase region and below
+    assert np.unique(few.position[keep]).size >= 2
+    part = dataclasses.replace(
+        few, position=few.position[keep], level=few.level[keep], torque=few.torque[keep]
+    )
+    with pytest.raises(
+        InputError, match=r"few\.csv: the handful measures no position where phase 2"
+    ):
+        transfer_characterisation(
+            joints["spec1"],  # type: ignore[arg-type]
+            joints["data1"],  # type: ignore[arg-type]
+            spec2,  # type: ignore[arg-type]
+            part,
+        )
+
+
+def test_a_handful_no_scaling_predicts_is_warned(joints: dict[str, object]) -> None:
+    # a second motor of the same shape but not of the first's type (QA: bench 328's handful on
+    # bench 321's characterisation, both VR 3 x 128): phase gains 3.2, held-out error 41.7 %,
+    # transferred tables at 82.5 % APMD against 1.14 % for its own, exit 0 and no word
+    first: SimRig = joints["first"]  # type: ignore[assignment]
+    data1: LinearizeData = joints["data1"]  # type: ignore[assignment]
+    tmp: Path = joints["tmp"]  # type: ignore[assignment]
+    motor = dataclasses.replace(
+        first.motor, second_harmonic=-0.25, saturation_current=3.0, mutual_saturation=0.4
+    )
+    other = sim_rig("vr", rng=3, motor=motor)
+    spec = other.motor_spec()
+    collect_characterisation(
+        other, spec, tmp / "other.csv", Settings(position_step=43, level_step=32, progress=False)
+    )
+    few = read_data(tmp / "other.csv", spec, kind="characterisation")
+    r = transfer_characterisation(joints["spec1"], data1, spec, few)  # type: ignore[arg-type]
+    lines = [w for w in r.warnings if w.startswith("no scaling of the first joint's")]
+    assert len(lines) == 1 and "characterise it in full" in lines[0]
+    # and the warning is right: the transferred rows are far from that joint's true torque
+    truth = _sensed(other, data1, spec.ramp)
+    ok = truth > 0.1 * truth.max()
+    assert np.mean(np.abs(r.torque - truth)[ok] / truth[ok]) > 0.10
+    # a joint of the first's type (the fixture's: gains and a wider dead band) is not warned
+    same: TransferResult = joints["result"]  # type: ignore[assignment]
+    assert not [w for w in same.warnings if w.startswith("no scaling")]
+
+
+def test_motor_files_with_other_ramps_are_refused(joints: dict[str, object]) -> None:
+    # the transferred rows are the first joint's base pulse widths through its ramp; under a
+    # second motor file with another ramp they built tables at 86.9 % APMD (QA bench 305: first
+    # narrow, SECOND.toml wide), with exit 0
+    spec1 = joints["spec1"]
+    other = "narrow" if spec1.ramping == "wide" else "wide"  # type: ignore[attr-defined]
+    second: SimRig = joints["second"]  # type: ignore[assignment]
+    spec2 = second.motor_spec(ramping=other)  # type: ignore[arg-type]
+    with pytest.raises(InputError, match=rf"ramp \({other}\) is not the first's"):
+        transfer_characterisation(
+            spec1,  # type: ignore[arg-type]
+            joints["data1"],  # type: ignore[arg-type]
+            spec2,
+            joints["few"],  # type: ignore[arg-type]
+        )
+
+
 def test_the_handful_chooses_to_transfer_where_the_transfer_helps(
     joints: dict[str, object],
 ) -> None:

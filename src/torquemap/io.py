@@ -302,6 +302,17 @@ def _is_number(value: object) -> bool:
     )
 
 
+def _is_number_text(value: object) -> bool:
+    """Whether ``value`` is text that reads as a number (``'-0.03'``, ``' 12 '``)."""
+    if not isinstance(value, str):
+        return False
+    try:
+        float(value)
+    except ValueError:
+        return False
+    return True
+
+
 def near_miss(name: str, present: Sequence[str]) -> str | None:
     """The column of ``present`` that is ``name`` but for case, spaces or a unit, else None."""
     for c in present:
@@ -381,8 +392,11 @@ def numeric_column(
                     path=path,
                 )
         bad_items = [k for k, v in enumerate(raw.ravel()) if not _is_number(v)]
+        # a CSV column with one bad cell is read as text throughout: name the first cell that
+        # is not a number written as text, not the first cell
+        text_bad = [k for k in bad_items if not _is_number_text(raw.ravel()[k])]
         if bad_items:
-            row = bad_items[0]
+            row = (text_bad or bad_items)[0]
             raise InputError(
                 f"column {name!r} is not numeric (data row {first_row + row + 1}: {raw.ravel()[row]!r})",
                 path=path,

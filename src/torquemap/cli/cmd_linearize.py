@@ -31,13 +31,24 @@ def _bias_weight(given: float | None, data: str) -> float:
     """``--bias-weight`` as given, else the collection record's bias readings over its readings
     per row (the record ``DATA.csv.collect.json`` beside the data), else the collection's
     default ratio."""
-    from torquemap.errors import InputError
-    from torquemap.linearize.adaptive import adaptive_record_path
     from torquemap.linearize.collect import BIAS_READINGS_FACTOR
-    from torquemap.linearize.resume import read_record
 
     if given is not None:
         return given
+    settings = _record_settings(data)
+    try:
+        weight = float(settings["bias_readings"]) / float(settings["readings"])
+    except (KeyError, TypeError, ValueError, ZeroDivisionError):
+        return float(BIAS_READINGS_FACTOR)
+    return weight if math.isfinite(weight) and weight >= 0 else float(BIAS_READINGS_FACTOR)
+
+
+def _record_settings(data: str) -> dict[str, Any]:
+    """The settings of the collection record beside ``data`` (the grid's
+    ``DATA.csv.collect.json`` or the adaptive ``DATA.csv.adaptive.json``), {} without one."""
+    from torquemap.errors import InputError
+    from torquemap.linearize.resume import adaptive_record_path, read_record
+
     settings: dict[str, Any] = {}
     try:
         record = read_record(data)
@@ -51,11 +62,7 @@ def _bias_weight(given: float | None, data: str) -> float:
             settings = dict(raw) if isinstance(raw, dict) else {}
         except (OSError, ValueError):
             settings = {}
-    try:
-        weight = float(settings["bias_readings"]) / float(settings["readings"])
-    except (KeyError, TypeError, ValueError, ZeroDivisionError):
-        return float(BIAS_READINGS_FACTOR)
-    return weight if math.isfinite(weight) and weight >= 0 else float(BIAS_READINGS_FACTOR)
+    return settings
 
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
@@ -224,6 +231,7 @@ def _build(args: argparse.Namespace) -> int:
             log_curvature=args.log_curvature,
             actuation_bits=args.actuation_bits,
             bias=data.bias,
+            bias_open=_record_settings(args.data).get("bias_open") is True,
             path=args.data,
         ),
     )
@@ -296,6 +304,8 @@ def _verification_bias_advice(data: Any, positions_per_cycle: int, path: str) ->
 
     if data.bias is None or data.position.size < 2:
         return ""
+    if _record_settings(path).get("bias_open") is True:
+        return ""  # read on an open contact, which holds no load at rest
     check = check_bias(
         data.position,
         data.level,

@@ -137,12 +137,16 @@ def settings_from(
 
 def _collect(args: argparse.Namespace) -> int:
     from torquemap.cli.outputs import CSV, check_outputs
+    from torquemap.errors import InputError
     from torquemap.linearize.motor import load_motor
 
     check_outputs([(args.out, CSV)], [args.motor, args.tables])  # DATA.csv itself: resumed
     from torquemap.sim.rig import collect_on_sim
 
     output_suffix(args.out, (".csv",), "data")
+    if args.budget is not None and not args.adaptive:
+        # a grid collection spends no budget: it collected the whole grid without a word
+        raise InputError("--budget is the adaptive collection's: add --adaptive, or drop it")
     spec = load_motor(args.motor)
     if args.adaptive:
         from torquemap.cli.cmd_linearize_more import collect_adaptive_command

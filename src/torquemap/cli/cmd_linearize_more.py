@@ -179,7 +179,7 @@ def add_adaptive_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--budget",
         type=float,
-        default=1.0 / 3.0,
+        default=None,
         help="adaptive: fraction of the settings' grid's readings to spend (default 1/3)",
     )
 
@@ -203,7 +203,8 @@ def collect_adaptive_command(args: argparse.Namespace, spec: Any, settings: Any)
         rig = sim_rig(args.sim, rng=args.seed)
         what = f"simulated {args.sim} motor"
     check_rig_fits(rig, spec, what)
-    result = collect_adaptive(rig, spec, args.out, settings, fraction=args.budget)
+    fraction = 1.0 / 3.0 if args.budget is None else args.budget
+    result = collect_adaptive(rig, spec, args.out, settings, fraction=fraction)
     resumed = f", resumed after {result.resumed_blocks} blocks" if result.resumed_blocks else ""
     print(
         f"wrote {result.rows} rows ({result.blocks} blocks at {result.positions} positions, "

@@ -52,6 +52,8 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
 
 
 def _rig(args: argparse.Namespace) -> int:
+    import dataclasses
+
     from torquemap.sim.family import random_bench
     from torquemap.sim.rig import write_rig_data, write_rig_folder
 
@@ -67,6 +69,8 @@ def _rig(args: argparse.Namespace) -> int:
         )
     else:
         bench = random_bench(args.random, noise_seed=args.seed)
+        if args.ramping:  # the line below describes the bench as collected
+            bench = dataclasses.replace(bench, ramping=args.ramping)
         result = write_rig_folder(
             args.out,
             bench.rig,

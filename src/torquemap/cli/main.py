@@ -129,11 +129,27 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("torquemap: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        # the reader of stdout closed it (``torquemap ... | head``): stop quietly, as a pipeline
+        # expects, and keep Python's flush at exit from failing on the same pipe again
+        _silence_stdout()
+        return 128 + 13  # SIGPIPE's status
     except OSError as exc:
         where = f"{exc.filename}: " if exc.filename else ""
         print(f"torquemap: error: {one_line(f'{where}{exc.strerror or exc}')}", file=sys.stderr)
         return 2
     return status
+
+
+def _silence_stdout() -> None:
+    """Point stdout at the null device (its pipe is gone)."""
+    import os
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):
+        pass  # stdout replaced (tests) or without a descriptor
 
 
 if __name__ == "__main__":  # pragma: no cover

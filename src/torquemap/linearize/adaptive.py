@@ -27,7 +27,9 @@ bias subtracted from it in the ``bias`` column. DATA.csv has the usual format
 low-rank denoising, which completes the levels a block skipped) reads it unchanged.
 
 Resuming: a record ``DATA.csv.adaptive.json`` lists the blocks done as (target position, pulse
-widths, rows) and whether the bias was read on an open contact. The plan is a function of the
+widths, rows), the run's settings (readings, budget, grid, where the bias is read) and the motor
+(phases, cycle, actuation range, a digest of the ramp); a run whose settings or motor differ
+from the record's is refused, naming each difference. The plan is a function of the
 data alone, so a rerun re-plans from the rows kept and continues with the first block not done;
 a block cut short is measured again. An older file of three columns (without ``bias``) is
 resumed in its own format; a run whose ``bias_open`` differs from the record's is refused.
@@ -61,6 +63,14 @@ from torquemap.linearize.collect import (
 )
 from torquemap.linearize.denoise import denoise_blocks
 from torquemap.linearize.motor import MotorSpec, ramped_actuation
+from torquemap.linearize.resume import (
+    adaptive_record_path,
+    differences,
+    motor_identity,
+)
+from torquemap.linearize.resume import (
+    record_path as grid_record_path,
+)
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -287,15 +297,32 @@ def position_scores(
 
 
 def _read_state(
-    path: Path, record_path: Path, top: int, bias_open: bool
+    path: Path,
+    record_path: Path,
+    top: int,
+    bias_open: bool,
+    plan: dict[str, object] | None = None,
+    motor: dict[str, object] | None = None,
 ) -> tuple[list[str], list[tuple[int, list[int], int]], bool]:
     """The data lines the record lists, the blocks done and whether the file has the ``bias``
-    column (an older file of three columns keeps its format; a new or empty one gets it)."""
+    column (an older file of three columns keeps its format; a new or empty one gets it).
+
+    A record that holds the run's ``settings`` and ``motor`` (:func:`motor_identity`) must
+    match ``plan`` and ``motor``: blocks planned from other settings (readings a row, budget,
+    grid) or measured through another ramp would be mixed into one file. Older records hold
+    ``bias_open`` alone, which is compared."""
     lines, has_bias = parse_data_rows(path, CHARACTERISATION_COLUMNS, list(range(top + 1)))
     if not record_path.exists():
         if lines:
+            grid = grid_record_path(path)
             raise InputError(
-                f"cannot resume an adaptive collection without its record {record_path.name}",
+                f"cannot resume an adaptive collection without its record {record_path.name}"
+                + (
+                    f" (its record {grid.name} is a grid collection's: resume it without "
+                    "--adaptive)"
+                    if grid.exists()
+                    else ""
+                ),
                 path=path,
             )
         return [], [], True
@@ -303,6 +330,7 @@ def _read_state(
         record = json.loads(record_path.read_text())
         blocks = [(int(t), [int(v) for v in lv], int(c)) for t, lv, c in record["blocks"]]
         opened = record.get("bias_open", False)  # older records: the bias was read at rest
+        theirs = (dict(record["settings"]), dict(record["motor"])) if "settings" in record else None
     except (ValueError, KeyError, TypeError, AttributeError) as exc:
         raise InputError(f"unreadable adaptive record ({exc})", path=record_path) from None
     if opened != bias_open:
@@ -312,6 +340,15 @@ def _read_state(
             f"{where[bias_open]} (use the file's --bias-open setting, or another output file)",
             path=path,
         )
+    if theirs is not None and plan is not None and motor is not None:
+        problems = differences(plan, theirs[0], "") + differences(motor, theirs[1], "motor ")
+        if problems:
+            raise InputError(
+                "cannot resume: this run's settings differ from the file's: "
+                + "; ".join(problems)
+                + " (use the file's settings, or another output file)",
+                path=path,
+            )
     total = sum(c for _, _, c in blocks)
     if total > len(lines):
         raise InputError(
@@ -319,12 +356,6 @@ def _read_state(
             path=path,
         )
     return lines[:total], blocks, has_bias or total == 0
-
-
-def adaptive_record_path(path: str | os.PathLike[str]) -> Path:
-    """``DATA.csv`` -> ``DATA.csv.adaptive.json``, the adaptive collection's record."""
-    p = Path(path)
-    return p.with_name(p.name + ".adaptive.json")
 
 
 def collect_adaptive(
@@ -416,12 +447,34 @@ def collect_adaptive(
         level_step=grid.level_step,
         progress=False,
     )
+    coarse_cost = len(coarse_targets) * (len(coarse_levels) * s.readings + s.bias_count)
+    if coarse_cost > budget:
+        raise InputError(
+            f"a budget of {budget} readings does not cover the coarse pass ({coarse_cost}: "
+            f"{len(coarse_targets)} positions x {len(coarse_levels)} pulse widths); raise "
+            "the budget or the settings' steps"
+        )
     open_contact = bias_opener(rig, s)
     path = Path(out_csv)
     if not path.parent.exists():
         raise InputError("output folder does not exist", path=path.parent)
     record_path = adaptive_record_path(path)
-    kept_lines, done, has_bias = _read_state(path, record_path, top, s.bias_open)
+    # what the plan and the rows depend on, compared on resume
+    plan: dict[str, object] = {
+        "readings": grid.readings,
+        "bias_readings": grid.bias_count,
+        "bias_open": grid.bias_open,
+        "position_step": grid.position_step,
+        "level_step": grid.level_step,
+        "budget": fraction,
+        "tolerance": tolerance,
+        "row_readings": per_row,
+        "coarse_level_step": coarse_level_step or 2 * grid.level_step,
+        "coarse_position_factor": coarse_position_factor,
+        "refine": refine,
+    }
+    motor = motor_identity(spec)
+    kept_lines, done, has_bias = _read_state(path, record_path, top, s.bias_open, plan, motor)
     rows = [(int(p), int(lv), float(t)) for p, lv, t, *_ in (x.split(",") for x in kept_lines)]
     resumed = len(done)
     with atomic_output(path) as tmp:
@@ -454,6 +507,8 @@ def collect_adaptive(
                         "bias_open": s.bias_open,
                         "readings": s.readings,  # linearize build's bias weight
                         "bias_readings": s.bias_count,
+                        "settings": plan,
+                        "motor": motor,
                     }
                 )
             )
@@ -489,13 +544,6 @@ def collect_adaptive(
         save_record()
 
     try:
-        coarse_cost = len(coarse_targets) * (len(coarse_levels) * s.readings + s.bias_count)
-        if coarse_cost > budget:
-            raise InputError(
-                f"a budget of {budget} readings does not cover the coarse pass ({coarse_cost}: "
-                f"{len(coarse_targets)} positions x {len(coarse_levels)} pulse widths); raise "
-                "the budget or the settings' steps"
-            )
         for t in coarse_targets:
             measure(int(t), coarse_levels)
         targets, table = _blocks_matrix(*known())

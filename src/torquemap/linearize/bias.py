@@ -124,9 +124,26 @@ class BiasCheck:
         out: NDArray[np.float64] = np.where(self.loaded, self.bias - self.drift, 0.0)
         return out
 
-    def advice(self, *, restored: bool) -> str:
-        """One line for the user: what the bias holds and what to do."""
+    def advice(self, *, restored: bool, bias_open: bool = False) -> str:
+        """One line for the user: what the bias holds and what to do.
+
+        ``bias_open``: the collection read the bias on an open contact (its record says so),
+        which holds no load: what lies above the drift is the sensor's bias changing faster
+        than the drift follows, or a contact that did not open, and reading it open again is
+        no remedy.
+        """
         load = self.load()
+        if bias_open:
+            return (
+                f"the bias read on an open contact varies over the cycle beyond its noise "
+                f"(chi-square {self.chi_square:.3g} for {self.dof} degrees of freedom beside a "
+                f"smooth drift of {self.harmonics} harmonic(s); standard error "
+                f"{self.standard_error:.3g} N m): at {int(self.loaded.sum())} of "
+                f"{self.loaded.size} positions it lies up to {float(load.max(initial=0.0)):.3g} "
+                "N m above the drift, which an open contact does not load: the sensor's bias "
+                "changes faster than the drift follows, or the contact did not open"
+                + ("; those positions' rows re-zeroed on the drift" if restored else "")
+            )
         what = (
             f"the bias read at rest varies over the cycle beyond its noise (chi-square "
             f"{self.chi_square:.3g} for {self.dof} degrees of freedom beside a smooth drift of "

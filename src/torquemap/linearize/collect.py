@@ -48,6 +48,7 @@ from torquemap.io import atomic_output
 from torquemap.linearize.motor import MotorSpec, ramped_actuation
 from torquemap.linearize.resume import (
     CollectionRecord,
+    adaptive_record_path,
     collection_lock,
     differences,
     motor_identity,
@@ -402,6 +403,12 @@ def _resume_state(
     if old is None:
         if not rows:
             return [], (), True
+        if adaptive_record_path(path).exists():
+            raise InputError(
+                f"cannot resume: the file is an adaptive collection (its record "
+                f"{adaptive_record_path(path).name}): resume it with --adaptive",
+                path=path,
+            )
         done = _infer_done(path, rows, targets, n)
     else:
         problems = []
@@ -762,7 +769,8 @@ def read_tables_npz(path: str | os.PathLike[str], spec: MotorSpec) -> dict[str, 
     InputError
         On a missing or unreadable file, a missing table, a wrong shape, entries that are
         not integers in ``0 .. actuation_max``, or tables of ``linearize build`` (with their
-        metadata) built for another motor (:func:`torquemap.linearize.metrics.check_tables_fit`).
+        metadata) built for another motor (:func:`torquemap.linearize.metrics.check_tables_fit`)
+        or with entries in other units than the motor's pulse widths (``actuation_bits``).
     """
     from torquemap.linearize.export import load_tables, read_npz_arrays
     from torquemap.linearize.metrics import check_tables_fit
@@ -770,7 +778,17 @@ def read_tables_npz(path: str | os.PathLike[str], spec: MotorSpec) -> dict[str, 
     p = os.fspath(path)
     tables = read_npz_arrays(p)
     if "motor_name" in tables:  # a TABLES.npz of `linearize build`: for this motor?
-        check_tables_fit(spec, load_tables(p), path=p)
+        built = load_tables(p)
+        check_tables_fit(spec, built, path=p)
+        if built.actuation_max != spec.actuation_max:
+            # entries rescaled to 2**bits - 1 (build --actuation-bits) are not pulse widths:
+            # applied as such, 6-bit tables drove the motor at a quarter scale (APMD 1475 %)
+            raise InputError(
+                f"table entries run 0 .. {built.actuation_max} (built with --actuation-bits), "
+                f"the motor's pulse widths 0 .. {spec.actuation_max}: the verification applies "
+                "entries as pulse widths; verify the tables built without --actuation-bits",
+                path=p,
+            )
     try:
         stack = _phase_tables(spec, tables)
     except InputError as exc:

@@ -153,6 +153,13 @@ def load_tables(path: str | os.PathLike[str]) -> TableSet:
     m = 0
     while f"phase_{m + 1}" in data:
         m += 1
+    names = sorted(k for k in data if k.startswith("phase_") and k[6:].isdigit())
+    stray = [k for k in names if int(k[6:]) > m]
+    if stray:
+        raise InputError(
+            f"tables file lacks 'phase_{m + 1}' but holds {', '.join(stray)}: corrupt tables?",
+            path=p,
+        )
     try:
         top = int(data["actuation_max"])
     except (TypeError, ValueError) as exc:
@@ -190,7 +197,13 @@ def load_tables(path: str | os.PathLike[str]) -> TableSet:
     except (TypeError, ValueError) as exc:
         raise InputError(f"tables file has malformed contents ({exc})", path=p) from None
     shape = (m, tables.positions_per_cycle, 1 << tables.command_bits)
-    if tables.phases.shape != shape or len(tables.equilibrium_positions) != m:
+    if len(tables.equilibrium_positions) != m:
+        raise InputError(
+            f"tables hold {m} phase tables and {len(tables.equilibrium_positions)} equilibrium "
+            "positions, one a phase: corrupt tables?",
+            path=p,
+        )
+    if tables.phases.shape != shape:
         raise InputError(
             f"tables have shape {tables.phases.shape}, the metadata says {shape}", path=p
         )

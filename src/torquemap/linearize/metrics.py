@@ -280,7 +280,9 @@ def evaluate_linearity(
     Raises
     ------
     InputError
-        If the tables do not fit the motor, or the data cannot be evaluated.
+        If the tables do not fit the motor, are not those a verification run's record says it
+        ran through (:func:`torquemap.linearize.resume.check_collected_through`), or the data
+        cannot be evaluated.
     """
     try:
         if tables is None:
@@ -292,6 +294,10 @@ def evaluate_linearity(
                 positions_per_cycle=spec.positions_per_cycle,
             )
         check_tables_fit(spec, tables, path=tables_path)
+        if data.path is not None:
+            from torquemap.linearize.resume import check_collected_through
+
+            check_collected_through(data.path, tables.phases, tables_path)
         return apmd_report(
             data.position,
             data.level,

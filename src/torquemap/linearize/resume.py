@@ -41,6 +41,13 @@ def record_path(path: str | os.PathLike[str]) -> Path:
     return p.with_name(p.name + RECORD_SUFFIX)
 
 
+def adaptive_record_path(path: str | os.PathLike[str]) -> Path:
+    """``DATA.csv`` -> ``DATA.csv.adaptive.json``, the adaptive collection's record
+    (:mod:`torquemap.linearize.adaptive`)."""
+    p = Path(path)
+    return p.with_name(p.name + ".adaptive.json")
+
+
 def lock_path(path: str | os.PathLike[str]) -> Path:
     """``DATA.csv`` -> ``DATA.csv.lock``."""
     p = Path(path)
@@ -216,3 +223,92 @@ def differences(ours: Mapping[str, Any], theirs: Mapping[str, Any], what: str) -
             else:
                 out.append(f"{what}{key} (this run {a!r}, the file's {b!r})")
     return out
+
+
+def check_collected_through(
+    data_path: str | os.PathLike[str],
+    stack: NDArray[np.int64],
+    tables_path: str | os.PathLike[str] | None = None,
+) -> None:
+    """Refuse tables other than those the verification run ``data_path`` was collected through.
+
+    The record beside a verification run holds the digest of its tables
+    (:func:`tables_digest`); rows measured through one set of tables say nothing about
+    another. Silent when there is no readable record (data from elsewhere, an older run).
+
+    Raises
+    ------
+    InputError
+        Naming the data file, when its record holds another digest than ``stack``'s.
+    """
+    try:
+        record = read_record(data_path)
+    except InputError:
+        return  # an unreadable record is resume's business, not the evaluation's
+    if record is None or record.kind != "verification":
+        return
+    digest = record.motor.get("tables_sha256")
+    if digest is None or digest == tables_digest(stack):
+        return
+    given = "the tables given" if tables_path is None else os.fspath(tables_path)
+    raise InputError(
+        f"was collected through other tables than {given} (its record "
+        f"{record_path(data_path).name} holds another digest): evaluate it with the tables it "
+        "ran through",
+        path=data_path,
+    )
+
+
+#: What of the motor file the rows depend on, by kind of data: a characterisation's pulse widths
+#: were ramped through the file's ramp; a verification's commands span its command bits.
+_ROWS_DEPEND_ON = {
+    "characterisation": ("phases", "positions_per_cycle", "actuation_max", "ramp_sha256"),
+    "verification": ("phases", "positions_per_cycle", "actuation_max", "command_bits"),
+}
+
+
+def check_collected_for(data_path: str | os.PathLike[str], spec: MotorSpec, kind: str) -> None:
+    """Refuse a motor file other than the one data ``data_path`` was collected with.
+
+    The collection's record beside the data (``DATA.csv.collect.json``, or an adaptive run's
+    ``DATA.csv.adaptive.json`` that holds its motor) names the motor it ran on
+    (:func:`motor_identity`). A characterisation's rows hold base pulse widths ramped through
+    the file's ramp: built with another ramp (the file edited from wide to narrow after the
+    collection), the tables were 52 % APMD instead of 2 % with exit 0 (QA bench 316). Silent
+    when there is no readable record or it holds no motor (data from elsewhere, older runs).
+
+    Raises
+    ------
+    InputError
+        Naming the data file and every difference.
+    """
+    theirs: Mapping[str, Any] | None = None
+    try:
+        record = read_record(data_path)
+    except InputError:
+        record = None
+    if record is not None:
+        theirs = record.motor if record.kind == kind else None
+    elif kind == "characterisation":
+        try:
+            raw = json.loads(adaptive_record_path(data_path).read_text())
+            theirs = raw.get("motor") if isinstance(raw, dict) else None
+        except (OSError, ValueError):
+            theirs = None
+    if not isinstance(theirs, Mapping):
+        return
+    ours = motor_identity(spec)
+    problems = [
+        "another ramp"
+        if key == "ramp_sha256"
+        else f"{key.replace('_', ' ')} {ours[key]} (the record: {theirs[key]})"
+        for key in _ROWS_DEPEND_ON.get(kind, ())
+        if key in theirs and ours[key] != theirs[key]
+    ]
+    if problems:
+        named = "this one" if spec.path is None else os.fspath(spec.path)
+        raise InputError(
+            f"was collected with another motor file than {named} ({'; '.join(problems)}, its "
+            "record says): use the motor file it was collected with",
+            path=data_path,
+        )

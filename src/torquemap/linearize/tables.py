@@ -48,6 +48,7 @@ from torquemap.linearize.handover import check_handover, fill_handover
 from torquemap.linearize.knee import check_uncensored, uncensored_residual
 from torquemap.linearize.motor import MotorSpec
 from torquemap.linearize.onset import extend_below, fit_onset
+from torquemap.linearize.resume import check_collected_for
 from torquemap.linearize.sampling import (
     MATTERS,
     check_position_sampling,
@@ -239,10 +240,12 @@ def read_data(path: str | os.PathLike[str], spec: MotorSpec, *, kind: DataKind) 
     ------
     InputError
         On a missing file or column, NaN, non-integer or out-of-range positions and levels, a
-        ``bias`` column that holds anything but finite numbers.
+        ``bias`` column that holds anything but finite numbers, or a collection record beside
+        the file that names another motor (:func:`torquemap.linearize.resume.check_collected_for`).
     """
     p = os.fspath(path)
     columns = read_table(p)
+    check_collected_for(p, spec, kind)
     n = spec.positions_per_cycle
     position = _integer_column(columns, "position", p, 0, n - 1)
     if kind == "characterisation":
@@ -924,7 +927,7 @@ def weak_phase_advice(reach: NDArray[np.float64], ramp: NDArray[np.float64]) -> 
 
     >>> ramp = np.repeat(np.eye(3), 4, axis=0)  # 12 positions, one phase each in turn
     >>> weak_phase_advice(np.r_[np.full(4, 2.0), np.full(4, 0.4), np.full(4, 2.1)], ramp)[:36]
-    'phase 1 reaches 0.4 N m at most (19%'
+    'phase 2 reaches 0.4 N m at most (19%'
     """
     if ramp.ndim != 2 or ramp.shape[1] < 2 or ramp.shape[0] != reach.size:
         return ""
@@ -942,10 +945,41 @@ def weak_phase_advice(reach: NDArray[np.float64], ramp: NDArray[np.float64]) -> 
     if not peaks[low] < WEAK_PHASE * peaks[strong]:
         return ""
     return (
-        f"phase {low} reaches {peaks[low]:.3g} N m at most ({peaks[low] / peaks[strong]:.0%} of "
-        f"phase {strong}'s {peaks[strong]:.3g} N m), which sets the tables' full scale for every "
+        f"phase {low + 1} reaches {peaks[low]:.3g} N m at most ({peaks[low] / peaks[strong]:.0%} "
+        f"of phase {strong + 1}'s {peaks[strong]:.3g} N m), which sets the tables' full scale for every "
         "position: a weak winding, connector or amplifier channel? Check that phase before using "
         "the tables"
+    )
+
+
+#: A row's noise (one reading's over the square root of the readings a row) beyond this many
+#: times the torque of one command count (``torque_max / command_max``) sets the lowest
+#: commands' tables by the noise: the family's benches at the paper's and dense settings read
+#: 0.08 to 1.2 times (QA benches 301 to 330), a sensor 5 times noisier 3.0 and 5.8 times, its
+#: tables at 3.1x and 9.0x the floor against 1.5x and 2.9x; checked on benches 101 to 120 at
+#: the paper's settings: 0.13 to 1.6 times, and 2.3 on 112 (noise 1 % of full torque, the
+#: family's largest; its tables at 2.95x the floor) (docs/linearize.md).
+NOISY_ROWS = 2.0
+
+
+def noise_advice(row_noise: float, torque_per_count: float) -> str:
+    """A line when the rows' noise [N m] exceeds :data:`NOISY_ROWS` times the torque of one
+    command count [N m], else "".
+
+    >>> noise_advice(0.3, 0.1)[:52]
+    "the rows' noise (0.3 N m, from the rows at pulse wid"
+    >>> noise_advice(0.1, 0.1)
+    ''
+    """
+    if not (torque_per_count > 0 and row_noise > NOISY_ROWS * torque_per_count):
+        return ""
+    ratio = row_noise / torque_per_count
+    return (
+        f"the rows' noise ({row_noise:.3g} N m, from the rows at pulse width 0) is "
+        f"{ratio:.1f} times the torque of one command count ({torque_per_count:.3g} N m): the "
+        "lowest commands are set by the sensor's noise; collect with more readings per row "
+        f"(--readings; about {math.ceil(ratio**2)} times as many for one count, the noise "
+        "falling as their square root)"
     )
 
 
@@ -970,6 +1004,7 @@ def build_tables(
     knee: bool = True,
     bias: ArrayLike | None = None,
     restore_bias: bool = True,
+    bias_open: bool = False,
     path: str | os.PathLike[str] | None = None,
 ) -> TableSet:
     """Build the per-phase torque-linearisation tables from characterisation data (paper §4.3).
@@ -1039,6 +1074,9 @@ def build_tables(
         says so.
     restore_bias
         Re-zero the rows on the bias's drift (else use them as measured, and warn only).
+    bias_open
+        The collection read the bias on an open contact (its record's ``bias_open``): the
+        warning then does not take what lies above the drift for a load at rest.
     path
         The data file, named in error messages.
 
@@ -1092,6 +1130,9 @@ def build_tables(
         )
     pos, pw, tau = _check_rows(spec, position, pulse_width, torque, src)
     n, m = spec.positions_per_cycle, spec.phases
+    # the rows' noise from their level-0 rows as read: the bias's re-zeroing below restores
+    # the load at rest to some of them, which is not noise
+    measured_noise = _row_noise(pw, tau)
     bias_advice, bias_drift = "", -1
     if bias is not None:
         b = _check_bias_column(bias, pos.size, src)
@@ -1100,7 +1141,7 @@ def build_tables(
         if restored:
             tau, bias_drift = tau + found.restore, found.harmonics
         if found.varies:
-            bias_advice = found.advice(restored=restored)
+            bias_advice = found.advice(restored=restored, bias_open=bias_open)
     gap = max(1, n // (4 * m)) if max_gap is None else int(max_gap)
     floor = _noise_floor(pw, tau)
     _check_signal(pos, pw, tau, src)
@@ -1140,6 +1181,7 @@ def build_tables(
     }
     surface_used = False
     warnings: list[str] = [weak] if weak else []
+    noisy = noise_advice(measured_noise, torque_max / cmax)
     if method == "interp":
         target = torque_from_command(np.arange(cmax + 1), **law)  # type: ignore[arg-type]
         if onset:
@@ -1196,6 +1238,8 @@ def build_tables(
             warnings.append(stated)
     if bias_advice:
         warnings.append(bias_advice)
+    if noisy:
+        warnings.append(noisy)
     base[:, 0] = 0.0
     base = np.clip(base, 0.0, float(spec.actuation_max))
 

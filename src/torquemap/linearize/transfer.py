@@ -74,6 +74,18 @@ TIE = 0.05
 #: Readings below this fraction of the handful's largest torque are not scored (a relative
 #: error there is the sensor's noise).
 READABLE = 0.02
+#: Held-out error (:func:`held_out_error`) of the chosen scaling beyond which no scaling of the
+#: first joint describes the second, and a warning says so. Chosen on the QA benches 301 to 330
+#: (siblings, ``sim.twins.sibling``: 1.1 to 8.1 %; another bench of the same shape: 8.2 to 41 %,
+#: 9 of 10 above), checked on 101 to 140 (siblings 1.4 to 9.7 % but 108, 12.9 %, whose
+#: transferred tables an earlier QA measured at 22.9 % APMD against 11.8 % unchanged; other
+#: benches 13.4 to 144 %, 10 of 10 above); docs/linearize-transfer.md.
+MISFIT = 0.10
+#: A phase's gain is fitted from the handful's rows where it carries torque: below this share
+#: of the torque (:func:`phase_shares`) at every position measured above pulse width 0, the
+#: handful does not see the phase and its least-squares gain is 0 (QA: a handful of 3
+#: positions of one phase's region wrote a phase gain of 0.000, exit 0).
+HANDFUL_SHARE = 0.25
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -215,7 +227,8 @@ def transfer_characterisation(
     Raises
     ------
     InputError
-        Motors of another type (phases, cycle, full scale), or a handful too small to fit.
+        Motors of another type (phases, cycle, full scale) or ramp, a handful too small to
+        fit, or one that leaves a phase unmeasured (:data:`HANDFUL_SHARE`).
 
     Examples
     --------
@@ -232,17 +245,38 @@ def transfer_characterisation(
             "or full-scale pulse width differ)",
             path=b_spec.path,
         )
+    if not np.array_equal(np.asarray(a_spec.ramp), np.asarray(b_spec.ramp)):
+        # the output is the first joint's rows, base pulse widths through the first's ramp: built
+        # with another (QA: narrow rows under a wide SECOND.toml) its tables were 86.9 % APMD
+        raise InputError(
+            f"the second joint's ramp ({b_spec.ramping}) is not the first's ({a_spec.ramping}): "
+            "the transferred rows are the first's pulse widths through its ramp; give both "
+            "motor files the same ramping",
+            path=b_spec.path,
+        )
     n = a_spec.positions_per_cycle
     blocks = np.unique(few.position)
     if blocks.size < 2 or np.unique(few.level[few.level > 0]).size < 2:
         raise InputError(
             "the handful needs at least 2 positions and 2 pulse widths above zero", path=few.path
         )
-    surface = _Surface(a_spec, first)
     e1 = np.asarray(a_spec.equilibrium_positions, dtype=np.float64)
     e2 = np.asarray(b_spec.equilibrium_positions, dtype=np.float64)
-    shift = circular_difference(e1, e2, n)
     ramp = np.asarray(b_spec.ramp, dtype=np.float64)
+    lit = few.position[few.level > 0].astype(np.float64)
+    reach = phase_shares(lit, ramp, e2, n).max(axis=0)
+    unseen = np.flatnonzero(reach < HANDFUL_SHARE)
+    if unseen.size:
+        k = int(unseen[0])
+        raise InputError(
+            f"the handful measures no position where phase {k + 1} carries torque (at most "
+            f"{reach[k]:.0%} of it above pulse width 0): its gain cannot be fitted; measure the "
+            f"{2 * a_spec.phases} region middles (linearize collect --position-step "
+            f"{-(-n // (2 * a_spec.phases))} --step 64)",
+            path=few.path,
+        )
+    surface = _Surface(a_spec, first)
+    shift = circular_difference(e1, e2, n)
     top = float(a_spec.actuation_max)
     model = _Model(surface, ramp, e2, n, top)
     pos = few.position.astype(np.float64)
@@ -279,6 +313,14 @@ def transfer_characterisation(
     else:
         p_first = first.position.astype(np.float64)
         torque = model.predict(x, g, p_first, first.level.astype(np.float64), name=chosen)
+    if scores[chosen] > MISFIT:
+        warnings.append(
+            f"no scaling of the first joint's characterisation predicts the handful within "
+            f"{100 * MISFIT:.0f} % (held out, each position from the others: {chosen} "
+            f"{100 * scores[chosen]:.1f} % mean relative error): is this joint's motor of the "
+            "first's type? Its transferred tables may be far from its own; characterise it in "
+            "full"
+        )
     return TransferResult(
         position=first.position.copy(),
         pulse_width=first.level.copy(),

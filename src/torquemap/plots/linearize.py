@@ -161,16 +161,32 @@ def write_linearize_figures(
     tables_path: str | os.PathLike[str] | None = None,
     verification_path: str | os.PathLike[str] | None = None,
 ) -> list[str]:
-    """Draw the figure set into ``out_dir`` (PNG); returns the files written."""
+    """Draw the figure set into ``out_dir`` (PNG); returns the files written.
+
+    Raises
+    ------
+    InputError
+        On unreadable inputs, tables for another motor, a verification run without its tables
+        or evaluated through other tables than its record's.
+    """
+    from torquemap.errors import InputError
     from torquemap.io import Writer, figure_writer, output_folder, write_all
     from torquemap.linearize.export import load_tables
-    from torquemap.linearize.metrics import evaluate_linearity
+    from torquemap.linearize.metrics import check_tables_fit, evaluate_linearity
     from torquemap.linearize.motor import load_motor
     from torquemap.linearize.tables import read_data
 
     spec = load_motor(motor_path)
+    if verification_path is not None and tables_path is None:
+        raise InputError(
+            "a verification run is drawn beside the tables it ran through: give them too "
+            "(--tables TABLES.npz)",
+            path=verification_path,
+        )
     data = read_data(data_path, spec, kind="characterisation")
     tables = None if tables_path is None else load_tables(tables_path)
+    if tables is not None:
+        check_tables_fit(spec, tables, path=tables_path)
     before = evaluate_linearity(spec, data)
     figures: dict[str, Figure] = {
         "torque_before.png": torque_surface_figure(
@@ -183,7 +199,7 @@ def write_linearize_figures(
         figures["tables.png"] = table_surfaces_figure(tables)
     if verification_path is not None and tables is not None:
         verify = read_data(verification_path, spec, kind="verification")
-        after = evaluate_linearity(spec, verify, tables=tables)
+        after = evaluate_linearity(spec, verify, tables=tables, tables_path=tables_path)
         reports["compensated"] = after
         figures["before_after.png"] = before_after_figure(before, after, title=spec.name)
     figures["pmd.png"] = pmd_figure(reports)

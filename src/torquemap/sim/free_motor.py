@@ -247,6 +247,10 @@ def home_on_sim(
             f"{rig.amplifier.actuation_max}",
             path=path,
         )
+    if random is not None:
+        from torquemap.sim.rig import check_family_name
+
+        check_family_name(spec.name, f"random-{random}", what, path)
     results = []
     for _ in range(repeats):
         rig.x = float(rig.rng.uniform(0, rig.positions_per_cycle))

@@ -391,6 +391,25 @@ def check_rig_fits(rig: SimRig, spec: MotorSpec, what: str) -> None:
             f"{rig.amplifier.actuation_max}",
             path=spec.path,
         )
+    check_family_name(spec.name, rig.name, what, spec.path)
+
+
+def check_family_name(
+    file_name: str, rig_name: str, what: str, path: str | os.PathLike[str] | None
+) -> None:
+    """Refuse a motor file of one bench of the family (``random-N``) on another's rig.
+
+    Benches of the family share shapes (304 and 321: 3 phases x 128 positions, full scale
+    255), so a mistyped ``--random`` collected or homed another motor under this file without a
+    word; the file's name is the bench it was written for.
+    """
+    family = file_name.startswith("random-") and rig_name.startswith("random-")
+    if family and file_name != rig_name:
+        raise InputError(
+            f"the motor file is {file_name!r} (simulate rig --random "
+            f"{file_name.removeprefix('random-')}); the {what} is {rig_name!r}",
+            path=path,
+        )
 
 
 def collect_on_rig(
