@@ -400,3 +400,23 @@ def test_a_closed_stdout_pipe_ends_quietly(
     monkeypatch.setattr(sys, "stdout", Closed())
     assert main(["linearize", "evaluate", f"{d}/motor.toml", f"{d}/data.csv"]) == 141
     assert capsys.readouterr().err == ""
+
+
+def test_a_data_file_cut_inside_its_last_line_is_warned(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A DATA.csv copied while a collection wrote it can end inside its last number (the torque
+    "0.1234" read as "0.12"): build and evaluate name the file; a whole file stays silent."""
+    write_case(tmp_path)
+    d = str(tmp_path)
+    assert main(["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv", "-o", f"{d}/t.npz"]) == 0
+    assert "no line end" not in capsys.readouterr().err
+    text = (tmp_path / "data.csv").read_text()
+    (tmp_path / "data.csv").write_text(text.rstrip("\n")[:-3])  # cut inside the last torque
+    for argv in (
+        ["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv", "-o", f"{d}/u.npz"],
+        ["linearize", "evaluate", f"{d}/motor.toml", f"{d}/data.csv"],
+    ):
+        assert main(argv) == 0
+        err = capsys.readouterr().err
+        assert f"{d}/data.csv: the last line has no line end" in err, err

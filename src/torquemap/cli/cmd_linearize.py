@@ -13,7 +13,7 @@ from typing import Any
 
 from torquemap.cli.argtypes import float_in, int_in
 from torquemap.cli.helptext import described
-from torquemap.cli.outputs import C_HEADER, JSON, NPZ, check_outputs
+from torquemap.cli.outputs import C_HEADER, JSON, NPZ, check_outputs, warn_cut_last_lines
 
 
 def _weight(text: str) -> float:
@@ -260,6 +260,7 @@ def _build(args: argparse.Namespace) -> int:
     print("wrote " + ", ".join(written))
     for warning in tables.warnings:
         print(f"torquemap: warning: {args.data}: {warning}", file=sys.stderr)
+    warn_cut_last_lines([args.data])  # after the run: a refusal stays one line
     return 0
 
 
@@ -293,6 +294,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         with atomic_output(args.out) as tmp:
             tmp.write_text(json.dumps(report_to_dict(report), indent=2) + "\n")
         print(f"wrote {args.out}")
+    warn_cut_last_lines([args.data])
     return 0
 
 
