@@ -456,11 +456,19 @@ def _fixed_columns(
 def _prepare_both_ways(rows: _Rows, orders: Sequence[float]) -> None:
     """The PDTV columns of lines ``orders`` for both directions and per direction at once, and
     kept (:meth:`_Rows.smooth_once`'s keys): the direction test needs both, and the cosine and
-    sine of a line cost more than smoothing its columns. The same numbers as one at a time."""
+    sine of a line cost more than smoothing its columns. The six columns (:func:`pdtv_basis`'s
+    for both directions, then per direction) are formed sample by sample inside the smoother
+    (:meth:`torquemap.smooth_rows.RowSmoother.both_ways`): the same numbers as one at a
+    time."""
     for order in orders:
         if ("pdtv", order, False) in rows.cache or ("pdtv", order, True) in rows.cache:
             continue
-        columns = rows.smooth(_both_ways_columns(order), 6)
+        columns = np.vstack(
+            [
+                sm.both_ways(p.theta, p.velocity, order)
+                for p, sm in zip(rows.pieces, rows.smoothers, strict=True)
+            ]
+        )
         for key, part in (
             (("pdtv", order, False), columns[:, :2]),
             (("pdtv", order, True), columns[:, 2:]),
@@ -468,26 +476,6 @@ def _prepare_both_ways(rows: _Rows, orders: Sequence[float]) -> None:
             kept = part.copy()
             kept.setflags(write=False)
             rows.cache[key] = kept
-
-
-def _both_ways_columns(order: float) -> Callable[[Piece, int, int], NDArray[np.float64]]:
-    """The columns of line ``order`` for both directions, then per direction (six, as
-    :func:`pdtv_basis` forms them), the cosine and sine once per piece for its chunks."""
-    memo: dict[int, NDArray[np.float64]] = {}
-
-    def make(p: Piece, j0: int, j1: int) -> NDArray[np.float64]:
-        if id(p) not in memo:
-            memo.clear()
-            c, s = np.cos(order * p.theta), np.sin(order * p.theta)
-            out = np.empty((c.size, 6))
-            out[:, 0], out[:, 1] = c, s
-            for j, mask in ((2, p.velocity > 0), (4, p.velocity < 0)):
-                np.multiply(c, mask, out=out[:, j])
-                np.multiply(s, mask, out=out[:, j + 1])
-            memo[id(p)] = out
-        return memo[id(p)][:, j0:j1]
-
-    return make
 
 
 def _pdtv_columns(line: tuple[float, bool]) -> Callable[[Piece, int, int], NDArray[np.float64]]:

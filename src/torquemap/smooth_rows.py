@@ -89,3 +89,27 @@ class RowSmoother:
         op = self.operator
         out = smooth_at_rows(self.t, x, centre, op.indptr, op.indices, op.data, self.starts)
         return np.asarray(out + centre, dtype=np.float64)
+
+    def both_ways(
+        self, theta: NDArray[np.float64], velocity: NDArray[np.float64], order: float
+    ) -> NDArray[np.float64]:
+        """The smoothed PDTV columns of line ``order`` [CPR] at the rows, shape (rows, 6):
+        ``cos, sin`` of ``order * theta`` (``theta`` the motor angle [rad], shape (n,)), then
+        both where ``velocity`` [rad/s] > 0 (else 0), then both where it is < 0; the same
+        numbers as this smoother applied to those six columns, without forming them."""
+        from torquemap._fit_kernels import smooth_both_ways_at_rows
+
+        op = self.operator
+        return np.asarray(
+            smooth_both_ways_at_rows(
+                self.t,
+                np.ascontiguousarray(theta, dtype=np.float64),
+                np.ascontiguousarray(velocity, dtype=np.float64),
+                float(order),
+                op.indptr,
+                op.indices,
+                op.data,
+                self.starts,
+            ),
+            dtype=np.float64,
+        )
