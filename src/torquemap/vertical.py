@@ -177,12 +177,16 @@ class ResidualPiece:
     acceleration: NDArray[np.float64]
 
 
+#: Pieces of a no-load log shorter than this [s] are left out of the gravity check.
+SHORTEST_PIECE = 1.5
+
+
 def no_load_residuals(
     model: Model,
     logs: Sequence[Log],
     *,
     window: float,
-    shortest: float = 1.5,
+    shortest: float = SHORTEST_PIECE,
     derivatives: Sequence[Sequence[Derivatives]] | None = None,
 ) -> dict[str, list[ResidualPiece]]:
     """Per joint, the Eq 7 signal of ``model`` over the (sanitised) no-load ``logs``, the torque
@@ -239,7 +243,7 @@ def check_no_load(
     *,
     window: float,
     joints: Sequence[str] | None = None,
-    residuals: Mapping[str, list[ResidualPiece]] | None = None,
+    residuals: Mapping[str, Sequence[ResidualPiece]] | None = None,
 ) -> tuple[GravityCheck, ...]:
     """Test each joint's no-load torque for a gravity-like component the model cannot explain.
 
@@ -407,6 +411,7 @@ def checked_identification(
     vertical: Literal["refuse", "warn"] = "refuse",
     path: str | None = None,
     derivatives: Sequence[Sequence[Derivatives]] | None = None,
+    residuals: Mapping[str, Sequence[ResidualPiece]] | None = None,
 ) -> Identification:
     """Run :func:`check_no_load` on an identification's model and its (sanitised) logs:
     refuse (``vertical="refuse"``, InputError naming ``path``) or warn, and record the result
@@ -414,9 +419,17 @@ def checked_identification(
     residual's level per speed (:func:`torquemap.uncertainty.residual_table`), estimation's
     sigma. Used by :func:`torquemap.identify.identify_model` for every friction method.
     ``derivatives``: those of the pieces' motor angles, when ``logs`` are sanitised pieces
-    (:func:`no_load_residuals`)."""
+    (:func:`no_load_residuals`). ``residuals``: :func:`no_load_residuals` of the model and
+    ``logs`` when already computed (pieces of any length: those shorter than
+    ``SHORTEST_PIECE`` are left out here, as :func:`no_load_residuals` leaves them out)."""
     model = ident.model
-    residuals = no_load_residuals(model, logs, window=window, derivatives=derivatives)
+    if residuals is None:
+        residuals = no_load_residuals(model, logs, window=window, derivatives=derivatives)
+    else:
+        residuals = {
+            name: [p for p in parts if not float(p.t[-1] - p.t[0]) < SHORTEST_PIECE]
+            for name, parts in residuals.items()
+        }
     checks = check_no_load(
         model, logs, window=window, joints=tuple(ident.joints), residuals=residuals
     )
