@@ -642,6 +642,9 @@ class _Gram:
         on = np.flatnonzero(base)
         if on.size == base.size and np.all(base == 1.0):
             self.gram = a.T @ a
+        elif np.all(base[on] == 1.0):  # weights 0 or 1 (sqrt(1) = 1: the same numbers)
+            part = a[on]
+            self.gram = part.T @ part
         else:
             part = a[on] * np.sqrt(base[on])[:, None]
             self.gram = part.T @ part
