@@ -167,6 +167,35 @@ def test_both_ways_columns_smooth_as_the_numpy_columns(uniform: bool) -> None:
 
 
 @pytest.mark.parametrize("uniform", [True, False])
+def test_speed_table_columns_smooth_as_the_block(uniform: bool) -> None:
+    # the friction table's columns formed inside the smoother against speed_table_block's
+    # columns through the smoother, four at a time as the fit formed them: every column, a
+    # few (a width trial's), one, none
+    rng = np.random.default_rng(30 + uniform)
+    n = 12001
+    step = np.full(n, 5e-4) if uniform else rng.uniform(2e-4, 8e-4, n)
+    if not uniform:
+        step[7000] = 0.03
+    t = 3.0 + np.cumsum(step)
+    v = 3.0 * np.sin(3.0 * t) + 0.01 * rng.standard_normal(n)
+    v[50:80] = 0.0
+    logs = np.log(np.geomspace(0.01, 5.0, 11))
+    k = logs.size
+    s = np.abs(v)
+    b = 0.5 * (1.0 + np.tanh(v / 0.02))
+    x = np.log(np.maximum(s, 1e-300))
+    i = np.clip(np.searchsorted(logs, x, side="right") - 1, 0, k - 2).astype(np.int64)
+    u = np.clip((x - logs[i]) / (logs[i + 1] - logs[i]), 0.0, 1.0)
+    args = (s, b, -(1.0 - b), i, u)
+    smoother = RowSmoother.build(t, np.arange(0, n, 9).astype(np.intp), 0.05)
+    for which in (list(range(2 * k + 2)), [0, 1, 11, 12, 22, 23], [3], []):
+        w = np.array(which, dtype=np.int64)
+        parts = [smoother(speed_table_block(*args, w[j : j + 4], k)) for j in range(0, w.size, 4)]
+        ref = np.hstack(parts) if parts else np.zeros((smoother.operator.shape[0], 0))
+        np.testing.assert_array_equal(smoother.speed_table(*args, w, k), ref)
+
+
+@pytest.mark.parametrize("uniform", [True, False])
 def test_interp_increasing_is_numpy_interp(uniform: bool) -> None:
     # numpy's own formula per sample: equal, not close, for delays on and between samples and
     # beyond both ends

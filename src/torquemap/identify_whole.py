@@ -34,7 +34,6 @@ import itertools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -494,31 +493,23 @@ def _friction_columns(
     only: Sequence[int] | None = None,
 ) -> NDArray[np.float64]:
     """The table law's basis (:meth:`SpeedTableFriction.basis`) smoothed at the rows; with
-    ``only``, just those columns."""
-    from torquemap._fit_kernels import speed_table_block
-
+    ``only``, just those columns (each formed sample by sample inside the smoother,
+    :meth:`torquemap.smooth_rows.RowSmoother.speed_table`)."""
     k = len(speeds)
     logs = np.log(np.asarray(speeds))
-    which = list(range(2 * k + 2)) if only is None else list(only)
-    prepared: dict[int, tuple[NDArray[Any], ...]] = {}
+    which = np.array(list(range(2 * k + 2)) if only is None else list(only), dtype=np.int64)
 
-    def per_sample(p: Piece) -> tuple[NDArray[Any], ...]:
-        """What every column of piece ``p`` is made of (once per piece, not per chunk)."""
-        if id(p) not in prepared:
-            v = p.friction_velocity if p.friction_velocity is not None else p.velocity
-            s = np.abs(v)
-            b = 0.5 * (1.0 + np.tanh(v / w0))
-            x = np.log(np.maximum(s, 1e-300))
-            i = np.clip(np.searchsorted(logs, x, side="right") - 1, 0, k - 2)
-            u = np.clip((x - logs[i]) / (logs[i + 1] - logs[i]), 0.0, 1.0)
-            prepared[id(p)] = (s, b, -(1.0 - b), i.astype(np.int64), u)
-        return prepared[id(p)]
+    def columns(p: Piece, sm: RowSmoother) -> NDArray[np.float64]:
+        """Piece ``p``'s columns at its rows, from what every column is made of."""
+        v = p.friction_velocity if p.friction_velocity is not None else p.velocity
+        s = np.abs(v)
+        b = 0.5 * (1.0 + np.tanh(v / w0))
+        x = np.log(np.maximum(s, 1e-300))
+        i = np.clip(np.searchsorted(logs, x, side="right") - 1, 0, k - 2)
+        u = np.clip((x - logs[i]) / (logs[i + 1] - logs[i]), 0.0, 1.0)
+        return sm.speed_table(s, b, -(1.0 - b), i.astype(np.int64), u, which, k)
 
-    def make(p: Piece, j0: int, j1: int) -> NDArray[np.float64]:
-        s, b, nb, i, u = per_sample(p)
-        return speed_table_block(s, b, nb, i, u, np.array(which[j0:j1], dtype=np.int64), k)
-
-    return rows.smooth(make, len(which))
+    return np.vstack([columns(p, sm) for p, sm in zip(rows.pieces, rows.smoothers, strict=True)])
 
 
 def friction_velocity(

@@ -113,3 +113,38 @@ class RowSmoother:
             ),
             dtype=np.float64,
         )
+
+    def speed_table(
+        self,
+        speed: NDArray[np.float64],
+        up: NDArray[np.float64],
+        down: NDArray[np.float64],
+        knot: NDArray[np.int64],
+        fraction: NDArray[np.float64],
+        columns: NDArray[np.int64],
+        knots: int,
+    ) -> NDArray[np.float64]:
+        """The speed-table friction basis's columns ``columns`` smoothed at the rows, shape
+        (rows, columns.size): :func:`torquemap._fit_kernels.speed_table_block`'s columns (its
+        arguments per sample, ``knots`` the table's knot count) through this smoother, the
+        same numbers, without forming them."""
+        from torquemap._fit_kernels import smooth_speed_table_at_rows
+
+        op = self.operator
+        return np.asarray(
+            smooth_speed_table_at_rows(
+                self.t,
+                speed,
+                up,
+                down,
+                knot,
+                fraction,
+                np.ascontiguousarray(columns, dtype=np.int64),
+                int(knots),
+                op.indptr,
+                op.indices,
+                op.data,
+                self.starts,
+            ),
+            dtype=np.float64,
+        )
