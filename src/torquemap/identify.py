@@ -1316,7 +1316,7 @@ def _noise_levels(
     signals (:func:`torquemap.vertical.no_load_residuals` of every piece)."""
     from torquemap.tones import find_tones
     from torquemap.uncertainty import joint_uncertainty, noise_level
-    from torquemap.vertical import no_load_residuals
+    from torquemap.vertical import no_load_residuals, with_free
 
     out: dict[str, float] = {}
     tones: dict[str, tuple[Any, ...]] = {}
@@ -1328,8 +1328,9 @@ def _noise_levels(
         lines = model.joints[name].pdtv
         levels, counts = [], []
         residuals = []
-        for part in parts:
-            residual = part.eq7 - pdtv_torque(part.angle, lines, velocity=part.velocity)
+        for at, piece in enumerate(parts):
+            part, residual = with_free(piece, lines)
+            parts[at] = part  # kept with its residual for the vertical-arm check
             residuals.append((part.t, residual, part.velocity))
             level = noise_level(model, name, t=part.t, residual=residual, velocity=part.velocity)
             if math.isfinite(level):
