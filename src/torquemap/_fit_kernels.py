@@ -519,25 +519,6 @@ def speed_table_block(
 
 
 @jit
-def _table_value(
-    j: int,
-    k: int,
-    speed: float,
-    up: float,
-    down: float,
-    knot: int,
-    fraction: float,
-) -> float:
-    """Column ``j`` of :func:`speed_table_block` at one sample (its formula)."""
-    if j >= 2 * k:
-        return speed * (up if j == 2 * k else down)
-    at = j % k
-    w = up if j < k else down
-    hat = ((1.0 - fraction) if knot == at else 0.0) + (fraction if knot + 1 == at else 0.0)
-    return hat * w
-
-
-@jit
 def smooth_speed_table_at_rows(
     t: NDArray[np.float64],
     speed: NDArray[np.float64],
@@ -569,26 +550,75 @@ def smooth_speed_table_at_rows(
         # four columns at a time (a slot past the last repeats the last; its results dropped)
         ja, jb = columns[c0], columns[min(c0 + 1, m - 1)]
         jc, jd = columns[min(c0 + 2, m - 1)], columns[min(c0 + 3, m - 1)]
+        # per column: viscous (speed times the direction weight) or a knot's hat (its knot
+        # ``at``), and which direction weight (``up`` or ``down``); written out per slot so
+        # that the compiler keeps the four values in registers
+        va, vb, vc, vd = ja >= 2 * k, jb >= 2 * k, jc >= 2 * k, jd >= 2 * k
+        wa = ja == 2 * k if va else ja < k
+        wb = jb == 2 * k if vb else jb < k
+        wc = jc == 2 * k if vc else jc < k
+        wd = jd == 2 * k if vd else jd < k
+        ta, tb, tc, td = ja % k, jb % k, jc % k, jd % k
         ma = mb = mc = md = 0.0
         count = 0
         for i in range(0, n, step):
             count += 1
-            s, b, nb, q, u = speed[i], up[i], down[i], knot[i], fraction[i]
-            ma += _table_value(ja, k, s, b, nb, q, u)
-            mb += _table_value(jb, k, s, b, nb, q, u)
-            mc += _table_value(jc, k, s, b, nb, q, u)
-            md += _table_value(jd, k, s, b, nb, q, u)
+            s, q, u = speed[i], knot[i], fraction[i]
+            xa = up[i] if wa else down[i]
+            xb = up[i] if wb else down[i]
+            xc = up[i] if wc else down[i]
+            xd = up[i] if wd else down[i]
+            ma += (
+                s * xa
+                if va
+                else (((1.0 - u) if q == ta else 0.0) + (u if q + 1 == ta else 0.0)) * xa
+            )
+            mb += (
+                s * xb
+                if vb
+                else (((1.0 - u) if q == tb else 0.0) + (u if q + 1 == tb else 0.0)) * xb
+            )
+            mc += (
+                s * xc
+                if vc
+                else (((1.0 - u) if q == tc else 0.0) + (u if q + 1 == tc else 0.0)) * xc
+            )
+            md += (
+                s * xd
+                if vd
+                else (((1.0 - u) if q == td else 0.0) + (u if q + 1 == td else 0.0)) * xd
+            )
         count = max(count, 1)
         ma, mb, mc, md = ma / count, mb / count, mc / count, md / count
         pa = pb = pc = pd = 0.0  # the previous sample, centred
         fa = fb = fc = fd = 0.0  # the first integrals
         sa = sb = sc = sd = 0.0  # the second
         for i in range(n):
-            s, b, nb, q, u = speed[i], up[i], down[i], knot[i], fraction[i]
-            ua = _table_value(ja, k, s, b, nb, q, u) - ma
-            ub = _table_value(jb, k, s, b, nb, q, u) - mb
-            uc = _table_value(jc, k, s, b, nb, q, u) - mc
-            ud = _table_value(jd, k, s, b, nb, q, u) - md
+            s, q, u = speed[i], knot[i], fraction[i]
+            xa = up[i] if wa else down[i]
+            xb = up[i] if wb else down[i]
+            xc = up[i] if wc else down[i]
+            xd = up[i] if wd else down[i]
+            ua = (
+                s * xa
+                if va
+                else (((1.0 - u) if q == ta else 0.0) + (u if q + 1 == ta else 0.0)) * xa
+            ) - ma
+            ub = (
+                s * xb
+                if vb
+                else (((1.0 - u) if q == tb else 0.0) + (u if q + 1 == tb else 0.0)) * xb
+            ) - mb
+            uc = (
+                s * xc
+                if vc
+                else (((1.0 - u) if q == tc else 0.0) + (u if q + 1 == tc else 0.0)) * xc
+            ) - mc
+            ud = (
+                s * xd
+                if vd
+                else (((1.0 - u) if q == td else 0.0) + (u if q + 1 == td else 0.0)) * xd
+            ) - md
             if i > 0:
                 dt = t[i] - t[i - 1]
                 ea = 0.5 * (ua + pa) * dt
