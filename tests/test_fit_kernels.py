@@ -4,6 +4,8 @@ the same order."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -20,6 +22,7 @@ from torquemap._fit_kernels import (
     window_sums,
 )
 from torquemap.filters import _windows
+from torquemap.identify_whole import pdtv_basis
 from torquemap.smooth_rows import RowSmoother
 
 pytestmark = pytest.mark.xdist_group("kernels")
@@ -129,6 +132,67 @@ def test_a_column_smooths_to_the_same_bits_alone_or_beside_others() -> None:
     for c in range(6):
         np.testing.assert_array_equal(smoother(x[:, c : c + 1]), together[:, c : c + 1])
     np.testing.assert_array_equal(smoother(x[:, 2:5]), together[:, 2:5])
+
+
+@pytest.mark.parametrize("uniform", [True, False])
+def test_both_ways_columns_smooth_as_the_numpy_columns(uniform: bool) -> None:
+    # the six PDTV columns of a line formed inside the smoother against pdtv_basis's columns
+    # (numpy's cos, sin and masks) through the smoother: rests (v = 0), a NaN velocity, and an
+    # irregular log with a gap (rows read through their indices)
+    rng = np.random.default_rng(20 + uniform)
+    n = 12001
+    step = np.full(n, 5e-4) if uniform else rng.uniform(2e-4, 8e-4, n)
+    if not uniform:
+        step[7000] = 0.03
+    t = 3.0 + np.cumsum(step)
+    theta = 40.0 * np.sin(t) + np.cumsum(rng.standard_normal(n)) * 0.01
+    velocity = np.gradient(theta, t)
+    velocity[100:130] = 0.0
+    velocity[200] = np.nan
+    rows = np.arange(0, n, 7).astype(np.intp)
+    smoother = RowSmoother.build(t, rows, 0.05)
+    for order in (0.5, 1.0, 21.0):
+        both, _ = pdtv_basis(theta, velocity, [(order, False)])
+        split, _ = pdtv_basis(theta, velocity, [(order, True)])
+        ref = smoother(np.hstack((both, split)))
+        got = smoother.both_ways(theta, velocity, order)
+        x = order * theta
+        if np.array_equal(np.cos(x), [math.cos(v) for v in x]) and np.array_equal(
+            np.sin(x), [math.sin(v) for v in x]
+        ):
+            np.testing.assert_array_equal(got, ref)
+        else:  # numpy's own SIMD cos and sin (an ulp off the C library's): the columns agree
+            # to the smoother's rounding (the bound of test_smooth_at_rows_equals_sparse_product)
+            np.testing.assert_allclose(got, ref, rtol=0, atol=1e-8)
+
+
+@pytest.mark.parametrize("uniform", [True, False])
+def test_speed_table_columns_smooth_as_the_block(uniform: bool) -> None:
+    # the friction table's columns formed inside the smoother against speed_table_block's
+    # columns through the smoother, four at a time as the fit formed them: every column, a
+    # few (a width trial's), one, none
+    rng = np.random.default_rng(30 + uniform)
+    n = 12001
+    step = np.full(n, 5e-4) if uniform else rng.uniform(2e-4, 8e-4, n)
+    if not uniform:
+        step[7000] = 0.03
+    t = 3.0 + np.cumsum(step)
+    v = 3.0 * np.sin(3.0 * t) + 0.01 * rng.standard_normal(n)
+    v[50:80] = 0.0
+    logs = np.log(np.geomspace(0.01, 5.0, 11))
+    k = logs.size
+    s = np.abs(v)
+    b = 0.5 * (1.0 + np.tanh(v / 0.02))
+    x = np.log(np.maximum(s, 1e-300))
+    i = np.clip(np.searchsorted(logs, x, side="right") - 1, 0, k - 2).astype(np.int64)
+    u = np.clip((x - logs[i]) / (logs[i + 1] - logs[i]), 0.0, 1.0)
+    args = (s, b, -(1.0 - b), i, u)
+    smoother = RowSmoother.build(t, np.arange(0, n, 9).astype(np.intp), 0.05)
+    for which in (list(range(2 * k + 2)), [0, 1, 11, 12, 22, 23], [3], []):
+        w = np.array(which, dtype=np.int64)
+        parts = [smoother(speed_table_block(*args, w[j : j + 4], k)) for j in range(0, w.size, 4)]
+        ref = np.hstack(parts) if parts else np.zeros((smoother.operator.shape[0], 0))
+        np.testing.assert_array_equal(smoother.speed_table(*args, w, k), ref)
 
 
 @pytest.mark.parametrize("uniform", [True, False])

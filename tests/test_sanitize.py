@@ -62,6 +62,23 @@ def test_repeated_stamps_dropped_gaps_cut_and_values_bridged() -> None:
     assert any("gaps in time" in w for w in clean.warnings)
 
 
+def test_bridging_leaves_the_log_as_read_and_a_sound_log_is_not_copied() -> None:
+    t = np.arange(0.0, 4.0, 1e-3)
+    q, tau = 0.1 * t, np.cos(t)
+    wild = tau.copy()
+    wild[2500] = 1e6
+    log = _log(t, q, wild)
+    clean = sanitize_log(log, window=0.05)
+    assert clean.implausible[2500] and abs(clean.pieces[0].log.motor_torque[2500, 0]) < 1.0
+    # the bridged channel is a copy: the caller's log keeps its wild value
+    assert log.motor_torque[2500, 0] == 1e6
+    # nothing bridged: the pieces read the log's own arrays (no copy of the whole log)
+    sound = _log(t, q, tau)
+    piece = sanitize_log(sound, window=0.05).pieces[0].log
+    assert np.shares_memory(piece.q, sound.q)
+    assert np.shares_memory(piece.motor_torque, sound.motor_torque)
+
+
 def test_gaps_the_filters_bridge_do_not_cut() -> None:
     # a host poll at ~300 Hz with gaps of 20 to 100 ms: within what a 0.05 s window bridges
     rng = np.random.default_rng(1)

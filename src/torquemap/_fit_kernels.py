@@ -9,6 +9,8 @@ for bit; tests/test_fit_kernels.py compares them with that code).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -272,6 +274,124 @@ def _smooth_one(
 
 
 @jit
+def smooth_both_ways_at_rows(
+    t: NDArray[np.float64],
+    theta: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    order: float,
+    indptr: NDArray[np.int32],
+    indices: NDArray[np.int32],
+    data: NDArray[np.float64],
+    starts: NDArray[np.intp],
+) -> NDArray[np.float64]:
+    """:class:`torquemap.smooth_rows.RowSmoother` of the six PDTV columns of one line
+    (:func:`torquemap.identify_whole.pdtv_basis`'s: ``cos, sin`` of ``order * theta``, then
+    both times ``velocity > 0``, then both times ``velocity < 0``), shape (rows, 6), the
+    columns formed per sample as they are integrated instead of as an (n, 6) array first.
+
+    Per column the operations of :func:`column_centres`, :func:`smooth_at_rows` and the
+    smoother's ``+ centre`` in the same order, the masks a product by 1.0 or 0.0 as numpy's
+    bool cast makes them: the same bits where numpy's ``cos`` and ``sin`` are the C library's
+    (where numpy uses its own SIMD versions, those differ from it within an ulp).
+    """
+    n = t.size
+    rows = indptr.size - 1
+    out = np.empty((rows, 6))
+    centre = np.zeros(6)
+    step = max(1, n // 1024)
+    count = 0
+    for i in range(0, n, step):
+        count += 1
+        c = math.cos(order * theta[i])
+        s = math.sin(order * theta[i])
+        up = 1.0 if velocity[i] > 0 else 0.0
+        down = 1.0 if velocity[i] < 0 else 0.0
+        centre[0] += c
+        centre[1] += s
+        centre[2] += c * up
+        centre[3] += s * up
+        centre[4] += c * down
+        centre[5] += s * down
+    for k in range(6):
+        centre[k] = centre[k] / max(count, 1)
+    ca, cb, cc, cd, ce, cf = centre[0], centre[1], centre[2], centre[3], centre[4], centre[5]
+    second = np.zeros((n, 6))
+    # the running sums in scalars (registers), as smooth_at_rows keeps them
+    pa = pb = pc = pd = pe = pf = 0.0  # the previous sample, centred
+    fa = fb = fc = fd = fe = ff = 0.0  # the first integrals
+    sa = sb = sc = sd = se = sf = 0.0  # the second
+    for i in range(n):
+        c = math.cos(order * theta[i])
+        s = math.sin(order * theta[i])
+        up = 1.0 if velocity[i] > 0 else 0.0
+        down = 1.0 if velocity[i] < 0 else 0.0
+        ua, ub = c - ca, s - cb
+        uc, ud = c * up - cc, s * up - cd
+        ue, uf = c * down - ce, s * down - cf
+        if i > 0:
+            dt = t[i] - t[i - 1]
+            ea = 0.5 * (ua + pa) * dt
+            eb = 0.5 * (ub + pb) * dt
+            ec = 0.5 * (uc + pc) * dt
+            ed = 0.5 * (ud + pd) * dt
+            ee = 0.5 * (ue + pe) * dt
+            ef = 0.5 * (uf + pf) * dt
+            if i == 1:
+                ga, gb, gc, gd, ge, gf = ea, eb, ec, ed, ee, ef
+            else:
+                ga, gb, gc, gd, ge, gf = fa + ea, fb + eb, fc + ec, fd + ed, fe + ee, ff + ef
+            ha = 0.5 * (ga + fa) * dt
+            hb = 0.5 * (gb + fb) * dt
+            hc = 0.5 * (gc + fc) * dt
+            hd = 0.5 * (gd + fd) * dt
+            he = 0.5 * (ge + fe) * dt
+            hf = 0.5 * (gf + ff) * dt
+            if i == 1:
+                sa, sb, sc, sd, se, sf = ha, hb, hc, hd, he, hf
+            else:
+                sa, sb, sc, sd, se, sf = sa + ha, sb + hb, sc + hc, sd + hd, se + he, sf + hf
+            second[i, 0] = sa
+            second[i, 1] = sb
+            second[i, 2] = sc
+            second[i, 3] = sd
+            second[i, 4] = se
+            second[i, 5] = sf
+            fa, fb, fc, fd, fe, ff = ga, gb, gc, gd, ge, gf
+        pa, pb, pc, pd, pe, pf = ua, ub, uc, ud, ue, uf
+    for r in range(rows):
+        s0 = s1 = s2 = s3 = s4 = s5 = 0.0
+        lo = indptr[r]
+        if starts[r] >= 0:
+            at = starts[r] - lo
+            for jj in range(lo, indptr[r + 1]):
+                w = data[jj]
+                j = at + jj
+                s0 += w * second[j, 0]
+                s1 += w * second[j, 1]
+                s2 += w * second[j, 2]
+                s3 += w * second[j, 3]
+                s4 += w * second[j, 4]
+                s5 += w * second[j, 5]
+        else:
+            for jj in range(lo, indptr[r + 1]):
+                w = data[jj]
+                j = indices[jj]
+                s0 += w * second[j, 0]
+                s1 += w * second[j, 1]
+                s2 += w * second[j, 2]
+                s3 += w * second[j, 3]
+                s4 += w * second[j, 4]
+                s5 += w * second[j, 5]
+        out[r, 0] = s0 + centre[0]
+        out[r, 1] = s1 + centre[1]
+        out[r, 2] = s2 + centre[2]
+        out[r, 3] = s3 + centre[3]
+        out[r, 4] = s4 + centre[4]
+        out[r, 5] = s5 + centre[5]
+    return out
+
+
+@jit
 def run_starts(indptr: NDArray[np.int32], indices: NDArray[np.int32]) -> NDArray[np.intp]:
     """Per row of a CSR matrix (``indptr``, ``indices``), its first column index when its
     indices are consecutive (``i, i + 1, ...``), else -1 (:func:`smooth_at_rows`)."""
@@ -395,6 +515,159 @@ def speed_table_block(
                 u = fraction[t]
                 hat = ((1.0 - u) if i == at else 0.0) + (u if i + 1 == at else 0.0)
                 out[t, c] = hat * w[t]
+    return out
+
+
+@jit
+def smooth_speed_table_at_rows(
+    t: NDArray[np.float64],
+    speed: NDArray[np.float64],
+    up: NDArray[np.float64],
+    down: NDArray[np.float64],
+    knot: NDArray[np.int64],
+    fraction: NDArray[np.float64],
+    columns: NDArray[np.int64],
+    k: int,
+    indptr: NDArray[np.int32],
+    indices: NDArray[np.int32],
+    data: NDArray[np.float64],
+    starts: NDArray[np.intp],
+) -> NDArray[np.float64]:
+    """:class:`torquemap.smooth_rows.RowSmoother` of :func:`speed_table_block`'s columns
+    ``columns`` (same arguments), shape (rows, columns.size), each value formed as it is
+    integrated instead of as an (n, 4) block first.
+
+    Per column the operations of :func:`speed_table_block`, :func:`column_centres`,
+    :func:`smooth_at_rows` and the smoother's ``+ centre`` in the same order: the same bits.
+    """
+    n = t.size
+    m = columns.size
+    rows = indptr.size - 1
+    out = np.empty((rows, m))
+    step = max(1, n // 1024)
+    second = np.zeros((n, 4))
+    for c0 in range(0, m, 4):
+        # four columns at a time (a slot past the last repeats the last; its results dropped)
+        ja, jb = columns[c0], columns[min(c0 + 1, m - 1)]
+        jc, jd = columns[min(c0 + 2, m - 1)], columns[min(c0 + 3, m - 1)]
+        # per column: viscous (speed times the direction weight) or a knot's hat (its knot
+        # ``at``), and which direction weight (``up`` or ``down``); written out per slot so
+        # that the compiler keeps the four values in registers
+        va, vb, vc, vd = ja >= 2 * k, jb >= 2 * k, jc >= 2 * k, jd >= 2 * k
+        wa = ja == 2 * k if va else ja < k
+        wb = jb == 2 * k if vb else jb < k
+        wc = jc == 2 * k if vc else jc < k
+        wd = jd == 2 * k if vd else jd < k
+        ta, tb, tc, td = ja % k, jb % k, jc % k, jd % k
+        ma = mb = mc = md = 0.0
+        count = 0
+        for i in range(0, n, step):
+            count += 1
+            s, q, u = speed[i], knot[i], fraction[i]
+            xa = up[i] if wa else down[i]
+            xb = up[i] if wb else down[i]
+            xc = up[i] if wc else down[i]
+            xd = up[i] if wd else down[i]
+            ma += (
+                s * xa
+                if va
+                else (((1.0 - u) if q == ta else 0.0) + (u if q + 1 == ta else 0.0)) * xa
+            )
+            mb += (
+                s * xb
+                if vb
+                else (((1.0 - u) if q == tb else 0.0) + (u if q + 1 == tb else 0.0)) * xb
+            )
+            mc += (
+                s * xc
+                if vc
+                else (((1.0 - u) if q == tc else 0.0) + (u if q + 1 == tc else 0.0)) * xc
+            )
+            md += (
+                s * xd
+                if vd
+                else (((1.0 - u) if q == td else 0.0) + (u if q + 1 == td else 0.0)) * xd
+            )
+        count = max(count, 1)
+        ma, mb, mc, md = ma / count, mb / count, mc / count, md / count
+        pa = pb = pc = pd = 0.0  # the previous sample, centred
+        fa = fb = fc = fd = 0.0  # the first integrals
+        sa = sb = sc = sd = 0.0  # the second
+        for i in range(n):
+            s, q, u = speed[i], knot[i], fraction[i]
+            xa = up[i] if wa else down[i]
+            xb = up[i] if wb else down[i]
+            xc = up[i] if wc else down[i]
+            xd = up[i] if wd else down[i]
+            ua = (
+                s * xa
+                if va
+                else (((1.0 - u) if q == ta else 0.0) + (u if q + 1 == ta else 0.0)) * xa
+            ) - ma
+            ub = (
+                s * xb
+                if vb
+                else (((1.0 - u) if q == tb else 0.0) + (u if q + 1 == tb else 0.0)) * xb
+            ) - mb
+            uc = (
+                s * xc
+                if vc
+                else (((1.0 - u) if q == tc else 0.0) + (u if q + 1 == tc else 0.0)) * xc
+            ) - mc
+            ud = (
+                s * xd
+                if vd
+                else (((1.0 - u) if q == td else 0.0) + (u if q + 1 == td else 0.0)) * xd
+            ) - md
+            if i > 0:
+                dt = t[i] - t[i - 1]
+                ea = 0.5 * (ua + pa) * dt
+                eb = 0.5 * (ub + pb) * dt
+                ec = 0.5 * (uc + pc) * dt
+                ed = 0.5 * (ud + pd) * dt
+                if i == 1:
+                    ga, gb, gc, gd = ea, eb, ec, ed
+                else:
+                    ga, gb, gc, gd = fa + ea, fb + eb, fc + ec, fd + ed
+                ha = 0.5 * (ga + fa) * dt
+                hb = 0.5 * (gb + fb) * dt
+                hc = 0.5 * (gc + fc) * dt
+                hd = 0.5 * (gd + fd) * dt
+                if i == 1:
+                    sa, sb, sc, sd = ha, hb, hc, hd
+                else:
+                    sa, sb, sc, sd = sa + ha, sb + hb, sc + hc, sd + hd
+                second[i, 0] = sa
+                second[i, 1] = sb
+                second[i, 2] = sc
+                second[i, 3] = sd
+                fa, fb, fc, fd = ga, gb, gc, gd
+            pa, pb, pc, pd = ua, ub, uc, ud
+        cols = (c0, min(c0 + 1, m - 1), min(c0 + 2, m - 1), min(c0 + 3, m - 1))
+        for r in range(rows):
+            sa = sb = sc = sd = 0.0
+            lo = indptr[r]
+            if starts[r] >= 0:
+                at = starts[r] - lo
+                for jj in range(lo, indptr[r + 1]):
+                    w = data[jj]
+                    j = at + jj
+                    sa += w * second[j, 0]
+                    sb += w * second[j, 1]
+                    sc += w * second[j, 2]
+                    sd += w * second[j, 3]
+            else:
+                for jj in range(lo, indptr[r + 1]):
+                    w = data[jj]
+                    j = indices[jj]
+                    sa += w * second[j, 0]
+                    sb += w * second[j, 1]
+                    sc += w * second[j, 2]
+                    sd += w * second[j, 3]
+            out[r, cols[0]] = sa + ma
+            out[r, cols[1]] = sb + mb
+            out[r, cols[2]] = sc + mc
+            out[r, cols[3]] = sd + md
     return out
 
 

@@ -16,7 +16,7 @@ import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -63,6 +63,9 @@ from torquemap.pdtv import (
     solve_harmonics,
 )
 from torquemap.robot import Robot
+
+if TYPE_CHECKING:
+    from torquemap.vertical import ResidualPiece
 
 TWO_PI = 2.0 * math.pi
 BIN_MARGIN = 1.5  # samples per bin on average that a pass must provide to be used for PDTV
@@ -1096,6 +1099,7 @@ def identify_model(
     for name, entry in joint_notes.items():
         if isinstance(entry, dict) and quanta.get(name):
             entry["motor_angle_quantum"] = quanta[name]
+    signals = None
     if friction == "passes":
         warnings = (*cleaning, *base.warnings)
         notes = dict(base.model.notes)
@@ -1105,7 +1109,7 @@ def identify_model(
         model = Model(robot=rb, joints=base.model.joints, notes=notes)
         ident = Identification(model=model, joints=base.joints, warnings=warnings)
     else:
-        ident = _identify_whole(
+        ident, signals = _identify_whole(
             rb,
             base,
             pieces,
@@ -1124,7 +1128,13 @@ def identify_model(
 
     path = logs[0].path if len(logs) == 1 else None
     return checked_identification(
-        ident, pieces, window=window, vertical=vertical, path=path, derivatives=derivs
+        ident,
+        pieces,
+        window=window,
+        vertical=vertical,
+        path=path,
+        derivatives=derivs,
+        residuals=signals,
     )
 
 
@@ -1142,7 +1152,10 @@ def _identify_whole(
     cleaning: Sequence[str],
     vertical: Literal["refuse", "warn"],
     derivatives: Sequence[Sequence[Derivatives]],
-) -> Identification:
+) -> tuple[Identification, dict[str, list[ResidualPiece]]]:
+    """The whole-log fit of every joint the pass method identified, and the model's no-load
+    residuals on ``pieces`` (:func:`torquemap.vertical.no_load_residuals`, every piece), which
+    the noise levels and the vertical-arm check share."""
     from torquemap import identify_whole as iw
 
     derivs = derivatives
@@ -1248,13 +1261,13 @@ def _identify_whole(
     notes["friction_fit"] = "whole"
     model = Model(robot=rb, joints=new_joints, notes=notes)
     # the logs' noise level above the estimate's band, which estimation compares a log's with
-    levels, tones = _noise_levels(model, pieces, derivs, window)
+    levels, tones, signals = _noise_levels(model, pieces, derivs, window)
     for name, high in levels.items():
         joint_notes[name]["uncertainty"]["noise_high_psd"] = high
     for name, found in tones.items():
         joint_notes[name]["uncertainty"]["tones"] = [[x.frequency, x.amplitude] for x in found]
     model = Model(robot=rb, joints=new_joints, notes=notes)
-    return Identification(model=model, joints=results, warnings=tuple(warnings))
+    return Identification(model=model, joints=results, warnings=tuple(warnings)), signals
 
 
 def _determined_inertia(res: JointIdentification) -> tuple[float, float] | None:
@@ -1293,16 +1306,17 @@ def _noise_levels(
     pieces: Sequence[Log],
     derivs: Sequence[Sequence[Derivatives]],
     window: float,
-) -> tuple[dict[str, float], dict[str, tuple[Any, ...]]]:
+) -> tuple[dict[str, float], dict[str, tuple[Any, ...]], dict[str, list[ResidualPiece]]]:
     """Per joint with a whole-fit uncertainty table, the white-noise PSD [N^2 m^2/Hz] above the
     estimate's band of the pieces' Eq 7 signal less PDTV (:func:`torquemap.uncertainty.
     noise_level`, the estimate's own signal: :func:`torquemap.vertical.no_load_residuals`),
     weighted by the pieces' sample counts, and the same signal's fixed-frequency lines
     (:func:`torquemap.tones.find_tones`, which a slower logger folds into the estimate); joints
-    whose pieces cannot be measured (logs slower than 80 Hz, say) are left out."""
+    whose pieces cannot be measured (logs slower than 80 Hz, say) are left out; and the
+    signals (:func:`torquemap.vertical.no_load_residuals` of every piece)."""
     from torquemap.tones import find_tones
     from torquemap.uncertainty import joint_uncertainty, noise_level
-    from torquemap.vertical import no_load_residuals
+    from torquemap.vertical import no_load_residuals, with_free
 
     out: dict[str, float] = {}
     tones: dict[str, tuple[Any, ...]] = {}
@@ -1314,8 +1328,9 @@ def _noise_levels(
         lines = model.joints[name].pdtv
         levels, counts = [], []
         residuals = []
-        for part in parts:
-            residual = part.eq7 - pdtv_torque(part.angle, lines, velocity=part.velocity)
+        for at, piece in enumerate(parts):
+            part, residual = with_free(piece, lines)
+            parts[at] = part  # kept with its residual for the vertical-arm check
             residuals.append((part.t, residual, part.velocity))
             level = noise_level(model, name, t=part.t, residual=residual, velocity=part.velocity)
             if math.isfinite(level):
@@ -1324,7 +1339,7 @@ def _noise_levels(
         if levels:
             out[name] = float(np.average(levels, weights=counts))
             tones[name] = find_tones(residuals)
-    return out, tones
+    return out, tones, signals
 
 
 def _whole_notes(fit: Any, resolution: float) -> dict[str, Any]:

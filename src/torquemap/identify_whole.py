@@ -34,7 +34,6 @@ import itertools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -456,11 +455,19 @@ def _fixed_columns(
 def _prepare_both_ways(rows: _Rows, orders: Sequence[float]) -> None:
     """The PDTV columns of lines ``orders`` for both directions and per direction at once, and
     kept (:meth:`_Rows.smooth_once`'s keys): the direction test needs both, and the cosine and
-    sine of a line cost more than smoothing its columns. The same numbers as one at a time."""
+    sine of a line cost more than smoothing its columns. The six columns (:func:`pdtv_basis`'s
+    for both directions, then per direction) are formed sample by sample inside the smoother
+    (:meth:`torquemap.smooth_rows.RowSmoother.both_ways`): the same numbers as one at a
+    time."""
     for order in orders:
         if ("pdtv", order, False) in rows.cache or ("pdtv", order, True) in rows.cache:
             continue
-        columns = rows.smooth(_both_ways_columns(order), 6)
+        columns = np.vstack(
+            [
+                sm.both_ways(p.theta, p.velocity, order)
+                for p, sm in zip(rows.pieces, rows.smoothers, strict=True)
+            ]
+        )
         for key, part in (
             (("pdtv", order, False), columns[:, :2]),
             (("pdtv", order, True), columns[:, 2:]),
@@ -468,26 +475,6 @@ def _prepare_both_ways(rows: _Rows, orders: Sequence[float]) -> None:
             kept = part.copy()
             kept.setflags(write=False)
             rows.cache[key] = kept
-
-
-def _both_ways_columns(order: float) -> Callable[[Piece, int, int], NDArray[np.float64]]:
-    """The columns of line ``order`` for both directions, then per direction (six, as
-    :func:`pdtv_basis` forms them), the cosine and sine once per piece for its chunks."""
-    memo: dict[int, NDArray[np.float64]] = {}
-
-    def make(p: Piece, j0: int, j1: int) -> NDArray[np.float64]:
-        if id(p) not in memo:
-            memo.clear()
-            c, s = np.cos(order * p.theta), np.sin(order * p.theta)
-            out = np.empty((c.size, 6))
-            out[:, 0], out[:, 1] = c, s
-            for j, mask in ((2, p.velocity > 0), (4, p.velocity < 0)):
-                np.multiply(c, mask, out=out[:, j])
-                np.multiply(s, mask, out=out[:, j + 1])
-            memo[id(p)] = out
-        return memo[id(p)][:, j0:j1]
-
-    return make
 
 
 def _pdtv_columns(line: tuple[float, bool]) -> Callable[[Piece, int, int], NDArray[np.float64]]:
@@ -506,31 +493,23 @@ def _friction_columns(
     only: Sequence[int] | None = None,
 ) -> NDArray[np.float64]:
     """The table law's basis (:meth:`SpeedTableFriction.basis`) smoothed at the rows; with
-    ``only``, just those columns."""
-    from torquemap._fit_kernels import speed_table_block
-
+    ``only``, just those columns (each formed sample by sample inside the smoother,
+    :meth:`torquemap.smooth_rows.RowSmoother.speed_table`)."""
     k = len(speeds)
     logs = np.log(np.asarray(speeds))
-    which = list(range(2 * k + 2)) if only is None else list(only)
-    prepared: dict[int, tuple[NDArray[Any], ...]] = {}
+    which = np.array(list(range(2 * k + 2)) if only is None else list(only), dtype=np.int64)
 
-    def per_sample(p: Piece) -> tuple[NDArray[Any], ...]:
-        """What every column of piece ``p`` is made of (once per piece, not per chunk)."""
-        if id(p) not in prepared:
-            v = p.friction_velocity if p.friction_velocity is not None else p.velocity
-            s = np.abs(v)
-            b = 0.5 * (1.0 + np.tanh(v / w0))
-            x = np.log(np.maximum(s, 1e-300))
-            i = np.clip(np.searchsorted(logs, x, side="right") - 1, 0, k - 2)
-            u = np.clip((x - logs[i]) / (logs[i + 1] - logs[i]), 0.0, 1.0)
-            prepared[id(p)] = (s, b, -(1.0 - b), i.astype(np.int64), u)
-        return prepared[id(p)]
+    def columns(p: Piece, sm: RowSmoother) -> NDArray[np.float64]:
+        """Piece ``p``'s columns at its rows, from what every column is made of."""
+        v = p.friction_velocity if p.friction_velocity is not None else p.velocity
+        s = np.abs(v)
+        b = 0.5 * (1.0 + np.tanh(v / w0))
+        x = np.log(np.maximum(s, 1e-300))
+        i = np.clip(np.searchsorted(logs, x, side="right") - 1, 0, k - 2)
+        u = np.clip((x - logs[i]) / (logs[i + 1] - logs[i]), 0.0, 1.0)
+        return sm.speed_table(s, b, -(1.0 - b), i.astype(np.int64), u, which, k)
 
-    def make(p: Piece, j0: int, j1: int) -> NDArray[np.float64]:
-        s, b, nb, i, u = per_sample(p)
-        return speed_table_block(s, b, nb, i, u, np.array(which[j0:j1], dtype=np.int64), k)
-
-    return rows.smooth(make, len(which))
+    return np.vstack([columns(p, sm) for p, sm in zip(rows.pieces, rows.smoothers, strict=True)])
 
 
 def friction_velocity(
@@ -654,6 +633,9 @@ class _Gram:
         on = np.flatnonzero(base)
         if on.size == base.size and np.all(base == 1.0):
             self.gram = a.T @ a
+        elif np.all(base[on] == 1.0):  # weights 0 or 1 (sqrt(1) = 1: the same numbers)
+            part = a[on]
+            self.gram = part.T @ part
         else:
             part = a[on] * np.sqrt(base[on])[:, None]
             self.gram = part.T @ part

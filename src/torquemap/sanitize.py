@@ -345,8 +345,11 @@ def sanitize_log(log: Log, *, window: float, min_piece: float | None = None) -> 
         what = "1 sample repeats" if count == 1 else f"{count} samples repeat"
         warnings.append(f"{what} the previous time stamp (first at t = {first:.6g} s): dropped")
     keep = np.flatnonzero(~repeated)
-    if keep.size == n:  # no repeated stamp: copies (bridging writes into them), no gather
-        tk, q, tau = t, log.q.copy(), log.motor_torque.copy()
+    # no repeated stamp: the log's own arrays, copied only when a sample is bridged (bridging
+    # writes into them); else the kept rows (a gather: copies already)
+    own = keep.size == n
+    if own:
+        tk, q, tau = t, log.q, log.motor_torque
     else:
         tk, q, tau = t[keep], log.q[keep], log.motor_torque[keep]
     for k in range(q.shape[1]):
@@ -361,12 +364,19 @@ def sanitize_log(log: Log, *, window: float, min_piece: float | None = None) -> 
     bad_any = np.zeros(keep.size, dtype=bool)
     span = median_span_for(tk)
     for k in range(q.shape[1]):
-        for arr, what in ((tau, "torque"), (q, "angle")):
+        for what in ("torque", "angle"):
+            arr = tau if what == "torque" else q
             bad = np.zeros(tk.size, dtype=bool)
             for _ in range(4):  # a wild value hides lesser ones: look again once it is bridged
                 new = implausible_samples(arr[:, k], span=span) & ~bad
                 if not new.any():
                     break
+                if own and (arr is log.q or arr is log.motor_torque):
+                    arr = arr.copy()  # the first bridged sample of this array: a copy
+                    if what == "torque":
+                        tau = arr
+                    else:
+                        q = arr
                 bad |= new
                 good = ~bad
                 arr[bad, k] = np.interp(tk[bad], tk[good], arr[good, k])

@@ -89,3 +89,62 @@ class RowSmoother:
         op = self.operator
         out = smooth_at_rows(self.t, x, centre, op.indptr, op.indices, op.data, self.starts)
         return np.asarray(out + centre, dtype=np.float64)
+
+    def both_ways(
+        self, theta: NDArray[np.float64], velocity: NDArray[np.float64], order: float
+    ) -> NDArray[np.float64]:
+        """The smoothed PDTV columns of line ``order`` [CPR] at the rows, shape (rows, 6):
+        ``cos, sin`` of ``order * theta`` (``theta`` the motor angle [rad], shape (n,)), then
+        both where ``velocity`` [rad/s] > 0 (else 0), then both where it is < 0; the same
+        numbers as this smoother applied to those six columns, without forming them."""
+        from torquemap._fit_kernels import smooth_both_ways_at_rows
+
+        op = self.operator
+        return np.asarray(
+            smooth_both_ways_at_rows(
+                self.t,
+                np.ascontiguousarray(theta, dtype=np.float64),
+                np.ascontiguousarray(velocity, dtype=np.float64),
+                float(order),
+                op.indptr,
+                op.indices,
+                op.data,
+                self.starts,
+            ),
+            dtype=np.float64,
+        )
+
+    def speed_table(
+        self,
+        speed: NDArray[np.float64],
+        up: NDArray[np.float64],
+        down: NDArray[np.float64],
+        knot: NDArray[np.int64],
+        fraction: NDArray[np.float64],
+        columns: NDArray[np.int64],
+        knots: int,
+    ) -> NDArray[np.float64]:
+        """The speed-table friction basis's columns ``columns`` smoothed at the rows, shape
+        (rows, columns.size): :func:`torquemap._fit_kernels.speed_table_block`'s columns (its
+        arguments per sample, ``knots`` the table's knot count) through this smoother, the
+        same numbers, without forming them."""
+        from torquemap._fit_kernels import smooth_speed_table_at_rows
+
+        op = self.operator
+        return np.asarray(
+            smooth_speed_table_at_rows(
+                self.t,
+                speed,
+                up,
+                down,
+                knot,
+                fraction,
+                np.ascontiguousarray(columns, dtype=np.int64),
+                int(knots),
+                op.indptr,
+                op.indices,
+                op.data,
+                self.starts,
+            ),
+            dtype=np.float64,
+        )

@@ -41,7 +41,7 @@ from scipy import stats
 from torquemap.errors import InputError
 from torquemap.filters import lowpass
 from torquemap.io import Log
-from torquemap.model import Model, pdtv_torque
+from torquemap.model import Model, PdtvLine, pdtv_torque
 from torquemap.robust import cluster_covariance, weighted_solve
 
 if TYPE_CHECKING:
@@ -167,6 +167,9 @@ class ResidualPiece:
         The Eq 7 signal (motor torque minus inertia and friction) [N m, motor side], shape (m,).
     acceleration
         Motor acceleration [rad/s^2], shape (m,).
+    free
+        ``eq7`` less the model's PDTV torque (every line of the joint) [N m], shape (m,), once
+        computed (:func:`with_free`), else None.
     """
 
     t: NDArray[np.float64]
@@ -175,6 +178,23 @@ class ResidualPiece:
     angle: NDArray[np.float64]
     eq7: NDArray[np.float64]
     acceleration: NDArray[np.float64]
+    free: NDArray[np.float64] | None = None
+
+
+def with_free(
+    piece: ResidualPiece, lines: tuple[PdtvLine, ...]
+) -> tuple[ResidualPiece, NDArray[np.float64]]:
+    """``piece`` with :attr:`ResidualPiece.free` for PDTV ``lines`` (the joint's, every one)
+    computed when it is not yet, and that array: the noise levels, the vertical-arm check and
+    the residual table each read it."""
+    if piece.free is not None:
+        return piece, piece.free
+    free = piece.eq7 - pdtv_torque(piece.angle, lines, velocity=piece.velocity)
+    return dataclasses.replace(piece, free=free), free
+
+
+#: Pieces of a no-load log shorter than this [s] are left out of the gravity check.
+SHORTEST_PIECE = 1.5
 
 
 def no_load_residuals(
@@ -182,7 +202,7 @@ def no_load_residuals(
     logs: Sequence[Log],
     *,
     window: float,
-    shortest: float = 1.5,
+    shortest: float = SHORTEST_PIECE,
     derivatives: Sequence[Sequence[Derivatives]] | None = None,
 ) -> dict[str, list[ResidualPiece]]:
     """Per joint, the Eq 7 signal of ``model`` over the (sanitised) no-load ``logs``, the torque
@@ -239,7 +259,7 @@ def check_no_load(
     *,
     window: float,
     joints: Sequence[str] | None = None,
-    residuals: Mapping[str, list[ResidualPiece]] | None = None,
+    residuals: Mapping[str, Sequence[ResidualPiece]] | None = None,
 ) -> tuple[GravityCheck, ...]:
     """Test each joint's no-load torque for a gravity-like component the model cannot explain.
 
@@ -280,7 +300,10 @@ def check_no_load(
         ]
         top = max((float(np.percentile(np.abs(p.velocity), 99)) for p in pieces), default=0.0)
         for p in pieces:
-            residual = p.eq7 - pdtv_torque(p.angle, lines, velocity=p.velocity)
+            if p.free is not None and lines == jm.pdtv:  # computed already, of these lines
+                residual = p.free
+            else:
+                residual = p.eq7 - pdtv_torque(p.angle, lines, velocity=p.velocity)
             moving = np.abs(p.velocity) > MOVING_SHARE * top
             try:  # one filter pass over both signals and the mask
                 low, v_low = moving_lowpass(p.t, np.c_[residual, p.velocity], moving).T
@@ -407,6 +430,7 @@ def checked_identification(
     vertical: Literal["refuse", "warn"] = "refuse",
     path: str | None = None,
     derivatives: Sequence[Sequence[Derivatives]] | None = None,
+    residuals: Mapping[str, Sequence[ResidualPiece]] | None = None,
 ) -> Identification:
     """Run :func:`check_no_load` on an identification's model and its (sanitised) logs:
     refuse (``vertical="refuse"``, InputError naming ``path``) or warn, and record the result
@@ -414,9 +438,28 @@ def checked_identification(
     residual's level per speed (:func:`torquemap.uncertainty.residual_table`), estimation's
     sigma. Used by :func:`torquemap.identify.identify_model` for every friction method.
     ``derivatives``: those of the pieces' motor angles, when ``logs`` are sanitised pieces
-    (:func:`no_load_residuals`)."""
+    (:func:`no_load_residuals`). ``residuals``: :func:`no_load_residuals` of the model and
+    ``logs`` when already computed (pieces of any length: those shorter than
+    ``SHORTEST_PIECE`` are left out here, as :func:`no_load_residuals` leaves them out)."""
     model = ident.model
-    residuals = no_load_residuals(model, logs, window=window, derivatives=derivatives)
+    if residuals is None:
+        residuals = no_load_residuals(model, logs, window=window, derivatives=derivatives)
+    # the residual less PDTV of the joints whose residual table is recorded below, once for
+    # that table and the check
+    noted = model.notes.get("joints", {})
+    tabled = {
+        name
+        for name in ident.joints
+        if not (isinstance(noted.get(name), Mapping) and "uncertainty" in noted[name])
+    }
+    residuals = {
+        name: [
+            with_free(p, model.joints[name].pdtv)[0] if name in tabled else p
+            for p in parts
+            if not float(p.t[-1] - p.t[0]) < SHORTEST_PIECE
+        ]
+        for name, parts in residuals.items()
+    }
     checks = check_no_load(
         model, logs, window=window, joints=tuple(ident.joints), residuals=residuals
     )
@@ -462,7 +505,7 @@ def checked_identification(
             [p.t for p in pieces],
             [p.velocity for p in pieces],
             [p.acceleration for p in pieces],
-            [p.eq7 - pdtv_torque(p.angle, lines, velocity=p.velocity) for p in pieces],
+            [with_free(p, lines)[1] for p in pieces],
             band=bands[name],
         )
         if table is not None:
