@@ -22,6 +22,11 @@ them, weighed against the bias measurement, in the same iteration.
 The blocks are recognised from the row order of DATA.csv, which the collection writes: every
 block starts at level 0 and its levels increase. Data without that structure (rows shuffled,
 repeats, levels off a common grid) is returned unchanged.
+
+Where the matrix is not of low rank (the rig's compliance moves a block's top rows across a
+narrow ramp's hand-overs) the fit is biased; :func:`restore_misfit` gives back, cell by cell,
+the share of the readings' residual that exceeds their noise (a Wiener weight from the
+residual's mean square around the cell against the noise of the censored readings).
 """
 
 from __future__ import annotations
