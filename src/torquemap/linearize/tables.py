@@ -42,7 +42,7 @@ from scipy.optimize import isotonic_regression
 from torquemap.errors import InputError
 from torquemap.io import numeric_column, read_table
 from torquemap.linearize.bias import check_bias
-from torquemap.linearize.denoise import denoise_blocks
+from torquemap.linearize.denoise import denoise_blocks, restore_misfit
 from torquemap.linearize.detent import detent_correction, fit_detent
 from torquemap.linearize.handover import check_handover, fill_handover
 from torquemap.linearize.knee import check_uncensored, uncensored_residual
@@ -1040,7 +1040,8 @@ def build_tables(
     denoise
         ``"interp"`` only: replace the rows by the low-rank fit of their (block x level) matrix
         (:func:`torquemap.linearize.denoise.denoise_blocks`), when the row order holds the
-        collection's blocks. The paper's method always uses the rows as measured.
+        collection's blocks, with what the fit misses beyond the rows' noise given back
+        (:func:`torquemap.linearize.denoise.restore_misfit`). The paper's method always uses the rows as measured.
     bias_weight
         Denoising: the weight of each block's bias measurement in rows (the collection's
         ``bias_readings / readings``, 10 by default); each block is re-zeroed on the readings
@@ -1153,6 +1154,9 @@ def build_tables(
     if denoise and method == "interp":
         cleaned = denoise_blocks(pw, tau, bias_weight=bias_weight)
         tau, rank = cleaned.torque, cleaned.rank
+        if rank:
+            # where the low-rank fit misses the torque beyond the noise, the readings back
+            tau = restore_misfit(pw, raw_tau, tau, bias_weight=bias_weight).torque
     forward, levels, voids, averaged, handover_cells, harmonics = _forward_model(
         spec,
         pos,
