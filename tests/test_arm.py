@@ -541,3 +541,29 @@ def test_cli_identify_and_estimate(
     for axis in ("fx [N]", "fy [N]", "fz [N]"):
         assert axis in text
     assert "estimate (sound samples)" in text and "no force estimate" not in text
+
+
+def test_a_robot_file_at_odds_with_the_log_is_warned(bench: dict[str, object]) -> None:
+    """The torque a robot file reads twice too large (a torque constant or gear ratio off by
+    2x: the UR10 bench's forces came out 13 N off, without a word), and a robot file without
+    the gravity the arm moves in, are warned of or refused; the arm as simulated is not
+    (found on the UR10 and Tiago benches, 2026-11-27)."""
+    free, start, result = bench["free"], bench["start"], bench["result"]
+    assert isinstance(free, Log) and isinstance(start, Model)
+    flags = ("times the URDF's", "explains only", "negative in both directions")
+    assert not [w for w in result.warnings if any(f in w for f in flags)]  # type: ignore[attr-defined]
+    fast = {"max_samples": 1500, "pdtv_max_order": 0, "fit_friction_shape": False}
+    doubled = dataclasses.replace(free, motor_torque=2.0 * free.motor_torque)
+    scaled = identify_arm(start, [doubled], **fast)  # type: ignore[arg-type]
+    gains = [w for w in scaled.warnings if "times the URDF's" in w]
+    assert gains and all("robot file is too large" in w for w in gains)
+    arm = start.robot.arm
+    assert isinstance(arm, UrdfArm)
+    flat = urdf_arm(TWO_LINK, ["shoulder", "elbow"], end_effector="tool", gravity=(0, 0, 0))
+    weightless = dataclasses.replace(start, robot=dataclasses.replace(start.robot, arm=flat))
+    try:
+        out = identify_arm(weightless, [free], **fast)  # type: ignore[arg-type]
+    except InputError as exc:
+        assert "negative in both directions" in str(exc) and "gravity" in str(exc)
+    else:
+        assert [w for w in out.warnings if "explains only" in w and "gravity" in w]
