@@ -567,3 +567,25 @@ def test_a_robot_file_at_odds_with_the_log_is_warned(bench: dict[str, object]) -
         assert "negative in both directions" in str(exc) and "gravity" in str(exc)
     else:
         assert [w for w in out.warnings if "explains only" in w and "gravity" in w]
+
+
+def test_a_gap_in_the_free_log_splits_it(bench: dict[str, object]) -> None:
+    """0.5 s of a free log lost: the stretches on either side are identified as two logs (the
+    differentiator would fit one parabola across the gap), and the fit is as good as without
+    the gap (found on a UR10 log, 2026-11-27)."""
+    from torquemap.identify_arm import split_at_gaps
+
+    free, start = bench["free"], bench["start"]
+    assert isinstance(free, Log) and isinstance(start, Model)
+    keep = np.ones(free.t.size, dtype=bool)
+    keep[8000:8500] = False
+    gapped = dataclasses.replace(
+        free, t=free.t[keep], q=free.q[keep], motor_torque=free.motor_torque[keep]
+    )
+    parts, cut = split_at_gaps([gapped], 0.05)
+    assert cut == 1 and [p.t.size for p in parts] == [8000, free.t.size - 8500]
+    fast = {"max_samples": 1500, "pdtv_max_order": 0, "fit_friction_shape": False}
+    out = identify_arm(start, [gapped], **fast)  # type: ignore[arg-type]
+    assert any("1 gaps in time longer than 0.125 s" in w for w in out.warnings)
+    ref = identify_arm(start, [free], **fast)  # type: ignore[arg-type]
+    assert_allclose(out.residual_sigma, ref.residual_sigma, rtol=0.2)

@@ -39,6 +39,7 @@ from torquemap.errors import InputError
 from torquemap.friction_law import StribeckFriction, coulomb_levels_valid
 from torquemap.io import Log
 from torquemap.model import InertiaModel, JointModel, Model
+from torquemap.sanitize import max_gap_for
 
 PRIOR_MASS_FRACTION = 0.3
 """Prior standard deviation of each body's mass, relative to the URDF's [-] ..."""
@@ -476,6 +477,27 @@ def scale_warnings(
     return out
 
 
+def split_at_gaps(logs: Sequence[Log], window: float) -> tuple[list[Log], int]:
+    """The logs cut at every gap in time longer than :func:`~torquemap.sanitize.max_gap_for`
+    ``window`` (the differentiator would fit one parabola across it), stretches shorter than 4
+    windows left out; and the number of gaps cut at."""
+    out, cut = [], 0
+    limit = max_gap_for(window)
+    for log in logs:
+        edges = np.flatnonzero(np.diff(log.t) > limit) + 1
+        cut += edges.size
+        for a, b in zip([0, *edges.tolist()], [*edges.tolist(), log.t.size], strict=True):
+            if log.t[b - 1] - log.t[a] >= 4 * window:
+                out.append(
+                    dataclasses.replace(
+                        log, t=log.t[a:b], q=log.q[a:b], motor_torque=log.motor_torque[a:b]
+                    )
+                    if edges.size
+                    else log
+                )
+    return out, cut
+
+
 def is_rigid_body_arm(arm: Any) -> bool:
     """True when ``arm`` models rigid-body dynamics in full (the ``urdf`` kind): the arm
     identification and estimation apply."""
@@ -545,6 +567,15 @@ def identify_arm(
     gen = np.random.default_rng(rng)
     robot = model.robot
     nj = len(robot.joints)
+    warnings: list[str] = []
+    logs, cut = split_at_gaps(logs, window)
+    if cut:
+        warnings.append(
+            f"{cut} gaps in time longer than {max_gap_for(window):.3g} s: the logs are "
+            "identified as separate stretches (stretches shorter than 4 windows are left out)"
+        )
+    if not logs:
+        raise InputError("no stretch of the logs between gaps in time lasts 4 windows")
     signals = [arm_signals(log, robot, window=window) for log in logs]
     inner = []
     for sig in signals:
@@ -561,7 +592,6 @@ def identify_arm(
 
     pi0 = np.asarray(arm.nominal_parameters, dtype=np.float64)
     P = pi0.size
-    warnings: list[str] = []
 
     current = model
 
