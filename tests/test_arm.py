@@ -541,3 +541,72 @@ def test_cli_identify_and_estimate(
     for axis in ("fx [N]", "fy [N]", "fz [N]"):
         assert axis in text
     assert "estimate (sound samples)" in text and "no force estimate" not in text
+
+
+def test_a_robot_file_at_odds_with_the_log_is_warned(bench: dict[str, object]) -> None:
+    """The torque a robot file reads twice too large (a torque constant or gear ratio off by
+    2x: the UR10 bench's forces came out 13 N off, without a word), and a robot file without
+    the gravity the arm moves in, are warned of or refused; the arm as simulated is not
+    (found on the UR10 and Tiago benches, 2026-11-27)."""
+    free, start, result = bench["free"], bench["start"], bench["result"]
+    assert isinstance(free, Log) and isinstance(start, Model)
+    flags = ("times the URDF's", "explains only", "negative in both directions")
+    assert not [w for w in result.warnings if any(f in w for f in flags)]  # type: ignore[attr-defined]
+    fast = {"max_samples": 1500, "pdtv_max_order": 0, "fit_friction_shape": False}
+    doubled = dataclasses.replace(free, motor_torque=2.0 * free.motor_torque)
+    scaled = identify_arm(start, [doubled], **fast)  # type: ignore[arg-type]
+    gains = [w for w in scaled.warnings if "times the URDF's" in w]
+    assert gains and all("robot file is too large" in w for w in gains)
+    arm = start.robot.arm
+    assert isinstance(arm, UrdfArm)
+    flat = urdf_arm(TWO_LINK, ["shoulder", "elbow"], end_effector="tool", gravity=(0, 0, 0))
+    weightless = dataclasses.replace(start, robot=dataclasses.replace(start.robot, arm=flat))
+    try:
+        out = identify_arm(weightless, [free], **fast)  # type: ignore[arg-type]
+    except InputError as exc:
+        assert "negative in both directions" in str(exc) and "gravity" in str(exc)
+    else:
+        assert [w for w in out.warnings if "explains only" in w and "gravity" in w]
+
+
+def test_a_gap_in_the_free_log_splits_it(bench: dict[str, object]) -> None:
+    """0.5 s of a free log lost: the stretches on either side are identified as two logs (the
+    differentiator would fit one parabola across the gap), and the fit is as good as without
+    the gap (found on a UR10 log, 2026-11-27)."""
+    from torquemap.identify_arm import split_at_gaps
+
+    free, start = bench["free"], bench["start"]
+    assert isinstance(free, Log) and isinstance(start, Model)
+    keep = np.ones(free.t.size, dtype=bool)
+    keep[8000:8500] = False
+    gapped = dataclasses.replace(
+        free, t=free.t[keep], q=free.q[keep], motor_torque=free.motor_torque[keep]
+    )
+    parts, cut = split_at_gaps([gapped], 0.05)
+    assert cut == 1 and [p.t.size for p in parts] == [8000, free.t.size - 8500]
+    fast = {"max_samples": 1500, "pdtv_max_order": 0, "fit_friction_shape": False}
+    out = identify_arm(start, [gapped], **fast)  # type: ignore[arg-type]
+    assert any("1 gaps in time longer than 0.125 s" in w for w in out.warnings)
+    ref = identify_arm(start, [free], **fast)  # type: ignore[arg-type]
+    assert_allclose(out.residual_sigma, ref.residual_sigma, rtol=0.2)
+
+
+def test_samples_near_a_gap_in_the_task_log_are_flagged(bench: dict[str, object]) -> None:
+    """0.5 s of a task log lost: the samples within the low-pass's support (1 / cutoff) of the
+    gap carry flag 8 and a warning, as the other robots' estimates do; the rest do not (the
+    UR10's log with a gap was all 'sound', its error near the gap 5x its sigma, 2026-11-27)."""
+    result, task = bench["result"], bench["task"]
+    assert isinstance(task, Log)
+    keep = np.ones(task.t.size, dtype=bool)
+    keep[8000:8500] = False
+    gapped = dataclasses.replace(
+        task, t=task.t[keep], q=task.q[keep], motor_torque=task.motor_torque[keep]
+    )
+    est = estimate_arm(result.model, gapped, cutoff=2.0)  # type: ignore[attr-defined]
+    before, after = gapped.t[7999], gapped.t[8000]  # 7.999 s and 8.5 s
+    near = ((gapped.t > before - 0.499) & (gapped.t <= before)) | (
+        (gapped.t >= after) & (gapped.t < after + 0.499)
+    )
+    far = (gapped.t < before - 0.501) | (gapped.t > after + 0.501)
+    assert np.all(est.flag[near] & 8) and not np.any(est.flag[far] & 8)
+    assert any("gap in time" in w for w in est.warnings)

@@ -86,12 +86,22 @@ def test_table_round_trip() -> None:
     assert "stribeck" in FRICTION_LAWS
 
 
+def test_identified_offset_round_trips() -> None:
+    # an identified law may carry an offset: one Coulomb level below zero (Tiago's vertical
+    # torso, 2026-11-27: identify wrote -0.0026 / 0.027 N m, and estimate refused its model)
+    law = StribeckFriction(-0.0026, 0.027, -4.6e-5, -0.0039, -0.0039, 1.55, 0.9, 2.0, "smooth")
+    back = friction_law_from_dict(law.to_dict())
+    w = np.linspace(-30, 30, 61)
+    assert_allclose(back.torque(w), law.torque(w), rtol=0, atol=0)
+
+
 @pytest.mark.parametrize(
     ("table", "message"),
     [
         ({"kind": "lugre2"}, "kind must be one of"),
         ({"coulomb": 0.1}, "unknown key 'coulomb'"),
         ({"coulomb_positive": -0.1}, "Coulomb magnitudes must be >= 0"),
+        ({"coulomb_positive": 0.1, "coulomb_negative": -0.2}, "Coulomb magnitudes must be >= 0"),
         ({"stribeck_velocity": 0.0}, "stribeck_velocity must be > 0"),
         ({"stribeck_exponent": -1.0}, "stribeck_exponent must be > 0"),
         ({"transition": "step"}, "transition must be 'linear' or 'smooth'"),

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from numpy.testing import assert_array_equal
+from numpy.testing import assert_allclose, assert_array_equal
 
 from torquemap.errors import InputError
 from torquemap.io import (
@@ -131,3 +131,21 @@ def test_a_header_with_spaces_gets_the_same_hint_read_whole_or_in_chunks(tmp_pat
     assert str(whole.value) == str(chunked.value) == str(followed.value) == hint
     p.write_text('"t","q_m","i_m"\n' + rows)  # quoted names are the names
     assert_array_equal(np.concatenate([c.t for c in iter_log_chunks(p, COUNTS)]), cols["t"])
+
+
+@pytest.mark.parametrize("rows", [700, 1000, 10_000])
+def test_a_multi_turn_counter_is_not_unwrapped_across_a_gap(tmp_path: Path, rows: int) -> None:
+    """A counter holding many turns (the arm benches' absolute counts) across a 0.5 s gap in
+    which the motor turned 3.6 revolutions: read as logged, whole or in chunks (the gap inside
+    a chunk, or at a boundary), not shifted by whole turns (found on a UR10 log with a gap:
+    every angle after it was off by up to 0.63 rad and identification failed)."""
+    t = np.arange(3000) * 1e-3
+    t[1000:] += 0.5  # the gap, after row 1000 (a chunk boundary with rows=1000)
+    motor_angle = 400.0 + 45.0 * t
+    counts = np.floor(motor_angle / (2 * math.pi / 8192))
+    p = tmp_path / "log.csv"
+    write_table(p, {"t": t, "q_m": counts, "i_m": np.zeros_like(t)})
+    whole = read_log(p, COUNTS).q[:, 0]
+    assert_allclose(whole, motor_angle / 50.0, atol=2 * math.pi / 8192 / 50.0)
+    chunks = np.concatenate([c.q[:, 0] for c in iter_log_chunks(p, COUNTS, rows=rows)])
+    assert_array_equal(chunks, whole)

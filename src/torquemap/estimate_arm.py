@@ -45,12 +45,17 @@ from torquemap.filters import lowpass
 from torquemap.identify_arm import is_rigid_body_arm
 from torquemap.io import Log
 from torquemap.model import Model
+from torquemap.sanitize import max_gap_for
 
 ArmMethod = Literal["acceleration", "momentum"]
 ARM_METHODS: tuple[ArmMethod, ...] = ("acceleration", "momentum")
 
 FLAG_SINGULAR = 1
 """Flag bit: the pose is near a singularity; the wrench is NaN (the joint torques stand)."""
+FLAG_GAP = 8
+"""Flag bit (as :data:`torquemap.estimate.FLAG_GAP`): within ``1 / cutoff`` of a gap in time
+longer than :func:`torquemap.sanitize.max_gap_for` the window, where the filters see data on one
+side only (answered, not sound)."""
 SIGMA_STRIDE = 10
 """The parameter part of the sigmas is computed on every this-many samples and interpolated."""
 POSE_TOLERANCE = 0.1
@@ -439,6 +444,15 @@ def _sigma(
     return np.sqrt(var), warnings
 
 
+def _near_gaps(t: NDArray[np.float64], limit: float, reach: float) -> NDArray[np.bool_]:
+    """Samples within ``reach`` [s] of a step in time longer than ``limit`` [s]."""
+    steps = np.flatnonzero(np.diff(t) > limit)
+    out = np.zeros(t.size, dtype=bool)
+    for i in steps:
+        out |= ((t >= t[i] - reach) & (t <= t[i])) | ((t >= t[i + 1]) & (t <= t[i + 1] + reach))
+    return out
+
+
 def estimate_arm(
     model: Model,
     log: Log,
@@ -531,6 +545,14 @@ def estimate_arm(
     wrench_sigma = np.sqrt(np.einsum("nij,nj->ni", A**2, sigma**2))
     wrench[singular] = np.nan
     flag = np.where(singular, FLAG_SINGULAR, 0).astype(np.int64)
+    near_gap = _near_gaps(signals.t, max_gap_for(window), 1.0 / cutoff)
+    if near_gap.any():
+        flag[near_gap] |= FLAG_GAP
+        warnings.append(
+            f"{int(near_gap.sum())} of {near_gap.size} samples within {1.0 / cutoff:.3g} s of a "
+            f"gap in time longer than {max_gap_for(window):.3g} s (answered, flag 8: the "
+            "filters see data on one side only)"
+        )
     if singular.any():
         warnings.append(
             f"{int(singular.sum())} of {singular.size} samples at near-singular poses "

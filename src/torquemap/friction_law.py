@@ -266,8 +266,15 @@ class StribeckFriction(_LinearLaw):
             )
         allowed = {f.name for f in dataclasses.fields(cls)} - {"transition"}
         nums = _finite_floats(body, allowed, where, path)
-        if nums.get("coulomb_positive", 0.0) < 0 or nums.get("coulomb_negative", 0.0) < 0:
-            raise InputError(f"{where} Coulomb magnitudes must be >= 0", path=path)
+        # One side may be negative (an offset: identification writes one where a constant
+        # load, such as gravity on a vertical prismatic joint, looks like friction), not the band
+        cp, cn = nums.get("coulomb_positive", 0.0), nums.get("coulomb_negative", 0.0)
+        if not coulomb_levels_valid(cp, cn):
+            raise InputError(
+                f"{where} Coulomb magnitudes must be >= 0 (one may be negative, an offset, if "
+                f"their sum is positive; got {cp:g}, {cn:g})",
+                path=path,
+            )
         for name in ("stribeck_velocity", "zero_velocity", "stribeck_exponent"):
             if name in nums and nums[name] <= 0:
                 raise InputError(f"{where} {name} must be > 0", path=path)
@@ -275,6 +282,14 @@ class StribeckFriction(_LinearLaw):
             return cls(transition=transition, **nums)
         except InputError as exc:
             raise InputError(f"{where} {exc.message}", path=path) from None
+
+
+def coulomb_levels_valid(positive: float, negative: float) -> bool:
+    """Whether a law's Coulomb magnitudes [N m] can be read from a model file: both >= 0, or
+    one negative (an offset) with a positive sum (a friction band that dissipates)."""
+    if positive >= 0 and negative >= 0:
+        return True
+    return positive + negative > 0
 
 
 @register_friction_law

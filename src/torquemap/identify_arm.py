@@ -36,9 +36,10 @@ from torquemap.arm_model import (
     pdtv_lines,
 )
 from torquemap.errors import InputError
-from torquemap.friction_law import StribeckFriction
+from torquemap.friction_law import StribeckFriction, coulomb_levels_valid
 from torquemap.io import Log
 from torquemap.model import InertiaModel, JointModel, Model
+from torquemap.sanitize import max_gap_for
 
 PRIOR_MASS_FRACTION = 0.3
 """Prior standard deviation of each body's mass, relative to the URDF's [-] ..."""
@@ -396,6 +397,107 @@ def _solve(
     return cov @ g, cov
 
 
+SCALE_LIMITS = (0.6, 1.6)
+"""A joint's torque beyond these times the URDF's prediction is warned of (a gear ratio or
+torque constant off by 2x: 1.75-2.8 on the UR10 bench; 1.02-1.16 with the true arm's 15 %
+heavier links and a 0.8 kg tool)."""
+FIT_SHARE = 0.9
+"""A joint whose model explains less of its torque's variance than this is warned of (a robot
+file without gravity: 7 %; else above 99.8 % on the benches)."""
+
+
+def scale_warnings(
+    names: Sequence[str],
+    Y: NDArray[np.float64],
+    tau: NDArray[np.float64],
+    blocks: Sequence[NDArray[np.float64]],
+    slices: Sequence[slice],
+    x: NDArray[np.float64],
+    residual: NDArray[np.float64],
+    pi0: NDArray[np.float64],
+) -> list[str]:
+    """Warnings for joints the identified model does not fit (its residual's variance above
+    ``1 - FIT_SHARE`` of the torque's), and for joints whose rigid-body torque is the URDF's
+    (to at least 80 % of its variance) times a gain outside :data:`SCALE_LIMITS`: the signs of a
+    robot file that is wrong (gravity, gear ratio, torque constant) rather than a URDF that is.
+
+    ``Y`` (m, nj, P) is the regressor over the gears, ``tau`` (m, nj) the motor torques, ``x``
+    the identified parameters (inertial first, then each joint's ``blocks`` at ``slices``),
+    ``residual`` the fit's and ``pi0`` the URDF's inertial parameters.
+    """
+    out = []
+    P = pi0.size
+    gains: dict[int, float] = {}
+    for k, name in enumerate(names):
+        spread = float(np.sum((tau[:, k] - np.mean(tau[:, k])) ** 2))
+        share = 1.0 - float(np.sum(residual[:, k] ** 2)) / max(spread, 1e-300)
+        if share < FIT_SHARE:
+            out.append(
+                f"joint {name}: the identified model explains only {max(share, 0.0):.0%} of its "
+                "torque's variation; check the robot file's gravity, gear ratios and torque "
+                "constants, and that the log is of this robot"
+            )
+            continue
+        urdf = Y[:, k, :P] @ pi0
+        rigid = tau[:, k] - blocks[k] @ x[slices[k]]  # the joint's own terms removed
+        norm = float(urdf @ urdf)
+        if norm <= 0.0:
+            continue
+        gain = float(urdf @ rigid) / norm
+        fit = 1.0 - float(np.sum((rigid - gain * urdf) ** 2)) / max(float(rigid @ rigid), 1e-300)
+        if fit >= 0.8:
+            gains[k] = gain
+    # the bodies each joint carries: a joint nearer the base moves more of them
+    carried = np.count_nonzero(np.abs(Y[:, :, :P]).max(axis=0) > 0, axis=1)
+    for k, gain in gains.items():
+        if gain < SCALE_LIMITS[0]:
+            cause = (
+                "a gear ratio or torque constant in the robot file is too small, or the URDF is "
+                "not this arm's"
+            )
+        elif gain > SCALE_LIMITS[1]:
+            # A load the URDF lacks raises the gains towards the tool; a wrong gear ratio or
+            # torque constant raises one joint's (or all, from the base on)
+            outer = [g for i, g in gains.items() if carried[i] < carried[k]]
+            nearest = [
+                gains[i]
+                for i in gains
+                if carried[i]
+                == max((carried[j] for j in gains if carried[j] < carried[k]), default=-1)
+            ]
+            base = all(carried[i] <= carried[k] for i in gains)
+            if not (base or (outer and gain > 1.3 * max(nearest))):
+                continue
+            cause = "a gear ratio or torque constant in the robot file is too large"
+        else:
+            continue
+        out.append(
+            f"joint {names[k]}: its rigid-body torque is {gain:.2f} times the URDF's: {cause}"
+        )
+    return out
+
+
+def split_at_gaps(logs: Sequence[Log], window: float) -> tuple[list[Log], int]:
+    """The logs cut at every gap in time longer than :func:`~torquemap.sanitize.max_gap_for`
+    ``window`` (the differentiator would fit one parabola across it), stretches shorter than 4
+    windows left out; and the number of gaps cut at."""
+    out, cut = [], 0
+    limit = max_gap_for(window)
+    for log in logs:
+        edges = np.flatnonzero(np.diff(log.t) > limit) + 1
+        cut += edges.size
+        for a, b in zip([0, *edges.tolist()], [*edges.tolist(), log.t.size], strict=True):
+            if log.t[b - 1] - log.t[a] >= 4 * window:
+                out.append(
+                    dataclasses.replace(
+                        log, t=log.t[a:b], q=log.q[a:b], motor_torque=log.motor_torque[a:b]
+                    )
+                    if edges.size
+                    else log
+                )
+    return out, cut
+
+
 def is_rigid_body_arm(arm: Any) -> bool:
     """True when ``arm`` models rigid-body dynamics in full (the ``urdf`` kind): the arm
     identification and estimation apply."""
@@ -465,6 +567,15 @@ def identify_arm(
     gen = np.random.default_rng(rng)
     robot = model.robot
     nj = len(robot.joints)
+    warnings: list[str] = []
+    logs, cut = split_at_gaps(logs, window)
+    if cut:
+        warnings.append(
+            f"{cut} gaps in time longer than {max_gap_for(window):.3g} s: the logs are "
+            "identified as separate stretches (stretches shorter than 4 windows are left out)"
+        )
+    if not logs:
+        raise InputError("no stretch of the logs between gaps in time lasts 4 windows")
     signals = [arm_signals(log, robot, window=window) for log in logs]
     inner = []
     for sig in signals:
@@ -481,7 +592,6 @@ def identify_arm(
 
     pi0 = np.asarray(arm.nominal_parameters, dtype=np.float64)
     P = pi0.size
-    warnings: list[str] = []
 
     current = model
 
@@ -601,6 +711,11 @@ def identify_arm(
     residual_sigma = np.sqrt(np.mean(residual**2, axis=0))
     lowpassed = _lowpassed_residual(model, arm, signals[0], inner[0], orders, x)
 
+    scale = scale_warnings(
+        [joint.name for joint in robot.joints], Y, tau, blocks, slices, x, residual, pi0
+    )
+    warnings += scale
+
     if body_consistency(x[:P], arm.body_names):
         # project onto physically consistent bodies, and move the joint terms with them
         # (the Gaussian conditional of the joint terms given the inertial parameters)
@@ -636,6 +751,23 @@ def identify_arm(
             )
         friction = jm.friction.with_linear_parameters(v[1 : 1 + nf])
         levels = friction.static_levels()
+        coulomb = (
+            getattr(friction, "coulomb_positive", 0.0),
+            getattr(friction, "coulomb_negative", 0.0),
+        )
+        if not coulomb_levels_valid(*coulomb):
+            flagged = [w.split(":")[0].removeprefix("joint ") for w in scale]
+            raise InputError(
+                f"joint {joint.name}: the identified friction is negative in both directions "
+                f"(Coulomb {coulomb[0]:.3g}, {coulomb[1]:.3g} N m): the model does not fit the "
+                "log; check the robot file's gravity, gear ratios and torque constants, and that "
+                "the log is of this robot"
+                + (
+                    f" (a torque that the URDF does not explain: {', '.join(flagged)})"
+                    if flagged
+                    else ""
+                )
+            )
         if min(levels) < 0:
             warnings.append(
                 f"joint {joint.name}: identified friction at rest is negative ({levels[0]:.3g}, "

@@ -673,6 +673,30 @@ def log_from_columns(
     return Log(t=t, q=q, motor_torque=tau, joint_names=robot.joint_names, path=p)
 
 
+COUNTS_GAP = 0.125
+"""[s] A step in time this long is a gap (the filters' :func:`torquemap.sanitize.max_gap_for`
+the default 0.05 s window): a multi-turn counter is not unwrapped across it."""
+
+
+def unwrap_counts(
+    raw: NDArray[np.float64], cpr: float, t: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Encoder counts with their wraps undone: every step between samples longer than half a
+    turn (``cpr / 2``) is taken as a wrap (``np.unwrap``), except, for a counter that holds more
+    than one turn (some ``|count| > cpr``: a multi-turn counter, not a single-turn encoder),
+    across a gap in time longer than :data:`COUNTS_GAP`, where the motor may have turned that
+    far (before: a 0.5 s gap in a UR10's log shifted every later angle by whole motor turns)."""
+    out: NDArray[np.float64] = np.unwrap(raw, period=cpr)
+    if raw.size < 2 or not np.any(np.abs(raw) > cpr):
+        return out
+    gap = np.diff(t) > COUNTS_GAP
+    if not gap.any():
+        return out
+    step = np.diff(out)
+    step[gap] = np.diff(raw)[gap]
+    return np.concatenate(([out[0]], out[0] + np.cumsum(step)))
+
+
 def _log_arrays(
     cols: Columns,
     robot: Robot,
@@ -680,6 +704,7 @@ def _log_arrays(
     *,
     first_row: int = 0,
     last_counts: NDArray[np.float64] | None = None,
+    last_t: float | None = None,
     whole: bool = True,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """``(t, q, motor_torque)`` from a log's columns, each checked (:func:`log_from_columns`).
@@ -722,10 +747,14 @@ def _log_arrays(
             raw_q = column(name, max_abs=MAX_COUNTS, unit="counts")
             cpr = float(joint.encoder_counts_per_rev or 0)
             if last_counts is None:
-                counts = np.unwrap(raw_q, period=cpr)
+                counts = unwrap_counts(raw_q, cpr, t)
             else:
                 before_raw, before = float(last_counts[0, k]), float(last_counts[1, k])
-                joined = np.unwrap(np.concatenate(([before_raw], raw_q)), period=cpr)
+                joined = unwrap_counts(
+                    np.concatenate(([before_raw], raw_q)),
+                    cpr,
+                    np.concatenate(([t[0] if last_t is None else last_t], t)),
+                )
                 counts = joined[1:] + (before - before_raw)
             q[:, k] = counts * (2.0 * np.pi / cpr) / joint.gear_ratio
             far = np.abs(q[:, k]) > MAX_ANGLE
@@ -973,7 +1002,13 @@ class _ChunkChain:
         """The next chunk from its columns (checked, counts unwrapped)."""
         robot, first_row = self.robot, self.rows
         t, q, tau = _log_arrays(
-            cols, robot, self.path, first_row=first_row, last_counts=self.last_counts, whole=False
+            cols,
+            robot,
+            self.path,
+            first_row=first_row,
+            last_counts=self.last_counts,
+            last_t=self.last_t,
+            whole=False,
         )
         joined = t if self.last_t is None else np.concatenate(([self.last_t], t))
         step = np.diff(joined)
