@@ -65,7 +65,7 @@ from torquemap.linearize.denoise import denoise_blocks
 from torquemap.linearize.motor import MotorSpec, ramped_actuation
 from torquemap.linearize.resume import (
     adaptive_record_path,
-    differences,
+    check_same_settings,
     motor_identity,
 )
 from torquemap.linearize.resume import (
@@ -341,14 +341,7 @@ def _read_state(
             path=path,
         )
     if theirs is not None and plan is not None and motor is not None:
-        problems = differences(plan, theirs[0], "") + differences(motor, theirs[1], "motor ")
-        if problems:
-            raise InputError(
-                "cannot resume: this run's settings differ from the file's: "
-                + "; ".join(problems)
-                + " (use the file's settings, or another output file)",
-                path=path,
-            )
+        check_same_settings((plan, motor), theirs, path)
     total = sum(c for _, _, c in blocks)
     if total > len(lines):
         raise InputError(

@@ -49,8 +49,8 @@ from torquemap.linearize.motor import MotorSpec, ramped_actuation
 from torquemap.linearize.resume import (
     CollectionRecord,
     adaptive_record_path,
+    check_same_settings,
     collection_lock,
-    differences,
     motor_identity,
     read_record,
     tables_digest,
@@ -411,18 +411,14 @@ def _resume_state(
             )
         done = _infer_done(path, rows, targets, n)
     else:
-        problems = []
-        if old.kind != record.kind:
-            problems.append(f"kind (this run {record.kind}, the file's {old.kind})")
-        problems += differences(record.settings, old.settings, "")
-        problems += differences(record.motor, old.motor, "motor ")
-        if problems:
-            raise InputError(
-                "cannot resume: this run's settings differ from the file's: "
-                + "; ".join(problems)
-                + " (use the file's settings, or another output file)",
-                path=path,
-            )
+        kind = (
+            [f"kind (this run {record.kind}, the file's {old.kind})"]
+            if old.kind != record.kind
+            else []
+        )
+        check_same_settings(
+            (record.settings, record.motor), (old.settings, old.motor), path, problems=kind
+        )
         done = old.done
     wanted = set(int(t) for t in targets)
     stray = [t for t, _ in done if t not in wanted]

@@ -19,7 +19,7 @@ import contextlib
 import hashlib
 import json
 import os
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -223,6 +223,32 @@ def differences(ours: Mapping[str, Any], theirs: Mapping[str, Any], what: str) -
             else:
                 out.append(f"{what}{key} (this run {a!r}, the file's {b!r})")
     return out
+
+
+def check_same_settings(
+    settings: tuple[Mapping[str, Any], Mapping[str, Any]],
+    theirs: tuple[Mapping[str, Any], Mapping[str, Any]],
+    path: str | os.PathLike[str],
+    *,
+    problems: Sequence[str] = (),
+) -> None:
+    """Refuse to resume data file ``path`` when this run's ``(settings, motor)`` differ from
+    the file's record's ``theirs`` (each difference named, after ``problems`` found before).
+
+    Raises
+    ------
+    InputError
+        One line naming every difference.
+    """
+    found = [*problems, *differences(settings[0], theirs[0], "")]
+    found += differences(settings[1], theirs[1], "motor ")
+    if found:
+        raise InputError(
+            "cannot resume: this run's settings differ from the file's: "
+            + "; ".join(found)
+            + " (use the file's settings, or another output file)",
+            path=path,
+        )
 
 
 def check_collected_through(
