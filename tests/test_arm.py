@@ -610,3 +610,21 @@ def test_samples_near_a_gap_in_the_task_log_are_flagged(bench: dict[str, object]
     far = (gapped.t < before - 0.501) | (gapped.t > after + 0.501)
     assert np.all(est.flag[near] & 8) and not np.any(est.flag[far] & 8)
     assert any("gap in time" in w for w in est.warnings)
+
+
+def test_a_constant_load_the_urdf_lacks_is_named_with_negative_friction(
+    bench: dict[str, object],
+) -> None:
+    """A constant torque on a joint (gravity on a vertical prismatic joint the URDF leaves
+    out, a spring) adds to friction one way and takes from it the other: its level at rest comes
+    out negative, and the warning names that cause beside slow reversals (the Tiago's torso,
+    2026-11-27)."""
+    free, start, result = bench["free"], bench["start"], bench["result"]
+    assert isinstance(free, Log) and isinstance(start, Model)
+    levels = result.model.joints["elbow"].friction.static_levels()  # type: ignore[attr-defined]
+    loaded = free.motor_torque.copy()
+    loaded[:, 1] += 3.0 * max(abs(x) for x in levels)  # beyond friction: one level < 0
+    fast = {"max_samples": 1500, "pdtv_max_order": 0, "fit_friction_shape": False}
+    out = identify_arm(start, [dataclasses.replace(free, motor_torque=loaded)], **fast)  # type: ignore[arg-type]
+    negative = [w for w in out.warnings if "elbow: identified friction at rest is negative" in w]
+    assert negative and "a constant load the URDF lacks" in negative[0], out.warnings

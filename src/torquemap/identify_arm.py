@@ -771,7 +771,9 @@ def identify_arm(
         if min(levels) < 0:
             warnings.append(
                 f"joint {joint.name}: identified friction at rest is negative ({levels[0]:.3g}, "
-                f"{levels[1]:.3g} N m); the motion may not have reversed slowly enough"
+                f"{levels[1]:.3g} N m); the motion may not have reversed slowly enough, or "
+                "a constant load the URDF lacks (gravity on a vertical prismatic joint, a "
+                "spring) reads as friction one way"
             )
         joints[joint.name] = dataclasses.replace(
             jm,
