@@ -101,17 +101,12 @@ def _rig(seed: int = 0) -> SimRig:
     return SimRig(rig.motor, rig.amplifier, dataclasses.replace(rig.settings, noise=0.0), rng=seed)
 
 
-def test_budget_is_respected_and_resume_loses_nothing(tmp_path: Path) -> None:
-    rig = _rig()
-    spec = rig.motor_spec()
-    whole = collect_adaptive(
-        rig, spec, tmp_path / "whole.csv", SETTINGS, fraction=0.9, row_readings=4
-    )
-    assert whole.readings <= whole.budget == int(grid_readings(spec, SETTINGS) * 0.9)
-    assert whole.positions > 13  # the coarse pass's 13, then refined
+class Interrupted(Exception):
+    """The collection cut by :func:`_interrupted_rig`."""
 
-    class Interrupted(Exception):
-        pass
+
+def _interrupted_rig() -> SimRig:
+    """The test rig, cut (:class:`Interrupted`) at its 300th reading."""
 
     class Flaky(SimRig):
         reads = 0
@@ -123,7 +118,19 @@ def test_budget_is_respected_and_resume_loses_nothing(tmp_path: Path) -> None:
             return super().read_torque()
 
     base = _rig()
-    flaky = Flaky(base.motor, base.amplifier, base.settings, rng=0)
+    return Flaky(base.motor, base.amplifier, base.settings, rng=0)
+
+
+def test_budget_is_respected_and_resume_loses_nothing(tmp_path: Path) -> None:
+    rig = _rig()
+    spec = rig.motor_spec()
+    whole = collect_adaptive(
+        rig, spec, tmp_path / "whole.csv", SETTINGS, fraction=0.9, row_readings=4
+    )
+    assert whole.readings <= whole.budget == int(grid_readings(spec, SETTINGS) * 0.9)
+    assert whole.positions > 13  # the coarse pass's 13, then refined
+
+    flaky = _interrupted_rig()
     out = tmp_path / "cut.csv"
     with pytest.raises(Interrupted):
         collect_adaptive(flaky, spec, out, SETTINGS, fraction=0.9, row_readings=4)
@@ -177,21 +184,8 @@ def test_resume_refuses_other_settings_or_another_ramp(tmp_path: Path) -> None:
     # file with another ramp (wide blocks, then narrow ones) mixed both into one file, exit 0:
     # the recorded blocks were the plan's under either. The record now holds the settings and
     # the motor, and a resume that differs is refused naming what differs.
-    class Interrupted(Exception):
-        pass
-
-    class Flaky(SimRig):
-        reads = 0
-
-        def read_torque(self) -> float:
-            Flaky.reads += 1
-            if Flaky.reads == 300:
-                raise Interrupted
-            return super().read_torque()
-
-    base = _rig()
-    spec = base.motor_spec()
-    flaky = Flaky(base.motor, base.amplifier, base.settings, rng=0)
+    flaky = _interrupted_rig()
+    spec = flaky.motor_spec()
     out = tmp_path / "cut.csv"
     with pytest.raises(Interrupted):
         collect_adaptive(flaky, spec, out, SETTINGS, fraction=0.9)
@@ -201,7 +195,7 @@ def test_resume_refuses_other_settings_or_another_ramp(tmp_path: Path) -> None:
         collect_adaptive(flaky, spec, out, more, fraction=0.9)
     with pytest.raises(InputError, match=r"budget \(this run 0\.8, the file's 0\.9\)"):
         collect_adaptive(flaky, spec, out, SETTINGS, fraction=0.8)
-    narrow = base.motor_spec(ramping="narrow")
+    narrow = flaky.motor_spec(ramping="narrow")
     with pytest.raises(InputError, match=r"cannot resume: .*motor ramp \(differs\)"):
         collect_adaptive(flaky, narrow, out, SETTINGS, fraction=0.9)
     assert out.read_text() == lines  # nothing written by the refused runs

@@ -415,8 +415,8 @@ def scale_warnings(
     x: NDArray[np.float64],
     residual: NDArray[np.float64],
     pi0: NDArray[np.float64],
-) -> list[str]:
-    """Warnings for joints the identified model does not fit (its residual's variance above
+) -> list[tuple[str, str]]:
+    """``(joint, warning)`` for joints the identified model does not fit (its residual's variance above
     ``1 - FIT_SHARE`` of the torque's), and for joints whose rigid-body torque is the URDF's
     (to at least 80 % of its variance) times a gain outside :data:`SCALE_LIMITS`: the signs of a
     robot file that is wrong (gravity, gear ratio, torque constant) rather than a URDF that is.
@@ -433,9 +433,12 @@ def scale_warnings(
         share = 1.0 - float(np.sum(residual[:, k] ** 2)) / max(spread, 1e-300)
         if share < FIT_SHARE:
             out.append(
-                f"joint {name}: the identified model explains only {max(share, 0.0):.0%} of its "
-                "torque's variation; check the robot file's gravity, gear ratios and torque "
-                "constants, and that the log is of this robot"
+                (
+                    name,
+                    f"joint {name}: the identified model explains only {max(share, 0.0):.0%} of its "
+                    "torque's variation; check the robot file's gravity, gear ratios and torque "
+                    "constants, and that the log is of this robot",
+                )
             )
             continue
         urdf = Y[:, k, :P] @ pi0
@@ -458,21 +461,19 @@ def scale_warnings(
         elif gain > SCALE_LIMITS[1]:
             # A load the URDF lacks raises the gains towards the tool; a wrong gear ratio or
             # torque constant raises one joint's (or all, from the base on)
-            outer = [g for i, g in gains.items() if carried[i] < carried[k]]
-            nearest = [
-                gains[i]
-                for i in gains
-                if carried[i]
-                == max((carried[j] for j in gains if carried[j] < carried[k]), default=-1)
-            ]
+            inner = [carried[i] for i in gains if carried[i] < carried[k]]
+            nearest = [gains[i] for i in gains if inner and carried[i] == max(inner)]
             base = all(carried[i] <= carried[k] for i in gains)
-            if not (base or (outer and gain > 1.3 * max(nearest))):
+            if not (base or (nearest and gain > 1.3 * max(nearest))):
                 continue
             cause = "a gear ratio or torque constant in the robot file is too large"
         else:
             continue
         out.append(
-            f"joint {names[k]}: its rigid-body torque is {gain:.2f} times the URDF's: {cause}"
+            (
+                names[k],
+                f"joint {names[k]}: its rigid-body torque is {gain:.2f} times the URDF's: {cause}",
+            )
         )
     return out
 
@@ -714,7 +715,7 @@ def identify_arm(
     scale = scale_warnings(
         [joint.name for joint in robot.joints], Y, tau, blocks, slices, x, residual, pi0
     )
-    warnings += scale
+    warnings += [text for _, text in scale]
 
     if body_consistency(x[:P], arm.body_names):
         # project onto physically consistent bodies, and move the joint terms with them
@@ -756,7 +757,7 @@ def identify_arm(
             getattr(friction, "coulomb_negative", 0.0),
         )
         if not coulomb_levels_valid(*coulomb):
-            flagged = [w.split(":")[0].removeprefix("joint ") for w in scale]
+            flagged = [name for name, _ in scale]
             raise InputError(
                 f"joint {joint.name}: the identified friction is negative in both directions "
                 f"(Coulomb {coulomb[0]:.3g}, {coulomb[1]:.3g} N m): the model does not fit the "

@@ -46,23 +46,9 @@ def _bias_weight(given: float | None, data: str) -> float:
 def _record_settings(data: str) -> dict[str, Any]:
     """The settings of the collection record beside ``data`` (the grid's
     ``DATA.csv.collect.json`` or the adaptive ``DATA.csv.adaptive.json``), {} without one."""
-    from torquemap.errors import InputError
-    from torquemap.linearize.resume import adaptive_record_path, read_record
+    from torquemap.linearize.resume import record_beside
 
-    settings: dict[str, Any] = {}
-    try:
-        record = read_record(data)
-    except InputError:  # the record serves resuming; the data themselves are checked on reading
-        record = None
-    if record is not None:
-        settings = dict(record.settings)
-    else:  # an adaptive collection's record (linearize collect --adaptive)
-        try:
-            raw = json.loads(adaptive_record_path(data).read_text())
-            settings = dict(raw) if isinstance(raw, dict) else {}
-        except (OSError, ValueError):
-            settings = {}
-    return settings
+    return record_beside(data)[1]
 
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:

@@ -225,6 +225,29 @@ def differences(ours: Mapping[str, Any], theirs: Mapping[str, Any], what: str) -
     return out
 
 
+def record_beside(
+    data_path: str | os.PathLike[str],
+) -> tuple[str | None, dict[str, Any], Mapping[str, Any] | None]:
+    """``(kind, settings, motor)`` of the collection record beside data ``data_path``: the
+    grid's ``DATA.csv.collect.json``, else an adaptive run's ``DATA.csv.adaptive.json`` (kind
+    ``"characterisation"``, its whole document as settings); ``(None, {}, None)`` when neither
+    is there or readable (the data themselves are checked on reading)."""
+    try:
+        record = read_record(data_path)
+    except InputError:  # the record serves resuming
+        record = None
+    if record is not None:
+        return record.kind, dict(record.settings), record.motor
+    try:
+        raw = json.loads(adaptive_record_path(data_path).read_text())
+    except (OSError, ValueError):
+        return None, {}, None
+    if not isinstance(raw, dict):
+        return None, {}, None
+    motor = raw.get("motor")
+    return "characterisation", raw, motor if isinstance(motor, Mapping) else None
+
+
 def check_same_settings(
     settings: tuple[Mapping[str, Any], Mapping[str, Any]],
     theirs: tuple[Mapping[str, Any], Mapping[str, Any]],
@@ -308,19 +331,8 @@ def check_collected_for(data_path: str | os.PathLike[str], spec: MotorSpec, kind
     InputError
         Naming the data file and every difference.
     """
-    theirs: Mapping[str, Any] | None = None
-    try:
-        record = read_record(data_path)
-    except InputError:
-        record = None
-    if record is not None:
-        theirs = record.motor if record.kind == kind else None
-    elif kind == "characterisation":
-        try:
-            raw = json.loads(adaptive_record_path(data_path).read_text())
-            theirs = raw.get("motor") if isinstance(raw, dict) else None
-        except (OSError, ValueError):
-            theirs = None
+    found, _, motor = record_beside(data_path)
+    theirs = motor if found == kind else None
     if not isinstance(theirs, Mapping):
         return
     ours = motor_identity(spec)

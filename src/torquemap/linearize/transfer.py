@@ -65,7 +65,7 @@ from torquemap.linearize.tables import LinearizeData, fill_voids
 #: tie-break; 0.05 measured worse on the BLDC siblings of benchmarks/transfer.py).
 PRIOR = 1e-3
 #: The scalings, simplest first: the first joint's surface unchanged (one common scale), its
-#: phases' gains (registered by the motor files' equilibria), gains and the amplifier law.
+#: phases' gains (weighted by the phases' shares), gains and the amplifier law.
 Scaling = Literal["unchanged", "gains", "full"]
 MODELS: tuple[Scaling, ...] = ("unchanged", "gains", "full")
 #: A richer scaling is taken only when its held-out error is below the simplest's within this
@@ -283,7 +283,8 @@ def transfer_characterisation(
     level = few.level.astype(np.float64)
     tau = few.torque
     scores: dict[str, float] = {n_: held_out_error(model, n_, pos, level, tau) for n_ in MODELS}
-    x, g = model.fit("full", pos, level, tau)
+    full = model.fit("full", pos, level, tau)
+    x, g = full
     if model.on_bound(x):
         scores["full"] = float("inf")
     if scaling == "auto":
@@ -296,7 +297,7 @@ def transfer_characterisation(
     scale = float(np.sqrt(np.mean(tau**2))) or 1.0
     residual = float(np.sqrt(np.mean((tau - model.predict(x, g, pos, level)) ** 2))) / scale
     residual_unchanged = float(np.sqrt(np.mean((tau - surface(pos, level)) ** 2))) / scale
-    x, g = model.fit(chosen, pos, level, tau)
+    x, g = full if chosen == "full" else model.fit(chosen, pos, level, tau)
     warnings = []
     if chosen == "unchanged":
         torque = g[0] * first.torque
