@@ -3,8 +3,8 @@
 One pass over a joint's velocity in place of some thirty numpy passes (each a temporary of the
 log's size): the speed table's sign and extrapolation terms and the residual table's level,
 written side by side into the array the low-pass then filters. The same operations as the
-numpy code they replace (tests/test_sigma_kernels.py: equal to rounding), compiled and cached
-as :mod:`torquemap._kernels` is.
+numpy code they replace (tests/test_sigma_kernels.py: bit for bit but one ``hypot``, within an
+ulp), compiled and cached as :mod:`torquemap._kernels` is.
 """
 
 from __future__ import annotations
@@ -18,33 +18,48 @@ from torquemap._jit import jit
 
 
 @jit
-def _interp_at(
-    x: float, xp: NDArray[np.float64], fp: NDArray[np.float64], j: int
-) -> tuple[float, int]:
-    """``numpy.interp(x, xp, fp)`` (the same formula and edge cases) and the knot index found,
-    searched from the guess ``j`` (the last sample's: speeds change little sample to sample)."""
+def _knot(x: float, xp: NDArray[np.float64], j: int) -> int:
+    """The knot ``j`` with ``xp[j] <= x < xp[j + 1]``; -1 below ``xp[0]``, ``k - 1`` at or
+    beyond the last (``k`` knots, at least two), searched from the guess ``j`` (the last
+    sample's: speeds change little from sample to sample). NaN keeps the guess."""
     k = xp.size
-    if math.isnan(x):
-        return x, j
     if x < xp[0]:
-        return fp[0], 0
-    if x > xp[k - 1]:
-        return fp[k - 1], k - 1
-    # xp[j] <= x < xp[j + 1], or j = k - 1 where x == xp[k - 1]
-    j = min(max(j, 0), k - 1)
-    while j > 0 and xp[j] > x:
+        return -1
+    if x >= xp[k - 1]:
+        return k - 1
+    j = min(max(j, 0), k - 2)
+    while xp[j] > x:
         j -= 1
-    while j < k - 1 and xp[j + 1] <= x:
+    while xp[j + 1] <= x:
         j += 1
-    if j == k - 1 or xp[j] == x:
-        return fp[j], j
+    return j
+
+
+@jit
+def _value(x: float, xp: NDArray[np.float64], fp: NDArray[np.float64], j: int) -> float:
+    """``numpy.interp(x, xp, fp)`` at the knot ``j`` of :func:`_knot`: its formula and its
+    edge cases (NaN for NaN; numpy's second formula, for a NaN from finite knots and a
+    finite ``x``, is never needed)."""
+    k = xp.size
+    if j < 0:
+        return fp[0]
+    if j >= k - 1 or xp[j] == x:
+        return fp[j]
     slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
-    y = slope * (x - xp[j]) + fp[j]
-    if math.isnan(y):
-        y = slope * (x - xp[j + 1]) + fp[j + 1]
-        if math.isnan(y) and fp[j] == fp[j + 1]:
-            y = fp[j]
-    return y, j
+    return slope * (x - xp[j]) + fp[j]
+
+
+@jit
+def _hypot(a: float, b: float) -> float:
+    """``hypot(a, b)`` as ``sqrt(a^2 + b^2)`` where the squares neither overflow nor underflow
+    (within an ulp of the C library's, which costs 30 ns a call), else the C library's."""
+    a, b = abs(a), abs(b)
+    big, small = max(a, b), min(a, b)
+    if small == 0.0:
+        return big  # exactly the C library's
+    if big < 1e150 and small > 1e-150:
+        return math.sqrt(a * a + b * b)
+    return math.hypot(a, b)
 
 
 @jit
@@ -81,7 +96,7 @@ def table_sigma_levels(
     ``per_acceleration |acceleration|`` when that is positive; ``acceleration`` low-passed by
     the caller). ``blend`` and ``log_speed`` come from numpy (its vectorised ``tanh`` and
     ``log`` differ from the C library's in the last bit): the numpy code's numbers bit for
-    bit.
+    bit, but for the acceleration's ``hypot`` (:func:`_hypot`, within an ulp).
     """
     n = velocity.size
     misfit = out.shape[1] == 2
@@ -94,10 +109,9 @@ def table_sigma_levels(
         p = 0.5 * (1.0 + blend[i])
         speed = abs(v)
         x = log_speed[i]
-        g_up, at = _interp_at(x, knot_logs, positive, at)
-        g_up += viscous * speed
-        g_down, _ = _interp_at(x, knot_logs, negative, at)
-        g_down += viscous_negative * speed
+        at = _knot(x, knot_logs, at)
+        g_up = _value(x, knot_logs, positive, at) + viscous * speed
+        g_down = _value(x, knot_logs, negative, at) + viscous_negative * speed
         level = math.sqrt(p * (1.0 - p)) * abs(g_up + g_down)
         spread = 0.0
         if slowest > 0:
@@ -111,11 +125,12 @@ def table_sigma_levels(
             spread = p * spread_up + (1.0 - p) * spread_down
         if form > 0:
             level = math.hypot(level, form * 0.5 * (abs(g_up) + abs(g_down)))
-        out[i, col] = math.hypot(level, spread)
+        # hypot(x, 0) is |x| exactly, and the C library's hypot costs 30 ns
+        out[i, col] = math.hypot(level, spread) if spread != 0.0 else abs(level)
         if misfit:
             at_x = x if speed >= 1e-12 else floor_log  # log(max(|w|, 1e-12))
-            y, at_r = _interp_at(at_x, residual_logs, residual_rms, at_r)
-            y = y * residual_gain
+            at_r = _knot(at_x, residual_logs, at_r)
+            y = _value(at_x, residual_logs, residual_rms, at_r) * residual_gain
             if per_acceleration > 0:
-                y = math.hypot(y, per_acceleration * abs(acceleration[i]))
+                y = _hypot(y, per_acceleration * abs(acceleration[i]))
             out[i, 0] = y

@@ -295,6 +295,20 @@ def _parameter_variance_by_directions(
         sign = {"positive": 1, "negative": -1}.get(direction, 0)
         slot = lines.setdefault((float(order_text), sign), [-1, -1])
         slot[0 if part == "a" else 1] = i
+    for (order, sign), slot in list(lines.items()):
+        if order == math.floor(order) and 0 <= order <= 1 << 20:
+            continue  # the kernel's powers of exp(i theta)
+        # another order: its cosine and sine as dense columns, by numpy's vectorised cos and
+        # sin (a tenth of the C library's per sample, which the kernel would call; they
+        # differ in the last bit), zero where the line does not apply
+        angle = order * np.ascontiguousarray(theta, dtype=np.float64)
+        applies = None if sign == 0 else (velocity > 0 if sign > 0 else velocity < 0)
+        for at, wave in ((slot[0], np.cos), (slot[1], np.sin)):
+            if at >= 0:
+                column = wave(angle)
+                dense.append(column if applies is None else np.where(applies, column, 0.0))
+                dense_index.append(at)
+        del lines[(order, sign)]
     orders = np.array([order for order, _ in lines], dtype=np.float64)
     powers = np.array(
         [int(o) if o == math.floor(o) and 0 <= o <= 1 << 20 else -1 for o in orders],
