@@ -295,20 +295,6 @@ def _parameter_variance_by_directions(
         sign = {"positive": 1, "negative": -1}.get(direction, 0)
         slot = lines.setdefault((float(order_text), sign), [-1, -1])
         slot[0 if part == "a" else 1] = i
-    for (order, sign), slot in list(lines.items()):
-        if order == math.floor(order) and 0 <= order <= 1 << 20:
-            continue  # the kernel's powers of exp(i theta)
-        # another order: its cosine and sine as dense columns, by numpy's vectorised cos and
-        # sin (a tenth of the C library's per sample, which the kernel would call; they
-        # differ in the last bit), zero where the line does not apply
-        angle = order * np.ascontiguousarray(theta, dtype=np.float64)
-        applies = None if sign == 0 else (velocity > 0 if sign > 0 else velocity < 0)
-        for at, wave in ((slot[0], np.cos), (slot[1], np.sin)):
-            if at >= 0:
-                column = wave(angle)
-                dense.append(column if applies is None else np.where(applies, column, 0.0))
-                dense_index.append(at)
-        del lines[(order, sign)]
     orders = np.array([order for order, _ in lines], dtype=np.float64)
     powers = np.array(
         [int(o) if o == math.floor(o) and 0 <= o <= 1 << 20 else -1 for o in orders],
@@ -624,10 +610,10 @@ def _table_levels(
 ) -> NDArray[np.float64] | None:
     """A speed table's sign level and, with ``measured``, the residual table's level before
     the low-pass, side by side (n, 2; one column without ``measured``), in one compiled pass
-    (:func:`torquemap._sigma_kernels.table_sigma_levels`): the numbers of
+    (:func:`torquemap._estimate_kernels.table_sigma_levels`): the numbers of
     :func:`_table_sign_terms` and :func:`_residual_level` to rounding. None for another law
     (the numpy path)."""
-    from torquemap._sigma_kernels import table_sigma_levels
+    from torquemap._estimate_kernels import table_sigma_levels
     from torquemap.friction_law import SpeedTableFriction
 
     if not isinstance(law, SpeedTableFriction):

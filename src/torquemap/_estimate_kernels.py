@@ -3,7 +3,7 @@
 One pass over a joint's velocity in place of some thirty numpy passes (each a temporary of the
 log's size): the speed table's sign and extrapolation terms and the residual table's level,
 written side by side into the array the low-pass then filters. The same operations as the
-numpy code they replace (tests/test_sigma_kernels.py: bit for bit but one ``hypot``, within an
+numpy code they replace (tests/test_estimate_kernels.py: bit for bit but one ``hypot``, within an
 ulp), compiled and cached as :mod:`torquemap._kernels` is.
 """
 
