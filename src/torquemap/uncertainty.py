@@ -428,16 +428,18 @@ def noise_level(
     t: NDArray[np.float64],
     residual: NDArray[np.float64],
     velocity: NDArray[np.float64],
+    step: float | None = None,
 ) -> float:
     """White-noise PSD [N^2 m^2/Hz] above the estimate's band of ``residual`` (the motor
     torque less the model's inertia, friction and PDTV on a log):
     :func:`torquemap.noise_level.high_band_psd` on the samples sliding faster than 4
     transition widths. Identification records it for its logs (``noise_high_psd``),
-    estimation measures it on the log it is given (:func:`noise_excess`)."""
+    estimation measures it on the log it is given (:func:`noise_excess`). ``step``: the
+    median of ``diff(t)`` when the caller has it."""
     from torquemap.noise_level import high_band_psd
 
     use = np.abs(velocity) > 4.0 * sliding_width(model, joint)
-    return high_band_psd(t, residual, use)
+    return high_band_psd(t, residual, use, step=step)
 
 
 def noise_excess(
@@ -447,6 +449,7 @@ def noise_excess(
     t: NDArray[np.float64],
     residual: NDArray[np.float64],
     velocity: NDArray[np.float64],
+    step: float | None = None,
 ) -> float:
     """White-noise PSD [N^2 m^2/Hz] of ``residual`` above the model's own (:func:`noise_level`
     on this log less the recorded ``noise_high_psd``); 0 when the model records no level or
@@ -455,7 +458,7 @@ def noise_excess(
     own = float(table.get("noise_high_psd", math.nan)) if table is not None else math.nan
     if not math.isfinite(own):
         return 0.0
-    level = noise_level(model, joint, t=t, residual=residual, velocity=velocity)
+    level = noise_level(model, joint, t=t, residual=residual, velocity=velocity, step=step)
     return max(level - own, 0.0) if math.isfinite(level) else 0.0
 
 
