@@ -42,11 +42,11 @@ def _value(x: float, xp: NDArray[np.float64], fp: NDArray[np.float64], j: int) -
     finite ``x``, is never needed)."""
     k = xp.size
     if j < 0:
-        return fp[0]
+        return float(fp[0])
     if j >= k - 1 or xp[j] == x:
-        return fp[j]
+        return float(fp[j])
     slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
-    return slope * (x - xp[j]) + fp[j]
+    return float(slope * (x - xp[j]) + fp[j])
 
 
 @jit
