@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.ndimage import median_filter
@@ -18,6 +19,7 @@ from torquemap.sanitize import (
     implausible_samples,
     max_gap_for,
     sanitize_log,
+    top_percentile,
 )
 
 
@@ -207,3 +209,19 @@ def test_a_ramp_is_judged_in_time_not_in_samples() -> None:
         wild[t.size // 3] = 5.0
         found = sanitize_log(_log(t, 0.1 * t, wild), window=0.05)
         assert np.flatnonzero(found.implausible).tolist() == [t.size // 3]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_top_percentile_is_numpy_percentile_bit_for_bit(seed: int) -> None:
+    # second algorithm: numpy's own percentile (a selection among every value)
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(4096, 300_000))
+    steps = np.abs(np.diff(np.cumsum(rng.standard_normal(n + 1))))
+    steps[rng.integers(0, n, 40)] = 50.0  # jumps, as at a re-zeroing
+    quantised = np.round(rng.exponential(size=n) * 3) / 7  # ties, many equal values
+    for x in (steps, quantised, np.zeros(n)):
+        for q in (50.0, 95.0, 99.0, 99.9, 100.0):
+            assert top_percentile(x, q) == np.percentile(x, q)
+    with_nan = steps.copy()
+    with_nan[7] = np.nan
+    assert np.isnan(top_percentile(with_nan, 99.0))

@@ -567,11 +567,10 @@ def estimate_forces(
     clean = sanitize_log(log, window=win)
     if not clean.pieces:
         raise InputError(no_stretch_message(log.t, win), path=log.path)
-    nan2 = np.full((n, nj), np.nan)
-    out = {
-        name: nan2.copy()
-        for name in ("angle", "velocity", "t_est", "filtered", "external", "sigma", "rest")
-    }
+    names = ("angle", "velocity", "t_est", "filtered", "external", "sigma", "rest")
+    whole_log = len(clean.pieces) == 1 and _covers(clean.pieces[0].rows, n)
+    # one piece that is the whole log (no gap, no dropped stamp): its arrays are the answer
+    out = {} if whole_log else {name: np.full((n, nj), np.nan) for name in names}
     flag = np.zeros(n, dtype=np.int64)
     flag[clean.unprocessed] |= FLAG_GAP
     flag[clean.implausible] |= FLAG_IMPLAUSIBLE
@@ -620,7 +619,9 @@ def estimate_forces(
         at: slice | NDArray[np.int64] = rows
         if rows.size and int(rows[-1]) - int(rows[0]) == rows.size - 1:
             at = slice(int(rows[0]), int(rows[-1]) + 1)
-        for key in out:
+        if whole_log:
+            out = {key: part.arrays[key] for key in names}
+        for key in () if whole_log else names:
             out[key][at] = part.arrays[key]
         flag[at] |= part.flag
         any_pass |= part.any_pass
@@ -699,6 +700,11 @@ def estimate_forces(
         force_sigma=force_sigma,
         window=win,
     )
+
+
+def _covers(rows: NDArray[np.int64], n: int) -> bool:
+    """Whether a piece's rows are every row ``0 .. n - 1`` of the log, in order."""
+    return bool(rows.size == n and (n == 0 or (int(rows[0]) == 0 and int(rows[-1]) == n - 1)))
 
 
 def _planar_force(
@@ -886,9 +892,11 @@ def _estimate_piece(
             if count == 2:
                 part = np.where(held, part, y[:, first + 1])
             smoothed.append(part)
-    filtered = t_est.copy()
-    external = t_est.copy()
-    if method != "raw":
+    if method == "raw":
+        filtered = t_est.copy()
+        external = t_est.copy()
+    else:  # every column written: no copy of t_est first
+        filtered = np.empty_like(t_est)
         for k in range(nj):
             filtered[:, k] = smoothed[smoothed_at[k]] if k in smoothed_at else np.nan
     any_pass = False
@@ -933,6 +941,8 @@ def _estimate_piece(
         from torquemap.uncertainty import bridge_departure, joint_sigma, noise_excess
 
         rate = 1.0 / nominal_step(log.t) if n > 1 else math.nan
+        # the median step, once for every joint's noise level
+        median_step = float(np.median(np.diff(log.t))) if n > 1 else None
         for k, joint in enumerate(robot.joints):
             # white noise this log holds beyond the identification logs' (a slower logger)
             extra = noise_excess(
@@ -941,6 +951,7 @@ def _estimate_piece(
                 t=log.t,
                 residual=residuals.get(k, t_est[:, k]),
                 velocity=velocity[:, k],
+                step=median_step,
             )
             sigma[:, k] = joint_sigma(
                 model,

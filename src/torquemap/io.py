@@ -1140,8 +1140,8 @@ def table_stream(
     Yields a function that appends rows (a mapping of column name to equal-length arrays, the
     same columns each time); the file appears under ``path`` only when the block ends without
     an error, whole. CSV as :func:`render_table` writes it (the header, then rows), Parquet
-    one row group per part. Memory holds one part, not the table. ``flush``: CSV rows reach the
-    (temporary) file at each part, for a reader following it.
+    one row group per part, uncompressed. Memory holds one part, not the table. ``flush``: CSV
+    rows reach the (temporary) file at each part, for a reader following it.
 
     Examples
     --------
@@ -1184,9 +1184,14 @@ def table_stream(
                     )
             else:
                 if "writer" not in state:
+                    # no compression: snappy saves 3-4 % of an estimate's float columns
+                    # and costs a quarter of the write time
                     state["writer"] = stack.enter_context(
                         pq.ParquetWriter(
-                            tmp, table.schema, use_dictionary=_dictionary_columns(arrays)
+                            tmp,
+                            table.schema,
+                            use_dictionary=_dictionary_columns(arrays),
+                            compression="none",
                         )
                     )
                 if table.num_rows:

@@ -43,12 +43,14 @@ def high_band_psd(
     use: NDArray[np.bool_],
     *,
     split: float = HIGH_BAND_SPLIT,
+    step: float | None = None,
 ) -> float:
     """One-sided PSD [unit^2/Hz] of ``x``'s content above ``split`` [Hz], taken as white.
 
     ``x`` less its low-pass at ``split``, scaled by 1.4826 times its median absolute
     deviation over the samples ``use``, squared, over the band that difference passes: the
-    log's Nyquist frequency (from its median step) less :data:`HIGH_BAND_LOSS` ``split``. NaN when the band is narrower than ``split``
+    log's Nyquist frequency (from its median step: ``step`` when the caller has it) less
+    :data:`HIGH_BAND_LOSS` ``split``. NaN when the band is narrower than ``split``
     (a log slower than ``4 split``), when fewer than :data:`MIN_SAMPLES` samples are used, or
     when the log is too short for the filter.
 
@@ -64,7 +66,7 @@ def high_band_psd(
     """
     if t.size < 2:
         return float("nan")
-    fs = 1.0 / float(np.median(np.diff(t)))
+    fs = 1.0 / (float(np.median(np.diff(t))) if step is None else step)
     band = 0.5 * fs - HIGH_BAND_LOSS * split
     if not 0.5 * fs >= 2.0 * split or int(np.count_nonzero(use)) < MIN_SAMPLES:
         return float("nan")

@@ -428,16 +428,18 @@ def noise_level(
     t: NDArray[np.float64],
     residual: NDArray[np.float64],
     velocity: NDArray[np.float64],
+    step: float | None = None,
 ) -> float:
     """White-noise PSD [N^2 m^2/Hz] above the estimate's band of ``residual`` (the motor
     torque less the model's inertia, friction and PDTV on a log):
     :func:`torquemap.noise_level.high_band_psd` on the samples sliding faster than 4
     transition widths. Identification records it for its logs (``noise_high_psd``),
-    estimation measures it on the log it is given (:func:`noise_excess`)."""
+    estimation measures it on the log it is given (:func:`noise_excess`). ``step``: the
+    median of ``diff(t)`` when the caller has it."""
     from torquemap.noise_level import high_band_psd
 
     use = np.abs(velocity) > 4.0 * sliding_width(model, joint)
-    return high_band_psd(t, residual, use)
+    return high_band_psd(t, residual, use, step=step)
 
 
 def noise_excess(
@@ -447,6 +449,7 @@ def noise_excess(
     t: NDArray[np.float64],
     residual: NDArray[np.float64],
     velocity: NDArray[np.float64],
+    step: float | None = None,
 ) -> float:
     """White-noise PSD [N^2 m^2/Hz] of ``residual`` above the model's own (:func:`noise_level`
     on this log less the recorded ``noise_high_psd``); 0 when the model records no level or
@@ -455,7 +458,7 @@ def noise_excess(
     own = float(table.get("noise_high_psd", math.nan)) if table is not None else math.nan
     if not math.isfinite(own):
         return 0.0
-    level = noise_level(model, joint, t=t, residual=residual, velocity=velocity)
+    level = noise_level(model, joint, t=t, residual=residual, velocity=velocity, step=step)
     return max(level - own, 0.0) if math.isfinite(level) else 0.0
 
 
@@ -531,26 +534,44 @@ def joint_sigma(
     extra = extra_psd if math.isfinite(extra_psd) and extra_psd > 0 else 0.0
     noise = np.full(n, (max(psd, 0.0) + extra) * LOWPASS_ENB * cutoff)
     measured = table.get("residual")
+    if not (isinstance(measured, Mapping) and joint_uncertainty_table_ok(measured)):
+        measured = None
+    joints = model.notes.get("joints", {})
+    entry = joints.get(joint, {}) if isinstance(joints, Mapping) else {}
+    width = sliding_width(model, joint)
     misfit_level = None
-    if isinstance(measured, Mapping) and joint_uncertainty_table_ok(measured):
+    fused = _table_levels(
+        law,
+        measured,
+        t=t,
+        velocity=velocity,
+        cutoff=cutoff,
+        width=width,
+        slowest=_slowest(entry),
+        acceleration=acceleration,
+    )
+    if fused is not None:
+        # misfit and sign levels side by side, as the low-pass below takes them
+        level = fused[:, -1]
+        if measured is not None:
+            misfit_level = fused[:, 0]
+    elif measured is not None:
         # what the model left on its own no-load logs at each speed (model-form error and
         # noise together, measured): the larger of it and the noise alone (low-passed below,
         # with the sign's level)
         misfit_level = _residual_level(
             measured, t=t, velocity=velocity, cutoff=cutoff, acceleration=acceleration
         )
-    joints = model.notes.get("joints", {})
-    entry = joints.get(joint, {}) if isinstance(joints, Mapping) else {}
-    width = sliding_width(model, joint)
-    levels = getattr(law, "levels", None)
-    if callable(levels):
-        level, spread, (up, down) = _table_sign_terms(law, velocity, width, _slowest(entry))
-        if FORM_FRACTION > 0:  # hypot(level, 0) is level: skip the pass
-            # the table's own form error between and beyond its knots: FORM_FRACTION of the level
-            level = np.hypot(level, FORM_FRACTION * 0.5 * (np.abs(up) + np.abs(down)))
-        level = np.hypot(level, spread)
-    else:
-        level = sign_sigma(law, velocity, width)
+    if fused is None:
+        if callable(getattr(law, "levels", None)):
+            level, spread, (up, down) = _table_sign_terms(law, velocity, width, _slowest(entry))
+            if FORM_FRACTION > 0:  # hypot(level, 0) is level: skip the pass
+                # the table's own form error between and beyond its knots: FORM_FRACTION of
+                # the level
+                level = np.hypot(level, FORM_FRACTION * 0.5 * (np.abs(up) + np.abs(down)))
+            level = np.hypot(level, spread)
+        else:
+            level = sign_sigma(law, velocity, width)
     from torquemap.estimate import _gap_runs, bridge_gaps
 
     runs = _gap_runs(bridged) if bridged is not None else []
@@ -560,10 +581,13 @@ def joint_sigma(
         # between the ends' variances (the load's departure from a line is added by estimation)
         assert bridged is not None
         level = bridge_gaps(t, level, bridged, longest=math.inf, ends=True, runs=runs)
+    if runs and fused is not None:
+        fused[:, -1] = level
     if misfit_level is None:
         sign = lowpass(t, level, cutoff=cutoff)
     else:  # one call: the filter runs four signals side by side, one costs as much as two
-        both = lowpass(t, np.column_stack((misfit_level, level)), cutoff=cutoff)
+        stacked = fused if fused is not None else np.column_stack((misfit_level, level))
+        both = lowpass(t, stacked, cutoff=cutoff)
         noise = np.maximum(noise, np.maximum(both[:, 0], 0.0) ** 2)
         sign = both[:, 1]
     var = np.maximum(var, 0.0) + noise
@@ -573,6 +597,73 @@ def joint_sigma(
     out: NDArray[np.float64] = np.sqrt(var + np.maximum(sign, 0.0) ** 2)
     if not math.isfinite(float(np.max(out, initial=0.0))):
         out = np.where(np.isfinite(out), out, np.nan)
+    return out
+
+
+def _table_levels(
+    law: Any,
+    measured: Mapping[str, Any] | None,
+    *,
+    t: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    cutoff: float,
+    width: float,
+    slowest: float,
+    acceleration: NDArray[np.float64] | None,
+) -> NDArray[np.float64] | None:
+    """A speed table's sign level and, with ``measured``, the residual table's level before
+    the low-pass, side by side (n, 2; one column without ``measured``), in one compiled pass
+    (:func:`torquemap._estimate_kernels.table_sigma_levels`): the numbers of
+    :func:`_table_sign_terms` and :func:`_residual_level` to rounding. None for another law
+    (the numpy path)."""
+    from torquemap._estimate_kernels import table_sigma_levels
+    from torquemap.friction_law import SpeedTableFriction
+
+    if not isinstance(law, SpeedTableFriction):
+        return None
+    v = np.ascontiguousarray(velocity, dtype=np.float64)
+    up0 = down0 = 0.0
+    if slowest > 0:
+        ups, downs = law.levels(np.array([slowest]))
+        up0, down0 = float(ups[0]), float(downs[0])
+    logs = np.empty(0)
+    rms = np.empty(0)
+    gain = per_acc = 0.0
+    low = np.empty(0)
+    if measured is not None:
+        speeds = np.asarray(measured["speeds"], dtype=np.float64)
+        rms = np.ascontiguousarray(measured["rms"], dtype=np.float64)
+        if not (np.all(np.isfinite(speeds)) and np.all(np.isfinite(rms)) and np.all(rms >= 0)):
+            raise InputError("[identification.joints.<j>.uncertainty] residual table is malformed")
+        logs = np.log(speeds)
+        reference = float(measured.get("reference_cutoff", RESIDUAL_CUTOFF))
+        gain = math.sqrt(max(1.0, cutoff / max(reference, 1e-12)))
+        per_acc = float(measured.get("acceleration_sigma", 0.0))
+        if not (math.isfinite(per_acc) and per_acc > 0 and acceleration is not None):
+            per_acc = 0.0
+        else:
+            low = np.ascontiguousarray(lowpass(t, acceleration, cutoff=cutoff), dtype=np.float64)
+    out = np.empty((v.size, 2 if measured is not None else 1))
+    table_sigma_levels(
+        v,
+        np.tanh(v / max(width, 1e-12)),
+        np.log(np.maximum(np.abs(v), 1e-300)),
+        np.log(np.asarray(law.speeds, dtype=np.float64)),
+        np.asarray(law.positive, dtype=np.float64),
+        np.asarray(law.negative, dtype=np.float64),
+        float(law.viscous),
+        float(law.viscous_negative),
+        float(slowest),
+        up0,
+        down0,
+        float(FORM_FRACTION),
+        logs,
+        rms,
+        gain,
+        per_acc,
+        low,
+        out,
+    )
     return out
 
 

@@ -1,0 +1,136 @@
+"""Compiled per-sample terms of an estimate's sigma (:func:`torquemap.uncertainty.joint_sigma`).
+
+One pass over a joint's velocity in place of some thirty numpy passes (each a temporary of the
+log's size): the speed table's sign and extrapolation terms and the residual table's level,
+written side by side into the array the low-pass then filters. The same operations as the
+numpy code they replace (tests/test_estimate_kernels.py: bit for bit but one ``hypot``, within an
+ulp), compiled and cached as :mod:`torquemap._kernels` is.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from torquemap._jit import jit
+
+
+@jit
+def _knot(x: float, xp: NDArray[np.float64], j: int) -> int:
+    """The knot ``j`` with ``xp[j] <= x < xp[j + 1]``; -1 below ``xp[0]``, ``k - 1`` at or
+    beyond the last (``k`` knots, at least two), searched from the guess ``j`` (the last
+    sample's: speeds change little from sample to sample). NaN keeps the guess."""
+    k = xp.size
+    if x < xp[0]:
+        return -1
+    if x >= xp[k - 1]:
+        return k - 1
+    j = min(max(j, 0), k - 2)
+    while xp[j] > x:
+        j -= 1
+    while xp[j + 1] <= x:
+        j += 1
+    return j
+
+
+@jit
+def _value(x: float, xp: NDArray[np.float64], fp: NDArray[np.float64], j: int) -> float:
+    """``numpy.interp(x, xp, fp)`` at the knot ``j`` of :func:`_knot`: its formula and its
+    edge cases (NaN for NaN; numpy's second formula, for a NaN from finite knots and a
+    finite ``x``, is never needed)."""
+    k = xp.size
+    if j < 0:
+        return float(fp[0])
+    if j >= k - 1 or xp[j] == x:
+        return float(fp[j])
+    slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
+    return float(slope * (x - xp[j]) + fp[j])
+
+
+@jit
+def _hypot(a: float, b: float) -> float:
+    """``hypot(a, b)`` as ``sqrt(a^2 + b^2)`` where the squares neither overflow nor underflow
+    (within an ulp of the C library's, which costs 30 ns a call), else the C library's."""
+    a, b = abs(a), abs(b)
+    big, small = max(a, b), min(a, b)
+    if small == 0.0:
+        return big  # exactly the C library's
+    if big < 1e150 and small > 1e-150:
+        return math.sqrt(a * a + b * b)
+    return math.hypot(a, b)
+
+
+@jit
+def table_sigma_levels(
+    velocity: NDArray[np.float64],
+    blend: NDArray[np.float64],
+    log_speed: NDArray[np.float64],
+    knot_logs: NDArray[np.float64],
+    positive: NDArray[np.float64],
+    negative: NDArray[np.float64],
+    viscous: float,
+    viscous_negative: float,
+    slowest: float,
+    up0: float,
+    down0: float,
+    form: float,
+    residual_logs: NDArray[np.float64],
+    residual_rms: NDArray[np.float64],
+    residual_gain: float,
+    per_acceleration: float,
+    acceleration: NDArray[np.float64],
+    out: NDArray[np.float64],
+) -> None:
+    """A speed table's sigma terms before the low-pass, per sample, into ``out`` (n, c).
+
+    The last column: the sign term ``sqrt(p (1 - p)) |g+ + g-|`` (``p = (1 + blend) / 2``,
+    ``blend = tanh(w / width)``, ``g+-`` the table's levels at the speed ``|w|``, whose
+    ``log(max(|w|, 1e-300))`` is ``log_speed``), ``hypot`` with ``form``
+    times the mean of ``|g+|`` and ``|g-|`` when ``form > 0``, then with the extrapolation
+    spread below ``slowest`` (:func:`torquemap.uncertainty._table_sign_terms`, ``up0``,
+    ``down0``: the levels at ``slowest``). With two columns, the first: the residual table's
+    level (:func:`torquemap.uncertainty._residual_level`: ``interp(log |w|,
+    residual_logs, residual_rms)`` times ``residual_gain``, ``hypot`` with
+    ``per_acceleration |acceleration|`` when that is positive; ``acceleration`` low-passed by
+    the caller). ``blend`` and ``log_speed`` come from numpy (its vectorised ``tanh`` and
+    ``log`` differ from the C library's in the last bit): the numpy code's numbers bit for
+    bit, but for the acceleration's ``hypot`` (:func:`_hypot`, within an ulp).
+    """
+    n = velocity.size
+    misfit = out.shape[1] == 2
+    col = out.shape[1] - 1
+    floor_log = math.log(1e-12)  # numpy's and the C library's agree on it
+    at = 0
+    at_r = 0
+    for i in range(n):
+        v = velocity[i]
+        p = 0.5 * (1.0 + blend[i])
+        speed = abs(v)
+        x = log_speed[i]
+        at = _knot(x, knot_logs, at)
+        g_up = _value(x, knot_logs, positive, at) + viscous * speed
+        g_down = _value(x, knot_logs, negative, at) + viscous_negative * speed
+        level = math.sqrt(p * (1.0 - p)) * abs(g_up + g_down)
+        spread = 0.0
+        if slowest > 0:
+            if speed > slowest:
+                up, down = up0, down0
+            else:
+                up, down = g_up, g_down
+            s = min(speed, slowest)
+            spread_up = abs(up - viscous * s - (up0 - viscous * slowest))
+            spread_down = abs(down - viscous_negative * s - (down0 - viscous_negative * slowest))
+            spread = p * spread_up + (1.0 - p) * spread_down
+        if form > 0:
+            level = math.hypot(level, form * 0.5 * (abs(g_up) + abs(g_down)))
+        # hypot(x, 0) is |x| exactly, and the C library's hypot costs 30 ns
+        out[i, col] = math.hypot(level, spread) if spread != 0.0 else abs(level)
+        if misfit:
+            at_x = x if speed >= 1e-12 else floor_log  # log(max(|w|, 1e-12))
+            at_r = _knot(at_x, residual_logs, at_r)
+            y = _value(at_x, residual_logs, residual_rms, at_r) * residual_gain
+            if per_acceleration > 0:
+                y = _hypot(y, per_acceleration * abs(acceleration[i]))
+            out[i, 0] = y
