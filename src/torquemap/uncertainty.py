@@ -40,6 +40,10 @@ RESIDUAL_CUTOFF = 2.0
 #: interpolation in log speed between knots 1.8x apart and the transition's form leave
 #: (tests/test_identify_whole.py: within 2-3 % over the swept speeds).
 FORM_FRACTION = 0.0
+#: Largest regressor (samples times parameters) :func:`joint_sigma` forms to bridge it as
+#: estimation bridges the torque (:func:`bridged_parameter_variance`, 80 MB); a longer log takes
+#: :func:`parameter_variance` and bridges the variance instead (wider near the reversals).
+BRIDGED_ELEMENTS = 10_000_000
 #: Speed bins of the residual table (log-spaced between the reversal band and the top speed).
 RESIDUAL_BINS = 8
 
@@ -198,6 +202,101 @@ def parameter_variance_direct(
     )
     if not g.shape[1]:
         return np.zeros(t.size)
+    g = lowpass(t, g, cutoff=cutoff)
+    return np.asarray(np.sum((g @ covariance) * g, axis=1), dtype=np.float64)
+
+
+def bridge_columns(
+    t: NDArray[np.float64],
+    values: NDArray[np.float64],
+    gaps: NDArray[np.bool_],
+    *,
+    support: float = 0.0,
+    runs: Sequence[tuple[int, int]] | None = None,
+) -> NDArray[np.float64]:
+    """:func:`torquemap.estimate.bridge_gaps` (``longest=inf``, ``ends=True``) of every column
+    of ``values`` (n, p) at once: each run of ``gaps`` replaced by the straight line between
+    the means of the samples within ``support`` [s] before and after it (a run at an end of
+    the log holds its one side's mean). Estimation bridges the model torque so over a whole
+    fit's reversal band; the torque is linear in the parameters, so its regressor is bridged
+    the same way, column by column.
+
+    Examples
+    --------
+    >>> t = np.arange(6.0)
+    >>> gaps = np.array([0, 1, 1, 0, 0, 1], bool)
+    >>> x = np.array([[0.0, 9, 9, 3, 4, 9], [1.0, 7, 7, 1, 1, 7]]).T
+    >>> bridge_columns(t, x, gaps).T.tolist()
+    [[0.0, 1.0, 2.0, 3.0, 4.0, 4.0], [1.0, 1.0, 1.0, 1.0, 1.0, 1.0]]
+    """
+    from torquemap.estimate import _gap_runs
+
+    out = np.array(values, dtype=np.float64, copy=True)
+    if gaps.all():
+        return out
+    tie = 0.01 * float(t[-1] - t[0]) / max(t.size - 1, 1)
+    for a, b in _gap_runs(gaps) if runs is None else runs:
+        origin = t[a]
+        sides_t: list[float] = []
+        sides_v: list[NDArray[np.float64]] = []
+        if a > 0:
+            a0 = min(int(np.searchsorted(t, t[a - 1] - support - tie, side="left")), a - 1)
+            keep = ~gaps[a0:a]
+            sides_t.append(float((t[a0:a][keep] - origin).mean()))
+            sides_v.append(values[a0:a][keep].mean(axis=0))
+        if b < gaps.size:
+            b1 = max(int(np.searchsorted(t, t[b] + support + tie, side="right")), b + 1)
+            keep = ~gaps[b:b1]
+            sides_t.append(float((t[b:b1][keep] - origin).mean()))
+            sides_v.append(values[b:b1][keep].mean(axis=0))
+        if len(sides_t) == 1:
+            out[a:b] = sides_v[0]
+            continue
+        # np.interp's rule (clamped to the two sides' times), for every column at once
+        span = max(sides_t[1] - sides_t[0], 1e-300)
+        u = np.clip((t[a:b] - origin - sides_t[0]) / span, 0.0, 1.0)[:, None]
+        out[a:b] = (1.0 - u) * sides_v[0] + u * sides_v[1]
+    return out
+
+
+def bridged_parameter_variance(
+    names: list[str],
+    covariance: NDArray[np.float64],
+    *,
+    law: Any,
+    t: NDArray[np.float64],
+    theta: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    acceleration: NDArray[np.float64],
+    modulation: NDArray[np.float64],
+    cutoff: float,
+    bridged: NDArray[np.bool_],
+    support: float = 0.0,
+    runs: Sequence[tuple[int, int]] | None = None,
+) -> NDArray[np.float64]:
+    """Variance [N^2 m^2] of the low-passed model torque from the parameters' covariance when
+    estimation bridges the torque over the runs of ``bridged`` before its low-pass (a whole
+    fit's reversal band: :func:`torquemap.estimate.estimate_forces`).
+
+    ``g_i^T C g_i`` with ``g_i`` the regressor row bridged as the torque is
+    (:func:`bridge_columns`, ``support`` [s] as estimation's) and then low-passed: the exact
+    propagation of ``C`` through estimation's linear steps. Without the bridge
+    (:func:`parameter_variance`) the low-pass carries the regressor of the bridged samples,
+    the friction table's knots below the speeds the logs hold (whose variance is the
+    smoothness prior's alone), into the answered samples around them, although the answer
+    never uses those knots. Shape (n,).
+    """
+    g = regressor_columns(
+        names,
+        law=law,
+        theta=theta,
+        velocity=velocity,
+        acceleration=acceleration,
+        modulation=modulation,
+    )
+    if not g.shape[1]:
+        return np.zeros(t.size)
+    g = bridge_columns(t, g, bridged, support=support, runs=runs)
     g = lowpass(t, g, cutoff=cutoff)
     return np.asarray(np.sum((g @ covariance) * g, axis=1), dtype=np.float64)
 
@@ -490,11 +589,16 @@ def joint_sigma(
     bridged: NDArray[np.bool_] | None = None,
     phasor: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
     extra_psd: float = 0.0,
+    support: float = 0.0,
 ) -> NDArray[np.float64]:
     """One standard deviation [N m, motor side] of a joint's external-torque estimate.
 
     ``bridged`` marks the samples whose answer is bridged over (estimation's reversal band):
-    there friction's sign is taken as unknown (half the band between the two branches).
+    there friction's sign is taken as unknown (half the band between the two branches), and
+    the parameters' part is that of the bridged torque (:func:`bridged_parameter_variance`,
+    ``support`` [s]: the span estimation averages at each end of a run; on a log of more than
+    ``BRIDGED_ELEMENTS`` regressor entries the unbridged variance, bridged, which is wider
+    around the runs).
     ``phasor``: ``(cos theta, sin theta)`` when the caller has them.
     ``extra_psd`` [N^2 m^2/Hz]: white noise this log holds beyond the identification logs'
     (:func:`noise_excess`), added to the model's residual PSD.
@@ -515,18 +619,39 @@ def joint_sigma(
     cov = np.asarray(table["covariance"], dtype=np.float64)
     if cov.shape != (len(names), len(names)) or not np.all(np.isfinite(cov)):
         raise InputError(f"[identification.joints.{joint}.uncertainty] covariance is malformed")
-    var = parameter_variance(
-        names,
-        cov,
-        law=law,
-        t=t,
-        theta=theta,
-        velocity=velocity,
-        acceleration=acceleration,
-        modulation=modulation,
-        cutoff=cutoff,
-        phasor=phasor,
-    )
+    from torquemap.estimate import _gap_runs, bridge_gaps
+
+    runs = _gap_runs(bridged) if bridged is not None else []
+    exact = bool(runs) and t.size * len(names) <= BRIDGED_ELEMENTS
+    if exact:
+        assert bridged is not None
+        var = bridged_parameter_variance(
+            names,
+            cov,
+            law=law,
+            t=t,
+            theta=theta,
+            velocity=velocity,
+            acceleration=acceleration,
+            modulation=modulation,
+            cutoff=cutoff,
+            bridged=bridged,
+            support=support,
+            runs=runs,
+        )
+    else:
+        var = parameter_variance(
+            names,
+            cov,
+            law=law,
+            t=t,
+            theta=theta,
+            velocity=velocity,
+            acceleration=acceleration,
+            modulation=modulation,
+            cutoff=cutoff,
+            phasor=phasor,
+        )
     psd = float(table.get("residual_psd", 0.0))
     extra = extra_psd if math.isfinite(extra_psd) and extra_psd > 0 else 0.0
     noise = np.full(n, (max(psd, 0.0) + extra) * LOWPASS_ENB * cutoff)
@@ -551,13 +676,10 @@ def joint_sigma(
         level = np.hypot(level, spread)
     else:
         level = sign_sigma(law, velocity, width)
-    from torquemap.estimate import _gap_runs, bridge_gaps
-
-    runs = _gap_runs(bridged) if bridged is not None else []
     if runs:
         # a bridged sample's answer is the line between its run's ends: friction does not
-        # enter it, so neither do its sign nor the law's parameters; its variance is the line
-        # between the ends' variances (the load's departure from a line is added by estimation)
+        # enter it, so neither do its sign nor the law's parameters; the sign's level is the
+        # line between the ends' levels (the load's departure from a line is added by estimation)
         assert bridged is not None
         level = bridge_gaps(t, level, bridged, longest=math.inf, ends=True, runs=runs)
     if misfit_level is None:
@@ -566,8 +688,11 @@ def joint_sigma(
         both = lowpass(t, np.column_stack((misfit_level, level)), cutoff=cutoff)
         noise = np.maximum(noise, np.maximum(both[:, 0], 0.0) ** 2)
         sign = both[:, 1]
+    if exact:  # the parameters' part is bridged already (as the torque is, before the low-pass)
+        assert bridged is not None
+        noise = bridge_gaps(t, noise, bridged, longest=math.inf, ends=True, runs=runs)
     var = np.maximum(var, 0.0) + noise
-    if runs:
+    if runs and not exact:
         assert bridged is not None
         var = bridge_gaps(t, var, bridged, longest=math.inf, ends=True, runs=runs)
     out: NDArray[np.float64] = np.sqrt(var + np.maximum(sign, 0.0) ** 2)
