@@ -40,10 +40,6 @@ RESIDUAL_CUTOFF = 2.0
 #: interpolation in log speed between knots 1.8x apart and the transition's form leave
 #: (tests/test_identify_whole.py: within 2-3 % over the swept speeds).
 FORM_FRACTION = 0.0
-#: Largest regressor (samples times parameters) :func:`joint_sigma` forms to bridge it as
-#: estimation bridges the torque (:func:`bridged_parameter_variance`, 80 MB); a longer log takes
-#: :func:`parameter_variance` and bridges the variance instead (wider near the reversals).
-BRIDGED_ELEMENTS = 10_000_000
 #: Speed bins of the residual table (log-spaced between the reversal band and the top speed).
 RESIDUAL_BINS = 8
 
@@ -285,6 +281,10 @@ def bridged_parameter_variance(
     the friction table's knots below the speeds the logs hold (whose variance is the
     smoothness prior's alone), into the answered samples around them, although the answer
     never uses those knots. Shape (n,).
+
+    Not yet used by :func:`joint_sigma` (docs/identification.md, "The parameters' variance of
+    the bridged torque"): on the random family that leaked variance is what covers the
+    bridge's own error over long slow stretches, which nothing else models yet.
     """
     g = regressor_columns(
         names,
@@ -589,16 +589,11 @@ def joint_sigma(
     bridged: NDArray[np.bool_] | None = None,
     phasor: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
     extra_psd: float = 0.0,
-    support: float = 0.0,
 ) -> NDArray[np.float64]:
     """One standard deviation [N m, motor side] of a joint's external-torque estimate.
 
     ``bridged`` marks the samples whose answer is bridged over (estimation's reversal band):
-    there friction's sign is taken as unknown (half the band between the two branches), and
-    the parameters' part is that of the bridged torque (:func:`bridged_parameter_variance`,
-    ``support`` [s]: the span estimation averages at each end of a run; on a log of more than
-    ``BRIDGED_ELEMENTS`` regressor entries the unbridged variance, bridged, which is wider
-    around the runs).
+    there friction's sign is taken as unknown (half the band between the two branches).
     ``phasor``: ``(cos theta, sin theta)`` when the caller has them.
     ``extra_psd`` [N^2 m^2/Hz]: white noise this log holds beyond the identification logs'
     (:func:`noise_excess`), added to the model's residual PSD.
@@ -619,39 +614,18 @@ def joint_sigma(
     cov = np.asarray(table["covariance"], dtype=np.float64)
     if cov.shape != (len(names), len(names)) or not np.all(np.isfinite(cov)):
         raise InputError(f"[identification.joints.{joint}.uncertainty] covariance is malformed")
-    from torquemap.estimate import _gap_runs, bridge_gaps
-
-    runs = _gap_runs(bridged) if bridged is not None else []
-    exact = bool(runs) and t.size * len(names) <= BRIDGED_ELEMENTS
-    if exact:
-        assert bridged is not None
-        var = bridged_parameter_variance(
-            names,
-            cov,
-            law=law,
-            t=t,
-            theta=theta,
-            velocity=velocity,
-            acceleration=acceleration,
-            modulation=modulation,
-            cutoff=cutoff,
-            bridged=bridged,
-            support=support,
-            runs=runs,
-        )
-    else:
-        var = parameter_variance(
-            names,
-            cov,
-            law=law,
-            t=t,
-            theta=theta,
-            velocity=velocity,
-            acceleration=acceleration,
-            modulation=modulation,
-            cutoff=cutoff,
-            phasor=phasor,
-        )
+    var = parameter_variance(
+        names,
+        cov,
+        law=law,
+        t=t,
+        theta=theta,
+        velocity=velocity,
+        acceleration=acceleration,
+        modulation=modulation,
+        cutoff=cutoff,
+        phasor=phasor,
+    )
     psd = float(table.get("residual_psd", 0.0))
     extra = extra_psd if math.isfinite(extra_psd) and extra_psd > 0 else 0.0
     noise = np.full(n, (max(psd, 0.0) + extra) * LOWPASS_ENB * cutoff)
@@ -676,10 +650,13 @@ def joint_sigma(
         level = np.hypot(level, spread)
     else:
         level = sign_sigma(law, velocity, width)
+    from torquemap.estimate import _gap_runs, bridge_gaps
+
+    runs = _gap_runs(bridged) if bridged is not None else []
     if runs:
         # a bridged sample's answer is the line between its run's ends: friction does not
-        # enter it, so neither do its sign nor the law's parameters; the sign's level is the
-        # line between the ends' levels (the load's departure from a line is added by estimation)
+        # enter it, so neither do its sign nor the law's parameters; its variance is the line
+        # between the ends' variances (the load's departure from a line is added by estimation)
         assert bridged is not None
         level = bridge_gaps(t, level, bridged, longest=math.inf, ends=True, runs=runs)
     if misfit_level is None:
@@ -688,11 +665,8 @@ def joint_sigma(
         both = lowpass(t, np.column_stack((misfit_level, level)), cutoff=cutoff)
         noise = np.maximum(noise, np.maximum(both[:, 0], 0.0) ** 2)
         sign = both[:, 1]
-    if exact:  # the parameters' part is bridged already (as the torque is, before the low-pass)
-        assert bridged is not None
-        noise = bridge_gaps(t, noise, bridged, longest=math.inf, ends=True, runs=runs)
     var = np.maximum(var, 0.0) + noise
-    if runs and not exact:
+    if runs:
         assert bridged is not None
         var = bridge_gaps(t, var, bridged, longest=math.inf, ends=True, runs=runs)
     out: NDArray[np.float64] = np.sqrt(var + np.maximum(sign, 0.0) ** 2)
