@@ -202,6 +202,105 @@ def parameter_variance_direct(
     return np.asarray(np.sum((g @ covariance) * g, axis=1), dtype=np.float64)
 
 
+def bridge_columns(
+    t: NDArray[np.float64],
+    values: NDArray[np.float64],
+    gaps: NDArray[np.bool_],
+    *,
+    support: float = 0.0,
+    runs: Sequence[tuple[int, int]] | None = None,
+) -> NDArray[np.float64]:
+    """:func:`torquemap.estimate.bridge_gaps` (``longest=inf``, ``ends=True``) of every column
+    of ``values`` (n, p) at once: each run of ``gaps`` replaced by the straight line between
+    the means of the samples within ``support`` [s] before and after it (a run at an end of
+    the log holds its one side's mean). Estimation bridges the model torque so over a whole
+    fit's reversal band; the torque is linear in the parameters, so its regressor is bridged
+    the same way, column by column.
+
+    Examples
+    --------
+    >>> t = np.arange(6.0)
+    >>> gaps = np.array([0, 1, 1, 0, 0, 1], bool)
+    >>> x = np.array([[0.0, 9, 9, 3, 4, 9], [1.0, 7, 7, 1, 1, 7]]).T
+    >>> bridge_columns(t, x, gaps).T.tolist()
+    [[0.0, 1.0, 2.0, 3.0, 4.0, 4.0], [1.0, 1.0, 1.0, 1.0, 1.0, 1.0]]
+    """
+    from torquemap.estimate import _gap_runs
+
+    out = np.array(values, dtype=np.float64, copy=True)
+    if gaps.all():
+        return out
+    tie = 0.01 * float(t[-1] - t[0]) / max(t.size - 1, 1)
+    for a, b in _gap_runs(gaps) if runs is None else runs:
+        origin = t[a]
+        sides_t: list[float] = []
+        sides_v: list[NDArray[np.float64]] = []
+        if a > 0:
+            a0 = min(int(np.searchsorted(t, t[a - 1] - support - tie, side="left")), a - 1)
+            keep = ~gaps[a0:a]
+            sides_t.append(float((t[a0:a][keep] - origin).mean()))
+            sides_v.append(values[a0:a][keep].mean(axis=0))
+        if b < gaps.size:
+            b1 = max(int(np.searchsorted(t, t[b] + support + tie, side="right")), b + 1)
+            keep = ~gaps[b:b1]
+            sides_t.append(float((t[b:b1][keep] - origin).mean()))
+            sides_v.append(values[b:b1][keep].mean(axis=0))
+        if len(sides_t) == 1:
+            out[a:b] = sides_v[0]
+            continue
+        # np.interp's rule (clamped to the two sides' times), for every column at once
+        span = max(sides_t[1] - sides_t[0], 1e-300)
+        u = np.clip((t[a:b] - origin - sides_t[0]) / span, 0.0, 1.0)[:, None]
+        out[a:b] = (1.0 - u) * sides_v[0] + u * sides_v[1]
+    return out
+
+
+def bridged_parameter_variance(
+    names: list[str],
+    covariance: NDArray[np.float64],
+    *,
+    law: Any,
+    t: NDArray[np.float64],
+    theta: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    acceleration: NDArray[np.float64],
+    modulation: NDArray[np.float64],
+    cutoff: float,
+    bridged: NDArray[np.bool_],
+    support: float = 0.0,
+    runs: Sequence[tuple[int, int]] | None = None,
+) -> NDArray[np.float64]:
+    """Variance [N^2 m^2] of the low-passed model torque from the parameters' covariance when
+    estimation bridges the torque over the runs of ``bridged`` before its low-pass (a whole
+    fit's reversal band: :func:`torquemap.estimate.estimate_forces`).
+
+    ``g_i^T C g_i`` with ``g_i`` the regressor row bridged as the torque is
+    (:func:`bridge_columns`, ``support`` [s] as estimation's) and then low-passed: the exact
+    propagation of ``C`` through estimation's linear steps. Without the bridge
+    (:func:`parameter_variance`) the low-pass carries the regressor of the bridged samples,
+    the friction table's knots below the speeds the logs hold (whose variance is the
+    smoothness prior's alone), into the answered samples around them, although the answer
+    never uses those knots. Shape (n,).
+
+    Not yet used by :func:`joint_sigma` (docs/identification.md, "The parameters' variance of
+    the bridged torque"): on the random family that leaked variance is what covers the
+    bridge's own error over long slow stretches, which nothing else models yet.
+    """
+    g = regressor_columns(
+        names,
+        law=law,
+        theta=theta,
+        velocity=velocity,
+        acceleration=acceleration,
+        modulation=modulation,
+    )
+    if not g.shape[1]:
+        return np.zeros(t.size)
+    g = bridge_columns(t, g, bridged, support=support, runs=runs)
+    g = lowpass(t, g, cutoff=cutoff)
+    return np.asarray(np.sum((g @ covariance) * g, axis=1), dtype=np.float64)
+
+
 def _parameter_variance_by_directions(
     names: list[str],
     covariance: NDArray[np.float64],
