@@ -45,6 +45,7 @@ from torquemap.friction_law import SpeedTableFriction
 from torquemap.robust import (
     cluster_covariance,
     cluster_medians,
+    cluster_wald_pvalue,
     huber_weights,
     robust_scale,
 )
@@ -1302,10 +1303,10 @@ def _gravity_test(
     m = g.shape[1]
     c = trial.coef[-m:]
     cg = cov[-m:, -m:]
-    chi = float(c @ np.linalg.pinv(cg) @ c)
     torque = g @ c
     ptp = float(np.percentile(torque, 99.5) - np.percentile(torque, 0.5))
-    return ptp, bool(chi > stats.chi2.ppf(1.0 - 1e-6, m))
+    groups = np.unique(rows.clusters).size
+    return ptp, bool(cluster_wald_pvalue(c, cg, groups) < 1e-6)
 
 
 def _held_lines(

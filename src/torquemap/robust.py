@@ -151,6 +151,79 @@ def cluster_covariance(
     return np.asarray(0.5 * (cov + cov.T), dtype=np.float64)
 
 
+def cluster_jackknife_covariance(
+    a: NDArray[np.float64],
+    y: NDArray[np.float64],
+    w: NDArray[np.float64],
+    clusters: NDArray[np.int64],
+) -> NDArray[np.float64]:
+    """Leave-one-cluster-out (jackknife, "CR3") covariance of weighted least squares
+    ``y ~ a @ coef``: ``(G - 1) / G sum_g (b_g - mean b)(b_g - mean b)^T`` with ``b_g`` the fit
+    without cluster ``g`` (normal equations downdated by that cluster's share).
+
+    Unlike the sandwich (:func:`cluster_covariance`), it stays close to honest with few
+    clusters and regressors that vary mostly between clusters (MacKinnon, Nielsen and Webb,
+    "Cluster-robust inference: a guide to empirical practice", 2023): the sandwich's scores use
+    residuals the fit has already pulled towards each cluster.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> a = np.column_stack([np.ones(200), rng.normal(size=200)])
+    >>> y = a @ [1.0, 2.0] + rng.normal(size=200)
+    >>> cov = cluster_jackknife_covariance(a, y, np.ones(200), np.arange(200) // 10)
+    >>> bool(0.03 < np.sqrt(cov[1, 1]) < 0.15)  # about 1 / sqrt(200)
+    True
+    """
+    _, g = np.unique(clusters, return_inverse=True)
+    ng = int(g.max()) + 1 if g.size else 0
+    if ng < 2:
+        return np.full((a.shape[1], a.shape[1]), np.inf)
+    scale = np.sqrt(np.maximum(np.einsum("ij,ij,i->j", a, a, w), 0.0))
+    a = a / np.where(scale > 0, scale, 1.0)  # unit columns for the pseudo-inverses
+    aw = a * w[:, None]
+    ata = a.T @ aw
+    aty = aw.T @ y
+    order = np.argsort(g, kind="stable")
+    bounds = np.searchsorted(g[order], np.arange(ng + 1))
+    betas = np.empty((ng, a.shape[1]))
+    for c in range(ng):
+        rows = order[bounds[c] : bounds[c + 1]]
+        part, wpart = a[rows], aw[rows]
+        betas[c] = np.linalg.pinv(ata - part.T @ wpart) @ (aty - wpart.T @ y[rows])
+    d = (betas - betas.mean(axis=0)) / np.where(scale > 0, scale, 1.0)
+    cov = (ng - 1) / ng * (d.T @ d)
+    return np.asarray(0.5 * (cov + cov.T), dtype=np.float64)
+
+
+def cluster_wald_pvalue(
+    coef: NDArray[np.float64], cov: NDArray[np.float64], clusters: int
+) -> float:
+    """P-value of the Wald test that ``coef`` (m coefficients) is zero under a cluster-robust
+    ``cov`` estimated from ``clusters`` clusters.
+
+    The statistic ``W = c^T cov^+ c`` is referred to ``m F(m, G - 1)`` rather than to a
+    chi-square with ``m`` degrees of freedom: a sandwich covariance summed over ``G`` clusters
+    is itself estimated from ``G`` scores and is too small when ``G`` is small, so the
+    chi-square reference over-rejects (Cameron, Gelbach and Miller, 2008; Cameron and Miller,
+    "A practitioner's guide to cluster-robust inference", 2015, section VI). For many clusters
+    both references agree.
+
+    Examples
+    --------
+    >>> c, cov = np.array([1.0, 0.0]), np.eye(2) * 0.1  # W = 10
+    >>> round(cluster_wald_pvalue(c, cov, 1000), 4), round(cluster_wald_pvalue(c, cov, 8), 4)
+    (0.0069, 0.0448)
+    """
+    from scipy import stats
+
+    m = int(coef.size)
+    if m == 0:
+        return 1.0
+    wald = float(coef @ np.linalg.pinv(cov) @ coef)
+    return float(stats.f.sf(wald / m, m, max(int(clusters) - 1, 1)))
+
+
 def robust_lstsq(
     a: ArrayLike,
     y: ArrayLike,
