@@ -13,6 +13,7 @@ from torquemap._fit_kernels import (
     column_centres,
     curvature_weights,
     delayed_columns,
+    delayed_columns_at,
     group_sums,
     interp_increasing,
     run_starts,
@@ -223,6 +224,24 @@ def test_delayed_columns_are_numpy_interp_per_delay(uniform: bool) -> None:
         expected = y if delay == 0 else np.interp(t + delay, t, y)
         np.testing.assert_array_equal(got[:, c], expected)
     np.testing.assert_array_equal(delayed_columns(t, y, delays[3:5]), got[:, 3:5])
+
+
+@pytest.mark.parametrize("uniform", [True, False])
+def test_delayed_columns_at_are_numpy_interp_at_those_samples(uniform: bool) -> None:
+    # stretches of samples with gaps between (a bisection at each stretch's start, the walk
+    # within), the first and last samples among them: numpy's interpolation there, equal
+    rng = np.random.default_rng(11 + uniform)
+    n = 20001
+    t = 3.0 + (np.arange(n) * 5e-4 if uniform else np.cumsum(rng.uniform(1e-4, 1e-3, n)))
+    y = rng.standard_normal(n).cumsum()
+    starts = np.sort(rng.choice(n - 300, 40, replace=False))
+    at = np.unique(np.r_[0, *(np.arange(a, a + rng.integers(1, 300)) for a in starts), n - 1])
+    delays = np.array([-0.25, -0.0104, 0.0, 1e-3 / 3, 5e-4, 0.02, 20.0, -20.0])
+    got = delayed_columns_at(t, y, at, delays)
+    for c, delay in enumerate(delays):
+        expected = y[at] if delay == 0 else np.interp(t[at] + delay, t, y)
+        np.testing.assert_array_equal(got[:, c], expected)
+    np.testing.assert_array_equal(got, delayed_columns(t, y, delays)[at])
 
 
 def test_speed_table_block_equals_numpy_columns() -> None:

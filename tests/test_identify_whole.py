@@ -614,6 +614,63 @@ def test_the_delay_rows_of_a_long_log_are_a_bounded_set_of_stretches() -> None:
     np.testing.assert_array_equal(part.clusters, rows.clusters[sub])
 
 
+def test_the_delay_trials_torques_from_the_samples_their_windows_read() -> None:
+    # a long log's trial torques formed only on the samples the chosen rows' windows read (the
+    # double integral jumping the samples between): the whole piece's numbers to rounding, and
+    # as close as they are to a long-double smoothing of each window on its own
+    from torquemap.identify_whole import _delay_rows, _LocalTorques, _prepare_rows, _torque
+
+    rng = np.random.default_rng(6)
+    pieces = []
+    for k in range(3):
+        t = 50.0 * k + np.arange(30_000) / 1000.0
+        v = 4.0 * np.sign(np.sin(0.5 * t)) * np.minimum(1.0, np.abs(np.sin(0.5 * t)) * 5.0)
+        pieces.append(
+            Piece(
+                t=t,
+                theta=np.cumsum(v) / 1000.0,
+                velocity=v,
+                acceleration=np.gradient(v, t),
+                torque=0.1 * np.sign(v) + 0.01 * rng.standard_normal(t.size),
+                elbow=np.zeros(t.size),
+                use=np.ones(t.size, dtype=bool),
+                joint_angles=np.zeros((t.size, 1)),
+            )
+        )
+    rows = _prepare_rows(pieces, 0.05, 1.0, 0.01)
+    sub = _delay_rows(rows, rows.clusters.size // 3)
+    assert sub is not None
+    local = _LocalTorques(rows, sub)
+    assert sum(a.size for a in local.at) < sum(p.t.size for p in pieces) // 2
+    local.prepare(np.linspace(-0.25, 0.25, 5))
+    edges = np.cumsum([0, *(r.size for r in rows.rows)])
+    for delay in (-0.25, 0.0, 0.0123, 0.125):
+        whole = _torque(rows, delay)[sub]
+        got = local(delay)
+        size = float(np.max(np.abs(whole)))
+        assert np.max(np.abs(got - whole)) < 1e-8 * size
+        # the reference: every 25th chosen row's window integrated from its own start
+        ref, mine = [], []
+        for p, a, b, at, sm in zip(
+            rows.pieces, edges[:-1], edges[1:], local.at, local.smoothers, strict=True
+        ):
+            x = np.interp(p.t + delay, p.t, p.torque).astype(np.longdouble)
+            tt = p.t.astype(np.longdouble)
+            first_row = int(np.searchsorted(sub, a))
+            for i in range(0, int(np.searchsorted(sub, b)) - first_row, 25):
+                lo, hi = sm.operator.indptr[i], sm.operator.indptr[i + 1]
+                idx = at[sm.operator.indices[lo:hi]]  # the window's samples in the piece
+                w = sm.operator.data[lo:hi].astype(np.longdouble)
+                xs, ts = x[idx[0] : idx[-1] + 1], tt[idx[0] : idx[-1] + 1]
+                first = np.r_[0, np.cumsum(0.5 * (xs[1:] + xs[:-1]) * np.diff(ts))]
+                second = np.r_[0, np.cumsum(0.5 * (first[1:] + first[:-1]) * np.diff(ts))]
+                ref.append(float(np.sum(w * second[idx - idx[0]])))
+                mine.append(first_row + i)
+        ref_a, at_rows = np.array(ref), np.array(mine)
+        assert np.max(np.abs(got[at_rows] - ref_a)) < 1e-8 * size
+        assert np.max(np.abs(whole[at_rows] - ref_a)) < 1e-8 * size
+
+
 def test_a_high_resolution_log_from_another_robot_is_refused(delayed) -> None:  # type: ignore[no-untyped-def]
     # random SCARA 104's model took SCARA 102's circle (2^20 counts, gear ratios 13 % apart):
     # at speed each sample moved hundreds of counts, whole within the 2 % tolerance for any

@@ -718,3 +718,54 @@ def segment_medians(
         m = seg.size
         out[s] = 0.5 * (seg[(m - 1) // 2] + seg[m // 2])
     return out
+
+
+@jit
+def delayed_columns_at(
+    t: NDArray[np.float64],
+    y: NDArray[np.float64],
+    at: NDArray[np.intp],
+    delays: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """:func:`delayed_columns` at the samples ``at`` only (increasing indices into ``t``):
+    ``out[i, c] = numpy.interp(t[at[i]] + delays[c], t, y)`` (``y[at[i]]`` for a delay of
+    0), shape (at.size, delays.size); the knot found by bisection where ``at`` skips samples
+    and by :func:`delayed_columns`' forward walk between, the same formula per sample (bit for
+    bit the rows ``at`` of :func:`delayed_columns`)."""
+    n = t.size
+    m = delays.size
+    out = np.empty((at.size, m))
+    for c in range(m):
+        shift = delays[c]
+        if shift == 0.0:
+            for i in range(at.size):
+                out[i, c] = y[at[i]]
+            continue
+        j = 0
+        for i in range(at.size):
+            xv = t[at[i]] + shift
+            if i == 0 or at[i] != at[i - 1] + 1:
+                # numpy.searchsorted(t, xv, side="right") - 1: the last knot at or below xv
+                j = max(int(np.searchsorted(t, xv, side="right")) - 1, 0)
+            if xv != xv:
+                out[i, c] = xv
+            elif xv < t[0]:
+                out[i, c] = y[0]
+            elif xv > t[n - 1]:
+                out[i, c] = y[n - 1]
+            else:
+                while j + 1 < n and t[j + 1] <= xv:
+                    j += 1
+                while j > 0 and t[j] > xv:
+                    j -= 1
+                if j == n - 1 or t[j] == xv:
+                    out[i, c] = y[j]
+                else:
+                    slope = (y[j + 1] - y[j]) / (t[j + 1] - t[j])
+                    v = slope * (xv - t[j]) + y[j]
+                    if v != v:
+                        v = slope * (xv - t[j + 1]) + y[j + 1]
+                        if v != v and y[j] == y[j + 1]:
+                            v = y[j]
+                    out[i, c] = v
+    return out

@@ -37,7 +37,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import optimize, stats
+from scipy import optimize, sparse, stats
 
 from torquemap.errors import InputError
 from torquemap.filters import dilate, lowpass
@@ -565,6 +565,77 @@ def _prepare_torques(rows: _Rows, delays: NDArray[np.float64]) -> None:
         rows.cache[("torque", d)] = column
 
 
+class _LocalTorques:
+    """The torque read at trial delays and smoothed at a subset of the rows (the delay's
+    trials on a long log, :func:`_delay_rows`), formed only on the samples the subset's
+    windows reach.
+
+    :meth:`_Rows.subset` would smooth each trial's torque over every sample of its piece (the
+    smoother's double integral runs from the piece's start); here each piece's operator is
+    the subset's own (the same weights on the same samples), re-indexed onto just the samples
+    it reads, and the delayed torque is read at those samples from the whole piece
+    (:func:`torquemap._fit_kernels.delayed_columns_at`: the values of the whole piece's,
+    bit for bit). The double integral then runs over those samples only, jumping the samples
+    between: that adds a constant and a slope in time to it on every window, to which the
+    smoother's curvature is blind, so the smoothed torques are the whole piece's to rounding
+    (not bit for bit: the smoother's centre and running sums differ). Trials of a log with
+    at most :data:`DELAY_ROWS` rows do not come here (every row scores them, as before).
+    """
+
+    def __init__(self, rows: _Rows, index: NDArray[np.intp]) -> None:
+        from torquemap._fit_kernels import run_starts
+
+        edges = np.cumsum([0, *(r.size for r in rows.rows)])
+        self.pieces: list[Piece] = []
+        self.at: list[NDArray[np.intp]] = []
+        self.smoothers: list[RowSmoother] = []
+        for p, r, a, b in zip(rows.pieces, rows.rows, edges[:-1], edges[1:], strict=True):
+            mine = r[index[(index >= a) & (index < b)] - a]
+            whole = RowSmoother.build(p.t, mine, rows.window)
+            op = whole.operator
+            read = np.zeros(p.t.size, dtype=bool)
+            read[op.indices] = True
+            at = np.flatnonzero(read)
+            # each sample's place among those read (the operator's indices are sorted rows)
+            local = (np.cumsum(read, dtype=np.intp) - 1)[op.indices].astype(op.indices.dtype)
+            operator = sparse.csr_matrix((op.data, local, op.indptr), shape=(mine.size, at.size))
+            self.pieces.append(p)
+            self.at.append(at)
+            self.smoothers.append(
+                RowSmoother(
+                    t=np.ascontiguousarray(p.t[at]),
+                    operator=operator,
+                    starts=run_starts(operator.indptr, operator.indices),
+                )
+            )
+        self.cache: dict[float, NDArray[np.float64]] = {}
+
+    def prepare(self, delays: NDArray[np.float64]) -> None:
+        """The smoothed torques of ``delays`` [s], four at a time (:func:`_prepare_torques`)."""
+        from torquemap._fit_kernels import delayed_columns_at
+
+        todo = [float(d) for d in delays if float(d) not in self.cache]
+        if not todo:
+            return
+        out = []
+        for p, at, sm in zip(self.pieces, self.at, self.smoothers, strict=True):
+            parts = [
+                sm(delayed_columns_at(p.t, p.torque, at, np.array(todo[j : j + 4])))
+                for j in range(0, len(todo), 4)
+            ]
+            out.append(np.hstack(parts))
+        stacked = np.vstack(out)
+        for j, d in enumerate(todo):
+            column = stacked[:, j].copy()
+            column.setflags(write=False)
+            self.cache[d] = column
+
+    def __call__(self, delay: float) -> NDArray[np.float64]:
+        """The torque read ``delay`` [s] later, smoothed at the subset's rows."""
+        self.prepare(np.array([delay]))
+        return self.cache[float(delay)]
+
+
 def _prior(
     speeds: Sequence[float], level: float, observed: float, *, flat: bool
 ) -> NDArray[np.float64]:
@@ -901,13 +972,14 @@ def fit_joint_whole(
     # a long log's trials are scored on a bounded share of its rows (each trial costs a
     # normal matrix over them, and a log of 4 M samples has ~330 000)
     sub = _delay_rows(rows, DELAY_ROWS)
-    trows, at = (rows, a) if sub is None else (rows.subset(sub), a[sub])
+    at = a if sub is None else a[sub]
+    local = None if sub is None else _LocalTorques(rows, sub)
     gram = _Gram(at, np.ones(at.shape[0]))
     plain = _Solver(at, np.ones(at.shape[0]), prior, gram)  # every trial's first solve
 
     @functools.cache
     def delay_cost(d: float) -> float:
-        y_ = _torque(trows, d)
+        y_ = _torque(rows, d) if local is None else local(d)
         trial = plain(y_)
         trial = _Solver(at, huber_weights(trial.residual, scale0), prior, gram)(y_)
         return huber_cost(trial.residual, scale0)
@@ -916,7 +988,10 @@ def fit_joint_whole(
     d = 0.0 if delay == "auto" else float(delay)
     delay_interval = (d, d)
     if delay == "auto":
-        _prepare_torques(trows, delay_grid(max_delay))
+        if local is None:
+            _prepare_torques(rows, delay_grid(max_delay))
+        else:
+            local.prepare(delay_grid(max_delay))
         profile: DelayProfile = delay_profile(delay_cost, max_delay, dof=dof)
         d, delay_interval, note = judge_delay(profile, reference_delay, max_delay)
         warnings += note
