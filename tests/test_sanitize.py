@@ -155,6 +155,36 @@ def test_the_cheap_pretest_changes_no_answer(
     )
 
 
+@settings(max_examples=40, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    spikes=st.integers(0, 5),
+    quantum=st.sampled_from([0.0, 1e-4, 1e-2]),
+    noise=st.sampled_from([0.0, 1e-5, 1e-3]),
+    span=st.sampled_from([3, 5, 7, MEDIAN_SPAN]),
+)
+def test_fast_ramps_change_no_answer(
+    seed: int, spikes: int, quantum: float, noise: float, span: int
+) -> None:
+    # an angle swept fast and slow, both ways, with reversals, holds, re-zeroings and spikes:
+    # every ramp sample is far from its neighbours (the pre-test's suspects), most windows are
+    # monotone (their median is the sample itself); the same samples as the running median
+    # everywhere
+    rng = np.random.default_rng(seed)
+    n = 4000
+    speed = np.repeat(rng.choice([-40.0, -3.0, 0.0, 0.5, 8.0, 60.0], 8), n // 8)
+    x = np.cumsum(speed) * 1e-3 + noise * rng.normal(size=n)
+    x[int(rng.integers(1, n)) :] -= rng.uniform(0.5, 3.0)
+    if quantum:
+        x = np.round(x / quantum) * quantum
+    x[rng.integers(0, n, spikes)] += rng.choice([-1.0, 1.0], spikes) * 10.0 ** rng.uniform(
+        -3, 1, spikes
+    )
+    np.testing.assert_array_equal(
+        implausible_samples(x, span=span), _implausible_everywhere(x, span)
+    )
+
+
 @settings(max_examples=60, deadline=None)
 @given(
     seed=st.integers(0, 10_000),
