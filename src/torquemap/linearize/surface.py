@@ -33,6 +33,7 @@ This module never imports the simulator.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -182,6 +183,55 @@ def _interpolate_rest(rest: NDArray[np.float64], anchors: NDArray[np.int64], n: 
     return RestSeries(out, tuple(kept), tuple(amplitude.tolist()), float(noise))
 
 
+def rest_basis(anchors: NDArray[np.int64], n: int) -> sp.csr_matrix | None:
+    """``o`` on every position from its values at the ``K`` anchors and one more harmonic.
+
+    Columns ``0 .. K - 1``: the linear interpolation (cyclic) of the anchors' values; columns
+    ``K, K + 1``: the cosine and the sine of the anchors' Nyquist harmonic (``K / 2`` periods per
+    cycle, two anchors a period) less their own interpolation, so zero at every anchor. The
+    anchors alone see the sine at zero and the cosine as an alternation; the rows the rig's
+    compliance moved between them read both.
+
+    Parameters
+    ----------
+    anchors
+        The measured positions, ascending, shape (K,).
+    n
+        Positions per cycle.
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix or None
+        Shape (n, K + 2); None unless the anchors are evenly spaced with ``K`` even and at
+        least 4.
+
+    Examples
+    --------
+    >>> b = rest_basis(np.arange(0, 16, 4), 16).toarray()
+    >>> b.shape, b[4].tolist()
+    ((16, 6), [0.0, 1.0, 0.0, 0.0, 0.0, 0.0])
+    >>> np.round(b[2], 6).tolist()  # half way: the mean of two anchors, the sine at its peak
+    [0.5, 0.5, 0.0, 0.0, 0.0, 1.0]
+    """
+    k = anchors.size
+    if k < 4 or k % 2 or n % k:
+        return None
+    if not np.array_equal(anchors, anchors[0] + np.arange(k) * (n // k)):
+        return None
+    step = n // k
+    p = np.arange(n)
+    j = ((p - anchors[0]) % n) // step
+    frac = ((p - anchors[0]) % n - j * step) / step
+    rows = np.r_[p, p]
+    cols = np.r_[j, (j + 1) % k]
+    vals = np.r_[1 - frac, frac]
+    lin = sp.csr_matrix((vals, (rows, cols)), shape=(n, k))
+    x = 2 * np.pi * (k // 2) * p / n
+    wave = np.c_[np.cos(x), np.sin(x)]
+    wave = wave - lin @ wave[anchors]
+    return sp.hstack([lin, sp.csr_matrix(wave)], format="csr")
+
+
 def _lift(kx: NDArray[np.float64], d: float, n: float, join: float) -> NDArray[np.float64]:
     """Knot values from non-negative parameters: ``alpha`` times the onset law up to the
     join, then ``alpha`` plus the running sum of non-negative steps."""
@@ -215,6 +265,7 @@ def fit_surface(
     bias_weight: float = 10.0,
     smoothness: float = 1.0,
     anchors: NDArray[np.int64] | None = None,
+    nyquist: bool = False,
 ) -> SurfaceFit:
     """Fit the structured surface to the measured cells of a (position, level) grid.
 
@@ -240,6 +291,13 @@ def fit_surface(
         Weight of the second-difference penalties, relative to one cell.
     anchors
         The measured positions (default: those with a reading at the first level).
+    nyquist
+        Between the anchors, ``o`` is their linear interpolation plus the anchors' Nyquist
+        harmonic (:func:`rest_basis`), fitted with every row (those the rig's compliance moved
+        between the anchors read it), instead of free at every position with a reading and
+        carried by the anchors' series. For cogging the anchors sample twice a period or
+        less (:func:`torquemap.linearize.sampling.check_position_sampling`); ignored unless
+        the anchors are evenly spaced and even in number.
 
     Returns
     -------
@@ -261,6 +319,10 @@ def fit_surface(
     anchors = np.flatnonzero(np.isfinite(grid[:, 0])) if anchors is None else anchors
     indicator = sp.csr_matrix((np.ones(cp.size), (np.arange(cp.size), cp)), shape=(cp.size, n))
     nf = n
+    basis = rest_basis(anchors, n) if nyquist else None
+    if basis is not None:
+        indicator = (indicator @ basis).tocsr()
+        nf = basis.shape[1]
     d2 = _second_difference(n)
     # the penalty in units of the data: a cell weighs 1, S_k's curvature weighs smoothness
     scale = float(np.median(np.bincount(cp)[targets]))
@@ -336,7 +398,14 @@ def fit_surface(
         if abs(last - sse) <= TOLERANCE * sse:
             break
         last = sse
-    series = _interpolate_rest(coef_o, anchors, n)
+    if basis is not None:
+        # the series through the anchors as without the term, plus the term between them
+        k = anchors.size
+        series = _interpolate_rest(np.asarray(basis @ coef_o), anchors, n)
+        wave = np.asarray(basis[:, k:] @ coef_o[k:])
+        series = dataclasses.replace(series, rest=series.rest + wave)
+    else:
+        series = _interpolate_rest(coef_o, anchors, n)
     res = np.maximum(pred, 0.0) - (y - offset[cp])
     phi_all = np.interp(np.arange(actuation_max + 1, dtype=np.float64), kx, phi_k)
     return SurfaceFit(

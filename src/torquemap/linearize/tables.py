@@ -762,6 +762,7 @@ def _surface_forward(
     noise: float,
     *,
     knee: bool = True,
+    nyquist: bool = False,
 ) -> tuple[NDArray[np.float64], SurfaceFit]:
     """Sensed torque on every base pulse width from the structured surface
     (:mod:`torquemap.linearize.surface`) plus what it misses at the measured cells,
@@ -782,6 +783,7 @@ def _surface_forward(
         readable=readable,
         dead_zone=onset_law[0],
         exponent=onset_law[1],
+        nyquist=nyquist,
     )
     pred = surface_prediction(fit, ramp, levels)
     y_adj = mean - fit.offset[:, None]
@@ -1002,6 +1004,7 @@ def build_tables(
     detent: bool = True,
     surface: bool = True,
     knee: bool = True,
+    nyquist: bool = True,
     bias: ArrayLike | None = None,
     restore_bias: bool = True,
     bias_open: bool = False,
@@ -1065,6 +1068,14 @@ def build_tables(
         position's knee, carry what the surface misses between measured positions in the
         uncensored torque (:mod:`torquemap.linearize.knee`), when the measured positions,
         predicted from their neighbours, confirm it predicts better.
+    nyquist
+        ``"interp"`` only, where the structured surface is used and the torque at rest of the
+        measured positions alternates (cogging sampled at most twice a period:
+        :func:`torquemap.linearize.sampling.check_position_sampling`, which also warns): the
+        surface is fitted again with the torque at rest between measured positions read as
+        their interpolation plus the measured positions' Nyquist harmonic, from every row
+        (:func:`torquemap.linearize.surface.rest_basis`; the rows the rig's compliance moved
+        between the measured positions read the harmonic's phase).
     bias
         The bias the collection subtracted from each row (DATA.csv's ``bias`` column) [N m],
         shape (n,); None when the file has none. Split into the sensor's smooth drift and what
@@ -1222,6 +1233,22 @@ def build_tables(
                 )
                 if check.undersampled:
                     warnings.append(check.advice())
+                    if nyquist:
+                        # the ripple the measured positions sample twice a period, read by
+                        # the rows the compliance moved between them (surface.rest_basis)
+                        modelled, fitted = _surface_forward(
+                            spec,
+                            pos,
+                            pw,
+                            tau,
+                            levels,
+                            onset_law,
+                            readable,
+                            sigma,
+                            knee=knee,
+                            nyquist=True,
+                        )
+                        fine = np.where(np.isnan(fine), np.nan, modelled)
                 if fitted.series is not None:
                     unheld, period = fitted.series.unheld_at(
                         anchors, matters=MATTERS * torque_max / cmax
