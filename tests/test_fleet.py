@@ -279,3 +279,54 @@ def test_two_days_are_a_change_against_their_errors(tmp_path: Path) -> None:
     assert wear.flag and not by["friction.coulomb_negative"].flag
     assert {s.robot for s in drift.series} == {"r"}
     assert drift.too_few == ("s: 1 identified day",)
+
+
+def test_steady_robots_are_not_flagged_on_one_dof_standard_errors(tmp_path: Path) -> None:
+    """Twenty robots, four days, no drift: the values scatter by 0.2 mN m and each day's stored
+    standard error is that of a fit with one degree of freedom (0.2 mN m x |N(0, 1)|, as a daily
+    sweep of two speeds gives). A day whose error happens to be tiny must not flag its robot."""
+    rng = np.random.default_rng(5)
+    robot = robot_from_dict(ROBOT)
+    sd = 2e-4
+    days = []
+    for r in range(20):
+        name = f"r{r:02d}"
+        (tmp_path / name).mkdir()
+        for d in range(4):
+            date = dt.date(2026, 1, 1) + dt.timedelta(days=d)
+            jm = JointModel(
+                friction=FrictionModel(0.05 + rng.normal(0, sd), 0.05 + rng.normal(0, sd)),
+                pdtv=(),
+            )
+            errors = {
+                "friction.coulomb_positive": sd * abs(rng.normal()),
+                "friction.coulomb_negative": sd * abs(rng.normal()),
+            }
+            model = Model(robot, {"m": jm}, {"joints": {"m": {"standard_errors": errors}}})
+            write_toml(tmp_path / name / f"{date}.toml", model_to_dict(model))
+            days.append({"robot": name, "date": date, "ok": True, "model": f"{name}/{date}.toml"})
+    write_toml(tmp_path / "fleet-run.toml", {"days": days})
+    drift = fleet_drift(tmp_path)
+    assert len(drift.series) == 40
+    # 0.3 % two-sided per series: none expected of 40; one allowed
+    assert len(drift.flagged) <= 1, [s.note for s in drift.flagged]
+
+
+def test_steady_wear_is_a_trend_not_a_jump(tmp_path: Path) -> None:
+    """A line that grows by 5 standard errors a day, every day, is flagged as a change; no day
+    of it is a jump (each day is where the days before it point)."""
+    robot = robot_from_dict(ROBOT)
+    se = 2e-4
+    days = []
+    (tmp_path / "r").mkdir()
+    for d in range(6):
+        date = dt.date(2026, 1, 1) + dt.timedelta(days=d)
+        jm = JointModel(friction=FrictionModel(0.05 + 1e-3 * d, 0.05), pdtv=())
+        errors = {"friction.coulomb_positive": se, "friction.coulomb_negative": se}
+        model = Model(robot, {"m": jm}, {"joints": {"m": {"standard_errors": errors}}})
+        write_toml(tmp_path / "r" / f"{date}.toml", model_to_dict(model))
+        days.append({"robot": "r", "date": date, "ok": True, "model": f"r/{date}.toml"})
+    write_toml(tmp_path / "fleet-run.toml", {"days": days})
+    wear = {s.parameter: s for s in fleet_drift(tmp_path).series}["friction.coulomb_positive"]
+    assert wear.flag and "changes" in wear.note
+    assert "jumps" not in wear.note
