@@ -111,6 +111,13 @@ def test_fleet_cli_reports_failures(
     assert "x 2026-01-01: FAILED:" in out and "missing column 'q_n'" in out
 
 
+D1, D2 = dt.date(2026, 1, 1), dt.date(2026, 1, 2)
+
+
+def _day(date: dt.date, *logs: str) -> dict[str, object]:
+    return {"date": date, "logs": list(logs)}
+
+
 @pytest.mark.parametrize(
     ("doc", "message"),
     [
@@ -142,6 +149,27 @@ def test_fleet_cli_reports_failures(
             "listed twice",
         ),
         ({"robots": [], "extra": 1}, "unknown key 'extra'"),
+        (
+            {"robots": [{"name": "a", "robot": "r.toml", "days": [{"date": D1, "log": ["x"]}]}]},
+            "unknown key 'log' in a day of robot 'a'",
+        ),
+        (
+            {"robots": [{"name": "a", "robot": "r.toml", "days": [_day(D1, "x.csv", "x.csv")]}]},
+            "log 'x.csv' is listed for a 2026-01-01 and again for a 2026-01-01",
+        ),
+        (
+            {
+                "robots": [
+                    {
+                        "name": "a",
+                        "robot": "r.toml",
+                        "days": [_day(D1, "x.csv"), _day(D2, "y.csv")],
+                    },
+                    {"name": "b", "robot": "r.toml", "days": [_day(D1, "./z/../y.csv")]},
+                ]
+            },
+            "log './z/../y.csv' is listed for a 2026-01-02 and again for b 2026-01-01",
+        ),
     ],
 )
 def test_bad_fleet_files(tmp_path: Path, doc: dict[str, object], message: str) -> None:
@@ -330,3 +358,48 @@ def test_steady_wear_is_a_trend_not_a_jump(tmp_path: Path) -> None:
     wear = {s.parameter: s for s in fleet_drift(tmp_path).series}["friction.coulomb_positive"]
     assert wear.flag and "changes" in wear.note
     assert "jumps" not in wear.note
+
+
+def test_a_stopped_run_leaves_no_record_and_a_failed_day_no_stale_model(
+    fleet_dir: Path, tmp_path: Path
+) -> None:
+    """OUT holds an earlier run (its record, and a model for the day that now fails): a run
+    stopped after its first model leaves no record for `fleet drift` to read against models it
+    partly rewrote; a finished run removes the model of the day that failed."""
+    out = tmp_path / "out"
+    (out / "r02").mkdir(parents=True)
+    stale = out / "r02" / "2026-11-03.toml"
+    stale.write_text("# an earlier fleet's model\n")
+    write_toml(out / "fleet-run.toml", {"days": [{"robot": "r02", "date": "x", "ok": True}]})
+
+    def stop(*_: object) -> None:
+        raise KeyboardInterrupt
+
+    fleet = read_fleet(fleet_dir / "FLEET.toml")
+    with pytest.raises(KeyboardInterrupt):
+        identify_fleet(fleet, out, workers=1, processes=False, progress=stop)
+    assert not (out / "fleet-run.toml").exists()
+    with pytest.raises(InputError, match=r"no fleet-run\.toml: .* did not finish"):
+        fleet_drift(out)
+    run = identify_fleet(fleet, out, workers=1, processes=False)
+    assert [o.ok for o in run.outcomes] == [True, True, True, False]
+    assert not stale.exists()
+    assert (out / "fleet-run.toml").exists()
+
+
+def test_a_failed_day_whose_log_was_cut_says_so(tmp_path: Path) -> None:
+    """A log copied while being written ends inside a line; the day fails (too short), and its
+    reason names the cut, the likely cause, not only the symptom."""
+    write_toml(tmp_path / "robot.toml", ROBOT)
+    (tmp_path / "cut.csv").write_text("t,q_m,i_m\n0,0,0.1\n0.001,0,0.1\n0.002,0.0")
+    write_toml(
+        tmp_path / "F.toml",
+        {"robots": [{"name": "a", "robot": "robot.toml", "days": [_day(D1, "cut.csv")]}]},
+    )
+    run = identify_fleet(
+        read_fleet(tmp_path / "F.toml"), tmp_path / "o", workers=1, processes=False
+    )
+    (outcome,) = run.outcomes
+    assert not outcome.ok
+    assert "cut.csv: the last line has no line end" in outcome.reason
+    assert "\n" not in outcome.reason

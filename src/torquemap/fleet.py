@@ -28,6 +28,9 @@ from typing import Any
 from torquemap.errors import InputError
 from torquemap.tomlfile import read_toml
 
+#: The record of a run, written last (:func:`identify_fleet`).
+RUN_FILE = "fleet-run.toml"
+
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
 
 
@@ -135,7 +138,7 @@ def read_fleet(path: str | os.PathLike[str]) -> Fleet:
     ------
     InputError
         On a missing or malformed file, an unknown key, a bad or repeated robot name, a robot
-        without days, a bad date or a day listed twice.
+        without days, a bad date, a day listed twice or a log listed twice.
     """
     p = Path(path)
     doc = read_toml(p)
@@ -148,6 +151,7 @@ def read_fleet(path: str | os.PathLike[str]) -> Fleet:
     base = p.parent
     days: list[RobotDay] = []
     seen: set[str] = set()
+    owner: dict[str, str] = {}
     for k, entry in enumerate(robots):
         where = f"[[robots]] #{k + 1}"
         if not isinstance(entry, Mapping):
@@ -174,8 +178,14 @@ def read_fleet(path: str | os.PathLike[str]) -> Fleet:
         dates: set[dt.date] = set()
         mine: list[RobotDay] = []
         for day in raw_days:
-            if not isinstance(day, Mapping) or set(day) - {"date", "logs"}:
-                raise InputError(f"robot {name!r}: each day holds only date and logs", path=p)
+            if not isinstance(day, Mapping):
+                raise InputError(f"robot {name!r}: each day must be a table", path=p)
+            if set(day) - {"date", "logs"}:
+                key = sorted(set(day) - {"date", "logs"})[0]
+                raise InputError(
+                    f"unknown key {key!r} in a day of robot {name!r} (a day holds date and logs)",
+                    path=p,
+                )
             date = day.get("date")
             if isinstance(date, dt.datetime) or not isinstance(date, dt.date):
                 raise InputError(
@@ -191,6 +201,16 @@ def read_fleet(path: str | os.PathLike[str]) -> Fleet:
                 or not all(isinstance(x, str) and x for x in logs)
             ):
                 raise InputError(f"robot {name!r} on {date}: logs must list log files", path=p)
+            for x in logs:
+                # one recording is one robot-day: listed again, it would pass for a second day
+                # (a steady robot) or weigh twice in its day (standard errors too small)
+                key = os.path.normpath(os.path.abspath(base / x))
+                if key in owner:
+                    raise InputError(
+                        f"log {x!r} is listed for {owner[key]} and again for {name} {date}",
+                        path=p,
+                    )
+                owner[key] = f"{name} {date}"
             mine.append(
                 RobotDay(
                     robot=name,
@@ -241,6 +261,14 @@ def identify_day(day: RobotDay, out_dir: str, window: float | None = None) -> Da
     except (InputError, OSError, ValueError, ArithmeticError) as exc:
         # One robot-day's problem is reported, not raised: the others finish.
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        cut = cut_last_line_warnings(day.logs)
+        if cut:
+            reason = f"{reason} ({cut[0]})"
+        # a model of this robot-day left by an earlier run is not this run's answer
+        try:
+            target.unlink(missing_ok=True)
+        except OSError:
+            pass
         return DayOutcome(day.robot, day.date, False, None, reason, (), time.perf_counter() - start)
     return DayOutcome(
         day.robot,
@@ -349,6 +377,9 @@ def identify_fleet(
     if out.exists() and not out.is_dir():
         raise InputError("output path exists and is not a folder", path=out)
     out.mkdir(parents=True, exist_ok=True)
+    # An earlier run's record must not outlive this run's first model: were this run stopped,
+    # `fleet drift` would read the old record against models partly rewritten by this one.
+    (out / RUN_FILE).unlink(missing_ok=True)
     start = time.perf_counter()
     cluster: LocalCluster | None = None
     try:
@@ -400,7 +431,7 @@ def identify_fleet(
         workers=n_workers,
         seconds=time.perf_counter() - start,
     )
-    write_toml(out / "fleet-run.toml", run_document(run, fleet))
+    write_toml(out / RUN_FILE, run_document(run, fleet))
     return run
 
 
@@ -427,7 +458,14 @@ def run_document(run: FleetRun, fleet: Fleet) -> dict[str, Any]:
 
 def read_run(out_dir: str | os.PathLike[str]) -> list[dict[str, Any]]:
     """The robot-days of ``OUT/fleet-run.toml`` (InputError when it is missing or malformed)."""
-    doc = read_toml(Path(out_dir) / "fleet-run.toml")
+    path = Path(out_dir) / RUN_FILE
+    if not path.is_file():
+        raise InputError(
+            f"no {RUN_FILE}: not an output folder of `fleet identify`, or its run did not finish "
+            "(run it again)",
+            path=Path(out_dir),
+        )
+    doc = read_toml(path)
     days = doc.get("days")
     if not isinstance(days, list):
         raise InputError("fleet-run.toml has no days", path=Path(out_dir) / "fleet-run.toml")
