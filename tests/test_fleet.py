@@ -403,3 +403,30 @@ def test_a_failed_day_whose_log_was_cut_says_so(tmp_path: Path) -> None:
     assert not outcome.ok
     assert "cut.csv: the last line has no line end" in outcome.reason
     assert "\n" not in outcome.reason
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"window": -1.0}, "window must be a positive number"),
+        ({"window": math.nan}, "window must be a positive number"),
+        ({"scheduler": "nonsense"}, "cannot reach the Dask scheduler 'nonsense'"),
+    ],
+)
+def test_bad_run_options_leave_the_output_folder_as_it_was(
+    fleet_dir: Path, tmp_path: Path, kwargs: dict[str, object], message: str
+) -> None:
+    """A negative window failed every robot-day one by one; a scheduler address without a port
+    was a traceback; neither may remove the record of the run already in OUT."""
+    out = tmp_path / "out"
+    out.mkdir()
+    write_toml(out / "fleet-run.toml", {"days": []})
+    with pytest.raises(InputError, match=message):
+        identify_fleet(read_fleet(fleet_dir / "FLEET.toml"), out, workers=1, **kwargs)  # type: ignore[arg-type]
+    assert (out / "fleet-run.toml").exists()
+
+
+def test_drift_names_a_malformed_run_record(tmp_path: Path) -> None:
+    write_toml(tmp_path / "fleet-run.toml", {"days": [{"robot": "r", "date": D1, "ok": True}]})
+    with pytest.raises(InputError, match=r"fleet-run\.toml: \[\[days\]\] #1 needs robot, date"):
+        fleet_drift(tmp_path)

@@ -18,6 +18,7 @@ of another robot, too little motion) is reported with its reason; the others fin
 from __future__ import annotations
 
 import datetime as dt
+import math
 import os
 import re
 from collections.abc import Callable, Mapping, Sequence
@@ -363,7 +364,8 @@ def identify_fleet(
     Raises
     ------
     InputError
-        On a bad output folder, ``workers < 1`` or a scheduler that cannot be reached.
+        On a bad output folder, ``workers < 1``, a window that is not a positive number, or a
+        scheduler that cannot be reached (the output folder is then left as it was).
     """
     import time
 
@@ -376,10 +378,8 @@ def identify_fleet(
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise InputError("output path exists and is not a folder", path=out)
-    out.mkdir(parents=True, exist_ok=True)
-    # An earlier run's record must not outlive this run's first model: were this run stopped,
-    # `fleet drift` would read the old record against models partly rewritten by this one.
-    (out / RUN_FILE).unlink(missing_ok=True)
+    if window is not None and not (isinstance(window, int | float) and 0 < window < math.inf):
+        raise InputError(f"window must be a positive number of seconds, got {window!r}")
     start = time.perf_counter()
     cluster: LocalCluster | None = None
     try:
@@ -398,9 +398,14 @@ def identify_fleet(
         else:
             try:
                 client = Client(scheduler, timeout="10s")
-            except (OSError, TimeoutError) as exc:
+            except (OSError, TimeoutError, ValueError) as exc:
                 raise InputError(f"cannot reach the Dask scheduler {scheduler!r} ({exc})") from None
         with client:
+            # OUT is touched only once the cluster is there. An earlier run's record must not
+            # outlive this run's first model: were this run stopped, `fleet drift` would read
+            # the old record against models partly rewritten by this one.
+            out.mkdir(parents=True, exist_ok=True)
+            (out / RUN_FILE).unlink(missing_ok=True)
             n_workers = len(client.scheduler_info().get("workers", {})) or workers
             futures = {
                 client.submit(identify_day, day, str(out), window, pure=False): k
@@ -468,8 +473,22 @@ def read_run(out_dir: str | os.PathLike[str]) -> list[dict[str, Any]]:
     doc = read_toml(path)
     days = doc.get("days")
     if not isinstance(days, list):
-        raise InputError("fleet-run.toml has no days", path=Path(out_dir) / "fleet-run.toml")
-    return [d for d in days if isinstance(d, Mapping)]  # type: ignore[misc]
+        raise InputError(f"{RUN_FILE} has no days", path=path)
+    for k, day in enumerate(days):
+        # a record edited or cut by hand: say which entry, not a KeyError
+        if (
+            not isinstance(day, Mapping)
+            or not isinstance(day.get("robot"), str)
+            or not isinstance(day.get("date"), dt.date | str)
+            or not isinstance(day.get("ok"), bool)
+            or (day["ok"] and not isinstance(day.get("model"), str))
+        ):
+            raise InputError(
+                f"[[days]] #{k + 1} needs robot, date, ok and (when ok) model; run "
+                "`fleet identify` again",
+                path=path,
+            )
+    return list(days)
 
 
 def summary_lines(run: FleetRun) -> Sequence[str]:
