@@ -58,7 +58,10 @@ def test_fleet_identify_every_robot_day(fleet_dir: Path, tmp_path: Path) -> None
         ("r02", 2, True),
         ("r02", 3, False),
     ]
-    assert "file not found" in run.failed[0].reason  # one robot-day fails, the others finish
+    # one robot-day fails, the others finish; the reason says where relative paths start
+    assert "file not found (a fleet file's paths are relative to its own folder)" in (
+        run.failed[0].reason
+    )
     # each model holds the identified Coulomb friction of its day (0.05, then 0.06 N m): pass
     # means over ~2000 samples of 5 mN m noise are good to well under 1 mN m
     from torquemap.model import load_model
@@ -430,3 +433,26 @@ def test_drift_names_a_malformed_run_record(tmp_path: Path) -> None:
     write_toml(tmp_path / "fleet-run.toml", {"days": [{"robot": "r", "date": D1, "ok": True}]})
     with pytest.raises(InputError, match=r"fleet-run\.toml: \[\[days\]\] #1 needs robot, date"):
         fleet_drift(tmp_path)
+
+
+def test_a_day_of_another_robot_is_flagged_not_averaged_away(tmp_path: Path) -> None:
+    """Three days of a robot whose Coulomb friction grows 5 standard errors a day, the middle
+    day identified from another robot's log (10 % higher): its scatter inflated every error by
+    Birge's ratio until the wear no longer showed, and the middle of three days escapes the step
+    test; the series is flagged, naming the scatter."""
+    robot = robot_from_dict(ROBOT)
+    se = 2e-4
+    days = []
+    (tmp_path / "r").mkdir()
+    for d in range(3):
+        date = dt.date(2026, 1, 1) + dt.timedelta(days=d)
+        value = 0.05 + 1e-3 * d + (0.005 if d == 1 else 0.0)
+        jm = JointModel(friction=FrictionModel(value, value), pdtv=())
+        errors = {"friction.coulomb_positive": se, "friction.coulomb_negative": se}
+        model = Model(robot, {"m": jm}, {"joints": {"m": {"standard_errors": errors}}})
+        write_toml(tmp_path / "r" / f"{date}.toml", model_to_dict(model))
+        days.append({"robot": "r", "date": date, "ok": True, "model": f"r/{date}.toml"})
+    write_toml(tmp_path / "fleet-run.toml", {"days": days})
+    series = {s.parameter: s for s in fleet_drift(tmp_path).series}
+    odd = series["friction.coulomb_positive"]
+    assert odd.flag and "scatter" in odd.note and "another robot" in odd.note

@@ -39,6 +39,11 @@ from torquemap.model import load_model
 TREND_Z = 3.0
 #: Jump of one day from the median of the days before it, in standard errors.
 STEP_Z = 4.0
+#: Scatter of the days about the trend, in their standard errors (Birge's ratio), beyond which
+#: a series is flagged whatever its trend: a log of another robot or setup on one day. A daily
+#: sweep's pooled errors can be three to four times too small on a steady robot (motor fleets,
+#: seeds 1-4); ten is beyond that.
+SCATTER_MAX = 10.0
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -213,6 +218,13 @@ def _series(
         if step is not None:
             k, ref = step
             notes.append(f"jumps to {v[k]:.3g} on {dates[k]} (from {ref:.3g} expected)")
+        if scale > SCATTER_MAX:
+            # an odd day masks a trend (its scatter inflates every error) and, in the middle of
+            # three days, escapes the step test: say so rather than report a steady robot
+            notes.append(
+                f"the days scatter {scale:.0f} times their standard errors: a day of another "
+                "robot or setup?"
+            )
     return DriftSeries(
         robot=robot,
         joint=joint,

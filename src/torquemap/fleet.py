@@ -245,6 +245,12 @@ def identify_day(day: RobotDay, out_dir: str, window: float | None = None) -> Da
     start = time.perf_counter()
     target = model_path(out_dir, day.robot, day.date)
     try:
+        for f in (day.robot_file, *day.logs):
+            if not f.exists():
+                # a path written from the shell's folder, not the fleet file's, is the usual cause
+                raise InputError(
+                    "file not found (a fleet file's paths are relative to its own folder)", path=f
+                )
         robot = load_robot(day.robot_file)
         logs = [read_log(p, robot) for p in day.logs]
         kwargs: dict[str, Any] = {} if window is None else {"window": window}
