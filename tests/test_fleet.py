@@ -456,3 +456,17 @@ def test_a_day_of_another_robot_is_flagged_not_averaged_away(tmp_path: Path) -> 
     series = {s.parameter: s for s in fleet_drift(tmp_path).series}
     odd = series["friction.coulomb_positive"]
     assert odd.flag and "scatter" in odd.note and "another robot" in odd.note
+
+
+def test_local_workers_start_with_ctrl_c_ignored() -> None:
+    """Ctrl-C reaches every process of the terminal's group: the local cluster's worker processes
+    are started with SIGINT ignored (each printed a traceback), the parent's handler is back
+    afterwards (it stops the run and closes the cluster: `torquemap: interrupted`)."""
+    import signal
+
+    from torquemap.fleet import _workers_ignore_ctrl_c
+
+    before = signal.getsignal(signal.SIGINT)
+    with _workers_ignore_ctrl_c():
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    assert signal.getsignal(signal.SIGINT) is before

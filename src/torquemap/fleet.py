@@ -17,11 +17,12 @@ of another robot, too little motion) is reported with its reason; the others fin
 
 from __future__ import annotations
 
+import contextlib
 import datetime as dt
 import math
 import os
 import re
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -393,13 +394,14 @@ def identify_fleet(
             # the scheduler's HTTP server (metrics; a dashboard where bokeh is installed) on a
             # free port: its default 8787, when taken (a user's own Dask, a second fleet run),
             # gives a warning and leaks the socket it tried
-            cluster = LocalCluster(
-                n_workers=workers,
-                threads_per_worker=1,
-                processes=processes,
-                dashboard_address="127.0.0.1:0",
-                silence_logs=50,
-            )
+            with _workers_ignore_ctrl_c():
+                cluster = LocalCluster(
+                    n_workers=workers,
+                    threads_per_worker=1,
+                    processes=processes,
+                    dashboard_address="127.0.0.1:0",
+                    silence_logs=50,
+                )
             client = Client(cluster)
         else:
             try:
@@ -444,6 +446,28 @@ def identify_fleet(
     )
     write_toml(out / RUN_FILE, run_document(run, fleet))
     return run
+
+
+@contextlib.contextmanager
+def _workers_ignore_ctrl_c() -> Iterator[None]:
+    """Ignore SIGINT while the local cluster starts its worker processes, which inherit it.
+
+    Ctrl-C reaches the terminal's whole process group: the workers printed a KeyboardInterrupt
+    traceback each before the parent's one-line ``interrupted``. Ignoring it, they are stopped
+    by the parent closing the cluster instead. Outside the main thread (where handlers cannot be
+    set) nothing changes.
+    """
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def run_document(run: FleetRun, fleet: Fleet) -> dict[str, Any]:
