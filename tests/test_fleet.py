@@ -58,7 +58,10 @@ def test_fleet_identify_every_robot_day(fleet_dir: Path, tmp_path: Path) -> None
         ("r02", 2, True),
         ("r02", 3, False),
     ]
-    assert "file not found" in run.failed[0].reason  # one robot-day fails, the others finish
+    # one robot-day fails, the others finish; the reason says where relative paths start
+    assert "file not found (a fleet file's paths are relative to its own folder)" in (
+        run.failed[0].reason
+    )
     # each model holds the identified Coulomb friction of its day (0.05, then 0.06 N m): pass
     # means over ~2000 samples of 5 mN m noise are good to well under 1 mN m
     from torquemap.model import load_model
@@ -111,6 +114,13 @@ def test_fleet_cli_reports_failures(
     assert "x 2026-01-01: FAILED:" in out and "missing column 'q_n'" in out
 
 
+D1, D2 = dt.date(2026, 1, 1), dt.date(2026, 1, 2)
+
+
+def _day(date: dt.date, *logs: str) -> dict[str, object]:
+    return {"date": date, "logs": list(logs)}
+
+
 @pytest.mark.parametrize(
     ("doc", "message"),
     [
@@ -142,6 +152,27 @@ def test_fleet_cli_reports_failures(
             "listed twice",
         ),
         ({"robots": [], "extra": 1}, "unknown key 'extra'"),
+        (
+            {"robots": [{"name": "a", "robot": "r.toml", "days": [{"date": D1, "log": ["x"]}]}]},
+            "unknown key 'log' in a day of robot 'a'",
+        ),
+        (
+            {"robots": [{"name": "a", "robot": "r.toml", "days": [_day(D1, "x.csv", "x.csv")]}]},
+            "log 'x.csv' is listed for a 2026-01-01 and again for a 2026-01-01",
+        ),
+        (
+            {
+                "robots": [
+                    {
+                        "name": "a",
+                        "robot": "r.toml",
+                        "days": [_day(D1, "x.csv"), _day(D2, "y.csv")],
+                    },
+                    {"name": "b", "robot": "r.toml", "days": [_day(D1, "./z/../y.csv")]},
+                ]
+            },
+            "log './z/../y.csv' is listed for a 2026-01-02 and again for b 2026-01-01",
+        ),
     ],
 )
 def test_bad_fleet_files(tmp_path: Path, doc: dict[str, object], message: str) -> None:
@@ -279,3 +310,163 @@ def test_two_days_are_a_change_against_their_errors(tmp_path: Path) -> None:
     assert wear.flag and not by["friction.coulomb_negative"].flag
     assert {s.robot for s in drift.series} == {"r"}
     assert drift.too_few == ("s: 1 identified day",)
+
+
+def test_steady_robots_are_not_flagged_on_one_dof_standard_errors(tmp_path: Path) -> None:
+    """Twenty robots, four days, no drift: the values scatter by 0.2 mN m and each day's stored
+    standard error is that of a fit with one degree of freedom (0.2 mN m x |N(0, 1)|, as a daily
+    sweep of two speeds gives). A day whose error happens to be tiny must not flag its robot."""
+    rng = np.random.default_rng(5)
+    robot = robot_from_dict(ROBOT)
+    sd = 2e-4
+    days = []
+    for r in range(20):
+        name = f"r{r:02d}"
+        (tmp_path / name).mkdir()
+        for d in range(4):
+            date = dt.date(2026, 1, 1) + dt.timedelta(days=d)
+            jm = JointModel(
+                friction=FrictionModel(0.05 + rng.normal(0, sd), 0.05 + rng.normal(0, sd)),
+                pdtv=(),
+            )
+            errors = {
+                "friction.coulomb_positive": sd * abs(rng.normal()),
+                "friction.coulomb_negative": sd * abs(rng.normal()),
+            }
+            model = Model(robot, {"m": jm}, {"joints": {"m": {"standard_errors": errors}}})
+            write_toml(tmp_path / name / f"{date}.toml", model_to_dict(model))
+            days.append({"robot": name, "date": date, "ok": True, "model": f"{name}/{date}.toml"})
+    write_toml(tmp_path / "fleet-run.toml", {"days": days})
+    drift = fleet_drift(tmp_path)
+    assert len(drift.series) == 40
+    # 0.3 % two-sided per series: none expected of 40; one allowed
+    assert len(drift.flagged) <= 1, [s.note for s in drift.flagged]
+
+
+def test_steady_wear_is_a_trend_not_a_jump(tmp_path: Path) -> None:
+    """A line that grows by 5 standard errors a day, every day, is flagged as a change; no day
+    of it is a jump (each day is where the days before it point)."""
+    robot = robot_from_dict(ROBOT)
+    se = 2e-4
+    days = []
+    (tmp_path / "r").mkdir()
+    for d in range(6):
+        date = dt.date(2026, 1, 1) + dt.timedelta(days=d)
+        jm = JointModel(friction=FrictionModel(0.05 + 1e-3 * d, 0.05), pdtv=())
+        errors = {"friction.coulomb_positive": se, "friction.coulomb_negative": se}
+        model = Model(robot, {"m": jm}, {"joints": {"m": {"standard_errors": errors}}})
+        write_toml(tmp_path / "r" / f"{date}.toml", model_to_dict(model))
+        days.append({"robot": "r", "date": date, "ok": True, "model": f"r/{date}.toml"})
+    write_toml(tmp_path / "fleet-run.toml", {"days": days})
+    wear = {s.parameter: s for s in fleet_drift(tmp_path).series}["friction.coulomb_positive"]
+    assert wear.flag and "changes" in wear.note
+    assert "jumps" not in wear.note
+
+
+def test_a_stopped_run_leaves_no_record_and_a_failed_day_no_stale_model(
+    fleet_dir: Path, tmp_path: Path
+) -> None:
+    """OUT holds an earlier run (its record, and a model for the day that now fails): a run
+    stopped after its first model leaves no record for `fleet drift` to read against models it
+    partly rewrote; a finished run removes the model of the day that failed."""
+    out = tmp_path / "out"
+    (out / "r02").mkdir(parents=True)
+    stale = out / "r02" / "2026-11-03.toml"
+    stale.write_text("# an earlier fleet's model\n")
+    write_toml(out / "fleet-run.toml", {"days": [{"robot": "r02", "date": "x", "ok": True}]})
+
+    def stop(*_: object) -> None:
+        raise KeyboardInterrupt
+
+    fleet = read_fleet(fleet_dir / "FLEET.toml")
+    with pytest.raises(KeyboardInterrupt):
+        identify_fleet(fleet, out, workers=1, processes=False, progress=stop)
+    assert not (out / "fleet-run.toml").exists()
+    with pytest.raises(InputError, match=r"no fleet-run\.toml: .* did not finish"):
+        fleet_drift(out)
+    run = identify_fleet(fleet, out, workers=1, processes=False)
+    assert [o.ok for o in run.outcomes] == [True, True, True, False]
+    assert not stale.exists()
+    assert (out / "fleet-run.toml").exists()
+
+
+def test_a_failed_day_whose_log_was_cut_says_so(tmp_path: Path) -> None:
+    """A log copied while being written ends inside a line; the day fails (too short), and its
+    reason names the cut, the likely cause, not only the symptom."""
+    write_toml(tmp_path / "robot.toml", ROBOT)
+    (tmp_path / "cut.csv").write_text("t,q_m,i_m\n0,0,0.1\n0.001,0,0.1\n0.002,0.0")
+    write_toml(
+        tmp_path / "F.toml",
+        {"robots": [{"name": "a", "robot": "robot.toml", "days": [_day(D1, "cut.csv")]}]},
+    )
+    run = identify_fleet(
+        read_fleet(tmp_path / "F.toml"), tmp_path / "o", workers=1, processes=False
+    )
+    (outcome,) = run.outcomes
+    assert not outcome.ok
+    assert "cut.csv: the last line has no line end" in outcome.reason
+    assert "\n" not in outcome.reason
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"window": -1.0}, "window must be a positive number"),
+        ({"window": math.nan}, "window must be a positive number"),
+        ({"scheduler": "nonsense"}, "cannot reach the Dask scheduler 'nonsense'"),
+    ],
+)
+def test_bad_run_options_leave_the_output_folder_as_it_was(
+    fleet_dir: Path, tmp_path: Path, kwargs: dict[str, object], message: str
+) -> None:
+    """A negative window failed every robot-day one by one; a scheduler address without a port
+    was a traceback; neither may remove the record of the run already in OUT."""
+    out = tmp_path / "out"
+    out.mkdir()
+    write_toml(out / "fleet-run.toml", {"days": []})
+    with pytest.raises(InputError, match=message):
+        identify_fleet(read_fleet(fleet_dir / "FLEET.toml"), out, workers=1, **kwargs)  # type: ignore[arg-type]
+    assert (out / "fleet-run.toml").exists()
+
+
+def test_drift_names_a_malformed_run_record(tmp_path: Path) -> None:
+    write_toml(tmp_path / "fleet-run.toml", {"days": [{"robot": "r", "date": D1, "ok": True}]})
+    with pytest.raises(InputError, match=r"fleet-run\.toml: \[\[days\]\] #1 needs robot, date"):
+        fleet_drift(tmp_path)
+
+
+def test_a_day_of_another_robot_is_flagged_not_averaged_away(tmp_path: Path) -> None:
+    """Three days of a robot whose Coulomb friction grows 5 standard errors a day, the middle
+    day identified from another robot's log (10 % higher): its scatter inflated every error by
+    Birge's ratio until the wear no longer showed, and the middle of three days escapes the step
+    test; the series is flagged, naming the scatter."""
+    robot = robot_from_dict(ROBOT)
+    se = 2e-4
+    days = []
+    (tmp_path / "r").mkdir()
+    for d in range(3):
+        date = dt.date(2026, 1, 1) + dt.timedelta(days=d)
+        value = 0.05 + 1e-3 * d + (0.005 if d == 1 else 0.0)
+        jm = JointModel(friction=FrictionModel(value, value), pdtv=())
+        errors = {"friction.coulomb_positive": se, "friction.coulomb_negative": se}
+        model = Model(robot, {"m": jm}, {"joints": {"m": {"standard_errors": errors}}})
+        write_toml(tmp_path / "r" / f"{date}.toml", model_to_dict(model))
+        days.append({"robot": "r", "date": date, "ok": True, "model": f"r/{date}.toml"})
+    write_toml(tmp_path / "fleet-run.toml", {"days": days})
+    series = {s.parameter: s for s in fleet_drift(tmp_path).series}
+    odd = series["friction.coulomb_positive"]
+    assert odd.flag and "scatter" in odd.note and "another robot" in odd.note
+
+
+def test_local_workers_start_with_ctrl_c_ignored() -> None:
+    """Ctrl-C reaches every process of the terminal's group: the local cluster's worker processes
+    are started with SIGINT ignored (each printed a traceback), the parent's handler is back
+    afterwards (it stops the run and closes the cluster: `torquemap: interrupted`)."""
+    import signal
+
+    from torquemap.fleet import _workers_ignore_ctrl_c
+
+    before = signal.getsignal(signal.SIGINT)
+    with _workers_ignore_ctrl_c():
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    assert signal.getsignal(signal.SIGINT) is before

@@ -39,6 +39,11 @@ from torquemap.model import load_model
 TREND_Z = 3.0
 #: Jump of one day from the median of the days before it, in standard errors.
 STEP_Z = 4.0
+#: Scatter of the days about the trend, in their standard errors (Birge's ratio), beyond which
+#: a series is flagged whatever its trend: a log of another robot or setup on one day. A daily
+#: sweep's pooled errors can be three to four times too small on a steady robot (motor fleets,
+#: seeds 1-4); ten is beyond that.
+SCATTER_MAX = 10.0
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -177,6 +182,11 @@ def _series(
     notes = []
     if known:
         source = "identification"
+        # One day's standard error rests on few degrees of freedom (a daily sweep of two speeds
+        # gives friction one): alone it can be ten times too small, and that day would steer
+        # the trend and the step test. The days of one robot share the sweep, so their variances
+        # are pooled (the degrees of freedom add up).
+        err = np.full(v.size, math.sqrt(float(np.mean(err**2))))
         a, slope, slope_se = trend(days, v, err)
         # Standard errors from one day's fit assume white residuals; where the days scatter
         # about the trend more than they say (reduced chi-square above 1), scale them up
@@ -204,12 +214,17 @@ def _series(
             f"({abs(change) / change_se:.1f} sigma)"
         )
     if source == "identification":
-        for k in range(2, v.size):
-            ref = float(np.median(v[:k]))
-            # against the day's own error: a step is exactly what inflates the trend's
-            if abs(v[k] - ref) > STEP_Z * err[k]:
-                notes.append(f"jumps to {v[k]:.3g} on {dates[k]} (from {ref:.3g})")
-                break
+        step = _first_step(days, v, err, scale)
+        if step is not None:
+            k, ref = step
+            notes.append(f"jumps to {v[k]:.3g} on {dates[k]} (from {ref:.3g} expected)")
+        if scale > SCATTER_MAX:
+            # an odd day masks a trend (its scatter inflates every error) and, in the middle of
+            # three days, escapes the step test: say so rather than report a steady robot
+            notes.append(
+                f"the days scatter {scale:.0f} times their standard errors: a day of another "
+                "robot or setup?"
+            )
     return DriftSeries(
         robot=robot,
         joint=joint,
@@ -226,6 +241,30 @@ def _series(
         flag=bool(notes),
         note="; ".join(notes),
     )
+
+
+def _first_step(
+    days: NDArray[np.float64], v: NDArray[np.float64], err: NDArray[np.float64], scale: float
+) -> tuple[int, float] | None:
+    """The first day that leaves the straight line of the days before it by more than
+    ``STEP_Z`` standard errors of the difference (the day's error and the line's prediction's),
+    as ``(index, expected value)``. The errors are scaled by Birge's ratio of the days before
+    (a step after them cannot inflate it) where those leave two degrees of freedom, else by the
+    whole series' ``scale``."""
+    for k in range(2, v.size):
+        a, slope, _ = trend(days[:k], v[:k], err[:k])
+        x = np.column_stack([np.ones(k), days[:k]]) / err[:k, None]
+        cov = np.linalg.inv(x.T @ x)
+        point = np.array([1.0, days[k]])
+        expected = a + slope * days[k]
+        s = scale
+        if k >= 4:
+            chi2 = float(np.sum(((v[:k] - a - slope * days[:k]) / err[:k]) ** 2))
+            s = max(1.0, math.sqrt(chi2 / (k - 2)))
+        se = s * math.sqrt(err[k] ** 2 + float(point @ cov @ point))
+        if abs(v[k] - expected) > STEP_Z * se:
+            return k, float(expected)
+    return None
 
 
 def fleet_drift(out_dir: str | os.PathLike[str]) -> FleetDrift:

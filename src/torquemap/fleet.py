@@ -17,16 +17,21 @@ of another robot, too little motion) is reported with its reason; the others fin
 
 from __future__ import annotations
 
+import contextlib
 import datetime as dt
+import math
 import os
 import re
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from torquemap.errors import InputError
 from torquemap.tomlfile import read_toml
+
+#: The record of a run, written last (:func:`identify_fleet`).
+RUN_FILE = "fleet-run.toml"
 
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
 
@@ -135,7 +140,7 @@ def read_fleet(path: str | os.PathLike[str]) -> Fleet:
     ------
     InputError
         On a missing or malformed file, an unknown key, a bad or repeated robot name, a robot
-        without days, a bad date or a day listed twice.
+        without days, a bad date, a day listed twice or a log listed twice.
     """
     p = Path(path)
     doc = read_toml(p)
@@ -148,6 +153,7 @@ def read_fleet(path: str | os.PathLike[str]) -> Fleet:
     base = p.parent
     days: list[RobotDay] = []
     seen: set[str] = set()
+    owner: dict[str, str] = {}
     for k, entry in enumerate(robots):
         where = f"[[robots]] #{k + 1}"
         if not isinstance(entry, Mapping):
@@ -174,8 +180,14 @@ def read_fleet(path: str | os.PathLike[str]) -> Fleet:
         dates: set[dt.date] = set()
         mine: list[RobotDay] = []
         for day in raw_days:
-            if not isinstance(day, Mapping) or set(day) - {"date", "logs"}:
-                raise InputError(f"robot {name!r}: each day holds only date and logs", path=p)
+            if not isinstance(day, Mapping):
+                raise InputError(f"robot {name!r}: each day must be a table", path=p)
+            if set(day) - {"date", "logs"}:
+                key = sorted(set(day) - {"date", "logs"})[0]
+                raise InputError(
+                    f"unknown key {key!r} in a day of robot {name!r} (a day holds date and logs)",
+                    path=p,
+                )
             date = day.get("date")
             if isinstance(date, dt.datetime) or not isinstance(date, dt.date):
                 raise InputError(
@@ -191,6 +203,16 @@ def read_fleet(path: str | os.PathLike[str]) -> Fleet:
                 or not all(isinstance(x, str) and x for x in logs)
             ):
                 raise InputError(f"robot {name!r} on {date}: logs must list log files", path=p)
+            for x in logs:
+                # one recording is one robot-day: listed again, it would pass for a second day
+                # (a steady robot) or weigh twice in its day (standard errors too small)
+                key = os.path.normpath(os.path.abspath(base / x))
+                if key in owner:
+                    raise InputError(
+                        f"log {x!r} is listed for {owner[key]} and again for {name} {date}",
+                        path=p,
+                    )
+                owner[key] = f"{name} {date}"
             mine.append(
                 RobotDay(
                     robot=name,
@@ -224,6 +246,12 @@ def identify_day(day: RobotDay, out_dir: str, window: float | None = None) -> Da
     start = time.perf_counter()
     target = model_path(out_dir, day.robot, day.date)
     try:
+        for f in (day.robot_file, *day.logs):
+            if not f.exists():
+                # a path written from the shell's folder, not the fleet file's, is the usual cause
+                raise InputError(
+                    "file not found (a fleet file's paths are relative to its own folder)", path=f
+                )
         robot = load_robot(day.robot_file)
         logs = [read_log(p, robot) for p in day.logs]
         kwargs: dict[str, Any] = {} if window is None else {"window": window}
@@ -241,6 +269,14 @@ def identify_day(day: RobotDay, out_dir: str, window: float | None = None) -> Da
     except (InputError, OSError, ValueError, ArithmeticError) as exc:
         # One robot-day's problem is reported, not raised: the others finish.
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        cut = cut_last_line_warnings(day.logs)
+        if cut:
+            reason = f"{reason} ({cut[0]})"
+        # a model of this robot-day left by an earlier run is not this run's answer
+        try:
+            target.unlink(missing_ok=True)
+        except OSError:
+            pass
         return DayOutcome(day.robot, day.date, False, None, reason, (), time.perf_counter() - start)
     return DayOutcome(
         day.robot,
@@ -335,7 +371,8 @@ def identify_fleet(
     Raises
     ------
     InputError
-        On a bad output folder, ``workers < 1`` or a scheduler that cannot be reached.
+        On a bad output folder, ``workers < 1``, a window that is not a positive number, or a
+        scheduler that cannot be reached (the output folder is then left as it was).
     """
     import time
 
@@ -348,7 +385,8 @@ def identify_fleet(
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise InputError("output path exists and is not a folder", path=out)
-    out.mkdir(parents=True, exist_ok=True)
+    if window is not None and not (isinstance(window, int | float) and 0 < window < math.inf):
+        raise InputError(f"window must be a positive number of seconds, got {window!r}")
     start = time.perf_counter()
     cluster: LocalCluster | None = None
     try:
@@ -356,20 +394,26 @@ def identify_fleet(
             # the scheduler's HTTP server (metrics; a dashboard where bokeh is installed) on a
             # free port: its default 8787, when taken (a user's own Dask, a second fleet run),
             # gives a warning and leaks the socket it tried
-            cluster = LocalCluster(
-                n_workers=workers,
-                threads_per_worker=1,
-                processes=processes,
-                dashboard_address="127.0.0.1:0",
-                silence_logs=50,
-            )
+            with _workers_ignore_ctrl_c():
+                cluster = LocalCluster(
+                    n_workers=workers,
+                    threads_per_worker=1,
+                    processes=processes,
+                    dashboard_address="127.0.0.1:0",
+                    silence_logs=50,
+                )
             client = Client(cluster)
         else:
             try:
                 client = Client(scheduler, timeout="10s")
-            except (OSError, TimeoutError) as exc:
+            except (OSError, TimeoutError, ValueError) as exc:
                 raise InputError(f"cannot reach the Dask scheduler {scheduler!r} ({exc})") from None
         with client:
+            # OUT is touched only once the cluster is there. An earlier run's record must not
+            # outlive this run's first model: were this run stopped, `fleet drift` would read
+            # the old record against models partly rewritten by this one.
+            out.mkdir(parents=True, exist_ok=True)
+            (out / RUN_FILE).unlink(missing_ok=True)
             n_workers = len(client.scheduler_info().get("workers", {})) or workers
             futures = {
                 client.submit(identify_day, day, str(out), window, pure=False): k
@@ -400,8 +444,30 @@ def identify_fleet(
         workers=n_workers,
         seconds=time.perf_counter() - start,
     )
-    write_toml(out / "fleet-run.toml", run_document(run, fleet))
+    write_toml(out / RUN_FILE, run_document(run, fleet))
     return run
+
+
+@contextlib.contextmanager
+def _workers_ignore_ctrl_c() -> Iterator[None]:
+    """Ignore SIGINT while the local cluster starts its worker processes, which inherit it.
+
+    Ctrl-C reaches the terminal's whole process group: the workers printed a KeyboardInterrupt
+    traceback each before the parent's one-line ``interrupted``. Ignoring it, they are stopped
+    by the parent closing the cluster instead. Outside the main thread (where handlers cannot be
+    set) nothing changes.
+    """
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def run_document(run: FleetRun, fleet: Fleet) -> dict[str, Any]:
@@ -427,11 +493,32 @@ def run_document(run: FleetRun, fleet: Fleet) -> dict[str, Any]:
 
 def read_run(out_dir: str | os.PathLike[str]) -> list[dict[str, Any]]:
     """The robot-days of ``OUT/fleet-run.toml`` (InputError when it is missing or malformed)."""
-    doc = read_toml(Path(out_dir) / "fleet-run.toml")
+    path = Path(out_dir) / RUN_FILE
+    if not path.is_file():
+        raise InputError(
+            f"no {RUN_FILE}: not an output folder of `fleet identify`, or its run did not finish "
+            "(run it again)",
+            path=Path(out_dir),
+        )
+    doc = read_toml(path)
     days = doc.get("days")
     if not isinstance(days, list):
-        raise InputError("fleet-run.toml has no days", path=Path(out_dir) / "fleet-run.toml")
-    return [d for d in days if isinstance(d, Mapping)]  # type: ignore[misc]
+        raise InputError(f"{RUN_FILE} has no days", path=path)
+    for k, day in enumerate(days):
+        # a record edited or cut by hand: say which entry, not a KeyError
+        if (
+            not isinstance(day, Mapping)
+            or not isinstance(day.get("robot"), str)
+            or not isinstance(day.get("date"), dt.date | str)
+            or not isinstance(day.get("ok"), bool)
+            or (day["ok"] and not isinstance(day.get("model"), str))
+        ):
+            raise InputError(
+                f"[[days]] #{k + 1} needs robot, date, ok and (when ok) model; run "
+                "`fleet identify` again",
+                path=path,
+            )
+    return list(days)
 
 
 def summary_lines(run: FleetRun) -> Sequence[str]:
