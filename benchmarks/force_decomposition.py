@@ -48,16 +48,16 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from force_accuracy import _score, oracle_models  # noqa: E402
+from force_accuracy import _score, oracle_models
 
-from torquemap.estimate import estimate_forces  # noqa: E402
-from torquemap.identify import identify_model  # noqa: E402
-from torquemap.io import log_from_columns  # noqa: E402
-from torquemap.model import Model, model_from_dict  # noqa: E402
-from torquemap.sim.bench import simulate_bench  # noqa: E402
-from torquemap.sim.scara_family import random_bench  # noqa: E402
+from torquemap.estimate import estimate_forces
+from torquemap.identify import identify_model
+from torquemap.io import log_from_columns
+from torquemap.model import Model, model_from_dict
+from torquemap.sim.bench import simulate_bench
+from torquemap.sim.scara_family import random_bench
 
-COMPONENTS = ("friction", "pdtv", "inertia", "delay")
+COMPONENTS = ("friction", "bridge", "friction+bridge", "pdtv", "inertia", "delay")
 HYBRIDS = (
     "whole",
     *(f"ident+T:{c}" for c in COMPONENTS),
@@ -67,14 +67,25 @@ PARTS = ("all", "steady", "below")
 
 
 def swap(base: Model, donor: Model, component: str) -> Model:
-    """``base`` with ``component`` of every joint taken from ``donor`` (the delay from the
-    donor's notes); every other part and note is ``base``'s."""
-    if component == "delay":
+    """``base`` with ``component`` of every joint taken from ``donor``; every other part and
+    note is ``base``'s. Components: ``friction`` (the law), ``bridge`` (the notes'
+    ``friction_observed_speed``, below which ``estimate`` bridges over the law; absent = none),
+    ``friction+bridge`` (both), ``pdtv``, ``inertia``, ``delay`` (the notes' ``channel_delay``)."""
+    if "+" in component:
+        for part in component.split("+"):
+            base = swap(base, donor, part)
+        return base
+    note = {"delay": "channel_delay", "bridge": "friction_observed_speed"}.get(component)
+    if note is not None:
         base_joints = dict(base.notes.get("joints", {}))
         donor_joints = donor.notes.get("joints", {})
         for name in base.joints:
             entry = dict(base_joints.get(name, {}))
-            entry["channel_delay"] = float(donor_joints.get(name, {}).get("channel_delay", 0.0))
+            value = donor_joints.get(name, {}).get(note)
+            if value is None:
+                entry.pop(note, None)
+            else:
+                entry[note] = float(value)
             base_joints[name] = entry
         return dataclasses.replace(base, notes=dict(base.notes, joints=base_joints))
     joints = {
@@ -163,6 +174,13 @@ def _task(task: tuple[int, str, float]) -> dict[str, Any]:
         return {"seed": seed, "error": f"{type(exc).__name__}: {exc}"}
 
 
+def _short(hybrid: str) -> str:
+    """A hybrid's column label in the per-robot tables."""
+    for long, short in (("ident+", ""), ("oracle+", ""), ("friction", "fric"), ("bridge", "brdg")):
+        hybrid = hybrid.replace(long, short)
+    return hybrid
+
+
 def tables(results: list[dict[str, Any]]) -> str:
     """Summary (median and worst per hybrid and part) and per-robot ratios, as text."""
     ok = sorted((r for r in results if "error" not in r), key=lambda r: r["seed"])
@@ -172,7 +190,7 @@ def tables(results: list[dict[str, Any]]) -> str:
         "identified (whole) model with c from the truth, oracle+I:c = the oracle with c "
         "identified; steady = the samples the pass model answers, below = the rest"
     ]
-    head = f"{'hybrid':<18}" + "".join(f"{p + ' med':>12}{p + ' worst':>13}" for p in PARTS)
+    head = f"{'hybrid':<24}" + "".join(f"{p + ' med':>12}{p + ' worst':>13}" for p in PARTS)
     lines += [head, "-" * len(head)]
     for h in HYBRIDS:
         cells = []
@@ -183,15 +201,13 @@ def tables(results: list[dict[str, Any]]) -> str:
                 continue
             w = int(np.nanargmax(x))
             cells.append(f"{np.nanmedian(x):>12.2f}{x[w]:>8.2f} ({ok[w]['seed']:>2})")
-        lines.append(f"{h:<18}" + "".join(cells))
+        lines.append(f"{h:<24}" + "".join(cells))
     lines.append("")
     for p in PARTS:
         lines.append(f"Per robot, part '{p}' (ratio to the oracle):")
-        head = f"{'seed':>4}{'steady%':>8}" + "".join(f"{h.split('+')[-1]:>11}" for h in HYBRIDS)
+        head = f"{'seed':>4}{'steady%':>8}" + "".join(f"{_short(h):>11}" for h in HYBRIDS)
         lines.append(
-            f"{'':12}{'':>11}"
-            + f"{'ident + truth component':>44}"
-            + f"{'oracle + identified component':>44}"
+            "(T:c = identified model with the truth's c; I:c = oracle with the identified c)"
         )
         lines.append(head)
         for r in ok:
