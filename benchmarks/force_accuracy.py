@@ -389,17 +389,41 @@ def _score(est: Any, true_force: np.ndarray, spring: float) -> dict[str, Any]:
     return out
 
 
-def family_robot(seed: int, cutoff: float) -> dict[str, Any]:
-    """Simulate random robot ``seed``, identify, estimate with every method, score."""
-    t0 = time.perf_counter()
+@dataclasses.dataclass(frozen=True)
+class FamilyRobot:
+    """Random robot ``seed`` simulated: its bench, true model, sweep and circle logs, the true
+    force on the circle [N] and the spring's force [N]."""
+
+    bench: ScaraBench
+    truth: Model
+    sweep: Log
+    circle: Log
+    true_force: np.ndarray
+    spring: float
+
+
+def simulate_family_robot(seed: int) -> FamilyRobot:
+    """Simulate random robot ``seed`` (:func:`random_bench`) as every family benchmark does."""
     bench = random_bench(seed)
     files = simulate_bench(bench, seed=seed)
     truth = model_from_dict(files.truth)
+    return FamilyRobot(
+        bench=bench,
+        truth=truth,
+        sweep=log_from_columns(files.sweep, truth.robot, path=f"robot {seed} sweep"),
+        circle=log_from_columns(files.circle, truth.robot, path=f"robot {seed} circle"),
+        true_force=np.c_[files.truth_columns["fx"], files.truth_columns["fy"]],
+        spring=bench.circle.spring_force,
+    )
+
+
+def family_robot(seed: int, cutoff: float) -> dict[str, Any]:
+    """Simulate random robot ``seed``, identify, estimate with every method, score."""
+    t0 = time.perf_counter()
+    sim = simulate_family_robot(seed)
+    bench, truth, sweep, circle = sim.bench, sim.truth, sim.sweep, sim.circle
     robot = truth.robot
-    sweep = log_from_columns(files.sweep, robot, path=f"robot {seed} sweep")
-    circle = log_from_columns(files.circle, robot, path=f"robot {seed} circle")
-    true_force = np.c_[files.truth_columns["fx"], files.truth_columns["fy"]]
-    spring = bench.circle.spring_force
+    true_force, spring = sim.true_force, sim.spring
     t_sim = time.perf_counter() - t0
     oracles = oracle_models(bench, truth, circle.t)
     models: dict[str, Model | str] = {}

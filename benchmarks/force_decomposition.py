@@ -48,14 +48,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from force_accuracy import _score, oracle_models
+from force_accuracy import _score, oracle_models, simulate_family_robot
 
 from torquemap.estimate import estimate_forces
 from torquemap.identify import identify_model
-from torquemap.io import log_from_columns
-from torquemap.model import Model, model_from_dict
-from torquemap.sim.bench import simulate_bench
-from torquemap.sim.scara_family import random_bench
+from torquemap.model import Model
 
 COMPONENTS = ("friction", "bridge", "friction+bridge", "pdtv", "inertia", "delay")
 HYBRIDS = (
@@ -120,14 +117,10 @@ def _ratio(s: dict[str, Any], o: dict[str, Any], mask: np.ndarray) -> float:
 def robot_ratios(seed: int, cache: Path, cutoff: float) -> dict[str, Any]:
     """Per hybrid and part, the ratio to the oracle on random robot ``seed``."""
     t0 = time.perf_counter()
-    bench = random_bench(seed)
-    files = simulate_bench(bench, seed=seed)
-    truth = model_from_dict(files.truth)
+    sim = simulate_family_robot(seed)
+    bench, truth, sweep, circle = sim.bench, sim.truth, sim.sweep, sim.circle
     robot = truth.robot
-    sweep = log_from_columns(files.sweep, robot, path=f"robot {seed} sweep")
-    circle = log_from_columns(files.circle, robot, path=f"robot {seed} circle")
-    true_force = np.c_[files.truth_columns["fx"], files.truth_columns["fy"]]
-    spring = bench.circle.spring_force
+    true_force, spring = sim.true_force, sim.spring
     models = _identified(seed, robot, sweep, cache)
     whole = models["whole"]
 

@@ -576,14 +576,13 @@ def test_lines_prepared_both_ways_are_those_of_each_way_alone() -> None:
         assert got[1] == ref[1]
 
 
-def test_the_delay_rows_of_a_long_log_are_a_bounded_set_of_stretches() -> None:
-    from torquemap.identify_whole import _delay_rows, _prepare_rows, _torque
-
-    # passes of alternating direction with ramps: 4 pieces of 40 s at 1 kHz
+def _alternating_passes(count: int, samples: int) -> list[Piece]:
+    """``count`` pieces of ``samples`` at 1 kHz, 50 s apart: passes of alternating direction at
+    4 rad/s with ramps, Coulomb friction 0.1 N m and noise (seeded)."""
     rng = np.random.default_rng(6)
     pieces = []
-    for k in range(4):
-        t = 50.0 * k + np.arange(40_000) / 1000.0
+    for k in range(count):
+        t = 50.0 * k + np.arange(samples) / 1000.0
         v = 4.0 * np.sign(np.sin(0.5 * t)) * np.minimum(1.0, np.abs(np.sin(0.5 * t)) * 5.0)
         pieces.append(
             Piece(
@@ -597,6 +596,14 @@ def test_the_delay_rows_of_a_long_log_are_a_bounded_set_of_stretches() -> None:
                 joint_angles=np.zeros((t.size, 1)),
             )
         )
+    return pieces
+
+
+def test_the_delay_rows_of_a_long_log_are_a_bounded_set_of_stretches() -> None:
+    from torquemap.identify_whole import _delay_rows, _prepare_rows, _torque
+
+    # passes of alternating direction with ramps: 4 pieces of 40 s at 1 kHz
+    pieces = _alternating_passes(4, 40_000)
     rows = _prepare_rows(pieces, 0.05, 1.0, 0.01)
     n = rows.clusters.size
     assert _delay_rows(rows, n) is None  # all rows below the budget
@@ -620,23 +627,7 @@ def test_the_delay_trials_torques_from_the_samples_their_windows_read() -> None:
     # as close as they are to a long-double smoothing of each window on its own
     from torquemap.identify_whole import _delay_rows, _LocalTorques, _prepare_rows, _torque
 
-    rng = np.random.default_rng(6)
-    pieces = []
-    for k in range(3):
-        t = 50.0 * k + np.arange(30_000) / 1000.0
-        v = 4.0 * np.sign(np.sin(0.5 * t)) * np.minimum(1.0, np.abs(np.sin(0.5 * t)) * 5.0)
-        pieces.append(
-            Piece(
-                t=t,
-                theta=np.cumsum(v) / 1000.0,
-                velocity=v,
-                acceleration=np.gradient(v, t),
-                torque=0.1 * np.sign(v) + 0.01 * rng.standard_normal(t.size),
-                elbow=np.zeros(t.size),
-                use=np.ones(t.size, dtype=bool),
-                joint_angles=np.zeros((t.size, 1)),
-            )
-        )
+    pieces = _alternating_passes(3, 30_000)
     rows = _prepare_rows(pieces, 0.05, 1.0, 0.01)
     sub = _delay_rows(rows, rows.clusters.size // 3)
     assert sub is not None
