@@ -747,6 +747,8 @@ def delayed_columns_at(
             if i == 0 or at[i] != at[i - 1] + 1:
                 # numpy.searchsorted(t, xv, side="right") - 1: the last knot at or below xv
                 j = max(int(np.searchsorted(t, xv, side="right")) - 1, 0)
+            # _interp_walk's step, written in place: as a shared helper returning (value, knot)
+            # numba compiled delayed_columns 1.6x slower (2 M samples x 25 delays, 0.55 -> 0.88 s)
             if xv != xv:
                 out[i, c] = xv
             elif xv < t[0]:
