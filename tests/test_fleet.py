@@ -470,3 +470,59 @@ def test_local_workers_start_with_ctrl_c_ignored() -> None:
     with _workers_ignore_ctrl_c():
         assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
     assert signal.getsignal(signal.SIGINT) is before
+
+
+def _lines_folder(tmp_path: Path, days_lines: list[list[tuple[float, float]]]) -> Path:
+    """One robot, one day per entry of ``days_lines`` (its PDTV lines as (order, amplitude)),
+    steady friction; every stored standard error 0.2 mN m."""
+    robot = robot_from_dict(ROBOT)
+    se = 2e-4
+    (tmp_path / "r").mkdir()
+    days = []
+    for d, lines in enumerate(days_lines):
+        date = dt.date(2026, 1, 1) + dt.timedelta(days=d)
+        jm = JointModel(
+            friction=FrictionModel(0.05, 0.05),
+            pdtv=tuple(PdtvLine(order, amp, 0.0) for order, amp in lines),
+        )
+        errors = {"friction.coulomb_positive": se, "friction.coulomb_negative": se}
+        errors |= {f"pdtv.{order:g}.amplitude": se for order, _ in lines}
+        model = Model(robot, {"m": jm}, {"joints": {"m": {"standard_errors": errors}}})
+        write_toml(tmp_path / "r" / f"{date}.toml", model_to_dict(model))
+        days.append({"robot": "r", "date": date, "ok": True, "model": f"r/{date}.toml"})
+    write_toml(tmp_path / "fleet-run.toml", {"days": days})
+    return tmp_path
+
+
+def test_a_line_found_only_on_the_last_day_is_flagged_as_appearing(tmp_path: Path) -> None:
+    """A worn tooth: a 7 CPR line of 30 standard errors on the last of five days, none before.
+    On one day it cannot make a trend, but the line search would have found a line that strong
+    on the other days: it appears."""
+    base = [(2.0, 0.02)]
+    drift = fleet_drift(_lines_folder(tmp_path, [base] * 4 + [[*base, (7.0, 0.006)]]))
+    by = {s.parameter: s for s in drift.series}
+    new = by["pdtv.7.amplitude"]
+    assert new.flag and "appears on 2026-01-05" in new.note, new.note
+    assert_allclose(new.values, [0, 0, 0, 0, 0.006])
+    assert not by["pdtv.2.amplitude"].flag
+    assert not drift.too_few
+
+
+def test_a_strong_line_that_vanishes_or_skips_a_day_is_flagged(tmp_path: Path) -> None:
+    gone = [[(2.0, 0.02), (5.0, 0.01)]] * 3 + [[(2.0, 0.02)]] * 2
+    drift = fleet_drift(_lines_folder(tmp_path, gone))
+    s = {x.parameter: x for x in drift.series}["pdtv.5.amplitude"]
+    assert s.flag and "not found from 2026-01-04 on" in s.note, s.note
+
+
+def test_a_weak_or_shifted_line_is_not_a_new_line(tmp_path: Path) -> None:
+    """A line of 3 standard errors that the search finds on some days only comes and goes
+    with the noise; a strong fractional line placed at 7.5 then 7.55 CPR is the same line."""
+    days = [
+        [(2.0, 0.02), (3.0, 6e-4), (7.5, 0.01)],
+        [(2.0, 0.02), (7.55, 0.01)],
+        [(2.0, 0.02), (3.0, 6e-4), (7.5, 0.01)],
+        [(2.0, 0.02), (7.5, 0.01)],
+    ]
+    drift = fleet_drift(_lines_folder(tmp_path, days))
+    assert not drift.flagged, [(s.parameter, s.note) for s in drift.flagged]

@@ -9,6 +9,9 @@ errors say. A parameter is flagged when its fitted change over the period exceed
 errors of that change (a two-sided 0.3 % test), or when one day jumps away from the median of
 the days before it by more than four of its standard errors (a loose belt, a worn tooth).
 
+A PDTV line found strongly on some days and not at all on others is flagged as appearing or
+vanishing (:data:`PRESENCE_Z`), even when it is found on one day only.
+
 Where a day's model holds no standard error for a parameter, the scatter of the days about the
 trend stands in (the regression's own residual variance, tested with Student's t at the same
 0.3 % level): with few days that test is weak, and it says so by flagging little.
@@ -44,6 +47,16 @@ STEP_Z = 4.0
 #: sweep's pooled errors can be three to four times too small on a steady robot (motor fleets,
 #: seeds 1-4); ten is beyond that.
 SCATTER_MAX = 10.0
+#: A PDTV line found on some identified days of a joint and not on others is flagged as
+#: appearing (or vanishing) when its amplitude on the days it is found exceeds this many of
+#: its standard errors: the line search's threshold (:func:`torquemap.pdtv.pick_lines`, a
+#: Rayleigh multiple of the noise floor for a 1 % false alarm over the orders searched) is about
+#: five, so a line this strong would have been found on the other days had it been there.
+#: Weaker lines come and go with the noise and are trended over the days they are found.
+PRESENCE_Z = 10.0
+#: Orders [CPR] closer than this are one line from day to day (a fractional order is resolved
+#: to 1 / revolutions of the sweep's passes; 4 revolutions resolve 0.25 CPR).
+ORDER_MATCH = 0.25
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -267,6 +280,96 @@ def _first_step(
     return None
 
 
+def _presence(
+    robot: str,
+    joint: str,
+    parameter: str,
+    identified: dict[str, list[tuple[float, str]]],
+    dates: list[str],
+    values: list[float],
+    errors: list[float],
+) -> DriftSeries | None:
+    """A PDTV line missing on some of the joint's identified days while strong on the days it
+    is found (:data:`PRESENCE_Z`): a series over every identified day, the missing days at
+    amplitude 0, flagged with the days it appears or vanishes. A day with a line of the same
+    direction within :data:`ORDER_MATCH` of its order does not count as missing (a fractional
+    order placed a little differently). ``None`` for anything else (friction, a line found
+    every day, a weak line, no standard errors): :func:`_series`."""
+    if not parameter.startswith("pdtv.") or len(dates) == len(identified):
+        return None
+    err = np.array(errors)
+    if not np.all(np.isfinite(err) & (err > 0)):
+        return None
+    v = np.array(values)
+    se = math.sqrt(float(np.mean(err**2)))
+    if float(np.min(np.abs(v))) <= PRESENCE_Z * se:
+        return None
+    found = set(dates)
+    key = parameter[len("pdtv.") : -len(".amplitude")]
+    direction = "both"
+    for suffix in ("positive", "negative"):
+        if key.endswith("." + suffix):
+            key, direction = key[: -len(suffix) - 1], suffix
+    order = float(key)
+    days_all = sorted(identified)
+    present = [
+        d in found
+        or any(abs(o - order) <= ORDER_MATCH and dn == direction for o, dn in identified[d])
+        for d in days_all
+    ]
+    if all(present):
+        return None
+    notes = []
+    k = 0
+    while k < len(days_all):
+        if present[k]:
+            k += 1
+            continue
+        end = k
+        while end + 1 < len(days_all) and not present[end + 1]:
+            end += 1
+        gone = days_all[k] if end == k else f"{days_all[k]} to {days_all[end]}"
+        if k == 0:
+            first = days_all[end + 1]
+            count = end + 1
+            notes.append(
+                f"appears on {first} at {values[dates.index(first)]:.3g} ({abs(v).min() / se:.0f}"
+                f" standard errors; not found on the {count} identified "
+                f"day{'' if count == 1 else 's'} before)"
+            )
+        elif end == len(days_all) - 1:
+            notes.append(f"not found from {days_all[k]} on (last found on {days_all[k - 1]})")
+        else:
+            notes.append(f"not found on {gone} (found before and after)")
+        k = end + 1
+    by_date = dict(zip(dates, values, strict=True))
+    full = np.array([by_date.get(d, 0.0) for d in days_all])
+    day0 = np.datetime64(days_all[0])
+    days = np.array([(np.datetime64(d) - day0).astype(float) for d in days_all])
+    sigma = np.full(full.size, se)
+    if np.ptp(days) > 0:
+        _, slope, slope_se = trend(days, full, sigma)
+    else:
+        slope, slope_se = 0.0, math.inf
+    span = float(days[-1] - days[0])
+    return DriftSeries(
+        robot=robot,
+        joint=joint,
+        parameter=parameter,
+        days=days,
+        dates=tuple(days_all),
+        values=full,
+        sigma=sigma,
+        sigma_source="identification",
+        slope=slope,
+        slope_se=slope_se,
+        change=slope * span,
+        change_se=slope_se * span,
+        flag=True,
+        note="; ".join(notes),
+    )
+
+
 def fleet_drift(out_dir: str | os.PathLike[str]) -> FleetDrift:
     """Trends of every robot's friction and PDTV over the days of a fleet identification.
 
@@ -297,6 +400,11 @@ def fleet_drift(out_dir: str | os.PathLike[str]) -> FleetDrift:
     )
     order: list[str] = []
     days_of: dict[str, int] = defaultdict(int)
+    # robot -> joint -> date identified -> its PDTV lines as (order, direction): a line's
+    # absence on one of those days is information
+    seen: dict[str, dict[str, dict[str, list[tuple[float, str]]]]] = defaultdict(
+        lambda: defaultdict(dict)
+    )
     for entry in sorted(runs, key=lambda e: (str(e.get("robot")), str(e.get("date")))):
         robot, date = str(entry.get("robot")), str(entry.get("date"))
         if not entry.get("ok"):
@@ -307,6 +415,7 @@ def fleet_drift(out_dir: str | os.PathLike[str]) -> FleetDrift:
             order.append(robot)
         days_of[robot] += 1
         for joint in model.robot.joint_names:
+            seen[robot][joint][date] = [(ln.order, ln.direction) for ln in model.joints[joint].pdtv]
             errors = _standard_errors(model, joint)
             for parameter, value in _parameters(model, joint).items():
                 dates, values, errs = table[robot][joint].setdefault(parameter, ([], [], []))
@@ -319,7 +428,9 @@ def fleet_drift(out_dir: str | os.PathLike[str]) -> FleetDrift:
         count = len(series)
         for joint, params in table[robot].items():
             for parameter, (dates, values, errs) in params.items():
-                s = _series(robot, joint, parameter, dates, values, errs)
+                s = _presence(robot, joint, parameter, seen[robot][joint], dates, values, errs)
+                if s is None:
+                    s = _series(robot, joint, parameter, dates, values, errs)
                 if s is not None:
                     series.append(s)
         if len(series) == count:
