@@ -23,6 +23,7 @@ robot with fewer is listed in :attr:`FleetDrift.too_few`, not dropped silently.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from collections import defaultdict
@@ -342,32 +343,12 @@ def _presence(
         else:
             notes.append(f"not found on {gone} (found before and after)")
         k = end + 1
+    # the trend over every identified day, the missing ones at 0; the notes say what happened
     by_date = dict(zip(dates, values, strict=True))
-    full = np.array([by_date.get(d, 0.0) for d in days_all])
-    day0 = np.datetime64(days_all[0])
-    days = np.array([(np.datetime64(d) - day0).astype(float) for d in days_all])
-    sigma = np.full(full.size, se)
-    if np.ptp(days) > 0:
-        _, slope, slope_se = trend(days, full, sigma)
-    else:
-        slope, slope_se = 0.0, math.inf
-    span = float(days[-1] - days[0])
-    return DriftSeries(
-        robot=robot,
-        joint=joint,
-        parameter=parameter,
-        days=days,
-        dates=tuple(days_all),
-        values=full,
-        sigma=sigma,
-        sigma_source="identification",
-        slope=slope,
-        slope_se=slope_se,
-        change=slope * span,
-        change_se=slope_se * span,
-        flag=True,
-        note="; ".join(notes),
-    )
+    full = [by_date.get(d, 0.0) for d in days_all]
+    series = _series(robot, joint, parameter, days_all, full, [se] * len(days_all))
+    assert series is not None  # two distinct days or more, a nonzero value
+    return dataclasses.replace(series, flag=True, note="; ".join(notes))
 
 
 def fleet_drift(out_dir: str | os.PathLike[str]) -> FleetDrift:
