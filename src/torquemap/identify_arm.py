@@ -467,6 +467,8 @@ def scale_warnings(
             if not (base or (nearest and gain > 1.3 * max(nearest))):
                 continue
             cause = "a gear ratio or torque constant in the robot file is too large"
+            if len(names) == 1:  # one joint: a tool the URDF lacks scales its torque alike
+                cause += ", or a load the URDF lacks (a tool, a payload) moves with the joint"
         else:
             continue
         out.append(

@@ -164,7 +164,7 @@ def identify_arm_command(
         levels = jm.friction.static_levels()
         print(
             f"  {name}: armature {jm.inertia.constant:.4g} kg m^2, friction at rest "
-            f"+{levels[0]:.4g}/-{levels[1]:.4g} N m, {len(jm.pdtv)} PDTV lines, residual "
+            f"{levels[0]:+.4g}/{-levels[1]:+.4g} N m, {len(jm.pdtv)} PDTV lines, residual "
             f"{result.residual_sigma[k]:.3g} N m (motor side)"
         )
     print(f"wrote {output}")

@@ -236,13 +236,13 @@ def _identify_logs(args: argparse.Namespace) -> int:
         if "speeds" in f:  # a friction table (identify --friction whole)
             up, down = jm.friction.static_levels()
             law = (
-                f"friction at rest +{up:.4g}/-{down:.4g} N m (table of {len(f['speeds'])} "
+                f"friction at rest {up:+.4g}/{-down:+.4g} N m (table of {len(f['speeds'])} "
                 f"speeds to {f['speeds'][-1]:.3g} rad/s)"
             )
         else:
             law = (
-                f"coulomb +{f.get('coulomb_positive', nan):.4g}/"
-                f"-{f.get('coulomb_negative', nan):.4g} N m"
+                f"coulomb {f.get('coulomb_positive', nan):+.4g}/"
+                f"{-f.get('coulomb_negative', nan):+.4g} N m"
             )
         print(
             f"{name}: {len(jr.passes)} passes, J={jm.inertia.constant:.4g} kg m^2, {law}, "
