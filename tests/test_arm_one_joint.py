@@ -105,6 +105,16 @@ def test_a_one_joint_arm_is_identified_and_its_external_torque_estimated() -> No
     est = estimate_arm(result.model, _log(arm, 2, 1.5))
     inside = slice(1000, -1000)
     assert_allclose(np.median(est.tau_ext[inside, 0]), 1.5, atol=0.05)
+    assert not any("times the identification logs'" in w for w in est.warnings)
+    # the same log with its torque 1000 times too large (a current in mA): said, not silent
+    log = _log(arm, 2, 1.5)
+    milli = Log(
+        t=log.t, q=log.q, motor_torque=1000.0 * log.motor_torque, joint_names=log.joint_names
+    )
+    said = [
+        w for w in estimate_arm(result.model, milli).warnings if "times the identification" in w
+    ]
+    assert len(said) == 1 and said[0].startswith("joint shoulder: the motor torque reaches"), said
 
 
 def test_cli_identifies_a_one_joint_arm(tmp_path: Path) -> None:

@@ -823,6 +823,12 @@ def identify_arm(
             for bm in masses
         },
         **visited_region(signals, picks),
+        "motor_torque_p99": [
+            float(f"{v:.4g}")
+            for v in np.percentile(
+                np.abs(np.concatenate([sig.motor_torque for sig in signals])), 99, axis=0
+            )
+        ],
         "warnings": list(warnings),
     }
     out_model = dataclasses.replace(model, robot=new_robot, joints=joints, notes=notes)

@@ -1,0 +1,67 @@
+"""A new user's logs and robots (stop 33 probe): cases that gave a silent wrong answer, a
+traceback or a confusing message. The robot and its sweeps are the two-link arm of
+tests/test_vertical.py (small and fast)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_vertical import KT, ROBOT, sweeps
+
+from torquemap.cli.main import main
+from torquemap.io import read_log, write_table, write_toml
+from torquemap.model import load_model
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    d = tmp_path_factory.mktemp("new_user")
+    write_toml(d / "robot.toml", ROBOT)
+    log = sweeps(vertical=False)
+    cols = {
+        "t": log.t,
+        "q_a": log.q[:, 0],
+        "q_b": log.q[:, 1],
+        "i_a": log.motor_torque[:, 0] / KT[0],
+        "i_b": log.motor_torque[:, 1] / KT[1],
+    }
+    write_table(d / "log.csv", cols)
+    write_table(d / "milliamps.csv", {**cols, "i_a": 1000.0 * cols["i_a"]})
+    assert (
+        main(["identify", str(d / "robot.toml"), str(d / "log.csv"), "-o", str(d / "model.toml")])
+        == 0
+    )
+    return d
+
+
+def test_identify_records_the_motor_torque_level(files: Path) -> None:
+    notes = load_model(files / "model.toml").notes["joints"]
+    log = read_log(files / "log.csv", load_model(files / "robot.toml").robot)
+    for k, name in enumerate(("a", "b")):
+        level = float(np.percentile(np.abs(log.motor_torque[:, k]), 99))
+        assert notes[name]["motor_torque_p99"] == pytest.approx(level, rel=1e-3)
+
+
+def test_a_current_in_milliamps_is_warned(
+    files: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A current logged in mA made forces 1000 times too large with exit 0 and no word."""
+    model = str(files / "model.toml")
+    capsys.readouterr()
+    assert main(["estimate", model, str(files / "log.csv"), "-o", str(tmp_path / "f.csv")]) == 0
+    assert "times the identification logs'" not in capsys.readouterr().err
+    assert (
+        main(["estimate", model, str(files / "milliamps.csv"), "-o", str(tmp_path / "g.csv")]) == 0
+    )
+    err = capsys.readouterr().err
+    said = re.search(
+        r"joint a: the motor torque reaches \S+ N m \(99th percentile\), (\S+) times the "
+        r"identification logs' \S+ N m: check the log's units \(current in A, not mA",
+        err,
+    )
+    assert said, err
+    assert 900 < float(said.group(1)) < 1100
+    assert "joint b: the motor torque reaches" not in err  # b is in A
