@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 from numpy.testing import assert_allclose
 
 from torquemap.cli.main import main
@@ -163,3 +164,60 @@ def test_a_tool_on_a_one_joint_arm_is_named_as_a_cause() -> None:
     assert_allclose(named["shoulder.mx"], MASS_MOMENT + tool * at, rtol=0.02)
     line = next(w for w in result.warnings if "times the URDF's" in w)
     assert "a load the URDF lacks" in line
+
+
+def test_spectrum_of_an_arm_takes_out_gravity(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
+    """`spectrum` on an arm ran the per-joint pass method on the raw torque: gravity, which
+    changes along a pass, read as lines below a few CPR (21 mN m at 1/3 CPR on a UR10, its
+    2 CPR ripple doubled). The arm's rigid-body torque is now taken out first."""
+    arm = _arm()
+    rate, speed, revs, amp, phase = 1000.0, 3.0, 4.0, 0.004, 0.7  # motor side [rad/s], [N m]
+    cruise = revs * 2 * np.pi / speed
+    ramp = 0.2
+    seg = np.arange(0.0, cruise + 2 * ramp, 1 / rate)
+    w = speed * np.clip(np.minimum(seg, cruise + 2 * ramp - seg) / ramp, 0.0, 1.0)
+    w_all = np.concatenate([w, np.zeros(200), -w, np.zeros(200)])
+    t = np.arange(w_all.size) / rate
+    motor = -0.3 * GEAR + np.cumsum(w_all) / rate  # starts at q = -0.3 rad
+    q = motor / GEAR
+    qd = w_all / GEAR
+    qdd = np.gradient(qd, t)
+    rng = np.random.default_rng(5)
+    rigid = arm.inverse_dynamics(q[:, None], qd[:, None], qdd[:, None])[:, 0]
+    law = StribeckFriction(
+        coulomb_positive=0.01,
+        coulomb_negative=0.01,
+        viscous=1e-5,
+        stribeck_positive=0.0,
+        stribeck_negative=0.0,
+        stribeck_velocity=3.0,
+        zero_velocity=0.05,
+    )
+    tau_m = (
+        rigid / GEAR
+        + 3e-5 * GEAR * qdd
+        + law.torque(w_all)
+        + amp * np.cos(2 * motor + phase)
+        + KT * 0.002 * rng.standard_normal(t.size)
+    )
+    (tmp_path / "arm.urdf").write_text(TWO_LINK.read_text())
+    write_toml(
+        tmp_path / "robot.toml",
+        {
+            "robot": {
+                "kinematics": "urdf",
+                "urdf": "arm.urdf",
+                "end_effector": "tool",
+                "gravity": [0.0, -G, 0.0],
+            },
+            "joints": {"shoulder": {"gear_ratio": GEAR, "torque_constant": KT}},
+        },
+    )
+    write_table(tmp_path / "sweep.csv", {"t": t, "q_shoulder": q, "tau_shoulder": tau_m})
+    capsys.readouterr()
+    argv = ["spectrum", str(tmp_path / "robot.toml"), str(tmp_path / "sweep.csv")]
+    assert main([*argv, "--joint", "shoulder", "--top", "500"]) == 0
+    rows = [line.split(",") for line in capsys.readouterr().out.splitlines()[2:]]
+    lines = {float(o): float(a) for o, a, _, _ in rows}
+    assert lines[2.0] == pytest.approx(amp, rel=0.1)
+    assert max(a for o, a in lines.items() if o != 2.0) < 0.25 * amp, sorted(lines.items())[:6]

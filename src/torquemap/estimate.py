@@ -1313,7 +1313,7 @@ def torque_scale_warnings(model: Model, motor_torque: NDArray[np.float64]) -> li
     >>> m = Model(robot=rb, joints={}, notes={"joints": {"a": {"motor_torque_p99": 0.05}}})
     >>> torque_scale_warnings(m, np.full((100, 1), 0.06))
     []
-    >>> torque_scale_warnings(m, np.full((100, 1), 60.0))[0][:56]
+    >>> torque_scale_warnings(m, np.full((100, 1), 60.0))[0][:57]
     'joint a: the motor torque reaches 60 N m (99th percentile'
     """
     levels = identified_torque_levels(model)
