@@ -30,6 +30,7 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> Path:
     }
     write_table(d / "log.csv", cols)
     write_table(d / "milliamps.csv", {**cols, "i_a": 1000.0 * cols["i_a"]})
+    write_table(d / "rounded.csv", {**cols, "q_b": np.round(cols["q_b"], 4)})  # "%.4f"
     assert (
         main(["identify", str(d / "robot.toml"), str(d / "log.csv"), "-o", str(d / "model.toml")])
         == 0
@@ -65,3 +66,26 @@ def test_a_current_in_milliamps_is_warned(
     assert said, err
     assert 900 < float(said.group(1)) < 1100
     assert "joint b: the motor torque reaches" not in err  # b is in A
+
+
+def test_help_shows_no_doubled_percent(capsys: pytest.CaptureFixture[str]) -> None:
+    """argparse formats a description only when it holds '%(prog)': a '%%' printed as such."""
+    with pytest.raises(SystemExit):
+        main(["simulate", "arm", "--help"])
+    out = capsys.readouterr().out
+    assert "up to 15 % and" in out and "%%" not in out
+
+
+def test_angles_written_with_few_decimals_are_named(
+    files: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A CSV exported with 4 decimals in q was refused as 'a log from another robot?'."""
+    capsys.readouterr()
+    argv = ["estimate", str(files / "model.toml"), str(files / "rounded.csv")]
+    assert main([*argv, "-o", str(tmp_path / "f.csv")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and not (tmp_path / "f.csv").exists()
+    assert err.startswith(
+        f"torquemap: error: {files / 'rounded.csv'}: joint b: the log's q_b moves in steps of 1e-04 rad"
+    )
+    assert "it was written with 4 decimals; write the angles with all their digits" in err

@@ -1154,6 +1154,16 @@ def check_log_matches_model(model: Model, log: Log) -> None:
             whole, ratio = whole[few], ratio[few]
         if float(np.mean(whole & (np.round(ratio) >= 1))) < 0.9:
             seen = float(np.min(step))
+            digits = _written_digits(step / joint.gear_ratio)
+            if digits is not None:
+                raise InputError(
+                    f"joint {joint.name}: the log's q_{joint.name} moves in steps of "
+                    f"1e-{digits:02d} rad, not whole encoder counts of the model's robot "
+                    f"({quantum / joint.gear_ratio:.4g} rad at the joint): it was written with "
+                    f"{digits} decimals; write the angles with all their digits (or as encoder "
+                    "counts, position_unit = 'counts')",
+                    path=log.path,
+                )
             raise InputError(
                 f"joint {joint.name}: the log's motor angle moves in steps of {seen:.4g} rad, "
                 f"not whole encoder counts of the model's robot ({quantum:.4g} rad = 2 pi / "
@@ -1161,6 +1171,28 @@ def check_log_matches_model(model: Model, log: Log) -> None:
                 "or gear ratio differ)? Identify a model from this robot's own no-load logs",
                 path=log.path,
             )
+
+
+def _written_digits(step: NDArray[np.float64]) -> int | None:
+    """The number of decimals ``d`` (1 to 12) when the nonzero joint-angle steps ``step`` [rad]
+    are, nine in ten, whole multiples of ``10^-d`` and the smallest is ``10^-d``: angles rounded
+    when the log was written (a CSV exported with a fixed format), else None.
+
+    Examples
+    --------
+    >>> _written_digits(np.array([1e-4, 2e-4, 1e-4, 3e-4]) * (1 + 1e-9))
+    4
+    >>> _written_digits(np.array([7.85e-6, 1.57e-5])) is None
+    True
+    """
+    smallest = float(np.min(step))
+    if not smallest > 0:
+        return None
+    digits = round(-math.log10(smallest))
+    if not 1 <= digits <= 12 or abs(smallest * 10.0**digits - 1.0) > 0.02:
+        return None
+    ratio = step * 10.0**digits
+    return digits if float(np.mean(np.abs(ratio - np.round(ratio)) < 0.02)) >= 0.9 else None
 
 
 def identified_slowest_speeds(model: Model) -> dict[str, float]:
