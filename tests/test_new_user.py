@@ -30,6 +30,21 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> Path:
     }
     write_table(d / "log.csv", cols)
     write_table(d / "milliamps.csv", {**cols, "i_a": 1000.0 * cols["i_a"]})
+    text = (d / "log.csv").read_text()
+    (d / "comment.csv").write_text("# recorded on the test rig\n" + text)
+    # a spreadsheet's export in a decimal-comma locale
+    (d / "semicolons.csv").write_text(text.replace(",", ";").replace(".", ","))
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    stamps = (np.round(cols["t"] * 1e9).astype(np.int64) + 1_700_000_000 * 10**9).astype(
+        "datetime64[ns]"
+    )
+    pq.write_table(
+        pa.table({**{k: pa.array(v) for k, v in cols.items()}, "t": pa.array(stamps)}),
+        d / "stamps.parquet",
+    )
+    write_table(d / "coarse_t.csv", {**cols, "t": np.round(cols["t"], 2)})  # 500 Hz in 10 ms
     write_table(d / "rounded.csv", {**cols, "q_b": np.round(cols["q_b"], 4)})  # "%.4f"
     assert (
         main(["identify", str(d / "robot.toml"), str(d / "log.csv"), "-o", str(d / "model.toml")])
@@ -89,3 +104,56 @@ def test_angles_written_with_few_decimals_are_named(
         f"torquemap: error: {files / 'rounded.csv'}: joint b: the log's q_b moves in steps of 1e-04 rad"
     )
     assert "it was written with 4 decimals; write the angles with all their digits" in err
+
+
+@pytest.mark.parametrize(
+    ("log", "says"),
+    [
+        ("comment.csv", "; the first line '# recorded on the test rig' is a comment: the first "
+         "line must be the header"),
+        ("semicolons.csv", "; the header 't;q_a;q_b;i_a;i_b' is separated by semicolons: "
+         "separate columns with commas"),
+        ("stamps.parquet", ": column 't' is not numeric (datetime64[ns] values): write it as "
+         "seconds, a number"),
+    ],
+)  # fmt: skip
+def test_a_log_as_a_spreadsheet_or_logger_writes_it_is_named(
+    files: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], log: str, says: str
+) -> None:
+    capsys.readouterr()
+    argv = ["estimate", str(files / "model.toml"), str(files / log)]
+    assert main([*argv, "-o", str(tmp_path / "f.csv")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and not (tmp_path / "f.csv").exists()
+    assert err.startswith(f"torquemap: error: {files / log}") and err.endswith(says), err
+
+
+def test_time_written_with_too_few_digits_is_named(
+    files: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """t rounded to 10 ms on a 500 Hz log: four samples in five repeat a stamp and were dropped
+    as if polled twice; the warning now says they were new readings and why they are lost."""
+    capsys.readouterr()
+    argv = ["estimate", str(files / "model.toml"), str(files / "coarse_t.csv")]
+    assert main([*argv, "-o", str(tmp_path / "f.csv")]) == 0
+    err = capsys.readouterr().err
+    assert re.search(
+        r"samples repeat the previous time stamp \(first at t = \S+ s\): dropped; they hold new "
+        r"readings: 't' was written with too few digits \(it advances in steps of 0\.01 s\), so "
+        r"80% of the samples are lost; write t with all its digits",
+        err,
+    ), err
+    capsys.readouterr()
+    assert (
+        main(
+            [
+                "estimate",
+                str(files / "model.toml"),
+                str(files / "log.csv"),
+                "-o",
+                str(tmp_path / "g.csv"),
+            ]
+        )
+        == 0
+    )
+    assert "repeat the previous time stamp" not in capsys.readouterr().err
