@@ -221,3 +221,21 @@ def test_spectrum_of_an_arm_takes_out_gravity(tmp_path: Path, capsys) -> None:  
     lines = {float(o): float(a) for o, a, _, _ in rows}
     assert lines[2.0] == pytest.approx(amp, rel=0.1)
     assert max(a for o, a in lines.items() if o != 2.0) < 0.25 * amp, sorted(lines.items())[:6]
+
+
+def test_excite_labels_a_prismatic_joint_in_metres(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
+    """excite printed 'start pose [rad]' for a slide whose position is in metres."""
+    text = TWO_LINK.read_text().replace(
+        'name="elbow" type="revolute"', 'name="elbow" type="prismatic"'
+    )
+    (tmp_path / "slide.urdf").write_text(text)
+    joints = {"shoulder": {"gear_ratio": GEAR, "torque_constant": KT}}
+    head = {"kinematics": "urdf", "urdf": "slide.urdf", "end_effector": "tool"}
+    write_toml(tmp_path / "one.toml", {"robot": head, "joints": joints})
+    joints = {**joints, "elbow": {"gear_ratio": 500.0, "torque_constant": KT}}
+    write_toml(tmp_path / "two.toml", {"robot": head, "joints": joints})
+    for robot, unit in (("one", "[rad]"), ("two", "[rad; m for a prismatic joint]")):
+        capsys.readouterr()
+        argv = ["excite", str(tmp_path / f"{robot}.toml"), "-o", str(tmp_path / f"{robot}.csv")]
+        assert main([*argv, "--duration", "10", "--period", "5"]) == 0
+        assert f"start pose {unit}: " in capsys.readouterr().out
