@@ -192,3 +192,34 @@ def drive_torque(
             net = signals.smooth(net)
         out[:, k] = n * (net - jm.inertia.constant * n * signals.qdd[:, k])
     return out
+
+
+def without_rigid_body(log: Log, robot: Robot, *, window: float) -> Log:
+    """``log`` with the arm's rigid-body torque taken out of its motor torques: ``tau_m -
+    [Y(q, qd, qdd) pi]_j / N_j`` (the robot's arm, the identified one in a model), velocity and
+    acceleration from :func:`arm_signals`. What is left is the joints' own torque (armature,
+    friction, PDTV) plus what the arm's model misses: a per-joint method (the PDTV spectrum of
+    a pass) then sees no gravity or coupling, which vary along a pass and read as low orders.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> from torquemap.robots.urdf import urdf_arm
+    >>> arm = urdf_arm(Path("tests/data/arm/two_link.urdf"), ["shoulder"], end_effector="tool",
+    ...                gravity=(0.0, -9.81, 0.0))
+    >>> from torquemap.robot import Joint
+    >>> rb = Robot(name="p", kinematics="urdf", link_lengths=(), arm=arm,
+    ...            joints=(Joint(name="shoulder", gear_ratio=10.0, torque_constant=0.1),))
+    >>> t = np.arange(0.0, 2.0, 1e-3)
+    >>> q = 0.3 * t[:, None]
+    >>> g = arm.gravity_torque(q)[:, 0] / 10.0  # constant speed: gravity alone
+    >>> log = Log(t=t, q=q, motor_torque=(g + 0.01)[:, None], joint_names=("shoulder",))
+    >>> left = without_rigid_body(log, rb, window=0.05).motor_torque[100:-100, 0]
+    >>> bool(np.allclose(left, 0.01, atol=1e-6))
+    True
+    """
+    import dataclasses
+
+    sig = arm_signals(log, robot, window=window)
+    rigid = robot.arm.inverse_dynamics(sig.q, sig.qd, sig.qdd) / sig.gear
+    return dataclasses.replace(log, motor_torque=log.motor_torque - rigid)

@@ -653,6 +653,7 @@ def estimate_forces(
     warnings += slow_task_warnings(model, out["velocity"])
     warnings += gap_task_warnings(model, out["velocity"])
     warnings += fast_task_warnings(model, out["velocity"])
+    warnings += torque_scale_warnings(model, log.motor_torque)
     warnings += unidentified_joint_warnings(model)
     gear = np.array([j.gear_ratio for j in robot.joints])
     tau_ext = -out["external"] * gear
@@ -1153,6 +1154,16 @@ def check_log_matches_model(model: Model, log: Log) -> None:
             whole, ratio = whole[few], ratio[few]
         if float(np.mean(whole & (np.round(ratio) >= 1))) < 0.9:
             seen = float(np.min(step))
+            digits = _written_digits(step / joint.gear_ratio)
+            if digits is not None:
+                raise InputError(
+                    f"joint {joint.name}: the log's q_{joint.name} moves in steps of "
+                    f"1e-{digits:02d} rad, not whole encoder counts of the model's robot "
+                    f"({quantum / joint.gear_ratio:.4g} rad at the joint): it was written with "
+                    f"{digits} decimals; write the angles with all their digits (or as encoder "
+                    "counts, position_unit = 'counts')",
+                    path=log.path,
+                )
             raise InputError(
                 f"joint {joint.name}: the log's motor angle moves in steps of {seen:.4g} rad, "
                 f"not whole encoder counts of the model's robot ({quantum:.4g} rad = 2 pi / "
@@ -1160,6 +1171,28 @@ def check_log_matches_model(model: Model, log: Log) -> None:
                 "or gear ratio differ)? Identify a model from this robot's own no-load logs",
                 path=log.path,
             )
+
+
+def _written_digits(step: NDArray[np.float64]) -> int | None:
+    """The number of decimals ``d`` (1 to 12) when the nonzero joint-angle steps ``step`` [rad]
+    are, nine in ten, whole multiples of ``10^-d`` and the smallest is ``10^-d``: angles rounded
+    when the log was written (a CSV exported with a fixed format), else None.
+
+    Examples
+    --------
+    >>> _written_digits(np.array([1e-4, 2e-4, 1e-4, 3e-4]) * (1 + 1e-9))
+    4
+    >>> _written_digits(np.array([7.85e-6, 1.57e-5])) is None
+    True
+    """
+    smallest = float(np.min(step))
+    if not smallest > 0:
+        return None
+    digits = round(-math.log10(smallest))
+    if not 1 <= digits <= 12 or abs(smallest * 10.0**digits - 1.0) > 0.02:
+        return None
+    ratio = step * 10.0**digits
+    return digits if float(np.mean(np.abs(ratio - np.round(ratio)) < 0.02)) >= 0.9 else None
 
 
 def identified_slowest_speeds(model: Model) -> dict[str, float]:
@@ -1265,6 +1298,72 @@ def fast_task_warnings(model: Model, velocity: NDArray[np.float64]) -> list[str]
             f"(up to {float(speed.max()):.3g} rad/s), where friction is extrapolated; record "
             "sweeps that fast, or check the log's units (q in rad, t in s)"
         )
+    return out
+
+
+#: How many times the identification logs' motor torque (99th percentile of its magnitude) a
+#: log's may reach before estimation says so: a current logged in mA reads 1000 times too large
+#: (a task's load on a friction-dominated joint reaches a few times the no-load level).
+TORQUE_SCALE_FACTOR = 50.0
+
+
+def identified_torque_levels(model: Model) -> dict[str, float]:
+    """Per joint, the 99th percentile of ``|motor torque|`` [N m] in the identification logs
+    (``[identification.joints.<j>] motor_torque_p99``, or ``[identification.arm]
+    motor_torque_p99`` in the robot file's joint order); joints without it are left out (models
+    written before it)."""
+    notes = model.notes if isinstance(model.notes, Mapping) else {}
+    out: dict[str, float] = {}
+    joints = notes.get("joints", {})
+    if isinstance(joints, Mapping):
+        for name, entry in joints.items():
+            if isinstance(entry, Mapping):
+                level = entry.get("motor_torque_p99")
+                if isinstance(level, int | float) and math.isfinite(level) and level > 0:
+                    out[str(name)] = float(level)
+    arm = notes.get("arm")
+    levels = arm.get("motor_torque_p99") if isinstance(arm, Mapping) else None
+    names = model.robot.joint_names
+    if isinstance(levels, list) and len(levels) == len(names):
+        for name, level in zip(names, levels, strict=True):
+            if isinstance(level, int | float) and math.isfinite(level) and level > 0:
+                out[name] = float(level)
+    return out
+
+
+def torque_scale_warnings(model: Model, motor_torque: NDArray[np.float64]) -> list[str]:
+    """One line per joint whose log's motor torque (99th percentile of its magnitude) exceeds
+    ``TORQUE_SCALE_FACTOR`` times the identification logs' (:func:`identified_torque_levels`):
+    a current in mA, or a log whose current column is not the one identified from; the forces
+    estimated from it are then off by as much. ``motor_torque`` [N m] has shape (n, n_joints).
+
+    Examples
+    --------
+    >>> from torquemap.robot import robot_from_dict
+    >>> rb = robot_from_dict({"robot": {"name": "m", "kinematics": "none"}, "joints": {"a": {
+    ...     "gear_ratio": 1.0, "torque_constant": 0.1}}})
+    >>> m = Model(robot=rb, joints={}, notes={"joints": {"a": {"motor_torque_p99": 0.05}}})
+    >>> torque_scale_warnings(m, np.full((100, 1), 0.06))
+    []
+    >>> torque_scale_warnings(m, np.full((100, 1), 60.0))[0][:57]
+    'joint a: the motor torque reaches 60 N m (99th percentile'
+    """
+    levels = identified_torque_levels(model)
+    out: list[str] = []
+    for k, name in enumerate(model.robot.joint_names):
+        level = levels.get(name)
+        column = np.abs(motor_torque[:, k])
+        column = column[np.isfinite(column)]
+        if level is None or column.size == 0:
+            continue
+        top = float(np.percentile(column, 99))
+        if top > TORQUE_SCALE_FACTOR * level:
+            out.append(
+                f"joint {name}: the motor torque reaches {top:.3g} N m (99th percentile), "
+                f"{top / level:.3g} times the identification logs' {level:.3g} N m: check the "
+                "log's units (current in A, not mA; tau in N m) and that it is of this robot; "
+                f"tau_ext_{name} and the forces are off by as much as it is"
+            )
     return out
 
 

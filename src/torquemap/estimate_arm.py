@@ -41,6 +41,7 @@ from torquemap.arm_model import (
     joint_parameters,
 )
 from torquemap.errors import InputError
+from torquemap.estimate import torque_scale_warnings
 from torquemap.filters import lowpass
 from torquemap.identify_arm import is_rigid_body_arm
 from torquemap.io import Log
@@ -540,6 +541,7 @@ def estimate_arm(
     reach, edge, outside = _extrapolation(info, robot, joints, signals)
     sigma, warnings = _sigma(model, arm, signals, tau_ext.shape, bandwidth, reach, edge)
     warnings += outside
+    warnings += torque_scale_warnings(model, signals.motor_torque)
     A, singular = arm.wrench_map(signals.q, singular_threshold=singular_threshold)
     wrench = np.einsum("nij,nj->ni", A, tau_ext)
     wrench_sigma = np.sqrt(np.einsum("nij,nj->ni", A**2, sigma**2))

@@ -938,6 +938,21 @@ def _directional_lines(
     return tuple(lines)
 
 
+def motor_torque_level(logs: Sequence[Log], name: str) -> float | None:
+    """The 99th percentile of ``|motor torque|`` [N m] of joint ``name`` over ``logs`` (rounded
+    to 4 digits), or None where no log holds the joint or the level is not positive:
+    ``estimate`` compares a log's with it (:func:`torquemap.estimate.torque_scale_warnings`)."""
+    parts = [
+        np.abs(log.motor_torque[:, log.joint_names.index(name)])
+        for log in logs
+        if name in log.joint_names
+    ]
+    if not parts:
+        return None
+    level = float(np.percentile(np.concatenate(parts), 99))
+    return float(f"{level:.4g}") if math.isfinite(level) and level > 0 else None
+
+
 def _notes(
     logs: Sequence[Log],
     results: Mapping[str, JointIdentification],
@@ -965,6 +980,9 @@ def _notes(
             entry["threshold_multiple"] = round(r.picks.multiple, 4)
         if r.inertia is not None:
             entry["inertia_samples"] = r.inertia.samples
+        level = motor_torque_level(logs, name)
+        if level is not None:
+            entry["motor_torque_p99"] = level
         joints[name] = entry
     return {
         "logs": [log.path for log in logs],

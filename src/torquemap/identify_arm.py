@@ -467,6 +467,8 @@ def scale_warnings(
             if not (base or (nearest and gain > 1.3 * max(nearest))):
                 continue
             cause = "a gear ratio or torque constant in the robot file is too large"
+            if len(names) == 1:  # one joint: a tool the URDF lacks scales its torque alike
+                cause += ", or a load the URDF lacks (a tool, a payload) moves with the joint"
         else:
             continue
         out.append(
@@ -821,6 +823,12 @@ def identify_arm(
             for bm in masses
         },
         **visited_region(signals, picks),
+        "motor_torque_p99": [
+            float(f"{v:.4g}")
+            for v in np.percentile(
+                np.abs(np.concatenate([sig.motor_torque for sig in signals])), 99, axis=0
+            )
+        ],
         "warnings": list(warnings),
     }
     out_model = dataclasses.replace(model, robot=new_robot, joints=joints, notes=notes)

@@ -222,6 +222,26 @@ def _suffix(path: Path) -> str:
     return s
 
 
+def _parse_hint(path: Path) -> str:
+    """What a CSV's first line says about a parse error: ``"; ..."`` naming a comment line or
+    a separator other than the comma, else ``""`` (Parquet files, unreadable files)."""
+    if path.suffix.lower() != ".csv":
+        return ""
+    try:
+        with path.open("rb") as f:
+            head = f.read(4096).split(b"\n", 1)[0].rstrip(b"\r").decode("utf-8", "replace")
+    except OSError:
+        return ""
+    head = head.lstrip("\ufeff")
+    shown = head if len(head) <= 40 else head[:37] + "..."
+    if head.startswith("#"):
+        return f"; the first line {shown!r} is a comment: the first line must be the header"
+    for sep, name in ((";", "semicolons"), ("\t", "tabs")):
+        if sep in head and "," not in head.replace(sep, ""):
+            return f"; the header {shown!r} is separated by {name}: separate columns with commas"
+    return ""
+
+
 def read_table(path: str | os.PathLike[str]) -> Columns:
     """Read a CSV or Parquet table into a dict of column arrays.
 
@@ -264,7 +284,9 @@ def read_table(path: str | os.PathLike[str]) -> Columns:
         ) from None
     except (pa.ArrowException, OSError, ValueError) as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise InputError(f"cannot parse table, truncated or malformed ({first})", path=p) from None
+        raise InputError(
+            f"cannot parse table, truncated or malformed ({first}){_parse_hint(p)}", path=p
+        ) from None
     if table.num_rows == 0:
         raise InputError("table has no rows", path=p)
     seen: set[str] = set()
@@ -401,6 +423,11 @@ def numeric_column(
                 f"column {name!r} is not numeric (data row {first_row + row + 1}: {raw.ravel()[row]!r})",
                 path=path,
             )
+    elif kind in "mM":
+        raise InputError(
+            f"column {name!r} is not numeric ({raw.dtype} values): write it as seconds, a number",
+            path=path,
+        )
     elif kind not in "iuf":
         raise InputError(f"column {name!r} is not numeric ({raw.dtype} values)", path=path)
     try:
@@ -967,7 +994,9 @@ def iter_log_chunks(
             present = _csv_header(p)
     except (pa.ArrowException, OSError, ValueError) as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise InputError(f"cannot parse table, truncated or malformed ({first})", path=p) from None
+        raise InputError(
+            f"cannot parse table, truncated or malformed ({first}){_parse_hint(p)}", path=p
+        ) from None
     names = _log_column_names(robot, present)
     _check_log_header(names, present, p)
     chain = _ChunkChain(robot, os.fspath(p))
@@ -978,7 +1007,7 @@ def iter_log_chunks(
         except (pa.ArrowException, OSError, ValueError) as exc:
             first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             raise InputError(
-                f"cannot parse table, truncated or malformed ({first})", path=p
+                f"cannot parse table, truncated or malformed ({first}){_parse_hint(p)}", path=p
             ) from None
         if batch is None:
             break

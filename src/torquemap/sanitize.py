@@ -401,7 +401,20 @@ def sanitize_log(log: Log, *, window: float, min_piece: float | None = None) -> 
         count = int(repeated.sum())
         first = float(t[int(np.argmax(repeated))])
         what = "1 sample repeats" if count == 1 else f"{count} samples repeat"
-        warnings.append(f"{what} the previous time stamp (first at t = {first:.6g} s): dropped")
+        line = f"{what} the previous time stamp (first at t = {first:.6g} s): dropped"
+        if count >= 0.2 * n:
+            moved = (np.diff(log.q, axis=0) != 0).any(axis=1) | (
+                np.diff(log.motor_torque, axis=0) != 0
+            ).any(axis=1)
+            if float(np.mean(moved[repeated[1:]])) > 0.5:  # new readings, not polled twice
+                advances = np.diff(t)[np.diff(t) > 0]
+                step = float(np.median(advances)) if advances.size else 0.0
+                line += (
+                    f"; they hold new readings: 't' was written with too few digits (it "
+                    f"advances in steps of {step:.3g} s), so {count / n:.0%} of the samples "
+                    "are lost; write t with all its digits"
+                )
+        warnings.append(line)
     keep = np.flatnonzero(~repeated)
     # no repeated stamp: the log's own arrays, copied only when a sample is bridged (bridging
     # writes into them); else the kept rows (a gather: copies already)

@@ -87,6 +87,8 @@ def _floats(text: str, flag: str, what: str) -> list[float]:
 
 
 def _excite(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from torquemap.errors import InputError
     from torquemap.excite import exciting_trajectory, trajectory_columns
     from torquemap.io import write_table
@@ -117,8 +119,10 @@ def _excite(args: argparse.Namespace) -> int:
         + ", ".join(f"{v:g}" for v in traj.speeds)
         + f", condition number of the regressor {traj.condition_number:.4g}"
     )
+    linear = ~np.isfinite(np.asarray(arm.angle_period, dtype=float))  # prismatic: metres
+    unit = "[rad]" if not linear.any() else "[rad; m for a prismatic joint]"
     print(
-        "start pose [rad]: "
+        f"start pose {unit}: "
         + ", ".join(f"{n}={c:.4f}" for n, c in zip(traj.joint_names, traj.centre, strict=True))
     )
     print(f"wrote {args.output}")
@@ -164,7 +168,7 @@ def identify_arm_command(
         levels = jm.friction.static_levels()
         print(
             f"  {name}: armature {jm.inertia.constant:.4g} kg m^2, friction at rest "
-            f"+{levels[0]:.4g}/-{levels[1]:.4g} N m, {len(jm.pdtv)} PDTV lines, residual "
+            f"{levels[0]:+.4g}/{-levels[1]:+.4g} N m, {len(jm.pdtv)} PDTV lines, residual "
             f"{result.residual_sigma[k]:.3g} N m (motor side)"
         )
     print(f"wrote {output}")

@@ -236,13 +236,13 @@ def _identify_logs(args: argparse.Namespace) -> int:
         if "speeds" in f:  # a friction table (identify --friction whole)
             up, down = jm.friction.static_levels()
             law = (
-                f"friction at rest +{up:.4g}/-{down:.4g} N m (table of {len(f['speeds'])} "
+                f"friction at rest {up:+.4g}/{-down:+.4g} N m (table of {len(f['speeds'])} "
                 f"speeds to {f['speeds'][-1]:.3g} rad/s)"
             )
         else:
             law = (
-                f"coulomb +{f.get('coulomb_positive', nan):.4g}/"
-                f"-{f.get('coulomb_negative', nan):.4g} N m"
+                f"coulomb {f.get('coulomb_positive', nan):+.4g}/"
+                f"{-f.get('coulomb_negative', nan):+.4g} N m"
             )
         print(
             f"{name}: {len(jr.passes)} passes, J={jm.inertia.constant:.4g} kg m^2, {law}, "
@@ -254,8 +254,10 @@ def _identify_logs(args: argparse.Namespace) -> int:
 
 
 def _spectrum(args: argparse.Namespace) -> int:
+    from torquemap.arm_model import without_rigid_body
     from torquemap.estimate import model_window
     from torquemap.identify import identify_model
+    from torquemap.identify_arm import is_rigid_body_arm
     from torquemap.io import read_log
     from torquemap.model import load_model
 
@@ -265,13 +267,21 @@ def _spectrum(args: argparse.Namespace) -> int:
     model = load_model(args.model)
     log = args.progress.run("read the log", lambda: read_log(args.log, model.robot))
     model.robot.joint(args.joint)
+    window = model_window(model) if args.window is None else args.window
+    if is_rigid_body_arm(model.robot.arm):
+        # an arm's gravity and coupling vary along a pass: taken out first, or they read as
+        # lines below a few CPR (the rigid bodies of the model's arm, identified or the URDF's)
+        log = args.progress.run(
+            "take out the rigid-body torque",
+            lambda: without_rigid_body(log, model.robot, window=window),
+        )
     result = args.progress.run(
         f"identify joint {args.joint}",
         lambda: identify_model(
             model,
             [log],
             joints=[args.joint],
-            window=model_window(model) if args.window is None else args.window,
+            window=window,
             friction="passes",
             # the spectrum is the log's, whatever the gravity check on this pass model says
             # (identify decides on the model; a pass model's misfit can look like gravity)

@@ -84,7 +84,7 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         "arm",
         help="a Panda (or UR5, xArm7, Z1, Jaco2, or a leg) in MuJoCo unlike its URDF: free.csv, task.csv (5-20 N on a surface), truth",
         description="Simulate a Panda, UR5, xArm7, Z1 or Jaco2 (example-robot-data) in MuJoCo whose true masses differ "
-        "from its URDF by up to 15 %% and which carries a 0.8 kg tool, and write robot.toml, "
+        "from its URDF by up to 15 % and which carries a 0.8 kg tool, and write robot.toml, "
         "panda.urdf (or <arm>.urdf), free.csv, task.csv, truth.csv, truth.toml and truth.urdf into DIR "
         "(docs/arm.md). --arm leg: a vertical two-link leg (gravity in its plane, a 0.3 kg mass "
         "its URDF lacks) whose foot steps on a compliant ground in task.csv; leg.urdf "

@@ -383,7 +383,8 @@ class UrdfArm:
             J = pin.computeFrameJacobian(
                 self._model, data, row, self._frame, pin.LOCAL_WORLD_ALIGNED
             )
-            out[i] = J[:, order]
+            # Pinocchio hands a one-joint model's (6, 1) Jacobian back as shape (6,)
+            out[i] = np.reshape(J, (6, self._model.nv))[:, order]
         return out
 
     def jacobian(self, q: ArrayLike) -> NDArray[np.float64]:
@@ -417,7 +418,8 @@ class UrdfArm:
         cq, cv, ca = self._configs(qq), self._tangents(vv), self._tangents(aa)
         for i in range(qq.shape[0]):
             Y = pin.computeJointTorqueRegressor(self._model, data, cq[i], cv[i], ca[i])
-            out[i] = Y[order]
+            # a one-joint model's (1, 10) regressor comes back as shape (10,)
+            out[i] = np.reshape(Y, (self._model.nv, -1))[order]
         return out
 
     def regressor(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> NDArray[np.float64]:
