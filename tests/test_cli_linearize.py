@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from torquemap.cli.main import build_parser, main
+from torquemap.errors import InputError
 from torquemap.io import read_table, write_table, write_toml
 from torquemap.linearize.export import load_tables
 
@@ -420,3 +421,16 @@ def test_a_data_file_cut_inside_its_last_line_is_warned(
         assert main(argv) == 0
         err = capsys.readouterr().err
         assert f"{d}/data.csv: the last line has no line end" in err, err
+
+
+def test_a_phase_table_cut_short_is_named(tmp_path: Path) -> None:
+    write_case(tmp_path)
+    d = str(tmp_path)
+    args = ["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv", "-o", f"{d}/t.npz"]
+    assert main(args) == 0
+    with np.load(tmp_path / "t.npz") as npz:
+        arrays = {name: npz[name] for name in npz.files}
+    arrays["phase_2"] = arrays["phase_2"][:, :100]  # a table that lost its top commands
+    np.savez(tmp_path / "short.npz", **arrays)
+    with pytest.raises(InputError, match=r"table 'phase_2' has shape \(\d+, 100\), 'phase_1'"):
+        load_tables(tmp_path / "short.npz")

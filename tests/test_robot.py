@@ -106,6 +106,12 @@ _DELETE = object()
         (("robot", "link_lengths"), [0.25, -0.2], r"link_lengths must be positive"),
         (("joints", "a", "gear_ratio"), _DELETE, r"\[joints.a\] is missing gear_ratio"),
         (("joints", "a", "torque_constant"), 0, r"torque_constant must be positive"),
+        (
+            ("joints", "a", "gear_ratio"),
+            -100,
+            r"gear_ratio must be positive and finite, got -100: for a motor that turns against "
+            r"its joint, give the magnitude and negate the joint's current",
+        ),
         (("joints", "a", "gear_ratio"), "100", r"gear_ratio must be a number"),
         (
             ("joints", "a", "encoder_counts_per_rev"),

@@ -135,7 +135,15 @@ def _positive(value: Any, what: str, path: str | None) -> float:
         raise InputError(f"{what} must be a number, got {value!r}", path=path)
     x = float(value)
     if not math.isfinite(x) or x <= 0:
-        raise InputError(f"{what} must be positive and finite, got {value!r}", path=path)
+        hint = ""
+        if x < 0 and what.endswith(("gear_ratio", "torque_constant")):
+            # a motor wired or geared against its joint: torquemap's convention is that positive
+            # motor torque turns the joint positive
+            hint = (
+                ": for a motor that turns against its joint, give the magnitude and negate the "
+                "joint's current or torque column (i_<j> or tau_<j>) in the logs"
+            )
+        raise InputError(f"{what} must be positive and finite, got {value!r}{hint}", path=path)
     return x
 
 

@@ -165,6 +165,15 @@ def load_tables(path: str | os.PathLike[str]) -> TableSet:
     except (TypeError, ValueError) as exc:
         raise InputError(f"tables file has malformed contents ({exc})", path=p) from None
     _check_entries(data, m, top, p)
+    shapes = {data[f"phase_{k + 1}"].shape for k in range(m)}
+    if len(shapes) > 1:
+        first = data["phase_1"].shape
+        odd = next(k + 1 for k in range(m) if data[f"phase_{k + 1}"].shape != first)
+        raise InputError(
+            f"table 'phase_{odd}' has shape {data[f'phase_{odd}'].shape}, 'phase_1' {first}: "
+            "truncated or corrupt tables?",
+            path=p,
+        )
     try:
         phases = np.stack([data[f"phase_{k + 1}"].astype(np.int64) for k in range(m)])
         meta = {name: data[name].item() if data[name].ndim == 0 else data[name] for name in _META}
