@@ -763,7 +763,7 @@ def _surface_forward(
     *,
     knee: bool = True,
     nyquist: bool = False,
-    pool: bool = True,
+    pool: bool = False,
 ) -> tuple[NDArray[np.float64], SurfaceFit]:
     """Sensed torque on every base pulse width from the structured surface
     (:mod:`torquemap.linearize.surface`) plus what it misses at the measured cells,
@@ -1015,7 +1015,7 @@ def build_tables(
     detent: bool = True,
     surface: bool = True,
     knee: bool = True,
-    pool: bool = True,
+    pool: bool = False,
     nyquist: bool = True,
     bias: ArrayLike | None = None,
     restore_bias: bool = True,
@@ -1083,7 +1083,9 @@ def build_tables(
     pool
         With ``knee``, where the uncensored residual is used: the offset below each measured
         position's knee (one reading's noise each) pooled over the measured positions through
-        a smooth torque at rest (:func:`torquemap.linearize.knee.pool_onset`).
+        a smooth torque at rest (:func:`torquemap.linearize.knee.pool_onset`). Off by default:
+        measured better on the family's seeds 40 to 59 and 80 to 99 and neutral on 140 to 159,
+        but the worst of 120 to 139 went from 1.61x to 1.64x the floor (docs/linearize.md).
     nyquist
         ``"interp"`` only, where the structured surface is used and the torque at rest of the
         measured positions alternates (cogging sampled at most twice a period:
