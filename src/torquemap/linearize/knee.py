@@ -37,6 +37,15 @@ positions (cogging between them), the data decide, as for the hand-over
 from the measured positions on either side both ways, and the uncensored residual is used only
 when its squared errors, summed per position, are smaller with a paired t statistic above 2.
 
+Each offset ``c`` rests on one reading (the first above the noise), so it carries that
+reading's noise into the knee of its position and, interpolated, of the positions between.
+:func:`pool_onset` pools them: ``o + c``, the torque at rest less the friction that puts the
+model's knee where the data do, is one friction and a few harmonics of cogging, smooth over
+the cycle; it is fitted as a Fourier series over the measured positions (harmonics added while
+each explains more than the offsets' noise would, a chi-square test at a known noise), and what
+the series misses at a position is given back with a Wiener weight (all of it where it stands
+well above the noise, none where it is noise).
+
 This module never imports the simulator.
 """
 
@@ -46,10 +55,17 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.stats import chi2
+
+from torquemap.linearize.gaps import fourier_design
 
 #: Paired t statistic (over the measured positions) the uncensored residual's prediction
 #: errors must beat the censored one's by (the same bar as the hand-over's).
 SIGNIFICANCE = 2.0
+#: False-alarm rate of adding a harmonic to the knee's pooled torque at rest (:func:`pool_onset`).
+POOL_LEVEL = 0.01
+#: Measured positions on either side whose mean square sets a position's Wiener weight.
+POOL_HALF_WIDTH = 2
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -197,3 +213,95 @@ def check_uncensored(
     spread = float(np.std(d, ddof=1))
     t = float(np.mean(d) / (spread / np.sqrt(d.size))) if spread > 0 else 0.0
     return KneeCheck(d.size, rms_c, rms_u, t)
+
+
+def knee_levels(sensed: NDArray[np.float64], noise: float) -> NDArray[np.int64]:
+    """Each position's first level reading above ``noise`` when every level below it is
+    measured and it is not the first (a knee in the data), else -1, shape (P,)."""
+    out = np.full(sensed.shape[0], -1, dtype=np.int64)
+    for p in range(sensed.shape[0]):
+        have = np.isfinite(sensed[p])
+        up = have & (sensed[p] > noise)
+        if not up.any():
+            continue
+        k = int(np.argmax(up))
+        if k >= 1 and have[:k].all():
+            out[p] = k
+    return out
+
+
+def pool_onset(
+    offset: NDArray[np.float64],
+    rest: NDArray[np.float64],
+    anchors: NDArray[np.int64],
+    *,
+    noise: float,
+) -> NDArray[np.float64]:
+    """Pool the knee's offsets over the measured positions through a smooth torque at rest.
+
+    Parameters
+    ----------
+    offset
+        What the model misses below each position's knee (the uncensored residual's constant
+        ``c``) [N m], shape (P,); NaN where the position has no knee.
+    rest
+        The model's torque at rest ``o(p)`` [N m], shape (P,).
+    anchors
+        The measured positions, ascending.
+    noise
+        One row's noise [N m]: the noise of one offset.
+
+    Returns
+    -------
+    ndarray
+        The pooled offsets, shape (P,); NaN where ``offset`` is.
+
+    Notes
+    -----
+    ``e = o + c`` is the torque at rest less the friction that puts the model's knee where the
+    data put it: the friction is one constant and the torque at rest a few harmonics of the
+    cycle, so ``e`` is smooth over the cycle while each ``c`` carries one reading's noise.
+    ``e`` is fitted by a Fourier series over the measured positions with a knee, a harmonic
+    added while the best of those not yet kept explains more than noise would (its drop of the
+    residual sum of squares, in units of ``noise**2``, beyond the chi-square quantile at
+    :data:`POOL_LEVEL` over the number of harmonics tried, with two degrees of freedom); what
+    the series misses at a position, ``d``, is given back in part, ``alpha d`` with ``alpha =
+    max(0, 1 - noise^2 / MS)``, ``MS`` the mean square of ``d`` over the
+    ``2 POOL_HALF_WIDTH + 1`` nearest such positions (a Wiener shrinkage: the weight that
+    minimises the expected squared error of a structure ``m`` under noise ``noise``, ``m^2``
+    read as ``MS - noise^2``).
+    """
+    n = offset.size
+    out = offset.copy()
+    at = anchors[np.isfinite(offset[anchors])]
+    if at.size < 5 or not noise > 0:
+        return out
+    e = rest[at] + offset[at]
+    x = at.astype(np.float64)
+    top = (at.size - 1) // 2
+    kept: list[int] = []
+    design = fourier_design(x, kept, n)
+    coef = np.linalg.lstsq(design, e, rcond=None)[0]
+    sse = float(np.sum((e - design @ coef) ** 2))
+    while 2 * len(kept) + 3 < at.size:
+        trials = []
+        for h in range(1, top + 1):
+            if h not in kept:
+                d = fourier_design(x, [*kept, h], n)
+                c = np.linalg.lstsq(d, e, rcond=None)[0]
+                trials.append((float(np.sum((e - d @ c) ** 2)), h, c))
+        if not trials:
+            break
+        best, h, c = min(trials, key=lambda t: t[0])
+        if (sse - best) / noise**2 <= chi2.isf(POOL_LEVEL / len(trials), 2):
+            break
+        kept.append(h)
+        sse, coef = best, c
+    smooth = fourier_design(x, kept, n) @ coef
+    d = e - smooth
+    k = at.size
+    w = POOL_HALF_WIDTH
+    ms = np.array([np.mean(d[[(i + j) % k for j in range(-w, w + 1)]] ** 2) for i in range(k)])
+    alpha = np.clip(1.0 - noise**2 / np.maximum(ms, 1e-300), 0.0, 1.0)
+    out[at] = smooth + alpha * d - rest[at]
+    return out

@@ -45,7 +45,7 @@ from torquemap.linearize.bias import check_bias
 from torquemap.linearize.denoise import denoise_blocks, restore_misfit
 from torquemap.linearize.detent import detent_correction, fit_detent
 from torquemap.linearize.handover import check_handover, fill_handover
-from torquemap.linearize.knee import check_uncensored, uncensored_residual
+from torquemap.linearize.knee import check_uncensored, knee_levels, pool_onset, uncensored_residual
 from torquemap.linearize.motor import MotorSpec
 from torquemap.linearize.onset import extend_below, fit_onset
 from torquemap.linearize.resume import check_collected_for
@@ -763,11 +763,13 @@ def _surface_forward(
     *,
     knee: bool = True,
     nyquist: bool = False,
+    pool: bool = False,
 ) -> tuple[NDArray[np.float64], SurfaceFit]:
     """Sensed torque on every base pulse width from the structured surface
     (:mod:`torquemap.linearize.surface`) plus what it misses at the measured cells,
     interpolated between them, shape (P, A + 1); and the surface. ``noise``: one row's
-    noise [N m]."""
+    noise [N m]; ``pool``: where the knee's uncensored residual is used, its offsets pooled
+    over the measured positions (:func:`torquemap.linearize.knee.pool_onset`)."""
     n = spec.positions_per_cycle
     col = np.searchsorted(levels, pw)
     mean, count = _cells(pos, col.astype(np.int64), tau, (n, levels.size))
@@ -796,6 +798,15 @@ def _surface_forward(
         anchors = np.flatnonzero(np.isfinite(mean[:, 0]))
         if check_uncensored(res, unc, y_adj, pred, anchors).preferred:
             res = unc
+            if pool:
+                # the knee's offsets pooled over the measured positions through a smooth
+                # torque at rest (torquemap.linearize.knee.pool_onset)
+                ks = knee_levels(y_adj, noise)
+                has = ks >= 1
+                offset = np.where(has, unc[:, 0], np.nan)
+                pooled = pool_onset(offset, fit.rest, anchors, noise=noise)
+                for p in np.flatnonzero(has):
+                    res[p, : ks[p]] = pooled[p]
     res = fill_voids(res, levels=levels)
     u = np.arange(spec.actuation_max + 1, dtype=np.float64)
     res_fine = np.stack([np.interp(u, levels, np.nan_to_num(r)) for r in res])
@@ -1004,6 +1015,7 @@ def build_tables(
     detent: bool = True,
     surface: bool = True,
     knee: bool = True,
+    pool: bool = False,
     nyquist: bool = True,
     bias: ArrayLike | None = None,
     restore_bias: bool = True,
@@ -1068,6 +1080,12 @@ def build_tables(
         position's knee, carry what the surface misses between measured positions in the
         uncensored torque (:mod:`torquemap.linearize.knee`), when the measured positions,
         predicted from their neighbours, confirm it predicts better.
+    pool
+        With ``knee``, where the uncensored residual is used: the offset below each measured
+        position's knee (one reading's noise each) pooled over the measured positions through
+        a smooth torque at rest (:func:`torquemap.linearize.knee.pool_onset`). Off by default:
+        measured better on the family's seeds 40 to 59 and 80 to 99 and neutral on 140 to 159,
+        but the worst of 120 to 139 went from 1.61x to 1.64x the floor (docs/linearize.md).
     nyquist
         ``"interp"`` only, where the structured surface is used and the torque at rest of the
         measured positions alternates (cogging sampled at most twice a period:
@@ -1225,7 +1243,7 @@ def build_tables(
             anchors = np.unique(pos[pw == 0])
             if surface and ramp_share_step(ramp, anchors) > SURFACE_SHARE_STEP:
                 modelled, fitted = _surface_forward(
-                    spec, pos, pw, tau, levels, onset_law, readable, sigma, knee=knee
+                    spec, pos, pw, tau, levels, onset_law, readable, sigma, knee=knee, pool=pool
                 )
                 fine = np.where(np.isnan(fine), np.nan, modelled)
                 check = check_position_sampling(
@@ -1247,6 +1265,7 @@ def build_tables(
                             sigma,
                             knee=knee,
                             nyquist=True,
+                            pool=pool,
                         )
                         fine = np.where(np.isnan(fine), np.nan, modelled)
                 if fitted.series is not None:
