@@ -124,6 +124,30 @@ def pdtv_map(
     )
 
 
+def aliased_orders(model: Model, joint: str, bins: int) -> tuple[float, ...]:
+    """Orders [CPR] of a joint's PDTV lines that a table of ``bins`` bins cannot hold.
+
+    A firmware applies the table as a staircase (each bin's value over its interval). A line
+    of order ``n >= bins / 2`` is sampled at two or fewer bins per period: the staircase then
+    carries an alias of order ``|bins - n|`` (or none, at ``n = bins / 2`` with a phase of
+    zeros), a ripple the motor does not have.
+
+    Examples
+    --------
+    >>> from torquemap.robot import robot_from_dict
+    >>> from torquemap.model import JointModel
+    >>> rb = robot_from_dict({"robot": {"kinematics": "none"},
+    ...                       "joints": {"m": {"gear_ratio": 1, "torque_constant": 0.5}}})
+    >>> jm = JointModel(pdtv=(PdtvLine(order=7, amplitude=1.0, phase=0.0),
+    ...                       PdtvLine(order=84, amplitude=1.0, phase=0.0)))
+    >>> aliased_orders(Model(robot=rb, joints={"m": jm}), "m", 128)
+    (84.0,)
+    """
+    model.robot.joint(joint)
+    jm = model.joints[joint]
+    return tuple(sorted({float(ln.order) for ln in jm.pdtv if 2.0 * ln.order >= bins}))
+
+
 def quantise(
     values: ArrayLike, *, int_type: Literal["int16", "int8"]
 ) -> tuple[NDArray[np.int64], float]:

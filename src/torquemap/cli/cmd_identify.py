@@ -322,7 +322,7 @@ def _spectrum(args: argparse.Namespace) -> int:
 
 def _pdtv_map(args: argparse.Namespace) -> int:
     from torquemap.model import load_model
-    from torquemap.pdtv_map import pdtv_map, write_pdtv_map
+    from torquemap.pdtv_map import aliased_orders, pdtv_map, write_pdtv_map
 
     file_format = _map_format(args.output, args.format)
     suffixes = {"csv": (".csv", ".parquet"), "json": (".json",), "c-header": (".h",)}[file_format]
@@ -335,6 +335,17 @@ def _pdtv_map(args: argparse.Namespace) -> int:
         print(
             f"torquemap: warning: {args.model}: joint {args.joint!r} has no PDTV lines, the map "
             "is all zeros (a robot file, or identification found no line above the noise?)",
+            file=sys.stderr,
+        )
+    aliased = aliased_orders(model, args.joint, args.bins)
+    if aliased:
+        top = max(aliased)
+        print(
+            f"torquemap: warning: {args.model}: joint {args.joint!r}: {args.bins} bins cannot "
+            f"hold its PDTV line(s) of order {', '.join(f'{n:g}' for n in aliased)} CPR (fewer "
+            "than 2 bins a period: the staircase a firmware applies turns them into other "
+            f"orders or amplitudes); use --bins "
+            f"{int(2 * top) + 1} or more",
             file=sys.stderr,
         )
     write_pdtv_map(args.output, table, file_format=file_format, int_type=args.int_type)
