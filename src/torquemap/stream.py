@@ -372,13 +372,13 @@ class ForceEstimator:
         if tt.ndim != 1:
             raise InputError(f"t must be one time per sample, got shape {tt.shape}", path=self.path)
         qq = self._rows_of("q", q, tt.size)
-        if (i is None) == (motor_torque is None):
-            raise InputError("give the motor currents i or the motor torques, one of them")
-        if motor_torque is None:
+        if i is not None and motor_torque is None:
             kt = np.array([j.torque_constant for j in self.model.robot.joints])
             tau = self._rows_of("i", i, tt.size) * kt
-        else:
+        elif motor_torque is not None and i is None:
             tau = self._rows_of("motor_torque", motor_torque, tt.size)
+        else:
+            raise InputError("give the motor currents i or the motor torques, one of them")
         return self._push(tt, qq, tau)
 
     def _rows_of(self, name: str, values: ArrayLike, m: int) -> NDArray[np.float64]:
