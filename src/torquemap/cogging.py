@@ -202,8 +202,10 @@ def _ripple(
     ok = label >= 0
     revs = float(np.sum(np.abs(np.diff(theta))[ok[1:]])) / TWO_PI
     if revs < 1.0:
+        total = float(np.sum(np.abs(np.diff(theta)))) / TWO_PI
         raise InputError(
-            f"joint {joint}: the log holds {revs:.2g} motor revolutions at a steady speed; "
+            f"joint {joint}: the log holds {revs:.2g} motor revolutions at a steady speed "
+            f"(within 20 % of its pass's median speed; {total:.2g} revolutions in all); "
             "verification needs a sweep of at least one revolution",
             path=log.path,
         )
