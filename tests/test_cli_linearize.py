@@ -434,3 +434,72 @@ def test_a_phase_table_cut_short_is_named(tmp_path: Path) -> None:
     np.savez(tmp_path / "short.npz", **arrays)
     with pytest.raises(InputError, match=r"table 'phase_2' has shape \(\d+, 100\), 'phase_1'"):
         load_tables(tmp_path / "short.npz")
+
+
+def test_data_of_the_other_kind_is_named(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # before: "missing column 'command' (the file has position, pulse_width, torque)", and
+    # the reverse, for a user who swapped the characterisation and the verification file
+    write_case(tmp_path)
+    d = str(tmp_path)
+    assert main(["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv", "-o", f"{d}/t.npz"]) == 0
+    p, c = np.meshgrid(np.arange(N), np.arange(0, 128, 8), indexing="ij")
+    write_table(
+        tmp_path / "v.csv",
+        {"position": p.ravel(), "command": c.ravel(), "torque": c.ravel() * 0.01},
+    )
+    capsys.readouterr()
+    assert (
+        main(
+            ["linearize", "evaluate", f"{d}/motor.toml", f"{d}/data.csv", "--tables", f"{d}/t.npz"]
+        )
+        == 2
+    )
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        f"torquemap: error: {d}/data.csv: characterisation data (pulse_width), but --tables "
+        "evaluates a verification run (position, command, torque: linearize collect --tables); "
+        "drop --tables to evaluate the characterisation"
+    ]
+    assert main(["linearize", "evaluate", f"{d}/motor.toml", f"{d}/v.csv"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        f"torquemap: error: {d}/v.csv: verification data (command), evaluated as a "
+        "characterisation: give the tables it was collected with, --tables TABLES.npz"
+    ]
+
+
+def test_a_command_step_past_half_way_says_which_step(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # linearize collect --tables --step 64 on 7-bit commands: 0, 64, 127. APMD's tau_ave is
+    # the torque at the half-way command 63.5 between the commands from 1: none below it.
+    # Before: "no position has data on both sides of the half-way command 63.5", no cause
+    write_case(tmp_path)
+    d = str(tmp_path)
+    assert main(["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv", "-o", f"{d}/t.npz"]) == 0
+    p, c = np.meshgrid(np.arange(N), [0, 64, 127], indexing="ij")
+    write_table(
+        tmp_path / "v.csv",
+        {"position": p.ravel(), "command": c.ravel(), "torque": c.ravel() * 0.01},
+    )
+    capsys.readouterr()
+    assert (
+        main(["linearize", "evaluate", f"{d}/motor.toml", f"{d}/v.csv", "--tables", f"{d}/t.npz"])
+        == 2
+    )
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"torquemap: error: {d}/v.csv: no position has")
+    assert "(the commands from 1 hold 2 values, 64 to 127, 0 cells below it)" in err[0]
+    assert err[0].endswith("(linearize collect --tables with --step at most 63)")
+    # --step 63 (0, 63, 126, 127) is evaluated
+    p, c = np.meshgrid(np.arange(N), [0, 63, 126, 127], indexing="ij")
+    write_table(
+        tmp_path / "v.csv",
+        {"position": p.ravel(), "command": c.ravel(), "torque": c.ravel() * 0.01},
+    )
+    assert (
+        main(["linearize", "evaluate", f"{d}/motor.toml", f"{d}/v.csv", "--tables", f"{d}/t.npz"])
+        == 0
+    )
