@@ -492,7 +492,7 @@ def test_a_command_step_past_half_way_says_which_step(
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith(f"torquemap: error: {d}/v.csv: no position has")
     assert "(the commands from 1 hold 2 values, 64 to 127, 0 cells below it)" in err[0]
-    assert err[0].endswith("(linearize collect --tables with --step at most 63)")
+    assert err[0].endswith("(a collection --step or --pulse-step of at most 63)")
     # --step 63 (0, 63, 126, 127) is evaluated
     p, c = np.meshgrid(np.arange(N), [0, 63, 126, 127], indexing="ij")
     write_table(
@@ -503,3 +503,27 @@ def test_a_command_step_past_half_way_says_which_step(
         main(["linearize", "evaluate", f"{d}/motor.toml", f"{d}/v.csv", "--tables", f"{d}/t.npz"])
         == 0
     )
+
+
+def test_a_collection_step_past_half_way_is_warned_when_collecting(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # warned before the rig time is spent (the data are collected: build can use them)
+    d = tmp_path / "rig"
+    argv = ["simulate", "rig", "--motor", "vr", "--out", str(d), "--readings", "1"]
+    argv += ["--position-step", "64", "--no-progress", "--pulse-step"]
+    assert main([*argv, "200"]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        f"torquemap: warning: {d / 'data.csv'}: a step of 200 leaves no pulse width from 1 below "
+        "half way (127.5): linearize evaluate cannot read the APMD's reference torque there; a "
+        "step of at most 127 can"
+    ]
+    assert main(["linearize", "evaluate", f"{d}/motor.toml", f"{d}/data.csv"]) == 2
+    assert "at most 127)" in capsys.readouterr().err
+    again = ["linearize", "collect", f"{d}/motor.toml", "--sim", "vr", "--readings", "1"]
+    again += ["--position-step", "64", "--no-progress", "--step"]
+    assert main([*again, "200", "-o", f"{tmp_path}/b.csv"]) == 0
+    assert "a step of 200 leaves no pulse width" in capsys.readouterr().err
+    assert main([*again, "127", "-o", f"{tmp_path}/c.csv"]) == 0
+    assert "warning" not in capsys.readouterr().err

@@ -110,7 +110,7 @@ def _half_way_torque(
             f"no position has data on both sides of the half-way command {half:g} (the "
             f"commands from 1 hold {np.unique(cmd).size} values, {int(cmd.min())} to "
             f"{int(cmd.max())}, {below} cells below it): collect commands on both sides of it "
-            f"(linearize collect --tables with --step at most {max(int(half), 1)})"
+            f"(a collection --step or --pulse-step of at most {max(int(half), 1)})"
         )
     return float(np.mean(values))
 
