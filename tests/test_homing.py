@@ -91,6 +91,16 @@ def test_cli_home(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     path = tmp_path / "motor.toml"
     write_toml(path, motor_to_dict(sim_rig("bldc", rng=0).motor_spec()))
     assert main(["linearize", "home", str(path), "--sim", "bldc", "--repeats", "1"]) == 0
+    # one homing has no spread to measure (before: "repeatability: std 0.000, range 0.000")
+    out = capsys.readouterr().out
+    assert "repeatability: not measured by one homing (--repeats 2 or more)" in out
+    assert "std" not in out
+    assert main(["linearize", "home", str(path), "--sim", "bldc", "--repeats", "1", "--json"]) == 0
+    import json
+
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["repeatability_std"] is None and summary["range"] is None
+    assert main(["linearize", "home", str(path), "--sim", "bldc", "--repeats", "2"]) == 0
     assert "repeatability: std" in capsys.readouterr().out
     assert main(["linearize", "home", str(path), "--sim", "vr"]) == 2
     assert "the simulated vr motor has 3 and 512" in capsys.readouterr().err
