@@ -65,6 +65,17 @@ def test_repeatability_on_the_default_motor_is_within_the_friction_hysteresis() 
     assert np.all(np.abs(err) <= 1.0)
 
 
+def test_friction_the_phases_cannot_overcome_is_named() -> None:
+    # bearing friction at 99 % of a phase's peak torque (linearize home --friction 0.99): the
+    # phases are alive; before, the refusal asked only "a phase that produces no torque?"
+    from torquemap.sim.rig import sim_rig
+
+    ms = sim_rig("vr", rng=0).motor_spec()
+    with pytest.raises(InputError, match="did not pull the motor") as info:
+        home_on_sim(ms, sim="vr", seed=3, repeats=1, friction_fraction=0.99)
+    assert "or a load or friction it cannot overcome?" in str(info.value)
+
+
 def test_dead_phase_and_wrong_motor_file_are_input_errors() -> None:
     dead = FreeMotorRig(
         _sine_motor(phase_gain=(1.0, 0.0, 1.0)), Amplifier(), friction=1.0, friction_spread=0.0
