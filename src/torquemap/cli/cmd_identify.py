@@ -322,7 +322,7 @@ def _spectrum(args: argparse.Namespace) -> int:
 
 def _pdtv_map(args: argparse.Namespace) -> int:
     from torquemap.model import load_model
-    from torquemap.pdtv_map import aliased_orders, pdtv_map, write_pdtv_map
+    from torquemap.pdtv_map import aliased_orders, fractional_orders, pdtv_map, write_pdtv_map
 
     file_format = _map_format(args.output, args.format)
     suffixes = {"csv": (".csv", ".parquet"), "json": (".json",), "c-header": (".h",)}[file_format]
@@ -335,6 +335,16 @@ def _pdtv_map(args: argparse.Namespace) -> int:
         print(
             f"torquemap: warning: {args.model}: joint {args.joint!r} has no PDTV lines, the map "
             "is all zeros (a robot file, or identification found no line above the noise?)",
+            file=sys.stderr,
+        )
+    fractional = fractional_orders(model, args.joint)
+    if fractional:
+        named = ", ".join(f"{n:g} CPR ({a:.3g} N m)" for n, a in fractional)
+        print(
+            f"torquemap: warning: {args.model}: joint {args.joint!r}: PDTV line(s) of "
+            f"non-integer order left out of the table: {named}; a table over one motor "
+            "revolution repeats every revolution and cannot hold them (joint-side or gearbox "
+            "ripple?)",
             file=sys.stderr,
         )
     aliased = aliased_orders(model, args.joint, args.bins)
