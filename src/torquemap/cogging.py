@@ -197,7 +197,8 @@ def _ripple(
         raise InputError(exc.message, path=log.path) from None
     torque = log.motor_torque[:, k].copy()
     if subtract_map:
-        torque -= pdtv_map(model, joint, motor_angle=theta).torque
+        # what the drive applied: the exported table's lines (integer orders only)
+        torque -= pdtv_map(model, joint, motor_angle=theta, table_lines=True).torque
     label = _steady_runs(d.velocity, tolerance=0.2)
     ok = label >= 0
     revs = float(np.sum(np.abs(np.diff(theta))[ok[1:]])) / TWO_PI

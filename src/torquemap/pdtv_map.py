@@ -67,6 +67,7 @@ def pdtv_map(
     bins: int = 1024,
     motor_angle: ArrayLike | None = None,
     direction: Literal["mean", "positive", "negative"] = "mean",
+    table_lines: bool | None = None,
 ) -> PdtvMap:
     """Tabulate a joint's PDTV over one motor revolution.
 
@@ -84,6 +85,10 @@ def pdtv_map(
         Evaluate at these motor angles [rad] instead of bin centres, shape (m,).
     direction
         Directional lines: ``"mean"`` of both directions, or one direction's.
+    table_lines
+        Only the lines a table over one revolution holds (integer orders): default for
+        ``bins``; with ``motor_angle``, what a drive applying the exported table adds there
+        (``cogging verify``), else every line (default).
 
     Returns
     -------
@@ -117,7 +122,7 @@ def pdtv_map(
     else:
         theta = np.asarray(motor_angle, dtype=np.float64).ravel()
     lines = jm.pdtv
-    if motor_angle is None:
+    if (motor_angle is None) if table_lines is None else table_lines:
         # a table over one revolution repeats every revolution: a line of non-integer order
         # does not, and tabulated it would be wrong by up to twice itself on the revolutions
         # after the first; left out (fractional_orders names them)
