@@ -527,3 +527,18 @@ def test_a_collection_step_past_half_way_is_warned_when_collecting(
     assert "a step of 200 leaves no pulse width" in capsys.readouterr().err
     assert main([*again, "127", "-o", f"{tmp_path}/c.csv"]) == 0
     assert "warning" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("budget", ["0", "10", "nan"])
+def test_a_budget_outside_its_range_names_the_flag(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], budget: str
+) -> None:
+    # before: "torquemap: error: the budget fraction must be in (0, 1], got 10.0", no flag
+    write_case(tmp_path)
+    argv = ["linearize", "collect", f"{tmp_path}/motor.toml", "--sim", "vr", "--adaptive"]
+    with pytest.raises(SystemExit) as exit_info:
+        main([*argv, "--budget", budget, "-o", f"{tmp_path}/a.csv"])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1].endswith(f"argument --budget: must be a number in (0, 1], got {budget}")
+    assert not (tmp_path / "a.csv").exists()

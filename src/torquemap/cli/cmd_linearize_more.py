@@ -11,6 +11,8 @@ import json
 import sys
 from typing import Any
 
+from torquemap.cli.argtypes import float_in
+
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add ``home`` and ``transfer`` to the ``linearize`` group's sub-parsers."""
@@ -186,7 +188,7 @@ def add_adaptive_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--budget",
-        type=float,
+        type=float_in(0.0, 1.0, low_open=True),  # names the flag (was a bare "budget fraction")
         default=None,
         help="adaptive: fraction of the settings' grid's readings to spend (default 1/3)",
     )
