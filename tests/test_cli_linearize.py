@@ -542,3 +542,24 @@ def test_a_budget_outside_its_range_names_the_flag(
     err = capsys.readouterr().err.strip().splitlines()
     assert err[-1].endswith(f"argument --budget: must be a number in (0, 1], got {budget}")
     assert not (tmp_path / "a.csv").exists()
+
+
+def test_fewer_actuation_bits_than_the_motor_is_warned(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # --actuation-bits 2 on a motor of 8-bit pulse widths: entries 0 .. 3, each step 85 pulse
+    # widths; before: written without a word (the option is for 16-bit drives)
+    write_case(tmp_path)
+    d = str(tmp_path)
+    args = ["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv", "-o"]
+    assert main([*args, f"{d}/a.npz", "--actuation-bits", "2"]) == 0
+    tables = load_tables(tmp_path / "a.npz")
+    assert int(tables.phases.max()) == 3  # what the warning says: entries 0 .. 3
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        f"torquemap: warning: {d}/motor.toml: --actuation-bits 2 gives entries 0 .. 3, coarser "
+        "than the motor's pulse widths 0 .. 255: each entry step is 85 pulse widths (the option "
+        "is for drives with more bits than the motor file's)"
+    ]
+    assert main([*args, f"{d}/b.npz", "--actuation-bits", "12"]) == 0
+    assert "actuation-bits" not in capsys.readouterr().err

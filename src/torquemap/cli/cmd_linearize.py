@@ -250,6 +250,16 @@ def _build(args: argparse.Namespace) -> int:
     print("wrote " + ", ".join(written))
     for warning in tables.warnings:
         print(f"torquemap: warning: {args.data}: {warning}", file=sys.stderr)
+    bits = args.actuation_bits
+    if bits is not None and (1 << bits) - 1 < spec.actuation_max:
+        # entries coarser than the motor's own pulse widths: resolution thrown away
+        print(
+            f"torquemap: warning: {args.motor}: --actuation-bits {bits} gives entries 0 .. "
+            f"{(1 << bits) - 1}, coarser than the motor's pulse widths 0 .. "
+            f"{spec.actuation_max}: each entry step is {spec.actuation_max / ((1 << bits) - 1):.3g} "
+            "pulse widths (the option is for drives with more bits than the motor file's)",
+            file=sys.stderr,
+        )
     warn_cut_last_lines([args.data])  # after the run: a refusal stays one line
     return 0
 
