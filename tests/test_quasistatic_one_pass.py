@@ -72,3 +72,22 @@ def test_a_max_order_the_holds_cannot_fit_names_the_largest(
         "64 holds cannot fit 31 orders; hold at more positions or give a max order of at most 30"
     )
     assert not out.exists()
+
+
+def test_holds_given_to_the_sweep_identification_point_to_quasi_static(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # before: only "no joint moves at a steady speed ... record constant-speed sweeps", for a
+    # calibration log that --quasi-static identifies (test above)
+    (tmp_path / "robot.toml").write_text(ROBOT)
+    _one_pass(tmp_path / "holds.csv", 64)
+    out = tmp_path / "model.toml"
+    argv = ["identify", str(tmp_path / "robot.toml"), str(tmp_path / "holds.csv"), "-o", str(out)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "holds.csv: no joint moves at a steady speed" in err[0]
+    assert err[0].endswith(
+        "; these logs hold the motor still at many positions (an anti-cogging calibration?): "
+        "identify --quasi-static reads them"
+    )
+    assert not out.exists()

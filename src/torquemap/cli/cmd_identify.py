@@ -215,17 +215,26 @@ def _identify_logs(args: argparse.Namespace) -> int:
         from torquemap.cli.cmd_cogging import identify_holds
 
         return identify_holds(model, logs, args)
-    result = progress.run(
-        "identify friction, inertia and PDTV",
-        lambda: identify_model(
-            model,
-            logs,
-            joints=args.joint,
-            max_order=args.max_order,
-            window=args.window,
-            friction=args.friction,
-        ),
-    )
+    try:
+        result = progress.run(
+            "identify friction, inertia and PDTV",
+            lambda: identify_model(
+                model,
+                logs,
+                joints=args.joint,
+                max_order=args.max_order,
+                window=args.window,
+                friction=args.friction,
+            ),
+        )
+    except InputError as exc:
+        if exc.message.startswith("no joint moves at a steady speed") and _holds_only(model, logs):
+            raise InputError(
+                exc.message + "; these logs hold the motor still at many positions (an "
+                "anti-cogging calibration?): identify --quasi-static reads them",
+                path=exc.path,
+            ) from None
+        raise
     write_toml(args.output, model_to_dict(result.model))
     for w in result.warnings:
         print(f"torquemap: warning: {w}", file=sys.stderr)
@@ -251,6 +260,18 @@ def _identify_logs(args: argparse.Namespace) -> int:
         )
     print(f"wrote {args.output}")
     return 0
+
+
+def _holds_only(model: Any, logs: list[Any]) -> bool:
+    """Whether ``identify --quasi-static`` finds position holds in ``logs`` (8 or more per
+    revolution for some joint): a log of holds given to the sweep identification."""
+    from torquemap.quasistatic import identify_quasi_static
+
+    try:
+        found = identify_quasi_static(model, logs)
+    except InputError:
+        return False
+    return bool(found.joints)
 
 
 def _spectrum(args: argparse.Namespace) -> int:
