@@ -434,3 +434,132 @@ def test_a_phase_table_cut_short_is_named(tmp_path: Path) -> None:
     np.savez(tmp_path / "short.npz", **arrays)
     with pytest.raises(InputError, match=r"table 'phase_2' has shape \(\d+, 100\), 'phase_1'"):
         load_tables(tmp_path / "short.npz")
+
+
+def test_data_of_the_other_kind_is_named(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # before: "missing column 'command' (the file has position, pulse_width, torque)", and
+    # the reverse, for a user who swapped the characterisation and the verification file
+    write_case(tmp_path)
+    d = str(tmp_path)
+    assert main(["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv", "-o", f"{d}/t.npz"]) == 0
+    p, c = np.meshgrid(np.arange(N), np.arange(0, 128, 8), indexing="ij")
+    write_table(
+        tmp_path / "v.csv",
+        {"position": p.ravel(), "command": c.ravel(), "torque": c.ravel() * 0.01},
+    )
+    capsys.readouterr()
+    assert (
+        main(
+            ["linearize", "evaluate", f"{d}/motor.toml", f"{d}/data.csv", "--tables", f"{d}/t.npz"]
+        )
+        == 2
+    )
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        f"torquemap: error: {d}/data.csv: characterisation data (pulse_width), but --tables "
+        "evaluates a verification run (position, command, torque: linearize collect --tables); "
+        "drop --tables to evaluate the characterisation"
+    ]
+    assert main(["linearize", "evaluate", f"{d}/motor.toml", f"{d}/v.csv"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        f"torquemap: error: {d}/v.csv: verification data (command), evaluated as a "
+        "characterisation: give the tables it was collected with, --tables TABLES.npz"
+    ]
+
+
+def test_a_command_step_past_half_way_says_which_step(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # linearize collect --tables --step 64 on 7-bit commands: 0, 64, 127. APMD's tau_ave is
+    # the torque at the half-way command 63.5 between the commands from 1: none below it.
+    # Before: "no position has data on both sides of the half-way command 63.5", no cause
+    write_case(tmp_path)
+    d = str(tmp_path)
+    assert main(["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv", "-o", f"{d}/t.npz"]) == 0
+    p, c = np.meshgrid(np.arange(N), [0, 64, 127], indexing="ij")
+    write_table(
+        tmp_path / "v.csv",
+        {"position": p.ravel(), "command": c.ravel(), "torque": c.ravel() * 0.01},
+    )
+    capsys.readouterr()
+    assert (
+        main(["linearize", "evaluate", f"{d}/motor.toml", f"{d}/v.csv", "--tables", f"{d}/t.npz"])
+        == 2
+    )
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"torquemap: error: {d}/v.csv: no position has")
+    assert "(the commands from 1 hold 2 values, 64 to 127, 0 cells below it)" in err[0]
+    assert err[0].endswith("(a collection --step or --pulse-step of at most 63)")
+    # --step 63 (0, 63, 126, 127) is evaluated
+    p, c = np.meshgrid(np.arange(N), [0, 63, 126, 127], indexing="ij")
+    write_table(
+        tmp_path / "v.csv",
+        {"position": p.ravel(), "command": c.ravel(), "torque": c.ravel() * 0.01},
+    )
+    assert (
+        main(["linearize", "evaluate", f"{d}/motor.toml", f"{d}/v.csv", "--tables", f"{d}/t.npz"])
+        == 0
+    )
+
+
+def test_a_collection_step_past_half_way_is_warned_when_collecting(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # warned before the rig time is spent (the data are collected: build can use them)
+    d = tmp_path / "rig"
+    argv = ["simulate", "rig", "--motor", "vr", "--out", str(d), "--readings", "1"]
+    argv += ["--position-step", "64", "--no-progress", "--pulse-step"]
+    assert main([*argv, "200"]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        f"torquemap: warning: {d / 'data.csv'}: a step of 200 leaves no pulse width from 1 below "
+        "half way (127.5): linearize evaluate cannot read the APMD's reference torque there; a "
+        "step of at most 127 can"
+    ]
+    assert main(["linearize", "evaluate", f"{d}/motor.toml", f"{d}/data.csv"]) == 2
+    assert "at most 127)" in capsys.readouterr().err
+    again = ["linearize", "collect", f"{d}/motor.toml", "--sim", "vr", "--readings", "1"]
+    again += ["--position-step", "64", "--no-progress", "--step"]
+    assert main([*again, "200", "-o", f"{tmp_path}/b.csv"]) == 0
+    assert "a step of 200 leaves no pulse width" in capsys.readouterr().err
+    assert main([*again, "127", "-o", f"{tmp_path}/c.csv"]) == 0
+    assert "warning" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("budget", ["0", "10", "nan"])
+def test_a_budget_outside_its_range_names_the_flag(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], budget: str
+) -> None:
+    # before: "torquemap: error: the budget fraction must be in (0, 1], got 10.0", no flag
+    write_case(tmp_path)
+    argv = ["linearize", "collect", f"{tmp_path}/motor.toml", "--sim", "vr", "--adaptive"]
+    with pytest.raises(SystemExit) as exit_info:
+        main([*argv, "--budget", budget, "-o", f"{tmp_path}/a.csv"])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1].endswith(f"argument --budget: must be a number in (0, 1], got {budget}")
+    assert not (tmp_path / "a.csv").exists()
+
+
+def test_fewer_actuation_bits_than_the_motor_is_warned(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # --actuation-bits 2 on a motor of 8-bit pulse widths: entries 0 .. 3, each step 85 pulse
+    # widths; before: written without a word (the option is for 16-bit drives)
+    write_case(tmp_path)
+    d = str(tmp_path)
+    args = ["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv", "-o"]
+    assert main([*args, f"{d}/a.npz", "--actuation-bits", "2"]) == 0
+    tables = load_tables(tmp_path / "a.npz")
+    assert int(tables.phases.max()) == 3  # what the warning says: entries 0 .. 3
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        f"torquemap: warning: {d}/motor.toml: --actuation-bits 2 gives entries 0 .. 3, coarser "
+        "than the motor's pulse widths 0 .. 255: each entry step is 85 pulse widths (the option "
+        "is for drives with more bits than the motor file's)"
+    ]
+    assert main([*args, f"{d}/b.npz", "--actuation-bits", "12"]) == 0
+    assert "actuation-bits" not in capsys.readouterr().err

@@ -65,6 +65,17 @@ def test_repeatability_on_the_default_motor_is_within_the_friction_hysteresis() 
     assert np.all(np.abs(err) <= 1.0)
 
 
+def test_friction_the_phases_cannot_overcome_is_named() -> None:
+    # bearing friction at 99 % of a phase's peak torque (linearize home --friction 0.99): the
+    # phases are alive; before, the refusal asked only "a phase that produces no torque?"
+    from torquemap.sim.rig import sim_rig
+
+    ms = sim_rig("vr", rng=0).motor_spec()
+    with pytest.raises(InputError, match="did not pull the motor") as info:
+        home_on_sim(ms, sim="vr", seed=3, repeats=1, friction_fraction=0.99)
+    assert "or a load or friction it cannot overcome?" in str(info.value)
+
+
 def test_dead_phase_and_wrong_motor_file_are_input_errors() -> None:
     dead = FreeMotorRig(
         _sine_motor(phase_gain=(1.0, 0.0, 1.0)), Amplifier(), friction=1.0, friction_spread=0.0
@@ -91,6 +102,16 @@ def test_cli_home(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     path = tmp_path / "motor.toml"
     write_toml(path, motor_to_dict(sim_rig("bldc", rng=0).motor_spec()))
     assert main(["linearize", "home", str(path), "--sim", "bldc", "--repeats", "1"]) == 0
+    # one homing has no spread to measure (before: "repeatability: std 0.000, range 0.000")
+    out = capsys.readouterr().out
+    assert "repeatability: not measured by one homing (--repeats 2 or more)" in out
+    assert "std" not in out
+    assert main(["linearize", "home", str(path), "--sim", "bldc", "--repeats", "1", "--json"]) == 0
+    import json
+
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["repeatability_std"] is None and summary["range"] is None
+    assert main(["linearize", "home", str(path), "--sim", "bldc", "--repeats", "2"]) == 0
     assert "repeatability: std" in capsys.readouterr().out
     assert main(["linearize", "home", str(path), "--sim", "vr"]) == 2
     assert "the simulated vr motor has 3 and 512" in capsys.readouterr().err

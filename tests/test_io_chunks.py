@@ -149,3 +149,53 @@ def test_a_multi_turn_counter_is_not_unwrapped_across_a_gap(tmp_path: Path, rows
     assert_allclose(whole, motor_angle / 50.0, atol=2 * math.pi / 8192 / 50.0)
     chunks = np.concatenate([c.q[:, 0] for c in iter_log_chunks(p, COUNTS, rows=rows)])
     assert_array_equal(chunks, whole)
+
+
+@pytest.mark.parametrize("how", ["truncated", "replaced", "removed"])
+def test_a_followed_log_that_is_truncated_or_replaced_is_refused(tmp_path: Path, how: str) -> None:
+    # the logger restarts and writes a new log under the same name; before: the follower
+    # waited at its old position (or on the old file), missed every new row and ended after
+    # the timeout with exit 0
+    cols = _counts_log(3000)
+    p = tmp_path / "full.csv"
+    write_table(p, cols)
+    text = p.read_bytes()
+    growing = tmp_path / "growing.csv"
+    growing.write_bytes(text[:40000])
+    calls = []
+
+    def sleep(seconds: float) -> None:
+        calls.append(seconds)
+        if len(calls) == 1:
+            if how == "truncated":
+                growing.write_bytes(text[:2000])  # same file, shorter, then growing again
+            elif how == "replaced":
+                other = tmp_path / "new.csv"
+                other.write_bytes(text[:45000])
+                other.replace(growing)
+            else:
+                growing.unlink()
+
+    message = {"truncated": "truncated or replaced", "replaced": "truncated or replaced"}
+    with pytest.raises(InputError, match=message.get(how, "removed while it was followed")):
+        list(follow_log_chunks(growing, COUNTS, poll=0.5, timeout=5.0, sleep=sleep))
+
+
+def test_a_log_rewritten_in_place_for_a_moment_is_followed(tmp_path: Path) -> None:
+    # a writer that rewrites the whole file passes through a shorter file: one poll of it is
+    # not a truncation
+    cols = _counts_log(3000)
+    p = tmp_path / "full.csv"
+    write_table(p, cols)
+    text = p.read_bytes()
+    growing = tmp_path / "growing.csv"
+    growing.write_bytes(text[:40000])
+    states = iter([text[:100], text])
+
+    def sleep(seconds: float) -> None:
+        nxt = next(states, None)
+        if nxt is not None:
+            growing.write_bytes(nxt)
+
+    got = list(follow_log_chunks(growing, COUNTS, poll=0.5, timeout=1.0, sleep=sleep))
+    assert_array_equal(np.concatenate([c.t for c in got]), read_log(p, COUNTS).t)

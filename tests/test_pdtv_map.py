@@ -67,3 +67,55 @@ def test_exports(tmp_path: Path) -> None:
     cols = read_table(tmp_path / "m.csv")
     assert list(cols) == ["motor_angle", "torque", "current"]
     assert_allclose(cols["current"], table.current)
+
+
+def test_too_few_bins_for_a_line_is_warned(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a 12-slot 14-pole motor's 84 CPR line in 128 bins: the staircase of bin-centre values
+    # carries a 128 - 84 = 44 CPR ripple of the line's own size (its DFT, computed here
+    # independently), which the motor does not have; before: written silently, exit 0
+    from torquemap.cli.main import main
+    from torquemap.model import save_model
+
+    model = Model(robot=RB, joints={"m": JointModel(pdtv=(PdtvLine(84, 0.01, 0.3),))})
+    save_model(tmp_path / "m.toml", model)
+    table = pdtv_map(model, "m", bins=128)
+    spectrum = np.abs(np.fft.rfft(table.torque)) * 2 / 128
+    assert spectrum[44] == pytest.approx(0.01, rel=1e-9)  # all of the line lands at 44 CPR
+    out = tmp_path / "m.csv"
+    argv = ["pdtv-map", str(tmp_path / "m.toml"), "--joint", "m", "--bins", "128", "-o", str(out)]
+    assert main(argv) == 0 and out.exists()
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "m.toml: joint 'm': 128 bins cannot hold" in err[0]
+    assert "order 84 CPR" in err[0] and "--bins 169 or more" in err[0]
+    argv[5] = "169"
+    assert main(argv) == 0 and capsys.readouterr().err == ""
+
+
+def test_a_line_of_non_integer_order_is_left_out_and_named(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a 9:1 gearbox's joint-side ripple at 2.25 CPR of the motor: a table over one motor
+    # revolution repeats every revolution, so tabulated the line is wrong on the next
+    # revolutions (at 2 pi + theta it is off by 2 A |sin(0.25 pi)|, 1.41 A); before: tabulated
+    # silently. Out of the bins, the table is the integer line alone (closed form)
+    from torquemap.cli.main import main
+    from torquemap.model import save_model
+
+    lines = (PdtvLine(7, 0.01, 0.3), PdtvLine(2.25, 0.02, 0.0))
+    model = Model(robot=RB, joints={"m": JointModel(pdtv=lines)})
+    table = pdtv_map(model, "m", bins=256)
+    assert_allclose(table.torque, 0.01 * np.cos(7 * table.motor_angle + 0.3), atol=1e-15)
+    # at given angles (an evaluation, not a table) every line counts
+    at = pdtv_map(model, "m", motor_angle=[2 * np.pi])
+    assert_allclose(at.torque, 0.01 * np.cos(7 * 2 * np.pi + 0.3) + 0.02 * np.cos(4.5 * np.pi))
+    save_model(tmp_path / "m.toml", model)
+    argv = ["pdtv-map", str(tmp_path / "m.toml"), "--joint", "m", "--bins", "256", "-o"]
+    assert main([*argv, str(tmp_path / "m.csv")]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        f"torquemap: warning: {tmp_path / 'm.toml'}: joint 'm': PDTV line(s) of non-integer "
+        "order left out of the table: 2.25 CPR (0.02 N m); a table over one motor revolution "
+        "repeats every revolution and cannot hold them (joint-side or gearbox ripple?)"
+    ]

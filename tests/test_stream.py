@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import time
 from pathlib import Path
 
@@ -146,3 +147,49 @@ def test_the_summary_median_keeps_every_stride_th_value() -> None:
     assert keep.stride == 16  # 10000 values into at most 1000: halved four times
     # exactly the median of every 16th value (an independent decimation of the whole)
     assert keep.median() == np.median(values[::16])
+
+
+def _one_motor() -> Model:
+    from torquemap.model import model_from_dict
+
+    return model_from_dict(
+        {
+            "robot": {"kinematics": "none"},
+            "joints": {"m": {"gear_ratio": 10, "torque_constant": 0.5}},
+        }
+    )
+
+
+@pytest.mark.parametrize("step", [1, 700])
+def test_a_gap_longer_than_the_margin_is_flagged_as_in_the_batch(step: int) -> None:
+    # a 10 s gap (the logger paused) is longer than the stream's 2.2 s margin, so no block
+    # held both of its sides; before: the filters' support next to it was flagged 0 (sound)
+    # in the stream and 8 (gap) in the batch, with the same numbers
+    from torquemap.io import Log
+
+    m = _one_motor()
+    t = np.r_[np.arange(0.0, 6.0, 1e-3), np.arange(16.0, 22.0, 1e-3)]
+    rng = np.random.default_rng(0)
+    q = np.sin(t)[:, None]
+    i = (0.2 + 0.01 * np.sin(3 * t) + rng.normal(0.0, 1e-3, t.size))[:, None]
+    batch = estimate_forces(m, Log(t=t, q=q, motor_torque=0.5 * i, joint_names=("m",)))
+    assert 0 < np.count_nonzero(batch.flag == 8) < t.size // 4  # the gap's two sides
+    est = ForceEstimator(m)
+    # updates of `step` rows over the 2 s either side of the gap, 2000 rows elsewhere
+    cuts = np.r_[0, 2000, 4000, np.arange(4000, 8000, step), 8000, 10_000, t.size]
+    parts = [est.update(t[a:b], q[a:b], i[a:b]) for a, b in itertools.pairwise(cuts)]
+    parts.append(est.finish())
+    got = _concatenate([p for p in parts if p.t.size])
+    np.testing.assert_array_equal(got.t, t)
+    np.testing.assert_array_equal(got.flag, batch.flag)
+    _finite_equal(got.tau_ext, batch.tau_ext, 1e-6)
+    assert any("gaps in time" in w for w in est.warnings)
+
+
+def test_samples_of_the_wrong_shape_are_named() -> None:
+    est = ForceEstimator(_one_motor())
+    with pytest.raises(InputError, match=r"i has shape \(3, 1\) for 2 times of 1 joints \(m\)"):
+        est.update([0.0, 0.001], np.zeros((2, 1)), np.zeros((3, 1)))
+    with pytest.raises(InputError, match=r"q has shape \(2, 2\) for 2 times of 1 joints"):
+        est.update([0.0, 0.001], np.zeros((2, 2)), np.zeros((2, 1)))
+    assert est.buffered == 0  # nothing half-taken

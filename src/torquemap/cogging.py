@@ -197,13 +197,16 @@ def _ripple(
         raise InputError(exc.message, path=log.path) from None
     torque = log.motor_torque[:, k].copy()
     if subtract_map:
-        torque -= pdtv_map(model, joint, motor_angle=theta).torque
+        # what the drive applied: the exported table's lines (integer orders only)
+        torque -= pdtv_map(model, joint, motor_angle=theta, table_lines=True).torque
     label = _steady_runs(d.velocity, tolerance=0.2)
     ok = label >= 0
     revs = float(np.sum(np.abs(np.diff(theta))[ok[1:]])) / TWO_PI
     if revs < 1.0:
+        total = float(np.sum(np.abs(np.diff(theta)))) / TWO_PI
         raise InputError(
-            f"joint {joint}: the log holds {revs:.2g} motor revolutions at a steady speed; "
+            f"joint {joint}: the log holds {revs:.2g} motor revolutions at a steady speed "
+            f"(within 20 % of its pass's median speed; {total:.2g} revolutions in all); "
             "verification needs a sweep of at least one revolution",
             path=log.path,
         )

@@ -653,6 +653,7 @@ def estimate_forces(
     warnings += slow_task_warnings(model, out["velocity"])
     warnings += gap_task_warnings(model, out["velocity"])
     warnings += fast_task_warnings(model, out["velocity"])
+    warnings += one_direction_task_warnings(model, out["velocity"])
     warnings += torque_scale_warnings(model, log.motor_torque)
     warnings += unidentified_joint_warnings(model)
     gear = np.array([j.gear_ratio for j in robot.joints])
@@ -1412,6 +1413,47 @@ def slow_task_warnings(model: Model, velocity: NDArray[np.float64]) -> list[str]
             f"below {low:.3g} rad/s), where friction is extrapolated from ramps and the "
             f"identification's prior; record sweep passes down to about {low:.2g} rad/s"
         )
+    return out
+
+
+def one_direction_task_warnings(model: Model, velocity: NDArray[np.float64]) -> list[str]:
+    """One line per joint that identification never saw move in one direction (its model's
+    warnings say the direction took the other's friction) whose log moves that way on at least
+    ``SLOW_TASK_SHARE`` of its samples (beyond the law's transition through zero): there the
+    friction is the other direction's, copied, not measured, and the external torque carries
+    their difference. ``velocity`` is the motor velocity [rad/s], shape (n, n_joints).
+
+    Examples
+    --------
+    >>> from torquemap.robot import robot_from_dict
+    >>> rb = robot_from_dict({"robot": {"name": "m", "kinematics": "none"}, "joints": {"a": {
+    ...     "gear_ratio": 1.0, "torque_constant": 0.1, "encoder_counts_per_rev": 4096}}})
+    >>> notes = {"warnings": ["joint a: never moved in the negative direction: it takes the "
+    ...                       "positive direction's friction"]}
+    >>> m = Model(robot=rb, joints={}, notes=notes)
+    >>> one_direction_task_warnings(m, np.linspace(-2.0, 2.0, 100)[:, None])[0][:58]
+    'joint a: 50% of the samples move in the negative direction'
+    """
+    notes = model.notes.get("warnings", [])
+    said = [str(w) for w in notes] if isinstance(notes, list | tuple) else []
+    out: list[str] = []
+    for k, name in enumerate(model.robot.joint_names):
+        for sign, way, other in ((-1.0, "negative", "positive"), (1.0, "positive", "negative")):
+            if not any(
+                w.startswith(f"joint {name}: never moved in the {way} direction") for w in said
+            ):
+                continue
+            law = model.joints[name].friction if name in model.joints else None
+            v = velocity[:, k]
+            v = v[np.isfinite(v)]
+            moving = np.count_nonzero(sign * v > TRANSITION_SPAN * _law_width(law))
+            if v.size == 0 or moving < SLOW_TASK_SHARE * v.size:
+                continue
+            out.append(
+                f"joint {name}: {moving / v.size:.0%} of the samples move in the {way} "
+                "direction, which the identification logs never did: its friction there is "
+                f"the {other} direction's, copied, not measured; identify from sweeps both ways"
+            )
     return out
 
 

@@ -13,7 +13,7 @@ import tempfile
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 import tomli_w
@@ -1016,6 +1016,26 @@ def iter_log_chunks(
     chain.close()
 
 
+def _check_still_growing(path: Path, handle: BinaryIO, *, refuse: bool) -> bool:
+    """Whether the followed file is now shorter than what was read; InputError when it was
+    replaced or removed, or is shorter and ``refuse``: the rows written after that would be
+    silently missed (the reader waits at its old position in the old file)."""
+    try:
+        now = os.stat(path)
+    except OSError:
+        raise InputError("the log was removed while it was followed", path=path) from None
+    read = handle.tell()
+    replaced = now.st_ino != os.fstat(handle.fileno()).st_ino
+    shorter = now.st_size < read
+    if replaced or (shorter and refuse):
+        raise InputError(
+            f"the log was truncated or replaced while it was followed ({now.st_size} bytes "
+            f"now, {read} read): follow a file that only grows, one run per file",
+            path=path,
+        )
+    return shorter
+
+
 class _ChunkChain:
     """Checks and state carried from one chunk of a log to the next (time, counts, rows)."""
 
@@ -1122,6 +1142,7 @@ def follow_log_chunks(
         pending = b""
         quiet = 0.0
         stop = False
+        shrunk = False
         while True:
             data = handle.read()
             if data:
@@ -1148,6 +1169,9 @@ def follow_log_chunks(
             if stop:
                 break
             if not data:
+                # two polls in a row: a writer that rewrites the file in place passes through
+                # a shorter file for a moment
+                shrunk = _check_still_growing(p, handle, refuse=shrunk)
                 if quiet >= timeout:
                     stop = True
                     continue

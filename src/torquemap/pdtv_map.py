@@ -67,6 +67,7 @@ def pdtv_map(
     bins: int = 1024,
     motor_angle: ArrayLike | None = None,
     direction: Literal["mean", "positive", "negative"] = "mean",
+    table_lines: bool | None = None,
 ) -> PdtvMap:
     """Tabulate a joint's PDTV over one motor revolution.
 
@@ -78,10 +79,16 @@ def pdtv_map(
         Joint name.
     bins
         Number of bins over one revolution; bin ``k`` is centred at ``(k + 0.5) 2 pi / bins``.
+        Lines of non-integer order are left out of the bins (they do not repeat every
+        revolution; :func:`fractional_orders`).
     motor_angle
         Evaluate at these motor angles [rad] instead of bin centres, shape (m,).
     direction
         Directional lines: ``"mean"`` of both directions, or one direction's.
+    table_lines
+        Only the lines a table over one revolution holds (integer orders): default for
+        ``bins``; with ``motor_angle``, what a drive applying the exported table adds there
+        (``cogging verify``), else every line (default).
 
     Returns
     -------
@@ -114,13 +121,74 @@ def pdtv_map(
         theta = (np.arange(bins, dtype=np.float64) + 0.5) * (TWO_PI / bins)
     else:
         theta = np.asarray(motor_angle, dtype=np.float64).ravel()
+    lines = jm.pdtv
+    if (motor_angle is None) if table_lines is None else table_lines:
+        # a table over one revolution repeats every revolution: a line of non-integer order
+        # does not, and tabulated it would be wrong by up to twice itself on the revolutions
+        # after the first; left out (fractional_orders names them)
+        lines = tuple(ln for ln in lines if _is_integer(ln.order))
     if direction == "mean":
-        torque = _mean_direction(jm.pdtv, theta)
+        torque = _mean_direction(lines, theta)
     else:
         sign = 1.0 if direction == "positive" else -1.0
-        torque = pdtv_torque(theta, jm.pdtv, velocity=np.full_like(theta, sign))
+        torque = pdtv_torque(theta, lines, velocity=np.full_like(theta, sign))
     return PdtvMap(
         joint=joint, motor_angle=theta, torque=torque, current=torque / jt.torque_constant
+    )
+
+
+def _is_integer(order: float) -> bool:
+    return abs(order - round(order)) <= 1e-9 * max(1.0, abs(order))
+
+
+def fractional_orders(model: Model, joint: str) -> tuple[tuple[float, float], ...]:
+    """``(order [CPR], amplitude [N m])`` of a joint's PDTV lines of non-integer order, which a
+    table over one motor revolution cannot hold (:func:`pdtv_map` leaves them out of its bins).
+
+    Examples
+    --------
+    >>> from torquemap.robot import robot_from_dict
+    >>> from torquemap.model import JointModel
+    >>> rb = robot_from_dict({"robot": {"kinematics": "none"},
+    ...                       "joints": {"m": {"gear_ratio": 9, "torque_constant": 0.5}}})
+    >>> jm = JointModel(pdtv=(PdtvLine(order=7, amplitude=1.0, phase=0.0),
+    ...                       PdtvLine(order=2.25, amplitude=0.5, phase=0.0)))
+    >>> fractional_orders(Model(robot=rb, joints={"m": jm}), "m")
+    ((2.25, 0.5),)
+    """
+    model.robot.joint(joint)
+    return tuple(
+        (float(ln.order), float(ln.amplitude))
+        for ln in model.joints[joint].pdtv
+        if not _is_integer(ln.order)
+    )
+
+
+def aliased_orders(model: Model, joint: str, bins: int) -> tuple[float, ...]:
+    """Orders [CPR] of a joint's PDTV lines that a table of ``bins`` bins cannot hold.
+
+    A firmware applies the table as a staircase (each bin's value over its interval). A line
+    of order ``n >= bins / 2`` is sampled at two or fewer bins per period: the staircase then
+    carries an alias of order ``|bins - n|`` (or none, at ``n = bins / 2`` with a phase of
+    zeros), a ripple the motor does not have.
+
+    Examples
+    --------
+    >>> from torquemap.robot import robot_from_dict
+    >>> from torquemap.model import JointModel
+    >>> rb = robot_from_dict({"robot": {"kinematics": "none"},
+    ...                       "joints": {"m": {"gear_ratio": 1, "torque_constant": 0.5}}})
+    >>> jm = JointModel(pdtv=(PdtvLine(order=7, amplitude=1.0, phase=0.0),
+    ...                       PdtvLine(order=84, amplitude=1.0, phase=0.0)))
+    >>> aliased_orders(Model(robot=rb, joints={"m": jm}), "m", 128)
+    (84.0,)
+    """
+    model.robot.joint(joint)
+    jm = model.joints[joint]
+    return tuple(
+        sorted(
+            {float(ln.order) for ln in jm.pdtv if 2.0 * ln.order >= bins and _is_integer(ln.order)}
+        )
     )
 
 

@@ -247,12 +247,22 @@ def fit_holds(
             f"{limit} CPR; max order {max_order:g} lowered to {limit}"
         )
     groups = (holds.approach > 0).astype(np.int64)
-    orders = [float(o) for o in range(1, top + 1)]
     n_groups = np.unique(groups).size
+    # most orders the holds fit with some left to measure their scatter
+    fits = (holds.torque.size - n_groups - 2) // 2
+    if max_order is None and top > fits:
+        # one pass at N positions (ODrive's calibration) resolves N / 2 orders but cannot fit
+        # them all: search up to the order that leaves half the holds to measure the scatter
+        top = max(1, (holds.torque.size // 2 - n_groups - 2) // 2)
+        warnings.append(
+            f"joint {name}: {holds.torque.size} holds fit orders up to {top} CPR (half the "
+            f"holds measure their scatter); hold on the way back too to search up to {limit}"
+        )
+    orders = [float(o) for o in range(1, top + 1)]
     if holds.torque.size < 2 * len(orders) + n_groups + 2:
         raise InputError(
             f"joint {name}: {holds.torque.size} holds cannot fit {len(orders)} orders; "
-            "hold at more positions or lower the max order"
+            f"hold at more positions or give a max order of at most {max(fits, 0)}"
         )
     fit: HarmonicFit | None = fit_harmonics(
         holds.motor_angle, holds.torque, orders=orders, groups=groups
@@ -401,7 +411,15 @@ def identify_quasi_static(
         if _distinct_positions(holds.motor_angle) < 8:
             if joints is None:
                 continue
-        res = fit_holds(holds, max_order=max_order, false_alarm=false_alarm, name=name)
+        try:
+            res = fit_holds(holds, max_order=max_order, false_alarm=false_alarm, name=name)
+        except InputError as exc:  # name the log(s) the holds came from
+            paths = ", ".join(
+                dict.fromkeys(str(log.path) for log in logs if not str(log.path).startswith("<"))
+            )
+            if exc.path is None and paths:
+                raise InputError(exc.message, path=paths) from None
+            raise
         results[name] = res
         warnings.extend(res.warnings)
         lines: tuple[PdtvLine, ...] = ()

@@ -45,6 +45,7 @@ from torquemap.estimate import (
 )
 from torquemap.io import Log, LogChunk
 from torquemap.model import Model
+from torquemap.sanitize import max_gap_for
 
 StreamMethod = Literal["model", "lowpass", "raw"]
 
@@ -295,6 +296,8 @@ class ForceEstimator:
             tolerance=tolerance,
             hold=hold,
         )
+        # the filters' support next to a gap, flagged there (as estimate_forces)
+        self._support = self.window if method == "raw" else max(self.window, 1.0 / cutoff)
         self.hop = float(hop)
         self.max_rows = int(max_rows)
         nj = len(model.robot.joints)
@@ -366,15 +369,28 @@ class ForceEstimator:
             The newly settled samples, in time order (possibly none).
         """
         tt = np.atleast_1d(np.asarray(t, dtype=np.float64))
-        qq = np.asarray(q, dtype=np.float64).reshape(tt.size, self._nj)
-        if (i is None) == (motor_torque is None):
-            raise InputError("give the motor currents i or the motor torques, one of them")
-        if motor_torque is None:
+        if tt.ndim != 1:
+            raise InputError(f"t must be one time per sample, got shape {tt.shape}", path=self.path)
+        qq = self._rows_of("q", q, tt.size)
+        if i is not None and motor_torque is None:
             kt = np.array([j.torque_constant for j in self.model.robot.joints])
-            tau = np.asarray(i, dtype=np.float64).reshape(tt.size, self._nj) * kt
+            tau = self._rows_of("i", i, tt.size) * kt
+        elif motor_torque is not None and i is None:
+            tau = self._rows_of("motor_torque", motor_torque, tt.size)
         else:
-            tau = np.asarray(motor_torque, dtype=np.float64).reshape(tt.size, self._nj)
+            raise InputError("give the motor currents i or the motor torques, one of them")
         return self._push(tt, qq, tau)
+
+    def _rows_of(self, name: str, values: ArrayLike, m: int) -> NDArray[np.float64]:
+        """``values`` as (m, n_joints); a refusal naming the shapes otherwise."""
+        v = np.asarray(values, dtype=np.float64)
+        if v.size != m * self._nj or (v.ndim == 2 and v.shape != (m, self._nj)) or v.ndim > 2:
+            raise InputError(
+                f"{name} has shape {v.shape} for {m} times of {self._nj} joints "
+                f"({', '.join(self.model.robot.joint_names)}): give shape ({m}, {self._nj})",
+                path=self.path,
+            )
+        return v.reshape(m, self._nj)
 
     def update_chunk(self, chunk: LogChunk | Log) -> ForceEstimate:
         """:meth:`update` with a chunk of a log file (:func:`torquemap.io.iter_log_chunks`)."""
@@ -447,11 +463,13 @@ class ForceEstimator:
             hi = t.size if final else int(np.searchsorted(t, t[end - 1] + self.margin, "right"))
             if final and end < t.size:
                 hi = int(np.searchsorted(t, t[end - 1] + self.margin, side="right"))
-            out.append(self._block(lo, hi, e0, end))
+            part = self._block(lo, hi, e0, end)
+            out.append(self._flag_outer_gaps(part, lo, hi))
             self._emitted = end
             self._t_next = float(t[end]) if end < t.size else None
             # keep what the next block's margin reaches back to
             keep = int(np.searchsorted(t, t[end - 1] - self.margin, side="left"))
+            keep = max(keep - 1, 0)  # and the row before it, in case a gap lies between
             self._t, self._q, self._tau = t[keep:], self._q[keep:], self._tau[keep:]
             self._rows -= keep
             self._emitted -= keep
@@ -462,6 +480,31 @@ class ForceEstimator:
         if len(out) == 1:
             return out[0]
         return _concatenate(out)
+
+    def _flag_outer_gaps(self, part: ForceEstimate, lo: int, hi: int) -> ForceEstimate:
+        """Flag the rows next to a gap just outside the block (longer than the margin, so the
+        block did not see it) as the batch flags the filters' support by a gap."""
+        t = self._t
+        gap = max_gap_for(self.window)
+        edges = []
+        if lo > 0 and t[lo] - t[lo - 1] > gap:
+            edges.append((float(t[lo]), float(t[lo]) + self._support, float(t[lo] - t[lo - 1])))
+        if hi < t.size and t[hi] - t[hi - 1] > gap:
+            last = float(t[hi - 1])
+            edges.append((last - self._support, last, float(t[hi] - t[hi - 1])))
+        if not edges or part.t.size == 0:
+            return part
+        flag = part.flag.copy()
+        for a, b, length in edges:
+            flag[(part.t >= a) & (part.t <= b)] |= FLAG_GAP
+            key = "gap in time"
+            if key not in self._warnings:
+                self._warnings[key] = [
+                    f"gaps in time longer than {gap:.3g} s (the first {length:.3g} s): "
+                    "the log is processed in pieces between them",
+                    1,
+                ]
+        return dataclasses.replace(part, flag=flag)
 
     def _block(self, lo: int, hi: int, a: int, b: int) -> ForceEstimate:
         log = Log(

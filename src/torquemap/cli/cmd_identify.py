@@ -215,17 +215,26 @@ def _identify_logs(args: argparse.Namespace) -> int:
         from torquemap.cli.cmd_cogging import identify_holds
 
         return identify_holds(model, logs, args)
-    result = progress.run(
-        "identify friction, inertia and PDTV",
-        lambda: identify_model(
-            model,
-            logs,
-            joints=args.joint,
-            max_order=args.max_order,
-            window=args.window,
-            friction=args.friction,
-        ),
-    )
+    try:
+        result = progress.run(
+            "identify friction, inertia and PDTV",
+            lambda: identify_model(
+                model,
+                logs,
+                joints=args.joint,
+                max_order=args.max_order,
+                window=args.window,
+                friction=args.friction,
+            ),
+        )
+    except InputError as exc:
+        if exc.message.startswith("no joint moves at a steady speed") and _holds_only(model, logs):
+            raise InputError(
+                exc.message + "; these logs hold the motor still at many positions (an "
+                "anti-cogging calibration?): identify --quasi-static reads them",
+                path=exc.path,
+            ) from None
+        raise
     write_toml(args.output, model_to_dict(result.model))
     for w in result.warnings:
         print(f"torquemap: warning: {w}", file=sys.stderr)
@@ -251,6 +260,18 @@ def _identify_logs(args: argparse.Namespace) -> int:
         )
     print(f"wrote {args.output}")
     return 0
+
+
+def _holds_only(model: Any, logs: list[Any]) -> bool:
+    """Whether ``identify --quasi-static`` finds position holds in ``logs`` (8 or more per
+    revolution for some joint): a log of holds given to the sweep identification."""
+    from torquemap.quasistatic import identify_quasi_static
+
+    try:
+        found = identify_quasi_static(model, logs)
+    except InputError:
+        return False
+    return bool(found.joints)
 
 
 def _spectrum(args: argparse.Namespace) -> int:
@@ -322,7 +343,7 @@ def _spectrum(args: argparse.Namespace) -> int:
 
 def _pdtv_map(args: argparse.Namespace) -> int:
     from torquemap.model import load_model
-    from torquemap.pdtv_map import pdtv_map, write_pdtv_map
+    from torquemap.pdtv_map import aliased_orders, fractional_orders, pdtv_map, write_pdtv_map
 
     file_format = _map_format(args.output, args.format)
     suffixes = {"csv": (".csv", ".parquet"), "json": (".json",), "c-header": (".h",)}[file_format]
@@ -335,6 +356,27 @@ def _pdtv_map(args: argparse.Namespace) -> int:
         print(
             f"torquemap: warning: {args.model}: joint {args.joint!r} has no PDTV lines, the map "
             "is all zeros (a robot file, or identification found no line above the noise?)",
+            file=sys.stderr,
+        )
+    fractional = fractional_orders(model, args.joint)
+    if fractional:
+        named = ", ".join(f"{n:g} CPR ({a:.3g} N m)" for n, a in fractional)
+        print(
+            f"torquemap: warning: {args.model}: joint {args.joint!r}: PDTV line(s) of "
+            f"non-integer order left out of the table: {named}; a table over one motor "
+            "revolution repeats every revolution and cannot hold them (joint-side or gearbox "
+            "ripple?)",
+            file=sys.stderr,
+        )
+    aliased = aliased_orders(model, args.joint, args.bins)
+    if aliased:
+        top = max(aliased)
+        print(
+            f"torquemap: warning: {args.model}: joint {args.joint!r}: {args.bins} bins cannot "
+            f"hold its PDTV line(s) of order {', '.join(f'{n:g}' for n in aliased)} CPR (fewer "
+            "than 2 bins a period: the staircase a firmware applies turns them into other "
+            f"orders or amplitudes); use --bins "
+            f"{int(2 * top) + 1} or more",
             file=sys.stderr,
         )
     write_pdtv_map(args.output, table, file_format=file_format, int_type=args.int_type)

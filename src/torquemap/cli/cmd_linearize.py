@@ -9,11 +9,15 @@ import argparse
 import json
 import math
 import sys
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from torquemap.cli.argtypes import float_in, int_in
 from torquemap.cli.helptext import described
 from torquemap.cli.outputs import C_HEADER, JSON, NPZ, check_outputs, warn_cut_last_lines
+
+if TYPE_CHECKING:
+    from torquemap.linearize.motor import MotorSpec
+    from torquemap.linearize.tables import DataKind, LinearizeData
 
 
 def _weight(text: str) -> float:
@@ -246,8 +250,44 @@ def _build(args: argparse.Namespace) -> int:
     print("wrote " + ", ".join(written))
     for warning in tables.warnings:
         print(f"torquemap: warning: {args.data}: {warning}", file=sys.stderr)
+    bits = args.actuation_bits
+    if bits is not None and (1 << bits) - 1 < spec.actuation_max:
+        # entries coarser than the motor's own pulse widths: resolution thrown away
+        print(
+            f"torquemap: warning: {args.motor}: --actuation-bits {bits} gives entries 0 .. "
+            f"{(1 << bits) - 1}, coarser than the motor's pulse widths 0 .. "
+            f"{spec.actuation_max}: each entry step is {spec.actuation_max / ((1 << bits) - 1):.3g} "
+            "pulse widths (the option is for drives with more bits than the motor file's)",
+            file=sys.stderr,
+        )
     warn_cut_last_lines([args.data])  # after the run: a refusal stays one line
     return 0
+
+
+def _read_evaluated(args: argparse.Namespace, spec: MotorSpec, kind: DataKind) -> LinearizeData:
+    """DATA.csv of ``kind``; a file of the other kind is named as such (was: a missing column)."""
+    from torquemap.errors import InputError
+    from torquemap.linearize.tables import read_data
+
+    try:
+        return read_data(args.data, spec, kind=kind)
+    except InputError as exc:
+        if kind == "verification" and exc.message.startswith("missing column 'command'"):
+            if "pulse_width" in exc.message:
+                raise InputError(
+                    "characterisation data (pulse_width), but --tables evaluates a verification "
+                    "run (position, command, torque: linearize collect --tables); drop --tables "
+                    "to evaluate the characterisation",
+                    path=exc.path,
+                ) from None
+        if kind == "characterisation" and exc.message.startswith("missing column 'pulse_width'"):
+            if "command" in exc.message:
+                raise InputError(
+                    "verification data (command), evaluated as a characterisation: give the "
+                    "tables it was collected with, --tables TABLES.npz",
+                    path=exc.path,
+                ) from None
+        raise
 
 
 def _evaluate(args: argparse.Namespace) -> int:
@@ -255,13 +295,12 @@ def _evaluate(args: argparse.Namespace) -> int:
     from torquemap.linearize.export import load_tables
     from torquemap.linearize.metrics import evaluate_linearity, format_report, report_to_dict
     from torquemap.linearize.motor import load_motor
-    from torquemap.linearize.tables import DataKind, read_data
 
     check_outputs([(args.out, JSON)], [args.motor, args.data, args.tables])
     spec = load_motor(args.motor)
     tables = None if args.tables is None else load_tables(args.tables)
     kind: DataKind = "characterisation" if tables is None else "verification"
-    data = args.progress.run("read the data", lambda: read_data(args.data, spec, kind=kind))
+    data = args.progress.run("read the data", lambda: _read_evaluated(args, spec, kind))
     report = args.progress.run(
         "evaluate linearity",
         lambda: evaluate_linearity(spec, data, tables=tables, tables_path=args.tables),

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from torquemap.linearize.collect import CollectionSettings
+    from torquemap.linearize.motor import MotorSpec
 
 from torquemap.cli.helptext import described
 from torquemap.cli.outputs import output_suffix
@@ -148,6 +149,7 @@ def _collect(args: argparse.Namespace) -> int:
         # a grid collection spends no budget: it collected the whole grid without a word
         raise InputError("--budget is the adaptive collection's: add --adaptive, or drop it")
     spec = load_motor(args.motor)
+    _warn_step_past_half_way(args, spec)
     if args.adaptive:
         from torquemap.cli.cmd_linearize_more import collect_adaptive_command
 
@@ -180,6 +182,34 @@ def _collect(args: argparse.Namespace) -> int:
     if not result.bias_column:
         note_without_bias(args.out)
     return 0
+
+
+def _warn_step_past_half_way(args: argparse.Namespace, spec: MotorSpec) -> None:
+    """On stderr: a level step that leaves no level from 1 below half the range, where
+    ``linearize evaluate`` reads the APMD's reference torque (it would refuse the data)."""
+    step = getattr(args, "level_step", None)
+    if step is None or getattr(args, "adaptive", False):
+        return
+    if args.tables is not None:
+        from torquemap.linearize.collect import read_tables_npz
+
+        # the reader the collection uses (tables without build's metadata are accepted)
+        first = next(iter(read_tables_npz(args.tables, spec).values()))
+        top, what = first.shape[1] // 2 - 1, "command"
+    else:
+        top, what = spec.actuation_max, "pulse width"
+    warn_level_step(args.out, step, top, what)
+
+
+def warn_level_step(out: str, step: int, top: int, what: str) -> None:
+    """On stderr, when ``step`` leaves no level in ``1 .. top / 2`` (module's collect)."""
+    if step > top / 2:
+        print(
+            f"torquemap: warning: {out}: a step of {step} leaves no {what} from 1 below "
+            f"half way ({top / 2:g}): linearize evaluate cannot read the APMD's reference "
+            f"torque there; a step of at most {max(top // 2, 1)} can",
+            file=sys.stderr,
+        )
 
 
 def note_without_bias(out: str) -> None:

@@ -11,6 +11,8 @@ import json
 import sys
 from typing import Any
 
+from torquemap.cli.argtypes import float_in
+
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     """Add ``home`` and ``transfer`` to the ``linearize`` group's sub-parsers."""
@@ -102,11 +104,13 @@ def _home(args: argparse.Namespace) -> int:
     offsets = np.array([r.offset for r in results])
     centre = circular_mean(offsets, n)
     deviation = circular_difference(offsets, centre, n)
-    std = float(np.std(deviation, ddof=1)) if offsets.size > 1 else 0.0
+    # one homing measures no repeatability (was: std 0.000, range 0.000): None in JSON
+    std = float(np.std(deviation, ddof=1)) if offsets.size > 1 else None
+    spread = float(np.ptp(deviation)) if offsets.size > 1 else None
     summary = {
         "offset": centre,
         "repeatability_std": std,
-        "range": float(np.ptp(deviation)),
+        "range": spread,
         "homings": [
             {
                 "offset": r.offset,
@@ -124,10 +128,16 @@ def _home(args: argparse.Namespace) -> int:
             f"homing {i:>3}: offset {r.offset:8.3f}  spread {r.spread:.3f}  "
             f"hysteresis {' '.join(f'{h:+.0f}' for h in r.hysteresis)}"
         )
+    if std is None or spread is None:
+        repeat = "repeatability: not measured by one homing (--repeats 2 or more)"
+    else:
+        repeat = (
+            f"repeatability: std {std:.3f}, range {spread:.3f} table positions over "
+            f"{len(results)} homings"
+        )
     print(
         f"offset {centre:.3f} table positions (table position = counter - {round(centre)} mod "
-        f"{n}); repeatability: std {std:.3f}, range {summary['range']:.3f} table positions "
-        f"over {len(results)} homings"
+        f"{n}); {repeat}"
     )
     return 0
 
@@ -178,7 +188,7 @@ def add_adaptive_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--budget",
-        type=float,
+        type=float_in(0.0, 1.0, low_open=True),  # names the flag (was a bare "budget fraction")
         default=None,
         help="adaptive: fraction of the settings' grid's readings to spend (default 1/3)",
     )

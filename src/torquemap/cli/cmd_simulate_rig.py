@@ -60,26 +60,36 @@ def _rig(args: argparse.Namespace) -> int:
     check_outputs([], folders=[(args.out, ("motor.toml", "data.csv"))])
 
     if args.random is None:
+        settings = settings_from(args)
         result = write_rig_data(
             args.out,
             motor=args.motor,
             seed=args.seed,
             ramping=args.ramping or "wide",
-            settings=settings_from(args),
+            settings=settings,
         )
     else:
         bench = random_bench(args.random, noise_seed=args.seed)
         if args.ramping:  # the line below describes the bench as collected
             bench = dataclasses.replace(bench, ramping=args.ramping)
+        settings = settings_from(args, bench.settings)
         result = write_rig_folder(
             args.out,
             bench.rig,
             ramping=args.ramping or bench.ramping,
-            settings=settings_from(args, bench.settings),
+            settings=settings,
         )
         print(bench.describe())
     print(
         f"wrote motor.toml and data.csv ({result.rows} rows, {result.targets.size} positions, "
         f"{result.saturated_targets} stopped at sensor saturation) to {args.out}"
     )
+    from pathlib import Path
+
+    from torquemap.cli.cmd_linearize_collect import warn_level_step
+    from torquemap.linearize.motor import load_motor
+
+    spec = load_motor(Path(args.out) / "motor.toml")
+    data = str(Path(args.out) / "data.csv")
+    warn_level_step(data, settings.level_step, spec.actuation_max, "pulse width")
     return 0

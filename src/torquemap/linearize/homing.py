@@ -200,7 +200,8 @@ def home_motor(
         if abs(moved) < spacing / 4:  # it stayed at the previous phase's rest
             raise InputError(
                 f"phase {k + 1} did not pull the motor to its equilibrium (moved {moved:+.0f} "
-                f"of {expected:+.0f} table positions): a phase that produces no torque?"
+                f"of {expected:+.0f} table positions): a phase that produces no torque, or a "
+                "load or friction it cannot overcome?"
                 + (
                     f" Or a pulse width ({width}) too small to move it (the default is full "
                     f"scale, {spec.actuation_max})"

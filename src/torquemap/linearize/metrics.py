@@ -105,7 +105,13 @@ def _half_way_torque(
         if c[0] <= half <= c[-1]:
             values.append(float(np.interp(half, c, t)))
     if not values:
-        raise InputError(f"no position has data on both sides of the half-way command {half:g}")
+        below = int(np.count_nonzero(cmd < half))
+        raise InputError(
+            f"no position has data on both sides of the half-way command {half:g} (the "
+            f"commands from 1 hold {np.unique(cmd).size} values, {int(cmd.min())} to "
+            f"{int(cmd.max())}, {below} cells below it): collect commands on both sides of it "
+            f"(a collection --step or --pulse-step of at most {max(int(half), 1)})"
+        )
     return float(np.mean(values))
 
 
