@@ -39,6 +39,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import optimize, sparse, stats
 
+from torquemap.between_passes import redraw_law
 from torquemap.errors import InputError
 from torquemap.filters import dilate, lowpass
 from torquemap.friction_law import SpeedTableFriction
@@ -105,6 +106,10 @@ MIN_PERIODS = 2.0
 #: viscous slopes' prior: loose (real viscous torques reach about the Coulomb level), it only
 #: separates a slope from a level where the logs hold a single speed.
 VISCOUS_PRIOR = 10.0
+#: How the table is drawn between two steady speeds more than ``KNOT_RATIO`` apart
+#: (:func:`torquemap.between_passes.redraw_law`): ``"pchip"``, ``"linear"`` or ``"fit"`` (the
+#: fit's own knots, held there by the smoothness prior and the passes' speed ripple).
+BETWEEN_PASSES = "pchip"
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -1140,6 +1145,22 @@ def fit_joint_whole(
     law, copy_note = _law(fit.coef[m:], speeds, w0, rows)
     if copy_note:
         warnings.append(copy_note)
+    if not flat and BETWEEN_PASSES != "fit":
+        # between two passes far apart the sweep crosses the speeds only on ramps: the knots
+        # there are drawn through the passes' own knots (docs/identification.md)
+        held = _prior_held_knots(rows, a, fit.weights * keep, prior, m, speeds, steady_speeds)
+        redrawn = redraw_law(law, [abs(x) for x in steady_speeds], BETWEEN_PASSES, held=held)  # type: ignore[arg-type]
+        # the fit's own knots are a second estimate there: their difference is a model-form
+        # variance, fully correlated along each direction's table (the sigmas stay honest
+        # where the law is gentle and the fit's smooth curve was the better one)
+        for fitted, drawn, start in (
+            (law.positive, redrawn.positive, m),
+            (law.negative, redrawn.negative, m + k),
+        ):
+            form = np.zeros(cov.shape[0])
+            form[start : start + k] = np.asarray(fitted) - np.asarray(drawn)
+            cov = cov + np.outer(form, form)
+        law = redrawn
     names = [*fixed_names, *(f"friction.{x}" for x in law.linear_parameter_names)]
     coef = np.r_[fit.coef[:m], law.linear_parameters()]
     if pass_inertia is not None:
@@ -1177,6 +1198,38 @@ def fit_joint_whole(
         observed_speed=float(observed),
         warnings=tuple(name + w for w in warnings),
     )
+
+
+def _prior_held_knots(
+    rows: _Rows,
+    a: NDArray[np.float64],
+    w: NDArray[np.float64],
+    prior: NDArray[np.float64],
+    m: int,
+    speeds: Sequence[float],
+    steady_speeds: Sequence[float],
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """Per direction, the knots the smoothness prior holds more than the rows away from the
+    steady passes do: the knot column's weighted sum of squares over the rows whose friction
+    velocity lies more than ``ANCHOR_GAP`` from every steady speed, against the prior's
+    precision on the knot (both in the penalised normal matrix's units).
+
+    A knot between two passes far apart that only the passes' speed ripple reaches (through
+    its hat) and ramps whose differentiator window reaches rest (left out of the fit) is
+    held by the prior; slow ramps measure it."""
+    k = len(speeds)
+    fv = np.abs(rows.at(lambda p: p.friction_velocity))
+    near = np.zeros(fv.size, dtype=bool)
+    for x in steady_speeds:
+        if x:
+            near |= np.abs(np.log(np.maximum(fv, 1e-300) / abs(x))) < math.log(ANCHOR_GAP)
+    wa = w * ~near
+    out = []
+    for start in (m, m + k):
+        cols = a[:, start : start + k]
+        info = np.einsum("i,ij,ij->j", wa, cols, cols)
+        out.append(info < np.diag(prior)[start : start + k])
+    return out[0], out[1]
 
 
 def _split(values: NDArray[np.float64], rows: _Rows) -> list[NDArray[np.float64]]:
