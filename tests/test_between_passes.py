@@ -55,3 +55,29 @@ def test_knots_outside_the_anchors_are_the_fits() -> None:
     # the anchors' magnitudes (the fit's outlier is gone)
     g_pos = out.levels(np.array([0.5, 1.0, 2.0]))[0]
     assert g_pos[2] <= g_pos[1] <= g_pos[0]
+
+
+def test_coulomb_and_viscous_above_a_stribeck_drop_are_drawn_exactly() -> None:
+    # g(s) = 0.05 + 0.02 exp(-(s / 1.0)^2) + 0.004 s sampled at anchors 0.3, 0.9, 4, 15, 50
+    # rad/s: above 4 rad/s the drop is gone (exp(-16)) and g is a line in speed, which the
+    # fastest anchors' secant gives exactly; in log speed alone a cubic lies above it
+    s = np.geomspace(0.3, 50.0, 12)
+    anchors = anchor_knots(s, [0.3, 0.9, 4.0, 15.0, 50.0])
+    s[anchors] = [0.3, 0.9, 4.0, 15.0, 50.0]
+
+    def g(v: np.ndarray) -> np.ndarray:
+        return 0.05 + 0.02 * np.exp(-(v**2)) + 0.004 * v
+
+    law = SpeedTableFriction(
+        speeds=tuple(s),
+        positive=tuple(np.where(np.isin(np.arange(12), anchors), g(s), 0.0)),
+        negative=tuple(np.where(np.isin(np.arange(12), anchors), g(s), 0.0)),
+        zero_velocity=0.01,
+    )
+    out = redraw_law(law, [0.3, 0.9, 4.0, 15.0, 50.0])
+    above = s > 4.0
+    assert_allclose(out.levels(s[above])[0], g(s[above]), rtol=1e-6)
+    assert_allclose(out.levels(s[above])[1], g(s[above]), rtol=1e-6)
+    # without the line taken out the same cubic is percents above the truth there
+    plain = redraw_between_anchors(s, g(s), anchors, "pchip")
+    assert np.max(plain[above] / g(s[above]) - 1.0) > 0.02

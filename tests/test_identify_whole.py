@@ -681,8 +681,8 @@ def test_the_table_between_passes_far_apart_follows_the_passes(monkeypatch) -> N
     # rad/s, the paper's bench spacing) with ramps of 20 ms: between the passes the sweep holds
     # only ramps shorter than the differentiator window. The fit's own knots there (held by
     # the smoothness prior and the passes' slopes extended in log speed) are 3.8-3.9 % RMS off
-    # the truth at 0.7-10 rad/s (seeds 3-5, up to 7.1 %); redrawn through the passes' knots by
-    # a monotone cubic in log speed, 2.7 % (up to 5.5 %)
+    # the truth at 0.7-10 rad/s (seeds 3-5, up to 7.1 %); redrawn through the passes' knots
+    # (a monotone cubic in log speed over the fastest passes' line in speed), 2.4 % (5.0 %)
     import torquemap.identify_whole as iw
 
     law = StribeckFriction(
@@ -706,4 +706,4 @@ def test_the_table_between_passes_far_apart_follows_the_passes(monkeypatch) -> N
         e = (f.joints["m"].friction.torque(v) - law.torque(v)) / law.torque(v)
         return float(np.sqrt(np.mean(e**2)))
 
-    assert rms("pchip") < 0.032 < rms("fit")
+    assert rms("pchip") < 0.03 < rms("fit")
