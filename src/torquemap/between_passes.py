@@ -66,8 +66,8 @@ def anchor_knots(
 
 
 def redraw_between_anchors(
-    speeds: Sequence[float],
-    values: Sequence[float],
+    speeds: Sequence[float] | NDArray[np.float64],
+    values: Sequence[float] | NDArray[np.float64],
     anchors: NDArray[np.intp],
     method: Method = "pchip",
     held: NDArray[np.bool_] | None = None,

@@ -1148,8 +1148,8 @@ def fit_joint_whole(
     if not flat and BETWEEN_PASSES != "fit":
         # between two passes far apart the sweep crosses the speeds only on ramps: the knots
         # there are drawn through the passes' own knots (docs/identification.md)
-        held = _prior_held_knots(rows, a, fit.weights * keep, prior, m, speeds, steady_speeds)
-        redrawn = redraw_law(law, [abs(x) for x in steady_speeds], BETWEEN_PASSES, held=held)  # type: ignore[arg-type]
+        by_prior = _prior_held_knots(rows, a, fit.weights * keep, prior, m, speeds, steady_speeds)
+        redrawn = redraw_law(law, [abs(x) for x in steady_speeds], BETWEEN_PASSES, held=by_prior)  # type: ignore[arg-type]
         # the fit's own knots are a second estimate there: their difference is a model-form
         # variance, fully correlated along each direction's table (the sigmas stay honest
         # where the law is gentle and the fit's smooth curve was the better one)
@@ -1218,7 +1218,9 @@ def _prior_held_knots(
     its hat) and ramps whose differentiator window reaches rest (left out of the fit) is
     held by the prior; slow ramps measure it."""
     k = len(speeds)
-    fv = np.abs(rows.at(lambda p: p.friction_velocity))
+    fv = np.abs(
+        rows.at(lambda p: p.velocity if p.friction_velocity is None else p.friction_velocity)
+    )
     near = np.zeros(fv.size, dtype=bool)
     for x in steady_speeds:
         if x:
