@@ -15,7 +15,11 @@ searched outside the linear fit: the half width ``w0`` of the smooth transition 
 Where the logs hold little information about the table (speeds only crossed on a ramp), a
 Gaussian smoothness prior on its first and second differences in log speed holds it: the fit
 is a penalised (Bayesian) least squares and its covariance is the posterior one, large where
-the logs say little, so estimation's sigmas grow there.
+the logs say little, so estimation's sigmas grow there. Between two steady passes far apart,
+the knots that prior holds more than any row away from the passes (the sweep crosses those
+speeds only on ramps whose window reaches rest) are redrawn through the passes' own knots by a
+monotone cubic in log speed (:mod:`torquemap.between_passes`), and the difference from the
+fit's knots enters the covariance as a model-form variance.
 
 Both sides of the regression are seen through the same filter: the differentiated acceleration
 is the true one smoothed by the differentiator's kernel ``K``, so the torque and every other
@@ -39,6 +43,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import optimize, sparse, stats
 
+from torquemap.between_passes import redraw_law
 from torquemap.errors import InputError
 from torquemap.filters import dilate, lowpass
 from torquemap.friction_law import SpeedTableFriction
@@ -105,6 +110,20 @@ MIN_PERIODS = 2.0
 #: viscous slopes' prior: loose (real viscous torques reach about the Coulomb level), it only
 #: separates a slope from a level where the logs hold a single speed.
 VISCOUS_PRIOR = 10.0
+#: How the table is drawn between two steady speeds more than ``KNOT_RATIO`` apart
+#: (:func:`torquemap.between_passes.redraw_law`): ``"pchip"``, ``"linear"`` or ``"fit"`` (the
+#: fit's own knots, held there by the smoothness prior and the passes' speed ripple).
+BETWEEN_PASSES = "pchip"
+#: Weight of the redrawn knots against the fit's own between two passes far apart: the two are
+#: estimates with opposite failures (the fit's smooth curve misses a steep Stribeck drop, the
+#: monotone cubic through the passes a dip below them), so the table takes their mean and
+#: their difference enters the covariance (docs/identification.md).
+REDRAWN_WEIGHT = 0.5
+#: A knot between passes is redrawn when the rows away from the passes hold less than this
+#: share of the prior's information on it (family sweeps, ramps whose window reaches rest:
+#: 1e-24 to 0.13; slow ramps of 0.4 s: 0.24 under a quadratic drag, 4-8 under a steep
+#: Stribeck drop).
+MEASURED_SHARE = 0.1
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -1140,6 +1159,26 @@ def fit_joint_whole(
     law, copy_note = _law(fit.coef[m:], speeds, w0, rows)
     if copy_note:
         warnings.append(copy_note)
+    if not flat and BETWEEN_PASSES != "fit":
+        # between two passes far apart the sweep crosses the speeds only on ramps: the knots
+        # there are drawn through the passes' own knots (docs/identification.md)
+        by_prior = _prior_held_knots(rows, a, fit.weights * keep, prior, m, speeds, steady_speeds)
+        redrawn = redraw_law(law, [abs(x) for x in steady_speeds], BETWEEN_PASSES, held=by_prior)  # type: ignore[arg-type]
+        # the fit's own knots are a second estimate there: the table takes the weighted mean,
+        # and the distance from it to either is a model-form variance, fully correlated along
+        # each direction's table
+        mean = law.with_linear_parameters(
+            (1.0 - REDRAWN_WEIGHT) * law.linear_parameters()
+            + REDRAWN_WEIGHT * redrawn.linear_parameters()
+        )
+        for fitted, drawn, start in (
+            (law.positive, mean.positive, m),
+            (law.negative, mean.negative, m + k),
+        ):
+            form = np.zeros(cov.shape[0])
+            form[start : start + k] = np.asarray(fitted) - np.asarray(drawn)
+            cov = cov + np.outer(form, form)
+        law = mean
     names = [*fixed_names, *(f"friction.{x}" for x in law.linear_parameter_names)]
     coef = np.r_[fit.coef[:m], law.linear_parameters()]
     if pass_inertia is not None:
@@ -1177,6 +1216,40 @@ def fit_joint_whole(
         observed_speed=float(observed),
         warnings=tuple(name + w for w in warnings),
     )
+
+
+def _prior_held_knots(
+    rows: _Rows,
+    a: NDArray[np.float64],
+    w: NDArray[np.float64],
+    prior: NDArray[np.float64],
+    m: int,
+    speeds: Sequence[float],
+    steady_speeds: Sequence[float],
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """Per direction, the knots the smoothness prior holds more than the rows away from the
+    steady passes do: the knot column's weighted sum of squares over the rows whose friction
+    velocity lies more than ``ANCHOR_GAP`` from every steady speed, against the prior's
+    precision on the knot (both in the penalised normal matrix's units).
+
+    A knot between two passes far apart that only the passes' speed ripple reaches (through
+    its hat) and ramps whose differentiator window reaches rest (left out of the fit) is
+    held by the prior; slow ramps measure it."""
+    k = len(speeds)
+    fv = np.abs(
+        rows.at(lambda p: p.velocity if p.friction_velocity is None else p.friction_velocity)
+    )
+    near = np.zeros(fv.size, dtype=bool)
+    for x in steady_speeds:
+        if x:
+            near |= np.abs(np.log(np.maximum(fv, 1e-300) / abs(x))) < math.log(ANCHOR_GAP)
+    wa = w * ~near
+    out = []
+    for start in (m, m + k):
+        cols = a[:, start : start + k]
+        info = np.einsum("i,ij,ij->j", wa, cols, cols)
+        out.append(info < MEASURED_SHARE * np.diag(prior)[start : start + k])
+    return out[0], out[1]
 
 
 def _split(values: NDArray[np.float64], rows: _Rows) -> list[NDArray[np.float64]]:
