@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 import pytest
+from numpy.typing import NDArray
 from test_identify_whole import robot, simulate
 
 from torquemap.friction_law import StribeckFriction
@@ -93,3 +94,43 @@ def test_leave_one_pass_out_matches_a_sweep_without_the_pass(held: int) -> None:
     c = float(record["curvature"])
     gap = interpolation_gap(math.log(PASSES[held]), [math.log(s) for s in others])
     assert c > 0 and 0.5 * c * gap > 0.2 * measured
+
+
+def test_joint_sigma_adds_the_interpolation_error_between_passes(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    import torquemap.uncertainty as unc
+
+    model = identify_model(
+        robot(), [simulate(law=LAW, ramp=0.02, speeds=PASSES)], max_order=20, friction="whole"
+    ).model
+    t = np.arange(0.0, 4.0, 1e-3)
+
+    def sigma(speed: float, on: bool) -> NDArray[np.float64]:
+        monkeypatch.setattr(unc, "INTERPOLATION", on)
+        v = np.full(t.size, speed)
+        return unc.joint_sigma(
+            model,
+            "m",
+            t=t,
+            theta=speed * t,
+            velocity=v,
+            acceleration=np.zeros(t.size),
+            modulation=np.zeros(t.size),
+            cutoff=2.0,
+        )
+
+    # at a pass (the speed the notes record) the interpolation error is 0: main's sigma to
+    # the bit
+    recorded = [float(x) for x in model.notes["joints"]["m"]["speeds"] if x > 0]
+    at = min(recorded, key=lambda x: abs(math.log(x / PASSES[2])))
+    np.testing.assert_array_equal(sigma(at, True), sigma(at, False))
+    # halfway between two passes (log speed) it adds c q / 2 to the friction's level
+    mid = math.sqrt(PASSES[2] * PASSES[3])
+    on, off = sigma(mid, True), sigma(mid, False)
+    c = float(model.notes["joints"]["m"]["uncertainty"]["interpolation"]["curvature"])
+    form = 0.5 * c * math.log(mid / PASSES[2]) * math.log(PASSES[3] / mid)
+    inside = slice(1000, 3000)  # away from the low-pass's ends
+    assert np.all(on[inside] > off[inside])
+    # independent parts add in quadrature: the rise is at most the form level itself
+    rise = np.sqrt(on[inside] ** 2 - off[inside] ** 2)
+    np.testing.assert_array_less(rise, form * (1 + 1e-9))
+    assert float(np.median(rise)) > 0.5 * form

@@ -46,9 +46,6 @@ BRIDGED_VARIANCE = False
 #: Whether :func:`joint_sigma` adds the friction table's leave-one-pass-out interpolation
 #: error (:func:`interpolation_sigma`) where the model records it.
 INTERPOLATION = False
-#: How the interpolation error joins the parameters' variance: ``"add"`` (independent) or
-#: ``"max"`` (the larger of the two, as two measures of the same error).
-INTERPOLATION_MODE = "add"
 #: Speed bins of the residual table (log-spaced between the reversal band and the top speed).
 RESIDUAL_BINS = 8
 
@@ -708,7 +705,7 @@ def joint_sigma(
         else:
             level = sign_sigma(law, velocity, width)
     form = _interpolation_level(table, entry, velocity=velocity, width=width)
-    if form is not None and INTERPOLATION_MODE == "add":
+    if form is not None:
         # the table's interpolation between its passes, measured by leaving each out
         level = np.hypot(level, form)
     if runs:
@@ -717,7 +714,7 @@ def joint_sigma(
         # between the ends' variances (the load's departure from a line is added by estimation)
         assert bridged is not None
         level = bridge_gaps(t, level, bridged, longest=math.inf, ends=True, runs=runs)
-    if fused is not None and (runs or (form is not None and INTERPOLATION_MODE == "add")):
+    if fused is not None and (runs or form is not None):
         fused[:, -1] = level
     if misfit_level is None:
         sign = lowpass(t, level, cutoff=cutoff)
@@ -727,13 +724,6 @@ def joint_sigma(
         noise = np.maximum(noise, np.maximum(both[:, 0], 0.0) ** 2)
         sign = both[:, 1]
     var = np.maximum(var, 0.0)
-    if form is not None and INTERPOLATION_MODE == "max":
-        # the prior's spread and the leave-one-pass-out error are two measures of the same
-        # interpolation error: the larger of the two
-        if runs:
-            assert bridged is not None
-            form = bridge_gaps(t, form, bridged, longest=math.inf, ends=True, runs=runs)
-        var = np.maximum(var, np.maximum(lowpass(t, form, cutoff=cutoff), 0.0) ** 2)
     if runs:
         # the exact propagation is already the bridged answer's; the rest is bridged here
         assert bridged is not None
