@@ -967,6 +967,7 @@ def _estimate_piece(
                 bridged=rests[k],
                 phasor=phasors.get(k),
                 extra_psd=extra,
+                support=window,
             )
             if runs[k] and joint.name in whole:
                 # where the answer is a line carried over a bridged run: the load's departure

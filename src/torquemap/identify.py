@@ -1249,6 +1249,7 @@ def _identify_whole(
             slowest_speed=min((abs(p.speed) for _, p in res.passes), default=0.0),
             steady_speeds=[abs(p.speed) for _, p in res.passes],
             held_inertia=_determined_inertia(res),
+            pass_speeds=[p.speed for _, p in res.passes],
         )
         # the pass method's friction law is replaced: its warnings (a Stribeck term it could
         # not use, a Coulomb level it clipped) no longer describe the model
@@ -1377,6 +1378,7 @@ def _whole_notes(fit: Any, resolution: float) -> dict[str, Any]:
             "residual_scale": float(fit.residual_scale),
             "residual_psd": float(fit.residual_psd),
             **({"residual": fit.residual} if fit.residual else {}),
+            **({"interpolation": fit.interpolation} if fit.interpolation else {}),
         },
     }
 

@@ -32,6 +32,7 @@ samples.
 
 from __future__ import annotations
 
+import bisect
 import dataclasses
 import functools
 import itertools
@@ -209,6 +210,9 @@ class WholeFit:
         table holds its prior's extrapolation.
     warnings
         One line each.
+    interpolation
+        The table's leave-one-pass-out interpolation error (:func:`pass_interpolation_error`),
+        or None when not measured.
     """
 
     names: tuple[str, ...]
@@ -227,6 +231,7 @@ class WholeFit:
     residual: dict[str, object] | None = None
     observed_speed: float = 0.0
     warnings: tuple[str, ...] = field(default_factory=tuple)
+    interpolation: dict[str, object] | None = None
 
     @property
     def zero_velocity(self) -> float:
@@ -863,6 +868,7 @@ def fit_joint_whole(
     slowest_speed: float = 0.0,
     steady_speeds: Sequence[float] = (),
     held_inertia: tuple[float, float] | None = None,
+    pass_speeds: Sequence[float] = (),
 ) -> WholeFit:
     """Fit one joint's friction table, inertia, PDTV and torque delay to whole logs.
 
@@ -924,6 +930,9 @@ def fit_joint_whole(
         holds it at 0 then. Setting an undetermined inertia to 0 hands the ramps' inertial
         torque to the friction table (a random bench: the friction 3 % off inside the swept
         speeds, the force 6x the oracle's error there).
+    pass_speeds
+        Signed motor speeds [rad/s] of the steady passes, for the leave-one-pass-out error of
+        the table between passes (:func:`pass_interpolation_error`); empty: not measured.
 
     Returns
     -------
@@ -1148,6 +1157,9 @@ def fit_joint_whole(
             )
         fixed, fixed_names, a, prior, fit = refit(final_orders, with_inertia=False, elbow=False)
     m = fixed.shape[1]
+    interpolation = pass_interpolation_error(
+        a, y, fit, prior, m, speeds, rows, keep, pass_speeds, noise=noise
+    )
     fit, bound_note = _dissipative(a, y, fit, prior, m, speeds, noise=noise)
     if bound_note:
         warnings.append(bound_note)
@@ -1215,6 +1227,7 @@ def fit_joint_whole(
         residual=table,
         observed_speed=float(observed),
         warnings=tuple(name + w for w in warnings),
+        interpolation=interpolation,
     )
 
 
@@ -1250,6 +1263,136 @@ def _prior_held_knots(
         info = np.einsum("i,ij,ij->j", wa, cols, cols)
         out.append(info < MEASURED_SHARE * np.diag(prior)[start : start + k])
     return out[0], out[1]
+
+
+def interpolation_gap(x: float, anchors: Sequence[float]) -> float:
+    """``|x - x_a| |x - x_b|`` with ``x_a``, ``x_b`` the two anchors nearest ``x`` that bracket
+    it, or the two nearest on its side beyond the outermost (all in log speed); with one
+    anchor, ``d (d + log KNOT_RATIO)`` with ``d`` the distance to it; 0 without any.
+
+    A curve of curvature ``c`` departs from its interpolant through the two anchors by at most
+    ``c / 2`` times this product (between them) and by about as much beyond them.
+
+    Examples
+    --------
+    >>> round(interpolation_gap(1.0, [0.0, 2.0]), 6), round(interpolation_gap(3.0, [0.0, 2.0]), 6)
+    (1.0, 3.0)
+    """
+    xs = sorted(float(a) for a in anchors)
+    if not xs:
+        return 0.0
+    if len(xs) == 1:
+        d = abs(x - xs[0])
+        return d * (d + math.log(KNOT_RATIO))
+    i = bisect.bisect_left(xs, x)
+    if 0 < i < len(xs):
+        lo, hi = xs[i - 1], xs[i]
+    elif i == 0:
+        lo, hi = xs[0], xs[1]
+    else:
+        lo, hi = xs[-2], xs[-1]
+    return abs(x - lo) * abs(x - hi)
+
+
+#: Rows a pass needs to be left out by :func:`pass_interpolation_error` (a tenth of a
+#: second of rows at 8 per 50 ms window).
+LOO_MIN_ROWS = 16
+
+
+def pass_interpolation_error(
+    a: NDArray[np.float64],
+    y: NDArray[np.float64],
+    fit: _Trial,
+    prior: NDArray[np.float64],
+    m: int,
+    speeds: Sequence[float],
+    rows: _Rows,
+    keep: NDArray[np.float64],
+    pass_speeds: Sequence[float],
+    noise: float = 1.0,
+) -> dict[str, object] | None:
+    """Leave-one-pass-out error of the friction table between and beyond its passes.
+
+    Between two steady passes the table's knots are held by the ramps and the smoothness
+    prior only, and what the prior's curve misses there (a Stribeck drop between passes far
+    apart) goes into the table, not into the residual: the posterior covariance does not know
+    it. Here each steady pass of each direction (``pass_speeds``, signed [rad/s]; passes closer
+    than ``ANCHOR_GAP`` together) is left out in turn, its rows (same direction, speeds within
+    ``ANCHOR_GAP``) given weight 0, and the fit (design ``a``, torque ``y``, the weights of
+    ``fit``, ``prior``, friction columns from ``m`` on, knots ``speeds``) solved again: at that
+    speed the table is then what interpolation from the other passes gives. The change of
+    friction ``g(S) = level(S) + viscous S`` [N m] against the full fit is that interpolation's
+    error at a gap ``q = |x - x_a| |x - x_b|`` (:func:`interpolation_gap`, ``x = log S``, the
+    nearest remaining passes of that direction). A curve of curvature ``c`` in log speed misses
+    by ``c q / 2``: the least-squares ``c = 2 sqrt(sum e^2 / sum q^2)`` over the passes is the
+    table's interpolation curvature [N m], from which estimation draws a model-form standard
+    deviation ``c q / 2`` at any speed (:func:`torquemap.uncertainty.interpolation_sigma`).
+
+    Returns ``{"curvature": c, "speeds": [...], "errors": [...], "gaps": [...]}`` (signed
+    held-out speeds, errors [N m], gaps), or None when fewer than two passes of a direction
+    could be left out.
+    """
+    signed = [float(s) for s in pass_speeds if math.isfinite(s) and s != 0.0]
+    if len(signed) < 2:
+        return None
+    v = rows.at(lambda p: p.friction_velocity if p.friction_velocity is not None else p.velocity)
+    k = len(speeds)
+    logs = np.log(np.asarray(speeds, dtype=np.float64))
+    base = fit.weights * keep
+    gram = _Gram(a, base)
+
+    def friction_at(coef: NDArray[np.float64], speed: float, sign: int) -> float:
+        lev = coef[m : m + k] if sign > 0 else coef[m + k : m + 2 * k]
+        visc = coef[m + 2 * k] if sign > 0 else coef[m + 2 * k + 1]
+        return float(np.interp(math.log(speed), logs, lev) + visc * speed)
+
+    def functional(speed: float, sign: int) -> NDArray[np.float64]:
+        """The row ``r`` with ``r @ coef = friction_at(coef, speed, sign)``."""
+        row = np.zeros(a.shape[1])
+        x = math.log(speed)
+        i = int(np.clip(np.searchsorted(logs, x, side="right") - 1, 0, k - 2))
+        u = float(np.clip((x - logs[i]) / (logs[i + 1] - logs[i]), 0.0, 1.0))
+        at = m if sign > 0 else m + k
+        row[at + i], row[at + i + 1] = 1.0 - u, u
+        row[m + 2 * k + (0 if sign > 0 else 1)] = speed
+        return row
+
+    held_speeds: list[float] = []
+    spreads: list[float] = []
+    errors: list[float] = []
+    gaps: list[float] = []
+    for sign in (1, -1):
+        groups: list[float] = []
+        for s in sorted(abs(x) for x in signed if x * sign > 0):
+            if groups and s < groups[-1] * ANCHOR_GAP:
+                continue
+            groups.append(s)
+        if len(groups) < 2:
+            continue
+        for s in groups:
+            held = (sign * v > s / ANCHOR_GAP) & (sign * v < s * ANCHOR_GAP) & (base > 0)
+            if int(held.sum()) < LOO_MIN_ROWS:
+                continue
+            solver = _Solver(a, base * ~held, prior, gram)
+            loo = solver(y)
+            error = friction_at(loo.coef, s, sign) - friction_at(fit.coef, s, sign)
+            row = functional(s, sign)
+            spreads.append(math.sqrt(max(noise * float(row @ solver.bread @ row), 0.0)))
+            others = [math.log(x) for x in groups if x != s]
+            held_speeds.append(sign * s)
+            errors.append(error)
+            gaps.append(interpolation_gap(math.log(s), others))
+    q = np.asarray(gaps)
+    if q.size < 2 or not float(np.sum(q**2)) > 0:
+        return None
+    curvature = 2.0 * math.sqrt(float(np.sum(np.square(errors)) / np.sum(q**2)))
+    return {
+        "curvature": curvature,
+        "speeds": held_speeds,
+        "errors": errors,
+        "gaps": gaps,
+        "sigmas": spreads,
+    }
 
 
 def _split(values: NDArray[np.float64], rows: _Rows) -> list[NDArray[np.float64]]:

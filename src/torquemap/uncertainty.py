@@ -40,6 +40,12 @@ RESIDUAL_CUTOFF = 2.0
 #: interpolation in log speed between knots 1.8x apart and the transition's form leave
 #: (tests/test_identify_whole.py: within 2-3 % over the swept speeds).
 FORM_FRACTION = 0.0
+#: Whether :func:`joint_sigma` propagates the parameters' covariance through estimation's
+#: bridge (:func:`bridged_parameter_variance`) rather than bridging the unbridged variance.
+BRIDGED_VARIANCE = False
+#: Whether :func:`joint_sigma` adds the friction table's leave-one-pass-out interpolation
+#: error (:func:`interpolation_sigma`) where the model records it.
+INTERPOLATION = False
 #: Speed bins of the residual table (log-spaced between the reversal band and the top speed).
 RESIDUAL_BINS = 8
 
@@ -592,6 +598,7 @@ def joint_sigma(
     bridged: NDArray[np.bool_] | None = None,
     phasor: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
     extra_psd: float = 0.0,
+    support: float = 0.0,
 ) -> NDArray[np.float64]:
     """One standard deviation [N m, motor side] of a joint's external-torque estimate.
 
@@ -600,6 +607,9 @@ def joint_sigma(
     ``phasor``: ``(cos theta, sin theta)`` when the caller has them.
     ``extra_psd`` [N^2 m^2/Hz]: white noise this log holds beyond the identification logs'
     (:func:`noise_excess`), added to the model's residual PSD.
+    ``support`` [s]: the window either side of a bridged run whose mean estimation's bridge
+    takes (:func:`torquemap.estimate.bridge_gaps`), for the parameters' variance bridged as
+    the torque is (:func:`bridged_parameter_variance`, :data:`BRIDGED_VARIANCE`).
 
     NaN everywhere when the model holds no uncertainty for the joint (a model identified by
     the pass method, or written by hand).
@@ -617,18 +627,41 @@ def joint_sigma(
     cov = np.asarray(table["covariance"], dtype=np.float64)
     if cov.shape != (len(names), len(names)) or not np.all(np.isfinite(cov)):
         raise InputError(f"[identification.joints.{joint}.uncertainty] covariance is malformed")
-    var = parameter_variance(
-        names,
-        cov,
-        law=law,
-        t=t,
-        theta=theta,
-        velocity=velocity,
-        acceleration=acceleration,
-        modulation=modulation,
-        cutoff=cutoff,
-        phasor=phasor,
-    )
+    from torquemap.estimate import _gap_runs, bridge_gaps
+
+    runs = _gap_runs(bridged) if bridged is not None else []
+    exact = BRIDGED_VARIANCE and bool(runs)
+    if exact:
+        # the answer is the torque bridged over the runs, then low-passed: so is the regressor
+        # (the knots only the prior holds below the bridged speeds never reach an answer)
+        assert bridged is not None
+        var = bridged_parameter_variance(
+            names,
+            cov,
+            law=law,
+            t=t,
+            theta=theta,
+            velocity=velocity,
+            acceleration=acceleration,
+            modulation=modulation,
+            cutoff=cutoff,
+            bridged=bridged,
+            support=support,
+            runs=runs,
+        )
+    else:
+        var = parameter_variance(
+            names,
+            cov,
+            law=law,
+            t=t,
+            theta=theta,
+            velocity=velocity,
+            acceleration=acceleration,
+            modulation=modulation,
+            cutoff=cutoff,
+            phasor=phasor,
+        )
     psd = float(table.get("residual_psd", 0.0))
     extra = extra_psd if math.isfinite(extra_psd) and extra_psd > 0 else 0.0
     noise = np.full(n, (max(psd, 0.0) + extra) * LOWPASS_ENB * cutoff)
@@ -671,16 +704,17 @@ def joint_sigma(
             level = np.hypot(level, spread)
         else:
             level = sign_sigma(law, velocity, width)
-    from torquemap.estimate import _gap_runs, bridge_gaps
-
-    runs = _gap_runs(bridged) if bridged is not None else []
+    form = _interpolation_level(table, entry, velocity=velocity, width=width)
+    if form is not None:
+        # the table's interpolation between its passes, measured by leaving each out
+        level = np.hypot(level, form)
     if runs:
         # a bridged sample's answer is the line between its run's ends: friction does not
         # enter it, so neither do its sign nor the law's parameters; its variance is the line
         # between the ends' variances (the load's departure from a line is added by estimation)
         assert bridged is not None
         level = bridge_gaps(t, level, bridged, longest=math.inf, ends=True, runs=runs)
-    if runs and fused is not None:
+    if fused is not None and (runs or form is not None):
         fused[:, -1] = level
     if misfit_level is None:
         sign = lowpass(t, level, cutoff=cutoff)
@@ -689,10 +723,14 @@ def joint_sigma(
         both = lowpass(t, stacked, cutoff=cutoff)
         noise = np.maximum(noise, np.maximum(both[:, 0], 0.0) ** 2)
         sign = both[:, 1]
-    var = np.maximum(var, 0.0) + noise
+    var = np.maximum(var, 0.0)
     if runs:
+        # the exact propagation is already the bridged answer's; the rest is bridged here
         assert bridged is not None
-        var = bridge_gaps(t, var, bridged, longest=math.inf, ends=True, runs=runs)
+        noise = bridge_gaps(t, noise, bridged, longest=math.inf, ends=True, runs=runs)
+        if not exact:
+            var = bridge_gaps(t, var, bridged, longest=math.inf, ends=True, runs=runs)
+    var = var + noise
     out: NDArray[np.float64] = np.sqrt(var + np.maximum(sign, 0.0) ** 2)
     if not math.isfinite(float(np.max(out, initial=0.0))):
         out = np.where(np.isfinite(out), out, np.nan)
@@ -795,6 +833,80 @@ def _table_sign_terms(
     spread_down = np.abs(down - vd * s - (down0[0] - vd * slowest))
     spread = np.asarray(p * spread_up + (1.0 - p) * spread_down, dtype=np.float64)
     return sign, spread, (g_up, g_down)
+
+
+def interpolation_sigma(
+    velocity: NDArray[np.float64],
+    width: float,
+    pass_speeds: Sequence[float],
+    curvature: float,
+    *,
+    floor: float = 0.0,
+) -> NDArray[np.float64]:
+    """Standard deviation [N m] of a friction table's interpolation between (and beyond) the
+    steady passes it was fitted at, from its leave-one-pass-out curvature.
+
+    ``curvature / 2 * |x - x_a| |x - x_b|`` per direction with ``x = log |v|`` and ``x_a``,
+    ``x_b`` the nearest passes of that direction (signed ``pass_speeds`` [rad/s];
+    :func:`torquemap.identify_whole.interpolation_gap`), each direction weighted by its share
+    ``p = (1 + tanh(v / width)) / 2``. ``curvature`` [N m] is what identification measured by
+    leaving each pass out in turn (:func:`torquemap.identify_whole.pass_interpolation_error`).
+    Zero at a pass's speed, growing with the distance to the nearest passes; speeds below
+    ``floor`` [rad/s] (the table's slowest fitted speed) are taken at ``floor``.
+
+    Examples
+    --------
+    >>> v = np.array([1.0, np.exp(1.0), -np.exp(1.0)])
+    >>> passes = [1.0, np.exp(2.0), -1.0, -np.exp(1.0)]
+    >>> interpolation_sigma(v, 1e-3, passes, 2.0).round(6).tolist()
+    [0.0, 1.0, 0.0]
+    """
+
+    v = np.asarray(velocity, dtype=np.float64)
+    out = np.zeros(v.shape)
+    if not (math.isfinite(curvature) and curvature > 0):
+        return out
+    x = np.log(np.maximum(np.abs(v), max(floor, 1e-300)))
+    p = 0.5 * (1.0 + np.tanh(v / max(width, 1e-12)))
+    for sign, share in ((1, p), (-1, 1.0 - p)):
+        anchors = sorted(math.log(abs(s)) for s in pass_speeds if s * sign > 0)
+        if not anchors:  # a direction never swept takes the other's
+            anchors = sorted(math.log(abs(s)) for s in pass_speeds if s != 0)
+        if not anchors:
+            continue
+        q = _gaps(x, anchors)
+        out += share * 0.5 * curvature * q
+    return out
+
+
+def _gaps(x: NDArray[np.float64], anchors: list[float]) -> NDArray[np.float64]:
+    """:func:`torquemap.identify_whole.interpolation_gap` of every ``x`` at once."""
+    from torquemap.identify_whole import KNOT_RATIO
+
+    xs = np.asarray(anchors, dtype=np.float64)
+    if xs.size == 1:
+        d = np.abs(x - xs[0])
+        return np.asarray(d * (d + math.log(KNOT_RATIO)), dtype=np.float64)
+    i = np.clip(np.searchsorted(xs, x, side="left"), 1, xs.size - 1)
+    return np.asarray(np.abs(x - xs[i - 1]) * np.abs(x - xs[i]), dtype=np.float64)
+
+
+def _interpolation_level(
+    table: Mapping[str, Any], entry: Any, *, velocity: NDArray[np.float64], width: float
+) -> NDArray[np.float64] | None:
+    """:func:`interpolation_sigma` of a joint from its notes (the curvature identification
+    recorded, ``uncertainty.interpolation``, and its passes' signed ``speeds``), or None when
+    they hold none."""
+    record = table.get("interpolation")
+    speeds = entry.get("speeds") if isinstance(entry, Mapping) else None
+    if not (INTERPOLATION and isinstance(record, Mapping) and isinstance(speeds, list)):
+        return None
+    curvature = float(record.get("curvature", 0.0))
+    passes = [float(x) for x in speeds if isinstance(x, int | float) and math.isfinite(x)]
+    if not (math.isfinite(curvature) and curvature > 0 and passes):
+        return None
+    floor = float(entry.get("friction_observed_speed", 0.0))
+    return interpolation_sigma(velocity, width, passes, curvature, floor=floor)
 
 
 def _slowest(entry: Any) -> float:
