@@ -118,12 +118,11 @@ def test_a_one_joint_arm_is_identified_and_its_external_torque_estimated() -> No
     assert len(said) == 1 and said[0].startswith("joint shoulder: the motor torque reaches"), said
 
 
-def test_cli_identifies_a_one_joint_arm(tmp_path: Path) -> None:
-    arm = _arm()
-    log = _log(arm, 3, 0.0)
-    (tmp_path / "arm.urdf").write_text(TWO_LINK.read_text())
+def _write_robot(folder: Path) -> None:
+    """The one-joint arm's URDF and robot file in ``folder``."""
+    (folder / "arm.urdf").write_text(TWO_LINK.read_text())
     write_toml(
-        tmp_path / "robot.toml",
+        folder / "robot.toml",
         {
             "robot": {
                 "kinematics": "urdf",
@@ -134,6 +133,12 @@ def test_cli_identifies_a_one_joint_arm(tmp_path: Path) -> None:
             "joints": {"shoulder": {"gear_ratio": GEAR, "torque_constant": KT}},
         },
     )
+
+
+def test_cli_identifies_a_one_joint_arm(tmp_path: Path) -> None:
+    arm = _arm()
+    log = _log(arm, 3, 0.0)
+    _write_robot(tmp_path)
     write_table(
         tmp_path / "free.csv",
         {"t": log.t, "q_shoulder": log.q[:, 0], "tau_shoulder": log.motor_torque[:, 0]},
@@ -200,19 +205,7 @@ def test_spectrum_of_an_arm_takes_out_gravity(tmp_path: Path, capsys) -> None:  
         + amp * np.cos(2 * motor + phase)
         + KT * 0.002 * rng.standard_normal(t.size)
     )
-    (tmp_path / "arm.urdf").write_text(TWO_LINK.read_text())
-    write_toml(
-        tmp_path / "robot.toml",
-        {
-            "robot": {
-                "kinematics": "urdf",
-                "urdf": "arm.urdf",
-                "end_effector": "tool",
-                "gravity": [0.0, -G, 0.0],
-            },
-            "joints": {"shoulder": {"gear_ratio": GEAR, "torque_constant": KT}},
-        },
-    )
+    _write_robot(tmp_path)
     write_table(tmp_path / "sweep.csv", {"t": t, "q_shoulder": q, "tau_shoulder": tau_m})
     capsys.readouterr()
     argv = ["spectrum", str(tmp_path / "robot.toml"), str(tmp_path / "sweep.csv")]
