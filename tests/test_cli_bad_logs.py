@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_vertical import KT, ROBOT, sweeps, truth_model
+from test_vertical import ROBOT, current_columns, sweeps, truth_model
 
 from torquemap.cli.main import main
 from torquemap.io import write_table, write_toml
@@ -26,13 +26,7 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> Path:
     write_toml(d / "robot.toml", ROBOT)
     write_toml(d / "model.toml", model_to_dict(truth_model()))  # type: ignore[arg-type]
     log = sweeps(vertical=False)
-    cols = {
-        "t": log.t,
-        "q_a": log.q[:, 0],
-        "q_b": log.q[:, 1],
-        "i_a": log.motor_torque[:, 0] / KT[0],
-        "i_b": log.motor_torque[:, 1] / KT[1],
-    }
+    cols = current_columns(log)
     write_table(d / "log.csv", cols)
     write_table(d / "other.csv", {k.replace("_a", "_x"): v for k, v in cols.items()})
     still = {k: (np.full_like(v, v[0]) if k.startswith("q_") else v) for k, v in cols.items()}

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_vertical import KT, ROBOT, sweeps
+from test_vertical import ROBOT, current_columns, sweeps
 
 from torquemap.cli.main import main
 from torquemap.io import read_log, write_table, write_toml
@@ -21,13 +21,7 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> Path:
     d = tmp_path_factory.mktemp("new_user")
     write_toml(d / "robot.toml", ROBOT)
     log = sweeps(vertical=False)
-    cols = {
-        "t": log.t,
-        "q_a": log.q[:, 0],
-        "q_b": log.q[:, 1],
-        "i_a": log.motor_torque[:, 0] / KT[0],
-        "i_b": log.motor_torque[:, 1] / KT[1],
-    }
+    cols = current_columns(log)
     write_table(d / "log.csv", cols)
     write_table(d / "milliamps.csv", {**cols, "i_a": 1000.0 * cols["i_a"]})
     text = (d / "log.csv").read_text()

@@ -212,19 +212,21 @@ def test_estimate_warns_with_a_model_of_a_vertical_arm(logs: dict[str, Log]) -> 
     assert any("vertical arm" in w for w in est.warnings)
 
 
+def current_columns(log: Log) -> dict[str, NDArray[np.float64]]:
+    """``log`` as the columns a controller writes: t, q_a, q_b and the currents i_a, i_b [A]."""
+    return {
+        "t": log.t,
+        "q_a": log.q[:, 0],
+        "q_b": log.q[:, 1],
+        "i_a": log.motor_torque[:, 0] / KT[0],
+        "i_b": log.motor_torque[:, 1] / KT[1],
+    }
+
+
 def _write_files(log: Log, folder: Path) -> None:
     """``robot.toml`` and ``sweep.csv`` (currents) of ``log`` in ``folder``, for the CLI."""
     write_toml(folder / "robot.toml", ROBOT)
-    write_table(
-        folder / "sweep.csv",
-        {
-            "t": log.t,
-            "q_a": log.q[:, 0],
-            "q_b": log.q[:, 1],
-            "i_a": log.motor_torque[:, 0] / KT[0],
-            "i_b": log.motor_torque[:, 1] / KT[1],
-        },
-    )
+    write_table(folder / "sweep.csv", current_columns(log))
 
 
 def test_cli_identify_refuses_in_one_line(
