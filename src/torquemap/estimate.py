@@ -1435,14 +1435,15 @@ def one_direction_task_warnings(model: Model, velocity: NDArray[np.float64]) -> 
     >>> one_direction_task_warnings(m, np.linspace(-2.0, 2.0, 100)[:, None])[0][:58]
     'joint a: 50% of the samples move in the negative direction'
     """
+    from torquemap.identify_whole import one_direction_note
+
     notes = model.notes.get("warnings", [])
     said = [str(w) for w in notes] if isinstance(notes, list | tuple) else []
     out: list[str] = []
     for k, name in enumerate(model.robot.joint_names):
         for sign, way, other in ((-1.0, "negative", "positive"), (1.0, "positive", "negative")):
-            if not any(
-                w.startswith(f"joint {name}: never moved in the {way} direction") for w in said
-            ):
+            note = f"joint {name}: {one_direction_note(way)}"
+            if not any(w.startswith(note) for w in said):
                 continue
             law = model.joints[name].friction if name in model.joints else None
             v = velocity[:, k]

@@ -32,7 +32,6 @@ samples.
 
 from __future__ import annotations
 
-import bisect
 import dataclasses
 import functools
 import itertools
@@ -1278,20 +1277,19 @@ def interpolation_gap(x: float, anchors: Sequence[float]) -> float:
     >>> round(interpolation_gap(1.0, [0.0, 2.0]), 6), round(interpolation_gap(3.0, [0.0, 2.0]), 6)
     (1.0, 3.0)
     """
-    xs = sorted(float(a) for a in anchors)
-    if not xs:
+    if not anchors:
         return 0.0
-    if len(xs) == 1:
-        d = abs(x - xs[0])
-        return d * (d + math.log(KNOT_RATIO))
-    i = bisect.bisect_left(xs, x)
-    if 0 < i < len(xs):
-        lo, hi = xs[i - 1], xs[i]
-    elif i == 0:
-        lo, hi = xs[0], xs[1]
-    else:
-        lo, hi = xs[-2], xs[-1]
-    return abs(x - lo) * abs(x - hi)
+    return float(interpolation_gaps(np.array([x], dtype=np.float64), anchors)[0])
+
+
+def interpolation_gaps(x: NDArray[np.float64], anchors: Sequence[float]) -> NDArray[np.float64]:
+    """:func:`interpolation_gap` of every ``x`` at once (``anchors`` not empty)."""
+    xs = np.sort(np.asarray(anchors, dtype=np.float64))
+    if xs.size == 1:
+        d = np.abs(x - xs[0])
+        return np.asarray(d * (d + math.log(KNOT_RATIO)), dtype=np.float64)
+    i = np.clip(np.searchsorted(xs, x, side="left"), 1, xs.size - 1)
+    return np.asarray(np.abs(x - xs[i - 1]) * np.abs(x - xs[i]), dtype=np.float64)
 
 
 #: Rows a pass needs to be left out by :func:`pass_interpolation_error` (a tenth of a
@@ -1508,6 +1506,14 @@ def _dissipative(
     return bounded, note
 
 
+def one_direction_note(way: str) -> str:
+    """The warning (after ``"joint <name>: "``) of a joint the logs never moved in direction
+    ``way`` (``"positive"`` or ``"negative"``), whose table takes the other's levels; estimation
+    reads it back (:func:`torquemap.estimate.one_direction_task_warnings`)."""
+    other = "positive" if way == "negative" else "negative"
+    return f"never moved in the {way} direction: it takes the {other} direction's friction"
+
+
 def _law(
     coef: NDArray[np.float64], speeds: tuple[float, ...], w0: float, rows: _Rows
 ) -> tuple[SpeedTableFriction, str]:
@@ -1523,14 +1529,10 @@ def _law(
     if min(pos, neg) < 0.01 * max(pos, neg, 1):
         if pos >= neg:
             down, vd = up, vu
-            note = (
-                "never moved in the negative direction: it takes the positive direction's friction"
-            )
+            note = one_direction_note("negative")
         else:
             up, vu = down, vd
-            note = (
-                "never moved in the positive direction: it takes the negative direction's friction"
-            )
+            note = one_direction_note("positive")
     law = SpeedTableFriction(
         speeds=speeds,
         positive=tuple(up),

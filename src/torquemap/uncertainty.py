@@ -861,6 +861,7 @@ def interpolation_sigma(
     >>> interpolation_sigma(v, 1e-3, passes, 2.0).round(6).tolist()
     [0.0, 1.0, 0.0]
     """
+    from torquemap.identify_whole import interpolation_gaps
 
     v = np.asarray(velocity, dtype=np.float64)
     out = np.zeros(v.shape)
@@ -874,21 +875,9 @@ def interpolation_sigma(
             anchors = sorted(math.log(abs(s)) for s in pass_speeds if s != 0)
         if not anchors:
             continue
-        q = _gaps(x, anchors)
+        q = interpolation_gaps(x, anchors)
         out += share * 0.5 * curvature * q
     return out
-
-
-def _gaps(x: NDArray[np.float64], anchors: list[float]) -> NDArray[np.float64]:
-    """:func:`torquemap.identify_whole.interpolation_gap` of every ``x`` at once."""
-    from torquemap.identify_whole import KNOT_RATIO
-
-    xs = np.asarray(anchors, dtype=np.float64)
-    if xs.size == 1:
-        d = np.abs(x - xs[0])
-        return np.asarray(d * (d + math.log(KNOT_RATIO)), dtype=np.float64)
-    i = np.clip(np.searchsorted(xs, x, side="left"), 1, xs.size - 1)
-    return np.asarray(np.abs(x - xs[i - 1]) * np.abs(x - xs[i]), dtype=np.float64)
 
 
 def _interpolation_level(
