@@ -15,6 +15,9 @@ low-pass, so its error has three parts, taken as independent:
    ``p`` the share of the positive branch at the measured velocity, friction is one branch or
    the other, standard deviation ``sqrt(p (1 - p)) |f+ - f-|`` (half the Coulomb band at rest).
    Neighbouring samples share that error, so it is low-passed as a level, not as noise.
+
+Estimation adds the bridge's departure (:func:`bridge_departure`) and, on a planar arm, the
+rigid-body coupling Eq 7 leaves in the answer (:func:`coupling_level`).
 """
 
 from __future__ import annotations
