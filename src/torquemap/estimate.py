@@ -939,10 +939,21 @@ def _estimate_piece(
                 )
     sigma = np.full((n, nj), np.nan)
     if method == "model":
+        from torquemap import uncertainty
         from torquemap.tones import nominal_step
         from torquemap.uncertainty import bridge_departure, joint_sigma, noise_excess
 
         rate = 1.0 / nominal_step(log.t) if n > 1 else math.nan
+        coupling = None
+        if uncertainty.COUPLING:
+            coupling = uncertainty.coupling_level(
+                model,
+                t=log.t,
+                q=log.q,
+                velocity=velocity,
+                acceleration=acceleration,
+                cutoff=cutoff,
+            )
         # the median step, once for every joint's noise level
         median_step = float(np.median(np.diff(log.t))) if n > 1 else None
         for k, joint in enumerate(robot.joints):
@@ -975,6 +986,9 @@ def _estimate_piece(
                     log.t, external[:, k], rests[k], cutoff=cutoff, runs=runs[k]
                 )
                 sigma[:, k] = np.hypot(sigma[:, k], departure)
+            if coupling is not None:
+                # the other joint's inertia and the Coriolis torques Eq 7 leaves in the answer
+                sigma[:, k] = np.hypot(sigma[:, k], coupling[:, k])
             folded = _folded_tones(model, joint.name, rate, cutoff, sigma[:, k])
             if folded is not None:
                 sd, line = folded
