@@ -120,3 +120,21 @@ def test_thinned_polled_sweep_still_gives_the_map(tmp_path: Path) -> None:
     table = pdtv_map(model, "m", motor_angle=angles)
     ref = np.load(DATA / "quasistatic_map_every16.npy")[::16]
     assert float(np.corrcoef(table.current, ref)[0, 1]) >= 0.95
+
+
+def test_spectrum_marks_the_models_lines_on_a_pass_under_one_revolution(
+    odrive: dict[str, object], capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the sweep holds 0.996 revolutions: its bins sit at k / 0.996 CPR (7.029, 28.12, ...),
+    # off the model's integer orders; before, in_model read "no" for every line of the model
+    d = Path(str(odrive["dir"]))
+    capsys.readouterr()
+    argv = ["spectrum", str(d / "model.toml"), str(d / "sweep.csv"), "--joint", "m", "--top", "3"]
+    assert main(["--quiet", *argv]) == 0
+    rows = capsys.readouterr().out.splitlines()
+    assert rows[0].startswith("joint m: 0.996 revolutions")
+    orders = {round(ln.order) for ln in load_model(d / "model.toml").joints["m"].pdtv}
+    for row in rows[2:]:
+        order = float(row.split(",")[0])
+        assert round(order) in orders and abs(order - round(order)) < 0.5 / 0.996
+        assert row.endswith(",yes")
