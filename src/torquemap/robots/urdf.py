@@ -672,6 +672,19 @@ def urdf_arm(
         isinstance(g, int | float) and not isinstance(g, bool) and math.isfinite(g) for g in gravity
     ):
         raise InputError("[robot] gravity must be [gx, gy, gz], finite numbers [m/s^2]", path=p)
+    # Pinocchio reads a <mimic> joint as a free one: listed, it would be driven on its own
+    mimics = {
+        j.get("name"): m.get("joint")
+        for j in root.findall("joint")
+        if (m := j.find("mimic")) is not None
+    }
+    for j in joint_names:
+        if j in mimics:
+            raise InputError(
+                f"joint {j!r} follows {mimics[j]!r} in {file.name} (<mimic>): it is not driven "
+                "on its own; leave it out of the robot file (it is then locked at zero)",
+                path=p,
+            )
     locked = [i for i in range(1, full.njoints) if names[i] not in joint_names]
     model = _locked(full, locked, root, joint_names) if locked else full
     model.gravity = pin.Motion(np.array(gravity, dtype=float), np.zeros(3))
