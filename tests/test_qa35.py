@@ -5,10 +5,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from torquemap.cli.main import main
-from torquemap.io import write_toml
+from torquemap.io import write_table, write_toml
 
 TWO_LINK = Path(__file__).parent / "data" / "arm" / "two_link.urdf"
 
@@ -68,3 +69,61 @@ def test_a_mimic_joint_listed_as_actuated_is_refused(
     robot = _two_link_robot(tmp_path, text, {"shoulder": JOINTS["shoulder"]})
     assert main(["--quiet", "excite", str(robot), "-o", str(out), "--duration", "5"]) == 0
     assert out.exists()
+
+
+def test_a_joint_that_never_moves_the_end_effector_is_named(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # example-robot-data's double pendulum has no tip link: its end effector "link2" sits on
+    # joint2's axis, every pose was "near-singular" (0 of 8000 samples sound) with no reason
+    robot = _two_link_robot(tmp_path, TWO_LINK.read_text(), JOINTS)
+    text = robot.read_text().replace('end_effector = "tool"', 'end_effector = "fore"')
+    robot.write_text(text)
+    t = np.arange(2000) * 1e-3
+    cols = {
+        "t": t,
+        "q_shoulder": 0.5 * np.sin(t),
+        "tau_shoulder": np.zeros_like(t),
+        "q_elbow": 1.0 + 0.5 * np.sin(2 * t),
+        "tau_elbow": np.zeros_like(t),
+    }
+    write_table(tmp_path / "task.csv", cols)
+    out = tmp_path / "forces.csv"
+    assert (
+        main(["--quiet", "estimate", str(robot), str(tmp_path / "task.csv"), "-o", str(out)]) == 0
+    )
+    err = capsys.readouterr().err
+    assert "2000 of 2000 samples at near-singular poses" in err
+    assert "joint 'elbow' does not move the end effector 'fore'" in err
+    # with the tool beyond the elbow no joint is named
+    robot.write_text(text.replace('end_effector = "fore"', 'end_effector = "tool"'))
+    assert (
+        main(["--quiet", "estimate", str(robot), str(tmp_path / "task.csv"), "-o", str(out)]) == 0
+    )
+    assert "does not move the end effector" not in capsys.readouterr().err
+
+
+def test_fleet_fails_a_urdf_arms_days_with_the_reason(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a UR5 in a fleet: each day failed with "a vertical arm? The model has no gravity term; ...
+    # use a robot file that models gravity", of a robot file that does (the pass method ran)
+    robot = _two_link_robot(tmp_path, TWO_LINK.read_text(), JOINTS)
+    t = np.arange(3000) * 1e-3
+    cols = {"t": t}
+    for k, name in enumerate(JOINTS):
+        cols[f"q_{name}"] = (k + 1) * 0.5 * np.sin(2 * t)
+        cols[f"tau_{name}"] = 0.01 * np.sign(np.cos(2 * t))
+    write_table(tmp_path / "free.csv", cols)
+    (tmp_path / "FLEET.toml").write_text(
+        '[[robots]]\nname = "arm"\nrobot = "robot.toml"\n'
+        '[[robots.days]]\ndate = 2026-11-02\nlogs = ["free.csv"]\n'
+    )
+    out = tmp_path / "out"
+    argv = ["--quiet", "fleet", "identify", str(tmp_path / "FLEET.toml"), "-o", str(out)]
+    assert main([*argv, "--workers", "1"]) == 1
+    text = capsys.readouterr()
+    assert f"{robot}: fleet identify reads robots of kinematics 'none' or 'planar2r'" in (
+        text.out + text.err
+    )
+    assert not (out / "arm" / "2026-11-02.toml").exists()
