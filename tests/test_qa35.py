@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 
 from torquemap.cli.main import main
-from torquemap.io import write_table, write_toml
+from torquemap.errors import InputError
+from torquemap.io import read_log, write_table, write_toml
+from torquemap.robot import robot_from_dict
 
 TWO_LINK = Path(__file__).parent / "data" / "arm" / "two_link.urdf"
 
@@ -127,3 +129,25 @@ def test_fleet_fails_a_urdf_arms_days_with_the_reason(
         text.out + text.err
     )
     assert not (out / "arm" / "2026-11-02.toml").exists()
+
+
+def test_a_padded_current_column_is_named(tmp_path: Path) -> None:
+    # a writer that pads its columns ("i_a   "): the angle's near miss was named, the
+    # current's was not ("missing column 'i_a' or 'tau_a' for joint 'a'" alone)
+    robot = robot_from_dict(
+        {"robot": {}, "joints": {"a": {"gear_ratio": 1.0, "torque_constant": 0.04}}}
+    )
+    rows = [f"{k * 1e-3:.3f},{k * 1e-3:.3f},0.1   " for k in range(100)]
+    (tmp_path / "log.csv").write_text("t,q_a,i_a   \n" + "\n".join(rows) + "\n")
+    with pytest.raises(
+        InputError,
+        match=r"log.csv: missing column 'i_a' or 'tau_a' for joint "
+        r"'a' \(the file has 'i_a   ': names are exact",
+    ):
+        read_log(tmp_path / "log.csv", robot)
+    write_table(
+        tmp_path / "log.parquet",
+        {"t": np.arange(100) * 1e-3, "q_a": np.zeros(100), "Tau_A [N m]": np.zeros(100)},
+    )
+    with pytest.raises(InputError, match=r"\(the file has 'Tau_A \[N m\]'"):
+        read_log(tmp_path / "log.parquet", robot)

@@ -366,6 +366,24 @@ def missing_column_message(name: str, present: Sequence[str]) -> str:
     return f"{text} (the file has {shown})"
 
 
+def missing_channel_message(joint: str, present: Sequence[str]) -> str:
+    """``missing column 'i_<j>' or 'tau_<j>'`` plus a near miss the file holds (case, spaces,
+    a unit: a header "i_a   " from a writer that pads its columns), as
+    :func:`missing_column_message` names one for the other columns.
+
+    Examples
+    --------
+    >>> missing_channel_message("a", ["t", "q_a", "i_a   "])
+    "missing column 'i_a' or 'tau_a' for joint 'a' (the file has 'i_a   ': names are exact, lower case, no unit)"
+    """
+    text = f"missing column 'i_{joint}' or 'tau_{joint}' for joint {joint!r}"
+    cols = [str(c) for c in present]
+    near = near_miss(f"i_{joint}", cols) or near_miss(f"tau_{joint}", cols)
+    if near is not None:
+        return f"{text} (the file has {near!r}: names are exact, lower case, no unit)"
+    return text
+
+
 def numeric_column(
     columns: Columns,
     name: str,
@@ -803,10 +821,7 @@ def _log_arrays(
         elif f"i_{joint.name}" in cols:
             tau[:, k] = column(f"i_{joint.name}", unit="A") * joint.torque_constant
         else:
-            raise InputError(
-                f"missing column 'i_{joint.name}' or 'tau_{joint.name}' for joint {joint.name!r}",
-                path=p,
-            )
+            raise InputError(missing_channel_message(joint.name, cols), path=p)
     return t, q, tau
 
 
@@ -917,9 +932,7 @@ def _check_log_header(names: Sequence[str], present: Sequence[str], p: Path) -> 
         if name not in present:
             if name.startswith("i_"):
                 j = name[2:]
-                raise InputError(
-                    f"missing column 'i_{j}' or 'tau_{j}' for joint {j!r}", path=os.fspath(p)
-                )
+                raise InputError(missing_channel_message(j, present), path=os.fspath(p))
             raise InputError(missing_column_message(name, present), path=os.fspath(p))
 
 
