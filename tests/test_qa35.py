@@ -151,3 +151,14 @@ def test_a_padded_current_column_is_named(tmp_path: Path) -> None:
     )
     with pytest.raises(InputError, match=r"\(the file has 'Tau_A \[N m\]'"):
         read_log(tmp_path / "log.parquet", robot)
+
+
+def test_a_second_header_inside_a_log_is_named(tmp_path: Path) -> None:
+    # two logs joined with `cat`: "column 't' is not numeric (data row 4: 't')" alone
+    robot = robot_from_dict(
+        {"robot": {}, "joints": {"a": {"gear_ratio": 1.0, "torque_constant": 0.04}}}
+    )
+    part = "t,q_a,i_a\n" + "".join(f"{k * 1e-3:.3f},{k * 1e-3:.3f},0.1\n" for k in range(3))
+    (tmp_path / "joined.csv").write_text(part + part)
+    with pytest.raises(InputError, match=r"data row 4: 't'\): the header again"):
+        read_log(tmp_path / "joined.csv", robot)

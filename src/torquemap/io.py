@@ -437,8 +437,15 @@ def numeric_column(
         text_bad = [k for k in bad_items if not _is_number_text(raw.ravel()[k])]
         if bad_items:
             row = (text_bad or bad_items)[0]
+            cell = raw.ravel()[row]
+            # logs joined with `cat a.csv b.csv`: the second header is a data row
+            again = (
+                ": the header again (files joined with their headers?); keep the first only"
+                if isinstance(cell, str) and cell.strip() == name
+                else ""
+            )
             raise InputError(
-                f"column {name!r} is not numeric (data row {first_row + row + 1}: {raw.ravel()[row]!r})",
+                f"column {name!r} is not numeric (data row {first_row + row + 1}: {cell!r}){again}",
                 path=path,
             )
     elif kind in "mM":
