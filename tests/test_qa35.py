@@ -162,3 +162,34 @@ def test_a_second_header_inside_a_log_is_named(tmp_path: Path) -> None:
     (tmp_path / "joined.csv").write_text(part + part)
     with pytest.raises(InputError, match=r"data row 4: 't'\): the header again"):
         read_log(tmp_path / "joined.csv", robot)
+
+
+def test_a_position_step_build_cannot_bridge_is_warned_before_collecting(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # --position-step 1000 on a 384-position motor: one position measured, no word, and
+    # `linearize build` refused the data afterwards ("phase 2 was never energised")
+    rig = tmp_path / "rig"
+    argv = ["--quiet", "simulate", "rig", "--random", "3", "--out", str(rig)]
+    assert main([*argv, "--position-step", "24", "--readings", "1"]) == 0
+    assert "position step" not in capsys.readouterr().err  # 24 <= 384 // (4 x 4) + 1
+    out = tmp_path / "c.csv"
+    argv = ["--quiet", "linearize", "collect", str(rig / "motor.toml"), "--random", "3"]
+    assert main([*argv, "--position-step", "1000", "-o", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "a position step of 1000 leaves gaps of up to 383 positions" in err
+    assert "interpolates across at most 24" in err and "a step of at most 25" in err
+    assert (
+        main(
+            [
+                "--quiet",
+                "linearize",
+                "build",
+                str(rig / "motor.toml"),
+                str(out),
+                "-o",
+                str(tmp_path / "t.npz"),
+            ]
+        )
+        == 2
+    )
