@@ -193,3 +193,23 @@ def test_a_position_step_build_cannot_bridge_is_warned_before_collecting(
         )
         == 2
     )
+
+
+def test_a_revolute_joint_without_limit_is_named(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # urdfdom printed C++ "Error: Joint [elbow] is of type REVOLUTE but it does not specify
+    # limits / at line 607 in .../joint.cpp" lines and torquemap "Pinocchio cannot read the
+    # URDF (The XML stream does not contain a valid URDF model.)"
+    text = TWO_LINK.read_text().replace(
+        '<limit lower="-2.5" upper="2.5" effort="30" velocity="4.0"/>', ""
+    )
+    robot = _two_link_robot(tmp_path, text, JOINTS)
+    out = tmp_path / "excite.csv"
+    assert main(["--quiet", "excite", str(robot), "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (
+        f"torquemap: error: {tmp_path / 'arm.urdf'}: URDF joint 'elbow' is revolute but has no "
+        "<limit> (lower, upper, effort, velocity); one that turns without limits is type "
+        '"continuous"'
+    )
