@@ -213,3 +213,27 @@ def test_a_revolute_joint_without_limit_is_named(
         "<limit> (lower, upper, effort, velocity); one that turns without limits is type "
         '"continuous"'
     )
+
+
+def test_unix_time_in_float32_is_named(tmp_path: Path) -> None:
+    # a controller that logs Unix time as float32: every stamp of a 30 s log is 1.7e9 s
+    # (float32 steps by 128 s there); "time 't' never advances" alone before
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    robot = robot_from_dict(
+        {"robot": {}, "joints": {"a": {"gear_ratio": 1.0, "torque_constant": 0.04}}}
+    )
+    t = 1.7e9 + np.arange(3000) * 0.01
+    table = {"t": t.astype(np.float32), "q_a": np.sin(t - t[0]), "i_a": np.zeros(t.size)}
+    pq.write_table(pa.table(table), tmp_path / "f32.parquet")
+    with pytest.raises(
+        InputError,
+        match=r"never advances \(every row holds 1700000000 s, a "
+        r"float32 value: float32 holds such times only to 128 s",
+    ):
+        read_log(tmp_path / "f32.parquet", robot)
+    # the same times from zero are kept (float32 resolves 30 s to 2 us)
+    table["t"] = (t - t[0]).astype(np.float32)
+    pq.write_table(pa.table(table), tmp_path / "f32.parquet")
+    assert read_log(tmp_path / "f32.parquet", robot).t.size == 3000

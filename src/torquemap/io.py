@@ -672,7 +672,19 @@ def check_time(t: NDArray[np.float64], path: str | os.PathLike[str], *, first_ro
         row = int(np.argmax(step < 0)) + 2 + first_row
         raise InputError(f"time 't' goes backwards (at data row {row})", path=path)
     if not np.any(step > 0):
-        raise InputError("time 't' never advances", path=path)
+        raise InputError("time 't' never advances" + _float32_time_note(t), path=path)
+
+
+def _float32_time_note(t: NDArray[np.float64]) -> str:
+    """Why ``t`` stands still when it is Unix time stored as float32 (steps of 128 s), else ""."""
+    first = float(t[0])
+    if abs(first) < 1e5 or float(np.float32(first)) != first:
+        return ""
+    spacing = float(np.spacing(np.float32(abs(first))))
+    return (
+        f" (every row holds {first:.10g} s, a float32 value: float32 holds such times only to "
+        f"{spacing:g} s; write t as float64, or in seconds from the log's start)"
+    )
 
 
 def _same_length(
@@ -1106,7 +1118,10 @@ class _ChunkChain:
         if self.rows < 2:
             raise InputError("log needs at least two samples", path=self.path)
         if not self.advanced:
-            raise InputError("time 't' never advances", path=self.path)
+            raise InputError(
+                "time 't' never advances" + _float32_time_note(np.array([self.last_t])),
+                path=self.path,
+            )
 
 
 def follow_log_chunks(
