@@ -840,7 +840,7 @@ def _log_arrays(
         elif f"i_{joint.name}" in cols:
             tau[:, k] = column(f"i_{joint.name}", unit="A") * joint.torque_constant
         else:
-            raise InputError(missing_channel_message(joint.name, cols), path=p)
+            raise InputError(missing_channel_message(joint.name, list(cols)), path=p)
     return t, q, tau
 
 
