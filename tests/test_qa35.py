@@ -237,3 +237,20 @@ def test_unix_time_in_float32_is_named(tmp_path: Path) -> None:
     table["t"] = (t - t[0]).astype(np.float32)
     pq.write_table(pa.table(table), tmp_path / "f32.parquet")
     assert read_log(tmp_path / "f32.parquet", robot).t.size == 3000
+
+
+def test_report_of_an_unnamed_robot_names_its_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a robot file without [robot] name: "warning: Model: : the model holds no PDTV line" and
+    # "2 joint(s) of ; 1 log(s)" in the page
+    robot = tmp_path / "robot.toml"
+    write_toml(robot, {"robot": {}, "joints": {"a": {"gear_ratio": 1.0, "torque_constant": 0.1}}})
+    t = np.arange(4000) * 1e-3
+    write_table(tmp_path / "log.csv", {"t": t, "q_a": np.sin(t), "i_a": 0.01 * np.cos(t)})
+    out = tmp_path / "report.html"
+    assert main(["--quiet", "report", str(robot), str(tmp_path / "log.csv"), "-o", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "Model: robot.toml: the model holds no PDTV line" in err and "Model: :" not in err
+    page = out.read_text()
+    assert "1 joint(s); 1 log(s)" in page and "joint(s) of ;" not in page
