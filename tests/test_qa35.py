@@ -254,3 +254,4 @@ def test_report_of_an_unnamed_robot_names_its_file(
     assert "Model: robot.toml: the model holds no PDTV line" in err and "Model: :" not in err
     page = out.read_text()
     assert "1 joint(s); 1 log(s)" in page and "joint(s) of ;" not in page
+    assert "<title>torquemap report: robot.toml" in page

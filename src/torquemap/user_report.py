@@ -920,7 +920,7 @@ def write_user_report(
     sections = [_summary(model, mp, results), _model_section(model, mp)]
     sections.extend(r.section for r in results)
     report = Report(
-        title=f"torquemap report: {model.robot.name}",
+        title=f"torquemap report: {model.robot.name or os.path.basename(mp)}",
         subtitle=f"model {mp}; {len(log_paths)} log(s)",
         sections=tuple(sections),
     )
