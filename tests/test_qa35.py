@@ -255,3 +255,39 @@ def test_report_of_an_unnamed_robot_names_its_file(
     page = out.read_text()
     assert "1 joint(s); 1 log(s)" in page and "joint(s) of ;" not in page
     assert "<title>torquemap report: robot.toml" in page
+
+
+def test_an_arm_joint_held_still_is_refused_with_the_cause(tmp_path: Path) -> None:
+    # a two-link arm whose elbow is held (a brake, a disabled drive) throughout the free log:
+    # refused "the identified friction is negative in both directions ... check the robot
+    # file's gravity, gear ratios and torque constants" (or, by the rounding of a friction the
+    # joint cannot show, kept with "explains only 0% of its torque's variation")
+    from torquemap.identify_arm import identify_arm
+    from torquemap.io import Log
+    from torquemap.model import load_model
+
+    robot = _two_link_robot(tmp_path, TWO_LINK.read_text(), JOINTS)
+    model = load_model(robot)
+    arm = model.robot.arm
+    t = np.arange(0.0, 12.0, 2e-3)
+    q = np.c_[0.8 * np.sin(2 * np.pi * t / 4.0) + 0.3 * np.sin(2 * np.pi * t / 1.7), 0.3 + 0 * t]
+    qd = np.gradient(q, t, axis=0)
+    qdd = np.gradient(qd, t, axis=0)
+    rng = np.random.default_rng(0)
+    tau = arm.inverse_dynamics(q, qd, qdd) / 50.0 + 0.01 * np.tanh(50.0 * qd / 0.1)
+    tau += 1e-3 * rng.standard_normal(tau.shape)
+    log = Log(t=t, q=q, motor_torque=tau, joint_names=("shoulder", "elbow"), path="free.csv")
+    with pytest.raises(
+        InputError,
+        match=r"free.csv: joint elbow never moves in the logs \(its "
+        r"motor angle spans 0 rad\): its friction and rotor inertia cannot",
+    ):
+        identify_arm(model, [log])
+    # moving, the same arm is identified
+    q[:, 1] = 0.3 + 0.6 * np.sin(2 * np.pi * t / 3.1)
+    qd = np.gradient(q, t, axis=0)
+    qdd = np.gradient(qd, t, axis=0)
+    tau = arm.inverse_dynamics(q, qd, qdd) / 50.0 + 0.01 * np.tanh(50.0 * qd / 0.1)
+    tau += 1e-3 * rng.standard_normal(tau.shape)
+    log = Log(t=t, q=q, motor_torque=tau, joint_names=("shoulder", "elbow"), path="free.csv")
+    assert identify_arm(model, [log]).model.joints["elbow"].friction is not None
