@@ -120,3 +120,41 @@ def test_thinned_polled_sweep_still_gives_the_map(tmp_path: Path) -> None:
     table = pdtv_map(model, "m", motor_angle=angles)
     ref = np.load(DATA / "quasistatic_map_every16.npy")[::16]
     assert float(np.corrcoef(table.current, ref)[0, 1]) >= 0.95
+
+
+def test_spectrum_marks_the_models_lines_on_a_pass_under_one_revolution(
+    odrive: dict[str, object], capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the sweep holds 0.996 revolutions: its bins sit at k / 0.996 CPR (7.029, 28.12, ...),
+    # off the model's integer orders; before, in_model read "no" for every line of the model
+    d = Path(str(odrive["dir"]))
+    capsys.readouterr()
+    argv = ["spectrum", str(d / "model.toml"), str(d / "sweep.csv"), "--joint", "m", "--top", "3"]
+    assert main(["--quiet", *argv]) == 0
+    rows = capsys.readouterr().out.splitlines()
+    assert rows[0].startswith("joint m: 0.996 revolutions")
+    orders = {round(ln.order) for ln in load_model(d / "model.toml").joints["m"].pdtv}
+    for row in rows[2:]:
+        order = float(row.split(",")[0])
+        assert round(order) in orders and abs(order - round(order)) < 0.5 / 0.996
+        assert row.endswith(",yes")
+
+
+def test_counts_written_with_few_decimals_are_not_another_robot(
+    odrive: dict[str, object], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the drive's counts hold 1/64 fractions; the same sweep with its counts written "%.3f"
+    # (0.015 and 0.016 count steps) was refused as "a log from another robot"
+    d = Path(str(odrive["dir"]))
+    sweep = np.asarray(odrive["sweep"])
+    counts = np.mod(sweep[1], 8192.0)
+    lines = ["t,q_m,i_m"] + [
+        f"{a:.9f},{b:.3f},{c:.9f}" for a, b, c in zip(sweep[0], counts, sweep[2], strict=True)
+    ]
+    (tmp_path / "rounded.csv").write_text("\n".join(lines) + "\n")
+    out = tmp_path / "forces.csv"
+    argv = ["estimate", str(d / "model.toml"), str(tmp_path / "rounded.csv"), "-o", str(out)]
+    assert main(["--quiet", *argv]) == 2
+    err = capsys.readouterr().err
+    assert "q_m moves in steps of 1e-03 counts" in err and "written with 3 decimals" in err
+    assert "another robot" not in err and not out.exists()

@@ -21,12 +21,12 @@ position_unit = "counts"
 """
 
 
-def _one_pass(path: Path, positions: int) -> None:
+def _one_pass(path: Path, positions: int, step: int = 10) -> None:
     # each position held 0.3 s after a 0.05 s step, all approached from below, like
     # controller.start_anticogging_calibration(); PDTV 0.02 cos(4 theta + 0.5) + 0.01 cos(9
     # theta - 1) N m, friction offset 0.03 N m, current noise 1 mA
     rng = np.random.default_rng(3)
-    dt, step, hold = 0.005, 10, 60
+    dt, hold = 0.005, 60
     counts, torque = [], []
     for k in range(positions):
         c = k * 4096 / positions
@@ -91,3 +91,18 @@ def test_holds_given_to_the_sweep_identification_point_to_quasi_static(
         "identify --quasi-static reads them"
     )
     assert not out.exists()
+
+
+def test_holds_reached_within_one_sample_are_found(tmp_path: Path) -> None:
+    # an encoder that reads one count throughout each hold and a move done between two
+    # samples (a stiff position loop logged at 200 Hz): the smallest step was the move itself,
+    # the default tolerance (four of them) spanned every move, the log read as one hold and
+    # was refused "no joint holds still at 8 or more positions"; the robot file's count caps it
+    (tmp_path / "robot.toml").write_text(ROBOT)
+    _one_pass(tmp_path / "holds.csv", 64, step=1)
+    out = tmp_path / "model.toml"
+    argv = ["identify", str(tmp_path / "robot.toml"), str(tmp_path / "holds.csv")]
+    assert main(["--quiet", *argv, "--quasi-static", "-o", str(out)]) == 0
+    lines = sorted(load_model(out).joints["m"].pdtv, key=lambda ln: ln.order)
+    assert [ln.order for ln in lines] == [4.0, 9.0]
+    np.testing.assert_allclose([ln.amplitude for ln in lines], [0.02, 0.01], atol=5e-4)

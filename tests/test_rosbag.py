@@ -218,3 +218,23 @@ def test_stamps_keep_their_nanoseconds(
     # exact to float64 rounding of the elapsed time (1e-16 relative), far below 1 ns
     np.testing.assert_allclose(t, np.asarray(offsets) * 1e-9, rtol=1e-15, atol=1e-18)
     assert "first stamp 1700000000.123456789 s" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("unit", ["counts", "turns"])
+def test_positions_in_the_robot_files_unit(unit: str, tmp_path: Path) -> None:
+    # JointState positions are radians; under a robot file whose joint a is logged in counts
+    # (or turns) they were written as they are and read back as counts: the joint barely moved
+    doc = {
+        "robot": dict(ROBOT["robot"]),
+        "joints": {k: dict(v) for k, v in ROBOT["joints"].items()},
+    }
+    doc["joints"]["a"].update(position_unit=unit, encoder_counts_per_rev=4096)
+    robot_file = tmp_path / "robot.toml"
+    write_toml(robot_file, doc)
+    bag = write_bag(tmp_path / "bag", "ros1")
+    out = tmp_path / "log.csv"
+    argv = ["import", "rosbag", str(bag), "--robot", str(robot_file), "-o", str(out)]
+    assert main(argv) == 0
+    _, q, _ = truth()
+    log = read_log(out, robot_from_dict(doc))
+    np.testing.assert_allclose(log.q, q, atol=1e-12)

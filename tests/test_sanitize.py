@@ -255,3 +255,19 @@ def test_top_percentile_is_numpy_percentile_bit_for_bit(seed: int) -> None:
     with_nan = steps.copy()
     with_nan[7] = np.nan
     assert np.isnan(top_percentile(with_nan, 99.0))
+
+
+def test_an_angle_wrapped_to_one_turn_is_named() -> None:
+    # a continuous joint as ROS JointState publishes it, wrapped to (-pi, pi]: each whole-turn
+    # jump was "an encoder glitch or re-zeroing?"; a 0.4 rad jump still is
+    t = np.arange(6000) * 1e-3
+    q = np.c_[np.pi - 0.5 + 0.3 * t, 0.1 * np.cos(2.0 * t)]
+    q[:, 0] = (q[:, 0] + np.pi) % (2 * np.pi) - np.pi
+    log = Log(t=t, q=q, motor_torque=np.zeros_like(q), joint_names=("a", "b"), path="w.csv")
+    clean = sanitize_log(log, window=0.05)
+    (note,) = [w for w in clean.warnings if "jumps" in w]
+    assert "joint a" in note and "by -6.283 rad): an angle wrapped to one turn" in note
+    q[1700:, 1] += 0.4
+    clean = sanitize_log(dataclasses.replace(log, q=q), window=0.05)
+    (note,) = [w for w in clean.warnings if "jumps" in w and "joint b" in w]
+    assert "an encoder glitch or re-zeroing?" in note

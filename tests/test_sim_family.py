@@ -105,6 +105,8 @@ def test_simulate_rig_random_and_collect_on_it(
     assert np.unique(data["pulse_width"]).tolist() == [0, 64, 128, 192, 255]
     argv = ["linearize", "collect", str(out / "motor.toml"), "-o", str(tmp_path / "c.csv")]
     assert main([*argv, "--random", "3", "--step", "64", *fast[:4], "--no-progress"]) == 0
+    # 384 positions and 4 phases: build bridges gaps of 24 positions, not 31 (fast, not built)
+    assert "a position step of 32 leaves gaps of up to 31" in capsys.readouterr().err
     # a motor file for another bench of the family is refused in one line
     other = next(s for s in range(100) if random_bench(s).rig.phases != bench.rig.phases)
     status = main([*argv, "--random", str(other), "--no-progress"])

@@ -1170,14 +1170,25 @@ def check_log_matches_model(model: Model, log: Log) -> None:
             whole, ratio = whole[few], ratio[few]
         if float(np.mean(whole & (np.round(ratio) >= 1))) < 0.9:
             seen = float(np.min(step))
-            digits = _written_digits(step / joint.gear_ratio)
+            # the decimals are those of the log's own unit: counts written "%.3f" (a drive's
+            # counts with 1/64 fractions) were "a log from another robot"
+            unit, scale, at = "rad", 1.0 / joint.gear_ratio, " at the joint"
+            if joint.position_unit == "counts" and joint.encoder_counts_per_rev:
+                unit, scale, at = "counts", joint.encoder_counts_per_rev / (2 * math.pi), ""
+            elif joint.position_unit == "turns":
+                unit, scale, at = "turns", 1.0 / (2 * math.pi), ""
+            digits = _written_digits(step * scale)
+            if digits is None:
+                digits = _rounded_digits(step * scale)
             if digits is not None:
                 raise InputError(
                     f"joint {joint.name}: the log's q_{joint.name} moves in steps of "
-                    f"1e-{digits:02d} rad, not whole encoder counts of the model's robot "
-                    f"({quantum / joint.gear_ratio:.4g} rad at the joint): it was written with "
-                    f"{digits} decimals; write the angles with all their digits (or as encoder "
-                    "counts, position_unit = 'counts')",
+                    f"1e-{digits:02d} {unit}, not whole encoder counts of the model's robot "
+                    f"({quantum * scale:.4g} {unit}{at}): it was written with "
+                    f"{digits} decimals; write the angles with all their digits"
+                    + (
+                        " (or as encoder counts, position_unit = 'counts')" if unit == "rad" else ""
+                    ),
                     path=log.path,
                 )
             raise InputError(
@@ -1209,6 +1220,31 @@ def _written_digits(step: NDArray[np.float64]) -> int | None:
         return None
     ratio = step * 10.0**digits
     return digits if float(np.mean(np.abs(ratio - np.round(ratio)) < 0.02)) >= 0.9 else None
+
+
+def _rounded_digits(step: NDArray[np.float64]) -> int | None:
+    """The fewest decimals ``d`` (1 to 12) of which the nonzero steps ``step`` are, nine in
+    ten, whole multiples, the smallest step holding at most 100 of them: values rounded when
+    written, where the steps are a few of the last digit each (an encoder's 1/64 count
+    written "%.3f": 0.015 and 0.016), else None.
+
+    Examples
+    --------
+    >>> _rounded_digits(np.array([0.015, 0.016, 0.031, 0.047]) * (1 + 1e-12))
+    3
+    >>> _rounded_digits(np.array([0.015625, 0.03125, 0.046875])) is None
+    True
+    """
+    smallest = float(np.min(step))
+    if not smallest > 0:
+        return None
+    for digits in range(1, 13):
+        if smallest * 10.0**digits > 100.0:
+            return None
+        ratio = step * 10.0**digits
+        if float(np.mean(np.abs(ratio - np.round(ratio)) < 0.02)) >= 0.9:
+            return digits if smallest * 10.0**digits >= 0.98 else None
+    return None
 
 
 def identified_slowest_speeds(model: Model) -> dict[str, float]:

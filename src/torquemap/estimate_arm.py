@@ -445,6 +445,21 @@ def _sigma(
     return np.sqrt(var), warnings
 
 
+def _still_joints(arm: Any, q: NDArray[np.float64]) -> str:
+    """A note naming the joints that never move the end effector on the log's poses (its
+    origin on their axis: every pose singular, whatever the motion), or ""."""
+    J = np.asarray(arm.jacobian(q[:: max(1, q.shape[0] // 200)]), dtype=np.float64)
+    still = [n for k, n in enumerate(arm.joint_names) if np.max(np.abs(J[:, :, k])) < 1e-9]
+    if not still:
+        return ""
+    return (
+        f": joint{'s' if len(still) > 1 else ''} {', '.join(repr(n) for n in still)} "
+        f"do{'' if len(still) > 1 else 'es'} not move the end effector "
+        f"{arm.end_effector!r} (its origin lies on the joint's axis); choose an end effector "
+        "beyond it in the robot file"
+    )
+
+
 def _near_gaps(t: NDArray[np.float64], limit: float, reach: float) -> NDArray[np.bool_]:
     """Samples within ``reach`` [s] of a step in time longer than ``limit`` [s]."""
     steps = np.flatnonzero(np.diff(t) > limit)
@@ -558,7 +573,7 @@ def estimate_arm(
     if singular.any():
         warnings.append(
             f"{int(singular.sum())} of {singular.size} samples at near-singular poses "
-            "(wrench NaN, flag 1)"
+            "(wrench NaN, flag 1)" + _still_joints(arm, signals.q)
         )
     return ArmEstimate(
         t=signals.t,

@@ -246,6 +246,18 @@ def exciting_trajectory(
         raise InputError(f"speeds must be fractions 0 < |v| <= 1 of full speed, got {schedule}")
     gen = np.random.default_rng(rng)
     lo, hi = arm.position_limits
+    # a URDF's <limit lower="0" upper="0"> (example-robot-data's double pendulum) often means
+    # "no limit" (MuJoCo ignores it); read literally the joint cannot move, and the trajectory
+    # was written standing still with an infinite condition number
+    stuck = [n for n, a, b in zip(arm.joint_names, lo, hi, strict=True) if not b > a]
+    if stuck:
+        at = float(lo[list(arm.joint_names).index(stuck[0])])
+        raise InputError(
+            f"joint {stuck[0]!r} has no range in the URDF (lower = upper = {at:g}): give its "
+            "<limit> the real lower and upper, or make it continuous"
+            + (f" (also {', '.join(stuck[1:])})" if len(stuck) > 1 else ""),
+            path=getattr(arm, "urdf_path", None),
+        )
     lo = np.where(np.isfinite(lo), lo, -np.pi)
     hi = np.where(np.isfinite(hi), hi, np.pi)
     margin = position_margin * (hi - lo)

@@ -239,6 +239,7 @@ def identify_day(day: RobotDay, out_dir: str, window: float | None = None) -> Da
     import time
 
     from torquemap.identify import identify_model
+    from torquemap.identify_arm import is_rigid_body_arm
     from torquemap.io import cut_last_line_warnings, read_log, write_toml
     from torquemap.model import Model, model_to_dict
     from torquemap.robot import load_robot
@@ -253,6 +254,14 @@ def identify_day(day: RobotDay, out_dir: str, window: float | None = None) -> Da
                     "file not found (a fleet file's paths are relative to its own folder)", path=f
                 )
         robot = load_robot(day.robot_file)
+        if is_rigid_body_arm(robot.arm):
+            # the pass identification has no gravity or coupling: a UR5's day failed with
+            # "a vertical arm? ... use a robot file that models gravity", of a file that does
+            raise InputError(
+                "fleet identify reads robots of kinematics 'none' or 'planar2r'; this is an "
+                "arm with a URDF: identify its days one by one with `torquemap identify`",
+                path=day.robot_file,
+            )
         logs = [read_log(p, robot) for p in day.logs]
         kwargs: dict[str, Any] = {} if window is None else {"window": window}
         # the pass method's law (Coulomb per direction, viscous, Stribeck): a fixed form whose

@@ -406,6 +406,10 @@ FIT_SHARE = 0.9
 file without gravity: 7 %; else above 99.8 % on the benches)."""
 
 
+#: A joint whose motor angle spans less than this [rad] in every log never moved there.
+STILL_MOTOR_SPAN = 0.01
+
+
 def scale_warnings(
     names: Sequence[str],
     Y: NDArray[np.float64],
@@ -580,6 +584,20 @@ def identify_arm(
     if not logs:
         raise InputError("no stretch of the logs between gaps in time lasts 4 windows")
     signals = [arm_signals(log, robot, window=window) for log in logs]
+    # a joint held still throughout (a brake, a disabled drive) was refused as "friction is
+    # negative in both directions: check the robot file's gravity, gear ratios..." or kept with
+    # "the model explains 0% of its torque", by the rounding of a friction it cannot show
+    for k, joint in enumerate(robot.joints):
+        span = joint.gear_ratio * max(float(np.ptp(log.q[:, k])) for log in logs)
+        if span < STILL_MOTOR_SPAN:
+            paths = ", ".join(dict.fromkeys(str(log.path) for log in logs if log.path))
+            raise InputError(
+                f"joint {joint.name} never moves in the logs (its motor angle spans {span:.3g} "
+                "rad): its friction and rotor inertia cannot be identified; excite it (torquemap "
+                "excite), or, if it is locked, leave it out of the robot file (locked at zero) "
+                "or make it fixed in the URDF at its angle",
+                path=paths or None,
+            )
     inner = []
     for sig in signals:
         keep = np.flatnonzero((sig.t >= sig.t[0] + window) & (sig.t <= sig.t[-1] - window))

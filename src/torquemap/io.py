@@ -366,6 +366,24 @@ def missing_column_message(name: str, present: Sequence[str]) -> str:
     return f"{text} (the file has {shown})"
 
 
+def missing_channel_message(joint: str, present: Sequence[str]) -> str:
+    """``missing column 'i_<j>' or 'tau_<j>'`` plus a near miss the file holds (case, spaces,
+    a unit: a header "i_a   " from a writer that pads its columns), as
+    :func:`missing_column_message` names one for the other columns.
+
+    Examples
+    --------
+    >>> missing_channel_message("a", ["t", "q_a", "i_a   "])
+    "missing column 'i_a' or 'tau_a' for joint 'a' (the file has 'i_a   ': names are exact, lower case, no unit)"
+    """
+    text = f"missing column 'i_{joint}' or 'tau_{joint}' for joint {joint!r}"
+    cols = [str(c) for c in present]
+    near = near_miss(f"i_{joint}", cols) or near_miss(f"tau_{joint}", cols)
+    if near is not None:
+        return f"{text} (the file has {near!r}: names are exact, lower case, no unit)"
+    return text
+
+
 def numeric_column(
     columns: Columns,
     name: str,
@@ -419,8 +437,15 @@ def numeric_column(
         text_bad = [k for k in bad_items if not _is_number_text(raw.ravel()[k])]
         if bad_items:
             row = (text_bad or bad_items)[0]
+            cell = raw.ravel()[row]
+            # logs joined with `cat a.csv b.csv`: the second header is a data row
+            again = (
+                ": the header again (files joined with their headers?); keep the first only"
+                if isinstance(cell, str) and cell.strip() == name
+                else ""
+            )
             raise InputError(
-                f"column {name!r} is not numeric (data row {first_row + row + 1}: {raw.ravel()[row]!r})",
+                f"column {name!r} is not numeric (data row {first_row + row + 1}: {cell!r}){again}",
                 path=path,
             )
     elif kind in "mM":
@@ -647,7 +672,19 @@ def check_time(t: NDArray[np.float64], path: str | os.PathLike[str], *, first_ro
         row = int(np.argmax(step < 0)) + 2 + first_row
         raise InputError(f"time 't' goes backwards (at data row {row})", path=path)
     if not np.any(step > 0):
-        raise InputError("time 't' never advances", path=path)
+        raise InputError("time 't' never advances" + _float32_time_note(t), path=path)
+
+
+def _float32_time_note(t: NDArray[np.float64]) -> str:
+    """Why ``t`` stands still when it is Unix time stored as float32 (steps of 128 s), else ""."""
+    first = float(t[0])
+    if abs(first) < 1e5 or float(np.float32(first)) != first:
+        return ""
+    spacing = float(np.spacing(np.float32(abs(first))))
+    return (
+        f" (every row holds {first:.10g} s, a float32 value: float32 holds such times only to "
+        f"{spacing:g} s; write t as float64, or in seconds from the log's start)"
+    )
 
 
 def _same_length(
@@ -803,10 +840,7 @@ def _log_arrays(
         elif f"i_{joint.name}" in cols:
             tau[:, k] = column(f"i_{joint.name}", unit="A") * joint.torque_constant
         else:
-            raise InputError(
-                f"missing column 'i_{joint.name}' or 'tau_{joint.name}' for joint {joint.name!r}",
-                path=p,
-            )
+            raise InputError(missing_channel_message(joint.name, list(cols)), path=p)
     return t, q, tau
 
 
@@ -917,9 +951,7 @@ def _check_log_header(names: Sequence[str], present: Sequence[str], p: Path) -> 
         if name not in present:
             if name.startswith("i_"):
                 j = name[2:]
-                raise InputError(
-                    f"missing column 'i_{j}' or 'tau_{j}' for joint {j!r}", path=os.fspath(p)
-                )
+                raise InputError(missing_channel_message(j, present), path=os.fspath(p))
             raise InputError(missing_column_message(name, present), path=os.fspath(p))
 
 
@@ -1086,7 +1118,10 @@ class _ChunkChain:
         if self.rows < 2:
             raise InputError("log needs at least two samples", path=self.path)
         if not self.advanced:
-            raise InputError("time 't' never advances", path=self.path)
+            raise InputError(
+                "time 't' never advances" + _float32_time_note(np.array([self.last_t])),
+                path=self.path,
+            )
 
 
 def follow_log_chunks(

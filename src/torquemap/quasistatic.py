@@ -66,6 +66,7 @@ def find_holds(
     tolerance: float | None = None,
     min_duration: float = 0.1,
     settle: float = 0.5,
+    count: float | None = None,
 ) -> Holds:
     """Find the holds in a log: stretches where the motor angle stays within ``tolerance``.
 
@@ -85,6 +86,11 @@ def find_holds(
         Shortest hold [s].
     settle
         Fraction of each hold discarded at its start (the rotor settling) before averaging.
+    count
+        One encoder count at the motor [rad], when known: the default tolerance is then at most
+        four counts (an encoder that reads one count throughout each hold, the moves between
+        holds done within a sample, has no step smaller than the moves: four of them spanned
+        every move and the log was one hold).
 
     Returns
     -------
@@ -106,6 +112,8 @@ def find_holds(
         steps = np.abs(np.diff(th))
         steps = steps[steps > 1e-12]
         tolerance = 4.0 * float(steps.min()) if steps.size else 1e-6
+        if count is not None and count > 0:
+            tolerance = min(tolerance, 4.0 * count)
     from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
     # still: the angle moves less than the tolerance within half the shortest hold around
@@ -390,6 +398,7 @@ def identify_quasi_static(
     for name in names:
         k = rb.joint_names.index(name)
         gear = rb.joints[k].gear_ratio
+        cpr = rb.joints[k].encoder_counts_per_rev
         parts = [
             find_holds(
                 log.t,
@@ -398,6 +407,7 @@ def identify_quasi_static(
                 tolerance=tolerance,
                 min_duration=min_duration,
                 settle=settle,
+                count=TWO_PI / cpr if cpr else None,
             )
             for log in logs
         ]

@@ -251,7 +251,14 @@ def log_columns(
     cols: dict[str, NDArray[np.float64]] = {"t": states.t}
     for joint in robot.joints:
         k = states.names.index(mapping[joint.name])
-        cols[f"q_{joint.name}"] = states.position[:, k]
+        # JointState positions are joint-side radians; the log's q_<j> is in the robot file's
+        # position_unit (before: radians written under a "counts" file, read back as counts)
+        scale = 1.0
+        if joint.position_unit == "counts" and joint.encoder_counts_per_rev:
+            scale = joint.gear_ratio * joint.encoder_counts_per_rev / (2.0 * np.pi)
+        elif joint.position_unit == "turns":
+            scale = joint.gear_ratio / (2.0 * np.pi)
+        cols[f"q_{joint.name}"] = states.position[:, k] * scale
     for joint in robot.joints:
         k = states.names.index(mapping[joint.name])
         if effort == "torque":

@@ -465,10 +465,21 @@ def sanitize_log(log: Log, *, window: float, min_piece: float | None = None) -> 
         if jk.any():
             name = log.joint_names[k] if k < len(log.joint_names) else str(k)
             i = int(np.flatnonzero(jk)[0])
+            at = np.flatnonzero(jk)
+            steps = np.abs(q[at, k] - q[at - 1, k])
+            # every jump a whole turn: an angle wrapped to (-pi, pi], as ROS JointState
+            # publishes a continuous joint (before: "an encoder glitch or re-zeroing?")
+            turn = bool(np.all(np.abs(steps - 2.0 * np.pi) < 0.05 * np.pi))
+            cause = (
+                "an angle wrapped to one turn (a continuous joint as ROS publishes it?): unwrap "
+                "it (numpy.unwrap) before"
+                if turn
+                else "an encoder glitch or re-zeroing?"
+            )
             warnings.append(
                 f"joint {name}: the angle jumps {int(jk.sum())} times between two samples by "
                 f"more than the robot moves (first at t = {tk[i]:.6g} s, by "
-                f"{q[i, k] - q[i - 1, k]:+.4g} rad): an encoder glitch or re-zeroing? The log "
+                f"{q[i, k] - q[i - 1, k]:+.4g} rad): {cause}. The log "
                 "is cut there and the samples flagged"
             )
             jumps |= jk

@@ -785,7 +785,8 @@ def _model_section(model: Model, path: str) -> Section:
     if not lines:
         warnings.append("the model holds no PDTV line (a plain robot file, or none was identified)")
     return Section(
-        f"Model: {model.robot.name}",
+        # a robot file need not name the robot: "Model: " + "" read "Model: : <warning>"
+        f"Model: {model.robot.name or os.path.basename(path)}",
         paragraphs=(f"From {path}. Motor side; kinematics {model.robot.kinematics}.",),
         tables=(
             table(
@@ -870,7 +871,9 @@ def _summary(model: Model, model_path: str, results: Sequence[_LogResult]) -> Se
     return Section(
         "Summary",
         paragraphs=(
-            f"Model {model_path}: {len(model.joints)} joint(s) of {model.robot.name}; "
+            f"Model {model_path}: {len(model.joints)} joint(s)"
+            + (f" of {model.robot.name}" if model.robot.name else "")
+            + "; "
             f"{len(results)} log(s), {sweeps} of them identification sweeps.",
         ),
         tables=(
@@ -917,7 +920,7 @@ def write_user_report(
     sections = [_summary(model, mp, results), _model_section(model, mp)]
     sections.extend(r.section for r in results)
     report = Report(
-        title=f"torquemap report: {model.robot.name}",
+        title=f"torquemap report: {model.robot.name or os.path.basename(mp)}",
         subtitle=f"model {mp}; {len(log_paths)} log(s)",
         sections=tuple(sections),
     )

@@ -150,6 +150,7 @@ def _collect(args: argparse.Namespace) -> int:
         raise InputError("--budget is the adaptive collection's: add --adaptive, or drop it")
     spec = load_motor(args.motor)
     _warn_step_past_half_way(args, spec)
+    _warn_position_step_past_build(args, spec)
     if args.adaptive:
         from torquemap.cli.cmd_linearize_more import collect_adaptive_command
 
@@ -199,6 +200,30 @@ def _warn_step_past_half_way(args: argparse.Namespace, spec: MotorSpec) -> None:
     else:
         top, what = spec.actuation_max, "pulse width"
     warn_level_step(args.out, step, top, what)
+
+
+def _warn_position_step_past_build(args: argparse.Namespace, spec: MotorSpec) -> None:
+    """:func:`warn_position_step` for a characterisation run's flags (a verification run,
+    through tables, is not built from)."""
+    step = getattr(args, "position_step", None)
+    if step is None or args.tables is not None or getattr(args, "adaptive", False):
+        return
+    warn_position_step(args.out, step, spec)
+
+
+def warn_position_step(out: str, step: int, spec: MotorSpec) -> None:
+    """On stderr: a position step whose gaps ``linearize build`` will not interpolate across
+    (at most ``positions_per_cycle // (4 phases)`` positions): it would refuse the data after
+    the whole collection (``--position-step 1000`` on 384 positions measured one)."""
+    gap = max(1, spec.positions_per_cycle // (4 * spec.phases))
+    if step - 1 > gap:
+        print(
+            f"torquemap: warning: {out}: a position step of {step} leaves gaps of up to "
+            f"{min(step, spec.positions_per_cycle) - 1} positions between targets; linearize "
+            f"build interpolates across at most {gap} and refuses wider ones; a step of at "
+            f"most {gap + 1} keeps within it",
+            file=sys.stderr,
+        )
 
 
 def warn_level_step(out: str, step: int, top: int, what: str) -> None:

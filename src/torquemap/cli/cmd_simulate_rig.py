@@ -86,10 +86,11 @@ def _rig(args: argparse.Namespace) -> int:
     )
     from pathlib import Path
 
-    from torquemap.cli.cmd_linearize_collect import warn_level_step
+    from torquemap.cli.cmd_linearize_collect import warn_level_step, warn_position_step
     from torquemap.linearize.motor import load_motor
 
     spec = load_motor(Path(args.out) / "motor.toml")
     data = str(Path(args.out) / "data.csv")
     warn_level_step(data, settings.level_step, spec.actuation_max, "pulse width")
+    warn_position_step(data, settings.position_step, spec)
     return 0

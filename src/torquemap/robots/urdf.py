@@ -96,6 +96,7 @@ def check_urdf(path: Path) -> ET.Element:
         raise _urdf_error(f"URDF link {dup!r} is defined twice", path)
     parent_of: dict[str, str] = {}
     seen: set[str] = set()
+    unlimited: list[tuple[str, str]] = []
     for joint in root.findall("joint"):
         name = joint.get("name") or ""
         kind = joint.get("type") or ""
@@ -119,6 +120,8 @@ def check_urdf(path: Path) -> ET.Element:
             )
         if kind not in (*_MOVABLE, "fixed"):
             raise _urdf_error(f"URDF joint {name!r} has unknown type {kind!r}", path)
+        if kind in ("revolute", "prismatic") and joint.find("limit") is None:
+            unlimited.append((name, kind))
         if c in parent_of:
             raise _urdf_error(
                 f"closed chain: link {c!r} has two parent joints ({parent_of[c]!r} and "
@@ -131,6 +134,15 @@ def check_urdf(path: Path) -> ET.Element:
         raise _urdf_error(
             f"URDF links form {len(roots)} separate trees (roots {', '.join(map(str, roots))});"
             " torquemap needs one",
+            path,
+        )
+    if unlimited:
+        # urdfdom refuses it with C++ lines on stderr and Pinocchio with "The XML stream does
+        # not contain a valid URDF model"
+        name, kind = unlimited[0]
+        raise _urdf_error(
+            f"URDF joint {name!r} is {kind} but has no <limit> (lower, upper, effort, "
+            'velocity); one that turns without limits is type "continuous"',
             path,
         )
     return root
@@ -672,6 +684,19 @@ def urdf_arm(
         isinstance(g, int | float) and not isinstance(g, bool) and math.isfinite(g) for g in gravity
     ):
         raise InputError("[robot] gravity must be [gx, gy, gz], finite numbers [m/s^2]", path=p)
+    # Pinocchio reads a <mimic> joint as a free one: listed, it would be driven on its own
+    mimics = {
+        j.get("name"): m.get("joint")
+        for j in root.findall("joint")
+        if (m := j.find("mimic")) is not None
+    }
+    for j in joint_names:
+        if j in mimics:
+            raise InputError(
+                f"joint {j!r} follows {mimics[j]!r} in {file.name} (<mimic>): it is not driven "
+                "on its own; leave it out of the robot file (it is then locked at zero)",
+                path=p,
+            )
     locked = [i for i in range(1, full.njoints) if names[i] not in joint_names]
     model = _locked(full, locked, root, joint_names) if locked else full
     model.gravity = pin.Motion(np.array(gravity, dtype=float), np.zeros(3))
