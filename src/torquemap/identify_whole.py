@@ -100,8 +100,8 @@ RUN_WINDOWS = 4.0
 #: samples: about 20 000 rows per joint).
 DELAY_ROWS = 60_000
 #: How the whole fit tries the delay grid (:func:`torquemap.whole_delay.delay_profile`):
-#: ``"refine"``, coarse to fine, tries the points its profile test reads (15-17 of 25 on a
-#: well-determined delay), ``"grid"`` every one.
+#: ``"refine"``, coarse to fine, tries the points its profile test reads (12-21 of 25 on the
+#: benches), ``"grid"`` every one.
 DELAY_SEARCH: Literal["grid", "refine"] = "refine"
 #: Prior standard deviation of the table's first difference below the slowest observed speed,
 #: in units of the friction level: a Stribeck rise of half the level within a decade of
