@@ -26,7 +26,8 @@ class DelayProfile:
     Attributes
     ----------
     grid, cost
-        Delays tried [s] and the robust cost of the fit at each.
+        The grid of delays [s] and the robust cost of the fit at each (``nan`` where a
+        coarse-to-fine search did not try it).
     best
         The cost-minimising delay (grid, refined by a parabola) [s].
     low, high
@@ -183,6 +184,16 @@ def refine_grid(
     second divided differences at the tried points show. A dip narrower than the coarse
     stride and deeper than that would be missed (a well-determined delay's minimum is not such
     a dip: the coarse best's neighbours are always tried).
+
+    Examples
+    --------
+    >>> grid = delay_grid(0.25)
+    >>> cost = np.full(grid.size, np.nan)
+    >>> def run(index):
+    ...     cost[index] = 1.0 + (grid[index] - 0.05) ** 2
+    >>> refine_grid(grid, cost, run, 1.001)
+    >>> int(np.nanargmin(cost)) == int(np.argmin((grid - 0.05) ** 2)), int(np.isnan(cost).sum())
+    (True, 14)
     """
     n = grid.size
     run(sorted({*range(0, n, COARSE_STRIDE), n - 1}))
