@@ -711,3 +711,84 @@ def test_the_table_between_passes_far_apart_follows_the_passes(monkeypatch) -> N
     fit = rms("fit")
     assert rms("pchip", 1.0) < 0.03 < 0.034 < fit
     assert rms("pchip") < 0.034
+
+
+@pytest.mark.parametrize(
+    "cost",
+    [
+        pytest.param(lambda d: 100.0 + 1e6 * (d - 0.05) ** 2, id="bowl between grid points"),
+        pytest.param(lambda d: 100.0 + 1e6 * (d - 0.0625) ** 2, id="bowl on a grid point"),
+        pytest.param(lambda d: 100.0 + 3e4 * (d - 0.01) ** 2, id="wide bowl"),
+        pytest.param(lambda d: 100.0 + 1e6 * (d + 0.3) ** 2, id="minimum beyond the bound"),
+        pytest.param(lambda d: 100.0 + 1e5 * min((d - 0.1) ** 2, (d + 0.1) ** 2), id="two minima"),
+        pytest.param(
+            lambda d: 100.0 + 50.0 * min(abs(d - 0.03), 0.02) / 0.02 + 400.0 * abs(d - 0.03),
+            id="huber-like",
+        ),
+        pytest.param(lambda d: 100.0 + 2.0 * math.cos(40.0 * d), id="periodic"),
+        pytest.param(lambda d: 100.0, id="flat"),
+    ],
+)
+def test_the_refined_delay_search_reads_the_grids_profile(cost) -> None:  # type: ignore[no-untyped-def]
+    # a second algorithm: the whole grid; coarse to fine must find the same best delay,
+    # interval and candidates, trying the grid points it needs (a profile's untried points
+    # are nan) and every point within the test's limit and its two neighbours
+    from torquemap.whole_delay import delay_profile
+
+    tried: list[float] = []
+
+    def counted(d: float) -> float:
+        tried.append(d)
+        return float(cost(d))
+
+    grid = delay_profile(cost, 0.25, dof=100.0)
+    fine = delay_profile(counted, 0.25, dof=100.0, search="refine")
+    assert (fine.best, fine.low, fine.high) == (grid.best, grid.low, grid.high)
+    assert fine.candidates == grid.candidates
+    done = ~np.isnan(fine.cost)
+    np.testing.assert_array_equal(fine.cost[done], grid.cost[done])
+    limit = fine.cost[done].min() * (1.0 + 3.936 / 100.0)  # F(0.95; 1, 100) = 3.936
+    inside = np.flatnonzero(grid.cost <= limit)
+    assert done[np.clip(np.r_[inside - 1, inside, inside + 1], 0, grid.grid.size - 1)].all()
+    assert len(tried) <= grid.grid.size + 1
+
+
+def test_the_refined_delay_search_tries_fewer_delays_on_a_clear_minimum() -> None:
+    from torquemap.whole_delay import delay_profile
+
+    tried: list[float] = []
+
+    def cost(d: float) -> float:
+        tried.append(d)
+        return 100.0 + 1e6 * (d - 0.05) ** 2
+
+    prepared: list[int] = []
+    delay_profile(cost, 0.25, dof=100.0, search="refine", prepare=lambda x: prepared.append(x.size))
+    # 7 coarse points, then the halves and quarters around the minimum, and the parabola
+    assert len(tried) <= 15
+    assert sum(prepared) == len(tried) - 1  # every grid point prepared before it is costed
+
+
+def test_the_refined_delay_search_finds_a_known_delay(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    # a 60 ms torque delay (between the grid's points at 41.7 and 62.5 ms) on the simulated
+    # motor: the coarse-to-fine search finds it within 2 ms (as the grid does, the test above
+    # of the 20 ms delay), and the model is the whole grid's to the last bit
+    import torquemap.identify_whole as whole
+    from torquemap.model import model_to_dict
+
+    profiles = []
+    scan = whole.delay_profile
+
+    def spy(*args, **kwargs):  # type: ignore[no-untyped-def]
+        profiles.append(scan(*args, **kwargs))
+        return profiles[-1]
+
+    monkeypatch.setattr(whole, "delay_profile", spy)
+    log = simulate(delay=0.06, seed=5)
+    refined = identify_model(robot(), [log], max_order=20, friction="whole")
+    assert abs(refined.model.notes["joints"]["m"]["channel_delay"] - 0.06) < 2e-3
+    assert int(np.sum(~np.isnan(profiles[-1].cost))) < profiles[-1].grid.size
+    monkeypatch.setattr(whole, "DELAY_SEARCH", "grid")
+    full = identify_model(robot(), [log], max_order=20, friction="whole")
+    assert int(np.sum(~np.isnan(profiles[-1].cost))) == profiles[-1].grid.size
+    assert model_to_dict(refined.model) == model_to_dict(full.model)

@@ -7,8 +7,10 @@ delay, a minimum at the search's bound, a disagreement with the pass method's de
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,7 +26,8 @@ class DelayProfile:
     Attributes
     ----------
     grid, cost
-        Delays tried [s] and the robust cost of the fit at each.
+        The grid of delays [s] and the robust cost of the fit at each (``nan`` where a
+        coarse-to-fine search did not try it).
     best
         The cost-minimising delay (grid, refined by a parabola) [s].
     low, high
@@ -54,21 +57,65 @@ def delay_grid(max_delay: float, steps: int = STEPS) -> NDArray[np.float64]:
 
 
 def delay_profile(
-    cost: Callable[[float], float], max_delay: float, *, dof: float, steps: int = STEPS
+    cost: Callable[[float], float],
+    max_delay: float,
+    *,
+    dof: float,
+    steps: int = STEPS,
+    search: Literal["grid", "refine"] = "grid",
+    prepare: Callable[[NDArray[np.float64]], None] | None = None,
 ) -> DelayProfile:
     """Scan ``cost`` over delays in ``[-max_delay, max_delay]`` (grid, then a parabola through
     the best three) and bound the delay by a profile F test at 95 % with ``dof`` degrees of
     freedom.
+
+    Parameters
+    ----------
+    cost
+        The fit's cost at a delay [s] (squared units).
+    max_delay
+        Search range [s].
+    dof
+        Degrees of freedom of the profile F test.
+    steps
+        Points of the grid (:func:`delay_grid`).
+    search
+        ``"grid"``: ``cost`` at every grid point. ``"refine"``: the same grid, tried coarse to
+        fine (:func:`refine_grid`): every point that can lie within the test's limit, or
+        beside one that does, is tried; the rest are left untried (``nan`` in
+        :attr:`DelayProfile.cost`). The same profile as ``"grid"`` wherever the cost between
+        tried points curves no more than twice the most the tried points show.
+    prepare
+        Called with each batch of delays [s] before they are costed (a caller that computes
+        the trials' inputs several at a time).
 
     Examples
     --------
     >>> p = delay_profile(lambda d: 100.0 + 1e6 * (d - 0.05) ** 2, 0.25, dof=100.0)
     >>> round(p.best, 4), p.low < 0.05 < p.high, p.candidates == (p.best,)
     (0.05, True, True)
+    >>> q = delay_profile(
+    ...     lambda d: 100.0 + 1e6 * (d - 0.05) ** 2, 0.25, dof=100.0, search="refine"
+    ... )
+    >>> (q.best, q.low, q.high) == (p.best, p.low, p.high), int(np.isnan(q.cost).sum()) > 0
+    (True, True)
     """
     grid = delay_grid(max_delay, steps)
-    vals = np.array([cost(float(x)) for x in grid])
-    k = int(np.argmin(vals))
+    dof = max(dof, 1.0)
+    ratio = 1.0 + float(stats.f.ppf(0.95, 1, dof)) / dof
+    vals = np.full(grid.size, np.nan)
+
+    def run(index: list[int]) -> None:
+        if prepare is not None and index:
+            prepare(grid[index])
+        for i in index:
+            vals[i] = cost(float(grid[i]))
+
+    if search == "grid":
+        run(list(range(grid.size)))
+    else:
+        refine_grid(grid, vals, run, ratio)
+    k = int(np.nanargmin(vals))
     best, c_best = float(grid[k]), float(vals[k])
     if 0 < k < grid.size - 1:
         y0, y1, y2 = vals[k - 1], vals[k], vals[k + 1]
@@ -79,9 +126,8 @@ def delay_profile(
             c_trial = cost(trial)
             if c_trial <= y1:
                 best, c_best = trial, c_trial
-    dof = max(dof, 1.0)
-    limit = c_best * (1.0 + float(stats.f.ppf(0.95, 1, dof)) / dof)
-    inside = vals <= limit
+    limit = c_best * ratio
+    inside = vals <= limit  # untried points (nan) are outside
     # the interval: the grid points around the best within the limit, half a step beyond
     half = 0.5 * float(grid[1] - grid[0])
     lo_k = hi_k = k
@@ -108,6 +154,72 @@ def delay_profile(
         high=high,
         candidates=(best, *others),
     )
+
+
+#: Stride of :func:`refine_grid`'s first, coarsest pass (in grid steps).
+COARSE_STRIDE = 4
+
+
+def refine_grid(
+    grid: NDArray[np.float64],
+    cost: NDArray[np.float64],
+    run: Callable[[list[int]], None],
+    ratio: float,
+) -> None:
+    """Fill ``cost`` (nan where untried) at the points of ``grid`` a profile test at ``ratio``
+    (the limit over the best cost) needs, coarse to fine.
+
+    First every :data:`COARSE_STRIDE`-th point and the last; then, until no gap between
+    neighbouring tried points ``a < b`` is split, the point halfway between them is tried
+    when ``a`` or ``b`` lies within the limit (``ratio`` times the best tried cost: the
+    interval's walk and the local-minimum test read both neighbours of a point within it), or
+    when the cost there may: its straight line between ``a`` and ``b`` less
+    ``D (x - x_a)(x_b - x)`` is within the limit, ``D`` twice the largest second divided
+    difference of the tried points (linear interpolation's error is at most that for
+    ``|cost''| <= 2 D``). ``run(index)`` fills ``cost[index]``.
+
+    Notes
+    -----
+    The cost is assumed to curve, between tried points, no more than twice the most its
+    second divided differences at the tried points show. A dip narrower than the coarse
+    stride and deeper than that would be missed (a well-determined delay's minimum is not such
+    a dip: the coarse best's neighbours are always tried).
+
+    Examples
+    --------
+    >>> grid = delay_grid(0.25)
+    >>> cost = np.full(grid.size, np.nan)
+    >>> def run(index):
+    ...     cost[index] = 1.0 + (grid[index] - 0.05) ** 2
+    >>> refine_grid(grid, cost, run, 1.001)
+    >>> int(np.nanargmin(cost)) == int(np.argmin((grid - 0.05) ** 2)), int(np.isnan(cost).sum())
+    (True, 14)
+    """
+    n = grid.size
+    run(sorted({*range(0, n, COARSE_STRIDE), n - 1}))
+    while True:
+        tried = np.flatnonzero(~np.isnan(cost))
+        x, y = grid[tried], cost[tried]
+        limit = float(np.min(y)) * ratio
+        if tried.size >= 3:
+            slope = np.diff(y) / np.diff(x)
+            divided = np.abs(np.diff(slope) / (x[2:] - x[:-2]))  # |cost''| / 2
+            bend = 2.0 * float(np.max(divided))
+        else:
+            bend = np.inf
+        todo = []
+        for a, b in itertools.pairwise(tried.tolist()):
+            if b - a < 2:
+                continue
+            c = (a + b) // 2
+            xa, xb, xc = grid[a], grid[b], grid[c]
+            line = cost[a] + (cost[b] - cost[a]) * (xc - xa) / (xb - xa)
+            bound = line - bend * (xc - xa) * (xb - xc)
+            if min(cost[a], cost[b]) <= limit or bound <= limit:
+                todo.append(c)
+        if not todo:
+            return
+        run(todo)
 
 
 def huber_cost(residual: NDArray[np.float64], scale: float) -> float:
