@@ -46,6 +46,7 @@ from torquemap.linearize.denoise import denoise_blocks, restore_misfit
 from torquemap.linearize.detent import detent_correction, fit_detent
 from torquemap.linearize.handover import check_handover, fill_handover
 from torquemap.linearize.knee import check_uncensored, knee_levels, pool_onset, uncensored_residual
+from torquemap.linearize.knee_track import cut_below_knee, knee_at, knee_between
 from torquemap.linearize.motor import MotorSpec
 from torquemap.linearize.onset import extend_below, fit_onset
 from torquemap.linearize.resume import check_collected_for
@@ -764,12 +765,17 @@ def _surface_forward(
     knee: bool = True,
     nyquist: bool = False,
     pool: bool = False,
+    track: bool = False,
+    raw: NDArray[np.float64] | None = None,
 ) -> tuple[NDArray[np.float64], SurfaceFit]:
     """Sensed torque on every base pulse width from the structured surface
     (:mod:`torquemap.linearize.surface`) plus what it misses at the measured cells,
     interpolated between them, shape (P, A + 1); and the surface. ``noise``: one row's
     noise [N m]; ``pool``: where the knee's uncensored residual is used, its offsets pooled
-    over the measured positions (:func:`torquemap.linearize.knee.pool_onset`)."""
+    over the measured positions (:func:`torquemap.linearize.knee.pool_onset`); ``track``: the
+    forward model held at zero below the knee placed per position from the rows as read
+    (``raw``, default ``tau``) and carried between measured positions in the surface's drive
+    (:mod:`torquemap.linearize.knee_track`)."""
     n = spec.positions_per_cycle
     col = np.searchsorted(levels, pw)
     mean, count = _cells(pos, col.astype(np.int64), tau, (n, levels.size))
@@ -812,6 +818,16 @@ def _surface_forward(
     res_fine = np.stack([np.interp(u, levels, np.nan_to_num(r)) for r in res])
     out = np.maximum(surface_prediction(fit, ramp, u) + res_fine, 0.0)
     out = np.maximum.accumulate(out, axis=1)
+    if track:
+        # the knee from the rows as read (``raw``; the low-rank denoiser smooths it over the
+        # blocks), less the blocks' bias errors the surface read
+        rows = tau if raw is None else raw
+        read, _ = _cells(pos, col.astype(np.int64), rows, (n, levels.size))
+        anchors = np.flatnonzero(np.isfinite(mean[:, 0]))
+        drive = surface_prediction(fit, ramp, u) - fit.rest[:, None]
+        drive = np.maximum.accumulate(drive, axis=1)
+        knees = knee_at(read - fit.offset[:, None], levels, noise=noise)
+        out = cut_below_knee(out, knee_between(knees, anchors, drive))
     return out, fit
 
 
@@ -1016,6 +1032,7 @@ def build_tables(
     surface: bool = True,
     knee: bool = True,
     pool: bool = False,
+    track: bool = False,
     nyquist: bool = True,
     bias: ArrayLike | None = None,
     restore_bias: bool = True,
@@ -1086,6 +1103,17 @@ def build_tables(
         a smooth torque at rest (:func:`torquemap.linearize.knee.pool_onset`). Off by default:
         measured better on the family's seeds 40 to 59 and 80 to 99 and neutral on 140 to 159,
         but the worst of 120 to 139 went from 1.61x to 1.64x the floor (docs/linearize.md).
+    track
+        ``"interp"`` only, where the structured surface is used: the forward model held at zero
+        below each position's knee (the pulse width where the sensed torque leaves zero),
+        fitted at each measured position to the rows as read (censored: zero below it) and
+        carried between them in the surface's drive (:mod:`torquemap.linearize.knee_track`),
+        so that the tables do not switch the motor on early where the surface's torque at rest
+        puts its knee low. Off by default: on the family's seeds 0 to 19 the measured median
+        went from 1.18x to 1.21x the floor (the worst 1.39x to 1.37x) and the CAPMD at command
+        1 from 53 % to 65 %: the knee carried between measured positions misses the cogging
+        the surface's torque at rest holds, and a late knee over-delivers (docs/linearize.md,
+        "The knee per position").
     nyquist
         ``"interp"`` only, where the structured surface is used and the torque at rest of the
         measured positions alternates (cogging sampled at most twice a period:
@@ -1243,7 +1271,18 @@ def build_tables(
             anchors = np.unique(pos[pw == 0])
             if surface and ramp_share_step(ramp, anchors) > SURFACE_SHARE_STEP:
                 modelled, fitted = _surface_forward(
-                    spec, pos, pw, tau, levels, onset_law, readable, sigma, knee=knee, pool=pool
+                    spec,
+                    pos,
+                    pw,
+                    tau,
+                    levels,
+                    onset_law,
+                    readable,
+                    sigma,
+                    knee=knee,
+                    pool=pool,
+                    track=track,
+                    raw=raw_tau,
                 )
                 fine = np.where(np.isnan(fine), np.nan, modelled)
                 check = check_position_sampling(
@@ -1266,6 +1305,8 @@ def build_tables(
                             knee=knee,
                             nyquist=True,
                             pool=pool,
+                            track=track,
+                            raw=raw_tau,
                         )
                         fine = np.where(np.isnan(fine), np.nan, modelled)
                 if fitted.series is not None:
