@@ -59,6 +59,14 @@ COVARIANCE_CALIBRATION: Literal["off", "left-out"] = "off"
 COUPLING = True
 #: Speed bins of the residual table (log-spaced between the reversal band and the top speed).
 RESIDUAL_BINS = 8
+#: Which steady samples :func:`residual_table` measures by default (identification reads it):
+#: ``"steady"`` every one; ``"representative"`` only those whose low-pass support holds speeds
+#: of their own sign within :data:`REPRESENTATIVE_FACTOR` of theirs
+#: (:func:`representative_samples`). Measured and not kept (stop 34, F40,
+#: docs/estimation.md "The residual table (F40)").
+RESIDUAL_SELECTION: Literal["steady", "representative"] = "steady"
+#: Largest ratio [-] of speeds within a representative sample's low-pass support to its own.
+REPRESENTATIVE_FACTOR = 2.0
 
 
 def joint_uncertainty(model: Model, joint: str) -> Mapping[str, Any] | None:
@@ -1101,6 +1109,45 @@ def _residual_level(
     return np.asarray(level, dtype=np.float64)
 
 
+def representative_samples(
+    t: NDArray[np.float64], velocity: NDArray[np.float64], *, reach: float, factor: float
+) -> NDArray[np.bool_]:
+    """Samples whose speed stands for every sample within ``reach`` [s]: all of one sign, and
+    within ``factor`` (> 1) of the sample's own speed (``t`` [s] increasing, ``velocity``
+    any unit). A low-passed signal at such a sample is a mean over that one speed, not over a
+    start from rest, a reversal or a ramp nearby.
+
+    Examples
+    --------
+    >>> t = np.arange(9.0)
+    >>> v = np.array([1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 3.0, 3.0, -3.0])  # a step of 3x, a reversal
+    >>> representative_samples(t, v, reach=1.0, factor=2.0).astype(int).tolist()
+    [1, 1, 1, 1, 1, 0, 0, 0, 0]
+    """
+    v = np.asarray(velocity, dtype=np.float64)
+    n = v.size
+    left = np.searchsorted(t, t - reach, side="left")
+    right = np.searchsorted(t, t + reach, side="right")  # exclusive
+    # sparse tables of the minimum and maximum over runs of 2^k samples
+    lows, highs = [v], [v]
+    span = 1
+    while 2 * span <= n:
+        lows.append(np.minimum(lows[-1][:-span], lows[-1][span:]))
+        highs.append(np.maximum(highs[-1][:-span], highs[-1][span:]))
+        span *= 2
+    k = np.floor(np.log2(np.maximum(right - left, 1))).astype(np.intp)
+    lo = np.empty(n)
+    hi = np.empty(n)
+    for level in np.unique(k):
+        at = np.flatnonzero(k == level)
+        a, b = left[at], right[at] - (1 << int(level))
+        lo[at] = np.minimum(lows[level][a], lows[level][b])
+        hi[at] = np.maximum(highs[level][a], highs[level][b])
+    up = (lo > 0) & (lo * factor >= v) & (hi <= factor * v)
+    down = (hi < 0) & (hi * factor <= v) & (lo >= factor * v)
+    return np.asarray(up | down)
+
+
 def residual_table(
     t: list[NDArray[np.float64]],
     velocity: list[NDArray[np.float64]],
@@ -1108,6 +1155,7 @@ def residual_table(
     residual: list[NDArray[np.float64]],
     *,
     band: float,
+    selection: Literal["steady", "representative"] | None = None,
 ) -> dict[str, Any] | None:
     """The uncertainty table of a joint identified by the pass method (no covariance).
 
@@ -1128,6 +1176,12 @@ def residual_table(
         [rad/s^2] and the residual [N m, motor side], each shape (m,).
     band
         Reversal band [rad/s].
+    selection
+        ``"representative"``: the bins take only the steady samples whose low-pass support
+        (``1 / RESIDUAL_CUTOFF`` either side) holds speeds of one sign within
+        :data:`REPRESENTATIVE_FACTOR` of their own (:func:`representative_samples`): a start
+        from rest, a reversal or a stretch of large speed ripple nearby does not enter a steady
+        bin through the low-pass (the others count as ramps). None: :data:`RESIDUAL_SELECTION`.
 
     Returns
     -------
@@ -1135,7 +1189,8 @@ def residual_table(
         ``{"kind": "residual", "speeds": [...], "rms": [...], "reference_cutoff": ...}``
         (bin centres [rad/s], RMS [N m]); None when too few moving samples.
     """
-    vs, rs, acs, steps = [], [], [], []
+    picky = (RESIDUAL_SELECTION if selection is None else selection) == "representative"
+    vs, rs, acs, steps, fits = [], [], [], [], []
     for tt, v, a, r in zip(t, velocity, acceleration, residual, strict=True):
         if tt.size < 20 or float(tt[-1] - tt[0]) < 2.0 / RESIDUAL_CUTOFF:
             continue
@@ -1148,6 +1203,12 @@ def residual_table(
         steps.append(np.diff(tt))
         rs.append(low)
         acs.append(np.abs(acc))
+        if picky:
+            fits.append(
+                representative_samples(
+                    tt, v, reach=1.0 / RESIDUAL_CUTOFF, factor=REPRESENTATIVE_FACTOR
+                )
+            )
     if not vs:
         return None
     speed = np.concatenate(vs)
@@ -1159,6 +1220,8 @@ def residual_table(
     if int(moving.sum()) < 100:
         return None
     steady = acc < 0.05 * float(np.percentile(acc[moving], 99)) + 0.1 * speed
+    if picky:
+        steady &= np.concatenate(fits)
     ramps = moving & ~steady
     moving &= steady
     if int(moving.sum()) < 100:
