@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from torquemap.cli.main import main
+from torquemap.io import read_table, write_toml
 from torquemap.model import load_model
 from torquemap.quasistatic import find_holds
 from torquemap.vertical import GravityCheck
@@ -97,3 +98,29 @@ def test_quasi_static_holds_of_one_row_are_not_said_to_be_milliseconds(
     assert "median time step is 3 s" in err[0] and "only one or two rows" in err[0]
     assert "the log may hold one row per hold" in err[0]
     assert not out.exists()
+
+
+def test_rosbag_continuous_joint_wrapped_to_one_turn_is_unwrapped(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # ROS publishes a continuous joint wrapped to (-pi, pi]: the log held 2 pi jumps that
+    # estimate cut as glitches; the revolute joint b (never near pi) is left as it is
+    import test_rosbag
+
+    t0, q0, effort = test_rosbag.truth()
+    spin = np.c_[3.0 * (t0 - t0[0]) + 2.5, q0[:, 1]]  # a turns 6 rad over 2 s, through pi
+
+    def wrapped() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return t0, np.c_[np.angle(np.exp(1j * spin[:, 0])), spin[:, 1]], effort
+
+    monkeypatch.setattr(test_rosbag, "truth", wrapped)
+    robot = tmp_path / "robot.toml"
+    write_toml(robot, test_rosbag.ROBOT)
+    bag = test_rosbag.write_bag(tmp_path / "bag", "ros1")
+    out = tmp_path / "log.csv"
+    assert main(["import", "rosbag", str(bag), "--robot", str(robot), "-o", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "note: a: positions wrapped to one turn" in err and "b:" not in err
+    cols = read_table(out)
+    np.testing.assert_allclose(cols["q_a"], spin[:, 0], atol=1e-9)
+    np.testing.assert_allclose(cols["q_b"], spin[:, 1])
