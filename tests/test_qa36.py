@@ -124,3 +124,53 @@ def test_rosbag_continuous_joint_wrapped_to_one_turn_is_unwrapped(
     cols = read_table(out)
     np.testing.assert_allclose(cols["q_a"], spin[:, 0], atol=1e-9)
     np.testing.assert_allclose(cols["q_b"], spin[:, 1])
+
+
+@pytest.fixture(scope="module")
+def rigs(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    # two random rigs: 0 (3 phases, 512 positions) and 6 (3 phases, 192 positions)
+    d = tmp_path_factory.mktemp("rigs")
+    for seed in (0, 6):
+        argv = ["--quiet", "simulate", "rig", "--random", str(seed), "--out", str(d / f"r{seed}")]
+        assert main([*argv, "--readings", "1"]) == 0
+    return d
+
+
+def _build_error(motor: Path, data: Path, out: Path, capsys: pytest.CaptureFixture[str]) -> str:
+    argv = ["--quiet", "linearize", "build", str(motor), str(data), "-o", str(out)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(data) in err[0] and not out.exists()
+    return err[0]
+
+
+def test_linearize_build_on_another_motors_data_says_so(
+    rigs: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # before: "phase 3 was never energised in the data (no rows where it leads)" alone
+    out = tmp_path / "t.npz"
+    err = _build_error(rigs / "r0" / "motor.toml", rigs / "r6" / "data.csv", out, capsys)
+    assert "phase 3 was never energised" in err
+    assert "the data reach positions 0 .. 191 of the motor file's 512 (3 phases)" in err
+    assert "data from another motor?" in err
+    # the other way round: "position 192 ... is outside 0 .. 191" alone
+    err = _build_error(rigs / "r6" / "motor.toml", rigs / "r0" / "data.csv", out, capsys)
+    assert "outside 0 .. 191, the motor file's 192 positions per cycle" in err
+    assert "(the data reach 508): data from another motor?" in err
+
+
+def test_linearize_evaluate_of_part_of_the_cycle_says_so(
+    rigs: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a collection cut after half the cycle: exit 0 and an APMD, nothing about coverage
+    motor = rigs / "r0" / "motor.toml"
+    argv = ["linearize", "evaluate", str(motor), str(rigs / "r0" / "data.csv")]
+    assert main(argv) == 0
+    assert "warning" not in capsys.readouterr().err  # the whole cycle: silent
+    lines = (rigs / "r0" / "data.csv").read_text().splitlines()
+    kept = [lines[0]] + [ln for ln in lines[1:] if int(ln.split(",")[0]) < 200]
+    (tmp_path / "cut.csv").write_text("\n".join(kept) + "\n")
+    assert main(["linearize", "evaluate", str(motor), str(tmp_path / "cut.csv")]) == 0
+    err = capsys.readouterr().err
+    assert f"warning: {tmp_path / 'cut.csv'}: the data cover only" in err
+    assert "of the 512 positions" in err and "this APMD covers the positions read alone" in err

@@ -306,6 +306,14 @@ def _evaluate(args: argparse.Namespace) -> int:
         lambda: evaluate_linearity(spec, data, tables=tables, tables_path=args.tables),
     )
     print(format_report(report, title=f"{kind} data {args.data}"))
+    if kind == "characterisation":
+        from torquemap.linearize.metrics import characterisation_coverage_advice
+
+        advice = characterisation_coverage_advice(
+            data.position, spec.positions_per_cycle, spec.phases
+        )
+        if advice:
+            print(f"torquemap: warning: {args.data}: {advice}", file=sys.stderr)
     if kind == "verification":
         from torquemap.linearize.metrics import coverage_advice
 
