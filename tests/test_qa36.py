@@ -174,3 +174,22 @@ def test_linearize_evaluate_of_part_of_the_cycle_says_so(
     err = capsys.readouterr().err
     assert f"warning: {tmp_path / 'cut.csv'}: the data cover only" in err
     assert "of the 512 positions" in err and "this APMD covers the positions read alone" in err
+
+
+@pytest.mark.parametrize(("step", "warns"), [(64, True), (4, False)])
+def test_linearize_build_names_a_pulse_step_too_coarse_for_the_knee(
+    step: int, warns: bool, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # rig 5 collected at every 64th pulse width: tables built with no word, verification APMD
+    # 18.0 % (5.9 % at the paper's every 4th, which stays silent)
+    rig = tmp_path / "rig"
+    argv = ["--quiet", "simulate", "rig", "--random", "5", "--out", str(rig)]
+    assert main([*argv, "--pulse-step", str(step), "--readings", "1"]) == 0
+    data = rig / "data.csv"
+    argv = ["linearize", "build", str(rig / "motor.toml"), str(data), "-o", str(tmp_path / "t.npz")]
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    said = f"warning: {data}: the collection measured every 64th pulse width: near the knee"
+    assert (said in err) is warns
+    if warns:
+        assert "collect every 8th pulse width or finer (--pulse-step 8)" in err

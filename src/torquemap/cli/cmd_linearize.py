@@ -250,6 +250,11 @@ def _build(args: argparse.Namespace) -> int:
     print("wrote " + ", ".join(written))
     for warning in tables.warnings:
         print(f"torquemap: warning: {args.data}: {warning}", file=sys.stderr)
+    from torquemap.linearize.pulse_step import pulse_step_advice
+
+    coarse = pulse_step_advice(data.level, data.torque, tables.torque_per_count)
+    if coarse:
+        print(f"torquemap: warning: {args.data}: {coarse}", file=sys.stderr)
     bits = args.actuation_bits
     if bits is not None and (1 << bits) - 1 < spec.actuation_max:
         # entries coarser than the motor's own pulse widths: resolution thrown away
