@@ -1180,6 +1180,23 @@ def check_log_matches_model(model: Model, log: Log) -> None:
             digits = _written_digits(step * scale)
             if digits is None:
                 digits = _rounded_digits(step * scale)
+            if digits is None:
+                # counts written "%.6E" hold 7 significant digits: 1e-3 count above 1000
+                values = joint.gear_ratio * log.q[:, k] * scale
+                wraps = [values]
+                if unit == "counts":
+                    wraps.append(np.mod(values, float(joint.encoder_counts_per_rev or 0)))
+                found = [_significant_digits(series, quantum * scale) for series in wraps]
+                if any(d is not None for d in found):
+                    significant = min(d for d in found if d is not None)
+                    raise InputError(
+                        f"joint {joint.name}: the log's q_{joint.name} is not whole "
+                        f"encoder counts of the model's robot ({quantum * scale:.4g} "
+                        f"{unit}{at}) but its values are rounded to {significant} "
+                        "significant digits (a format such as '%.6E'): write the angles "
+                        "with all their digits (e.g. '%.17g')",
+                        path=log.path,
+                    )
             if digits is not None:
                 raise InputError(
                     f"joint {joint.name}: the log's q_{joint.name} moves in steps of "
@@ -1220,6 +1237,45 @@ def _written_digits(step: NDArray[np.float64]) -> int | None:
         return None
     ratio = step * 10.0**digits
     return digits if float(np.mean(np.abs(ratio - np.round(ratio)) < 0.02)) >= 0.9 else None
+
+
+def _significant_digits(values: NDArray[np.float64], quantum: float) -> int | None:
+    """The fewest significant digits ``s`` (1 to 12) to which the angles ``values`` are, nine
+    in ten, rounded, when that rounding (each value off by up to half its last digit) explains
+    nine in ten of the steps that are not whole ``quantum`` and is, in the median, at most a
+    quarter of ``quantum`` (coarser, it would explain any step), else None: a log written with a format such as ``"%.6E"``.
+
+    ``values`` and ``quantum`` are in the same unit (the log's own).
+
+    Examples
+    --------
+    >>> q = 1000.0 + np.arange(200) / 64.0  # 1/64 counts
+    >>> _significant_digits(np.array([float(f"{v:.6E}") for v in q]), 1 / 64)
+    7
+    >>> _significant_digits(1000.0 + np.arange(200) / 50.0, 1 / 64) is None
+    True
+    """
+    values = np.asarray(values, dtype=np.float64)
+    nonzero = values != 0
+    if int(nonzero.sum()) < 20 or not quantum > 0:
+        return None
+    exponent = np.zeros_like(values)
+    exponent[nonzero] = np.floor(np.log10(np.abs(values[nonzero])))
+    ratio = np.diff(values) / quantum
+    moved = ratio != 0
+    off = np.abs(ratio - np.round(ratio))
+    for digits in range(1, 13):
+        last = np.where(nonzero, 10.0 ** (exponent - digits + 1), 0.0)
+        held = values[nonzero] / last[nonzero]
+        slack = np.maximum(1e-6, 8 * np.finfo(np.float64).eps * np.abs(held))
+        if float(np.mean(np.abs(held - np.round(held)) <= slack)) < 0.9:
+            continue
+        bound = (last[1:] + last[:-1]) / 2.0 / quantum + 0.02
+        if not moved.any() or float(np.median(last[nonzero])) > quantum / 4:
+            return None
+        explained = float(np.mean(off[moved] <= bound[moved] * (1 + 1e-9)))
+        return digits if explained >= 0.9 else None
+    return None
 
 
 def _rounded_digits(step: NDArray[np.float64]) -> int | None:

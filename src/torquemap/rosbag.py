@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -52,6 +52,9 @@ class JointStates:
         Messages dropped because they repeated the previous stamp.
     path
         The bag.
+    unwrapped
+        Message names of the joints whose positions were wrapped to one turn and were unwrapped
+        (:func:`unwrap_turns`).
     """
 
     t: NDArray[np.float64]
@@ -63,6 +66,7 @@ class JointStates:
     skipped: int
     duplicates: int
     path: str
+    unwrapped: tuple[str, ...] = ()
 
 
 def _bag_paths(bag: Path) -> list[Path]:
@@ -213,6 +217,36 @@ def read_joint_states(
     )
 
 
+def unwrap_turns(states: JointStates) -> JointStates:
+    """Unwrap the joints whose positions jump by a whole turn between two messages.
+
+    ROS publishes a continuous joint's position wrapped to (-pi, pi]: each time it passes pi
+    it jumps by 2 pi, which the log would read as the joint spinning a turn in one sample. A
+    joint whose every step longer than pi is within 5 % of a whole turn is unwrapped
+    (``numpy.unwrap``); its name is added to ``unwrapped``.
+
+    Examples
+    --------
+    >>> q = np.angle(np.exp(1j * np.linspace(0.0, 10.0, 50)))[:, None]  # wrapped
+    >>> s = JointStates(np.arange(50.0), 0.0, 0, ("w",), q, q, 0, 0, "bag")
+    >>> u = unwrap_turns(s)
+    >>> u.unwrapped, round(float(u.position[-1, 0]), 6)
+    (('w',), 10.0)
+    """
+    position = states.position.copy()
+    names: list[str] = []
+    for k, name in enumerate(states.names):
+        column = position[:, k]
+        big = np.abs(np.diff(column))
+        big = big[big > np.pi]
+        if big.size and bool(np.all(np.abs(big - 2.0 * np.pi) < 0.05 * 2.0 * np.pi)):
+            position[:, k] = np.unwrap(column)
+            names.append(name)
+    if not names:
+        return states
+    return replace(states, position=position, unwrapped=tuple(names))
+
+
 def parse_mapping(pairs: list[str] | None, robot: Robot) -> dict[str, str]:
     """``["msg_name=joint", ...]`` to {robot joint: message name}; identity for the rest.
 
@@ -277,11 +311,12 @@ def import_rosbag(
     mapping: list[str] | None = None,
     effort: EffortKind = "torque",
 ) -> JointStates:
-    """Convert a bag's JointState topic into a log file (CSV or Parquet by suffix), atomically."""
+    """Convert a bag's JointState topic into a log file (CSV or Parquet by suffix), atomically;
+    positions wrapped to one turn (continuous joints) are unwrapped (:func:`unwrap_turns`)."""
     from torquemap.io import write_table
 
     names = parse_mapping(mapping, robot)
-    states = read_joint_states(bag, topic, tuple(names[j.name] for j in robot.joints))
+    states = unwrap_turns(read_joint_states(bag, topic, tuple(names[j.name] for j in robot.joints)))
     write_table(out, log_columns(states, robot, names, effort=effort))
     return states
 
@@ -293,4 +328,5 @@ __all__ = [
     "log_columns",
     "parse_mapping",
     "read_joint_states",
+    "unwrap_turns",
 ]

@@ -114,11 +114,25 @@ class GravityCheck:
         """Significant and above ``REFUSE_SHARE`` of the Coulomb friction."""
         return self.significant and self.share > REFUSE_SHARE
 
+    def share_text(self) -> str:
+        """The torque against the Coulomb friction, in words when the model has none.
+
+        Examples
+        --------
+        >>> GravityCheck("j1", 0.2, True, 0.0, 100).share_text()
+        'the model has no Coulomb friction to compare with'
+        >>> GravityCheck("j1", 0.2, True, 0.4, 100).share_text()
+        '50% of its Coulomb friction'
+        """
+        if self.coulomb > 0:
+            return f"{self.share:.0%} of its Coulomb friction"
+        return "the model has no Coulomb friction to compare with"
+
     def message(self) -> str:
         """One line for a warning or a refusal."""
         return (
             f"joint {self.joint}: the no-load torque holds {self.torque:.3g} N m (motor side, "
-            f"peak to peak, {self.share:.0%} of its Coulomb friction) that depends on the joint "
+            f"peak to peak, {self.share_text()}) that depends on the joint "
             "angles as gravity would, which PDTV of the motor angle cannot explain: a vertical "
             "arm? The model has no gravity term; record the no-load logs with the arm "
             "horizontal, or use a robot file that models gravity"

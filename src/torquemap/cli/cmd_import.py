@@ -87,6 +87,13 @@ def _rosbag(args: argparse.Namespace) -> int:
             "and were skipped",
             file=sys.stderr,
         )
+    if states.unwrapped:
+        print(
+            f"torquemap: note: {', '.join(states.unwrapped)}: positions wrapped to one turn "
+            "(continuous joints as ROS publishes them) were unwrapped: whole turns added where "
+            "they jumped by 2 pi between two messages",
+            file=sys.stderr,
+        )
     if states.duplicates:
         print(
             f"torquemap: warning: {states.duplicates} messages repeated the previous stamp and "

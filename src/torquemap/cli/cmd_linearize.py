@@ -250,6 +250,11 @@ def _build(args: argparse.Namespace) -> int:
     print("wrote " + ", ".join(written))
     for warning in tables.warnings:
         print(f"torquemap: warning: {args.data}: {warning}", file=sys.stderr)
+    from torquemap.linearize.pulse_step import pulse_step_advice
+
+    coarse = pulse_step_advice(data.level, data.torque, tables.torque_per_count)
+    if coarse:
+        print(f"torquemap: warning: {args.data}: {coarse}", file=sys.stderr)
     bits = args.actuation_bits
     if bits is not None and (1 << bits) - 1 < spec.actuation_max:
         # entries coarser than the motor's own pulse widths: resolution thrown away
@@ -306,6 +311,14 @@ def _evaluate(args: argparse.Namespace) -> int:
         lambda: evaluate_linearity(spec, data, tables=tables, tables_path=args.tables),
     )
     print(format_report(report, title=f"{kind} data {args.data}"))
+    if kind == "characterisation":
+        from torquemap.linearize.metrics import characterisation_coverage_advice
+
+        advice = characterisation_coverage_advice(
+            data.position, spec.positions_per_cycle, spec.phases
+        )
+        if advice:
+            print(f"torquemap: warning: {args.data}: {advice}", file=sys.stderr)
     if kind == "verification":
         from torquemap.linearize.metrics import coverage_advice
 

@@ -373,6 +373,39 @@ def format_report(report: LinearityReport, *, title: str = "") -> str:
     return "\n".join(lines)
 
 
+def characterisation_coverage_advice(
+    position: ArrayLike, positions_per_cycle: int, phases: int
+) -> str:
+    """A line when a characterisation's positions leave part of the cycle unread, else "".
+
+    A collection reads evenly spaced targets (every 4th position by default); data whose
+    largest gap between read positions (around the cycle) is more than twice their median gap
+    and wider than linearize build bridges (``positions_per_cycle // (4 phases)`` positions)
+    were cut or pieced together: their APMD covers the positions read alone.
+
+    >>> characterisation_coverage_advice([1, 2, 3, 4, 64, 65, 66, 67], 128, 3)[:45]
+    'the data cover only 8 of the 128 positions (t'
+    >>> characterisation_coverage_advice(np.arange(0, 512, 4), 512, 3)
+    ''
+    """
+    read = np.unique(np.asarray(position, dtype=np.int64))
+    if read.size < 2:
+        return ""
+    gaps = np.diff(np.append(read, read[0] + positions_per_cycle))
+    widest = int(np.argmax(gaps))
+    bridged = max(1, positions_per_cycle // (4 * max(phases, 1)))
+    if gaps[widest] <= 2 * float(np.median(gaps)) or gaps[widest] - 1 <= bridged:
+        return ""
+    first = int(read[widest]) + 1
+    last = (int(read[widest]) + int(gaps[widest]) - 1) % positions_per_cycle
+    return (
+        f"the data cover only {read.size} of the {positions_per_cycle} positions (the widest "
+        f"gap: none at {first} .. {last}, {int(gaps[widest]) - 1} positions, where the reads are "
+        f"{float(np.median(gaps)):g} apart): this APMD covers the positions read alone; "
+        "collect the whole cycle (a cut collection resumes with linearize collect)"
+    )
+
+
 def coverage_advice(position: ArrayLike, positions_per_cycle: int) -> str:
     """A line when a verification run read fewer than all ``positions_per_cycle`` positions,
     else "": its APMD covers those alone, and where they are the characterisation's own (the

@@ -211,8 +211,15 @@ def _integer_column(
     bad = (values < low) | (values > high)  # on the floats: no int64 overflow on 1e308
     if bad.any():
         row = int(np.argmax(bad))
+        other = ""
+        if name == "position" and float(values.max()) > high:
+            # a collection of a motor with more positions per cycle than the motor file's
+            other = (
+                f", the motor file's {high + 1} positions per cycle (the data reach "
+                f"{float(values.max()):.15g}): data from another motor? Give that motor's file"
+            )
         raise InputError(
-            f"{name} {values[row]:.15g} at data row {row + 1} is outside {low} .. {high}",
+            f"{name} {values[row]:.15g} at data row {row + 1} is outside {low} .. {high}{other}",
             path=path,
         )
     return values.astype(np.int64)
@@ -611,6 +618,33 @@ def _check_signal(
         )
 
 
+def _other_motor_hint(spec: MotorSpec, pos: NDArray[np.int64]) -> str:
+    """``": the data's positions ..."`` when they end well short of the motor file's cycle (a
+    collection of a motor with fewer positions per cycle), else ``""``.
+
+    Examples
+    --------
+    >>> from torquemap.linearize.motor import MotorSpec
+    >>> spec = MotorSpec.__new__(MotorSpec)
+    >>> object.__setattr__(spec, "positions_per_cycle", 512)
+    >>> object.__setattr__(spec, "phases", 3)
+    >>> _other_motor_hint(spec, np.arange(0, 192, 4)).startswith(": the data reach positions 0 .. 188")
+    True
+    >>> _other_motor_hint(spec, np.arange(0, 512, 4))
+    ''
+    """
+    n = spec.positions_per_cycle
+    read = np.unique(pos)
+    step = int(np.median(np.diff(read))) if read.size > 1 else 1
+    top = int(read.max(initial=0))
+    if top + 2 * max(step, 1) >= n:
+        return ""
+    return (
+        f": the data reach positions {int(read.min(initial=0))} .. {top} of the motor file's "
+        f"{n} ({spec.phases} phases): data from another motor? Give that motor's file"
+    )
+
+
 def _check_phases(
     spec: MotorSpec,
     pos: NDArray[np.int64],
@@ -627,7 +661,8 @@ def _check_phases(
             alone = (ramp[:, k] >= others.max(axis=1, initial=0.0)) & (ramp[:, k] > 0) & (pw > 0)
         if not alone.any():
             raise InputError(
-                f"phase {k + 1} was never energised in the data (no rows where it leads)",
+                f"phase {k + 1} was never energised in the data (no rows where it leads)"
+                + _other_motor_hint(spec, pos),
                 path=path,
             )
         best = float(tau[alone].max())
