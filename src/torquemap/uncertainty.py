@@ -53,7 +53,14 @@ INTERPOLATION = False
 #: ``"left-out"``: the friction table's block by :func:`covariance_scale` (its
 #: leave-one-pass-out check) at speeds at or above the slowest steady pass, as identified below
 #: it. Measured and not kept (stop 34, docs/estimation.md "Sigma calibration (stop 34)").
-COVARIANCE_CALIBRATION: Literal["off", "left-out"] = "off"
+#: ``"gap"``: the friction block by :func:`gap_covariance_scale`, a factor per sample that
+#: depends on the gap between the passes around its speed (stop 34, F41; measured, not kept).
+COVARIANCE_CALIBRATION: Literal["off", "left-out", "gap"] = "off"
+#: One-sided confidence [-] of the upper bound :func:`gap_scale` takes.
+GAP_CONFIDENCE = 0.95
+#: Whether :func:`gap_covariance_scale` regresses only the passes left out between two others
+#: (not the slowest and fastest of a direction, whose left-out error is an extrapolation's).
+GAP_INTERIOR = False
 #: Whether estimation widens each joint's sigma by the rigid-body coupling torque its answer
 #: leaves in (:func:`coupling_level`, stop 34).
 COUPLING = True
@@ -689,6 +696,23 @@ def joint_sigma(
             phasor=phasor,
         )
         slowest = _slowest(entry)
+        if COVARIANCE_CALIBRATION == "gap":
+            var = _gap_scaled_variance(
+                var,
+                table,
+                entry,
+                names,
+                cov,
+                law=law,
+                t=t,
+                theta=theta,
+                velocity=velocity,
+                acceleration=acceleration,
+                modulation=modulation,
+                cutoff=cutoff,
+                phasor=phasor,
+                width=sliding_width(model, joint),
+            )
         if cov is not full_cov and slowest > 0:
             # below the slowest pass the table is extrapolated: leaving passes out does not
             # check it, so the identified covariance stands there
@@ -804,6 +828,150 @@ def covariance_scale(table: Mapping[str, Any], *, bound: bool = True) -> float:
 
         ratio = ratio * n / float(chi2.ppf(0.05, n))
     return min(1.0, ratio)
+
+
+#: Mean and variance of ``log z^2`` for a standard normal ``z``: ``psi(1/2) + log 2`` and
+#: ``psi'(1/2) = pi^2 / 2``.
+LOG_CHI2_MEAN = -1.2703628454614782
+LOG_CHI2_VAR = math.pi**2 / 2.0
+
+
+def gap_scale(
+    gaps: NDArray[np.float64],
+    z: NDArray[np.float64],
+    at: NDArray[np.float64],
+    *,
+    confidence: float = 0.95,
+) -> NDArray[np.float64]:
+    """Variance factor [-] of a covariance at the gaps ``at`` from leave-one-out z-scores
+    ``z`` (error over the left-out fit's own posterior sd) measured at the gaps ``gaps``
+    (``q = |x - x_a| |x - x_b|`` in log speed, :func:`torquemap.identify_whole.interpolation_gap`).
+
+    The factor's growth with the gap is a power law, ``E z^2 = exp(a + b log q)``: ``log z^2``
+    less its mean under a normal ``z`` (:data:`LOG_CHI2_MEAN`) is regressed on ``log q`` by
+    least squares, and at each ``at`` the factor is the one-sided ``confidence`` upper bound
+    of the prediction with the log-chi-square's known variance (:data:`LOG_CHI2_VAR`),
+    ``exp(a + b u + k_c sqrt(var (1/n + (u - mean u)^2 / S_uu)))``, at most 1 (never wider
+    than identified). 1 where the bound exceeds 1, at a gap of 0 (at a pass), with fewer than
+    3 usable points or gaps that do not vary (the slope unknown): few points, or a gap far
+    from the measured ones, give no shrinkage.
+
+    Examples
+    --------
+    >>> q = np.array([1.0, 1.0, 4.0, 4.0])
+    >>> gap_scale(q, np.array([0.1, -0.1, 0.2, 0.2]), np.array([0.0, 2.0]), confidence=0.5)
+    array([1.       , 0.0712429])
+    """
+    from scipy.stats import norm
+
+    g = np.asarray(gaps, dtype=np.float64)
+    zz = np.asarray(z, dtype=np.float64)
+    out_at = np.asarray(at, dtype=np.float64)
+    out = np.ones(out_at.shape)
+    use = np.isfinite(g) & np.isfinite(zz) & (g > 0) & (zz != 0)
+    n = int(use.sum())
+    if n < 3:
+        return out
+    u = np.log(g[use])
+    y = np.log(zz[use] ** 2) - LOG_CHI2_MEAN
+    ubar = float(u.mean())
+    suu = float(np.sum((u - ubar) ** 2))
+    if not suu > 1e-12 * n:
+        return out
+    slope = float(np.sum((u - ubar) * (y - y.mean())) / suu)
+    level = float(y.mean())
+    k = float(norm.ppf(confidence))
+    fine = np.isfinite(out_at) & (out_at > 0)
+    x = np.log(out_at[fine])
+    spread = np.sqrt(LOG_CHI2_VAR * (1.0 / n + (x - ubar) ** 2 / suu))
+    upper = level + slope * (x - ubar) + k * spread
+    out[fine] = np.exp(np.minimum(upper, 0.0))
+    return out
+
+
+def gap_covariance_scale(
+    table: Mapping[str, Any],
+    entry: Any,
+    velocity: NDArray[np.float64],
+    width: float,
+    *,
+    confidence: float = 0.95,
+) -> NDArray[np.float64] | None:
+    """Per-sample variance factor [-] of a joint's friction covariance from its
+    leave-one-pass-out record (``uncertainty.interpolation``: ``gaps``, ``errors``,
+    ``sigmas``): :func:`gap_scale` at the gap ``q`` between the joint's passes of each direction
+    around the sample's speed (zero at a pass), each direction weighted by its share
+    ``(1 + tanh(v / width)) / 2``; 1 below the slowest pass (extrapolated: leaving passes out
+    does not check it). None when the record or the passes are missing."""
+    from torquemap.identify_whole import interpolation_gaps
+
+    record = table.get("interpolation")
+    speeds = entry.get("speeds") if isinstance(entry, Mapping) else None
+    if not (isinstance(record, Mapping) and isinstance(speeds, list)):
+        return None
+    gaps = np.asarray(record.get("gaps", []), dtype=np.float64)
+    errors = np.asarray(record.get("errors", []), dtype=np.float64)
+    sds = np.asarray(record.get("sigmas", []), dtype=np.float64)
+    if not (gaps.shape == errors.shape == sds.shape) or gaps.size < 3:
+        return None
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.where(sds > 0, errors / sds, np.nan)
+    passes = [float(x) for x in speeds if isinstance(x, int | float) and math.isfinite(x)]
+    if not passes:
+        return None
+    held = np.asarray(record.get("speeds", []), dtype=np.float64)
+    if GAP_INTERIOR and held.shape == gaps.shape:
+        # a left-out pass between two of its direction's others: an interpolation
+        inner = np.array(
+            [
+                min(abs(y) for y in held if y * s > 0)
+                < abs(s)
+                < max(abs(y) for y in held if y * s > 0)
+                for s in held
+            ],
+            dtype=bool,
+        )
+        z = np.where(inner, z, np.nan)
+    v = np.asarray(velocity, dtype=np.float64)
+    x = np.log(np.maximum(np.abs(v), 1e-300))
+    p = 0.5 * (1.0 + np.tanh(v / max(width, 1e-12)))
+    out = np.zeros(v.shape)
+    for sign, share in ((1, p), (-1, 1.0 - p)):
+        anchors = sorted(math.log(abs(s)) for s in passes if s * sign > 0)
+        if not anchors:
+            anchors = sorted(math.log(abs(s)) for s in passes if s != 0)
+        q = interpolation_gaps(x, anchors)
+        factor = gap_scale(gaps, z, q, confidence=confidence)
+        factor = np.where(x < anchors[0], 1.0, factor)
+        out += share * factor
+    return np.clip(out, 0.0, 1.0)
+
+
+def _gap_scaled_variance(
+    var: NDArray[np.float64],
+    table: Mapping[str, Any],
+    entry: Any,
+    names: list[str],
+    cov: NDArray[np.float64],
+    *,
+    width: float,
+    **kw: Any,
+) -> NDArray[np.float64]:
+    """``var`` (the parameters' variance with ``cov``) with the friction block scaled by
+    :func:`gap_covariance_scale`, low-passed like the estimate: the variance is
+    ``k A + 2 sqrt(k) B + C`` in the block's factor ``k`` (``A`` the friction block's part,
+    ``B`` the cross terms', ``C`` the rest), from the variances with the block's sd scaled by
+    1, 0 and -1. ``var`` itself where every factor is 1."""
+    factor = gap_covariance_scale(table, entry, kw["velocity"], width, confidence=GAP_CONFIDENCE)
+    if factor is None or bool(np.all(factor >= 1.0)):
+        return var
+    k = np.clip(lowpass(kw["t"], factor, cutoff=kw["cutoff"]), 0.0, 1.0)
+    d = np.array([1.0 if x.startswith("friction.") else 0.0 for x in names])
+    rest = parameter_variance(names, cov * np.outer(1.0 - d, 1.0 - d), **kw)
+    flipped = parameter_variance(names, cov * np.outer(1.0 - 2.0 * d, 1.0 - 2.0 * d), **kw)
+    block = 0.5 * (var + flipped) - rest
+    cross = 0.25 * (var - flipped)
+    return np.asarray(k * block + 2.0 * np.sqrt(k) * cross + rest, dtype=np.float64)
 
 
 def coupling_level(
