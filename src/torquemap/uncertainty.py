@@ -662,6 +662,16 @@ def joint_sigma(
         cov = cov * np.outer(d, d)
     from torquemap.estimate import _gap_runs, bridge_gaps
 
+    # the regressor's inputs, the same for every propagation of a covariance below
+    kw: dict[str, Any] = dict(
+        law=law,
+        t=t,
+        theta=theta,
+        velocity=velocity,
+        acceleration=acceleration,
+        modulation=modulation,
+        cutoff=cutoff,
+    )
     runs = _gap_runs(bridged) if bridged is not None else []
     exact = BRIDGED_VARIANCE and bool(runs)
     if exact:
@@ -669,32 +679,10 @@ def joint_sigma(
         # (the knots only the prior holds below the bridged speeds never reach an answer)
         assert bridged is not None
         var = bridged_parameter_variance(
-            names,
-            cov,
-            law=law,
-            t=t,
-            theta=theta,
-            velocity=velocity,
-            acceleration=acceleration,
-            modulation=modulation,
-            cutoff=cutoff,
-            bridged=bridged,
-            support=support,
-            runs=runs,
+            names, cov, bridged=bridged, support=support, runs=runs, **kw
         )
     else:
-        var = parameter_variance(
-            names,
-            cov,
-            law=law,
-            t=t,
-            theta=theta,
-            velocity=velocity,
-            acceleration=acceleration,
-            modulation=modulation,
-            cutoff=cutoff,
-            phasor=phasor,
-        )
+        var = parameter_variance(names, cov, phasor=phasor, **kw)
         slowest = _slowest(entry)
         if COVARIANCE_CALIBRATION == "gap":
             var = _gap_scaled_variance(
@@ -703,33 +691,16 @@ def joint_sigma(
                 entry,
                 names,
                 cov,
-                law=law,
-                t=t,
-                theta=theta,
-                velocity=velocity,
-                acceleration=acceleration,
-                modulation=modulation,
-                cutoff=cutoff,
                 phasor=phasor,
                 width=sliding_width(model, joint),
+                **kw,
             )
         if cov is not full_cov and slowest > 0:
             # below the slowest pass the table is extrapolated: leaving passes out does not
             # check it, so the identified covariance stands there
             below = np.abs(velocity) < slowest
             if below.any():
-                full = parameter_variance(
-                    names,
-                    full_cov,
-                    law=law,
-                    t=t,
-                    theta=theta,
-                    velocity=velocity,
-                    acceleration=acceleration,
-                    modulation=modulation,
-                    cutoff=cutoff,
-                    phasor=phasor,
-                )
+                full = parameter_variance(names, full_cov, phasor=phasor, **kw)
                 share = np.clip(lowpass(t, below.astype(np.float64), cutoff=cutoff), 0.0, 1.0)
                 var = share * full + (1.0 - share) * var
     psd = float(table.get("residual_psd", 0.0))
