@@ -140,41 +140,33 @@ def test_spectrum_marks_the_models_lines_on_a_pass_under_one_revolution(
         assert row.endswith(",yes")
 
 
-def test_counts_written_with_few_decimals_are_not_another_robot(
-    odrive: dict[str, object], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+@pytest.mark.parametrize(
+    ("fmt", "said"),
+    [
+        # the drive's counts hold 1/64 fractions; written "%.3f" (0.015 and 0.016 count steps)
+        (".3f", ["q_m moves in steps of 1e-03 counts", "written with 3 decimals"]),
+        # written "%.6E": 1e-3 count above 1000, 1e-4 below, not whole 1/64 counts
+        (".6E", ["rounded to 7 significant digits", "rounded.csv"]),
+    ],
+)
+def test_counts_written_rounded_are_not_another_robot(
+    odrive: dict[str, object],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    fmt: str,
+    said: list[str],
 ) -> None:
-    # the drive's counts hold 1/64 fractions; the same sweep with its counts written "%.3f"
-    # (0.015 and 0.016 count steps) was refused as "a log from another robot"
+    # the same sweep with its counts rounded was refused as "a log from another robot"
     d = Path(str(odrive["dir"]))
     sweep = np.asarray(odrive["sweep"])
     counts = np.mod(sweep[1], 8192.0)
     lines = ["t,q_m,i_m"] + [
-        f"{a:.9f},{b:.3f},{c:.9f}" for a, b, c in zip(sweep[0], counts, sweep[2], strict=True)
+        f"{a:.9f},{b:{fmt}},{c:.9f}" for a, b, c in zip(sweep[0], counts, sweep[2], strict=True)
     ]
     (tmp_path / "rounded.csv").write_text("\n".join(lines) + "\n")
     out = tmp_path / "forces.csv"
     argv = ["estimate", str(d / "model.toml"), str(tmp_path / "rounded.csv"), "-o", str(out)]
     assert main(["--quiet", *argv]) == 2
     err = capsys.readouterr().err
-    assert "q_m moves in steps of 1e-03 counts" in err and "written with 3 decimals" in err
-    assert "another robot" not in err and not out.exists()
-
-
-def test_counts_written_to_seven_significant_digits_are_not_another_robot(
-    odrive: dict[str, object], tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    # the same sweep with its counts written "%.6E" (1e-3 count above 1000, 1e-4 below: not
-    # whole 1/64 counts) was refused as "a log from another robot"
-    d = Path(str(odrive["dir"]))
-    sweep = np.asarray(odrive["sweep"])
-    counts = np.mod(sweep[1], 8192.0)
-    lines = ["t,q_m,i_m"] + [
-        f"{a:.9f},{b:.6E},{c:.9f}" for a, b, c in zip(sweep[0], counts, sweep[2], strict=True)
-    ]
-    (tmp_path / "rounded.csv").write_text("\n".join(lines) + "\n")
-    out = tmp_path / "forces.csv"
-    argv = ["estimate", str(d / "model.toml"), str(tmp_path / "rounded.csv"), "-o", str(out)]
-    assert main(["--quiet", *argv]) == 2
-    err = capsys.readouterr().err
-    assert "rounded to 7 significant digits" in err and "rounded.csv" in err
+    assert all(text in err for text in said)
     assert "another robot" not in err and not out.exists()
