@@ -62,6 +62,15 @@ def _model(robot: object, cos_elbow: float) -> Model:
     return Model(robot=robot, joints=joints, notes={})  # type: ignore[arg-type]
 
 
+def _level(model: Model, motion: tuple[np.ndarray, ...]) -> np.ndarray | None:
+    """:func:`coupling_level` of ``model`` on ``motion`` (joint side, from :func:`_motion`)."""
+    t, q, qd, qdd = motion
+    gears = np.array(GEARS)
+    return coupling_level(
+        model, t=t, q=q, velocity=qd * gears, acceleration=qdd * gears, cutoff=CUTOFF
+    )
+
+
 def test_coupling_is_the_arms_dynamics_less_what_eq7_takes() -> None:
     # second algorithm: the planar arm's regressor Y (n, 2, 3) times (a1, a2, a3) is M qdd +
     # C qd; Eq 7 takes each joint's own inertia (joint a: a1 + 2 a2 cos q2 on qdd1; joint b:
@@ -76,14 +85,7 @@ def test_coupling_is_the_arms_dynamics_less_what_eq7_takes() -> None:
     own = np.c_[(a[0] + 2.0 * a[1] * c) * qdd[:, 0], a[2] * qdd[:, 1]]
     coupling = y @ np.array(a) - own
     expected = np.abs(lowpass(t, coupling, cutoff=CUTOFF)) / gears
-    got = coupling_level(
-        _model(robot, cos_elbow=0.0),
-        t=t,
-        q=q,
-        velocity=qd * gears,
-        acceleration=qdd * gears,
-        cutoff=CUTOFF,
-    )
+    got = _level(_model(robot, cos_elbow=0.0), (t, q, qd, qdd))
     assert got is not None
     # the same operations in another order: rounding only
     np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-12 * float(np.max(expected)))
@@ -103,14 +105,7 @@ def test_coupling_from_the_identified_modulation_matches_the_simulators() -> Non
     coupling = np.c_[(mass[:, 0, 1] - dc.delta) * qdd[:, 1], (mass[:, 1, 0] - dc.delta) * qdd[:, 0]]
     coupling = coupling + coriolis_torque(bench, q, qd)
     gears = np.array(GEARS)
-    got = coupling_level(
-        _model(_robot(), cos_elbow=2.0 * dc.beta / GEARS[0] ** 2),
-        t=t,
-        q=q,
-        velocity=qd * gears,
-        acceleration=qdd * gears,
-        cutoff=CUTOFF,
-    )
+    got = _level(_model(_robot(), cos_elbow=2.0 * dc.beta / GEARS[0] ** 2), (t, q, qd, qdd))
     assert got is not None
     expected = np.abs(lowpass(t, coupling, cutoff=CUTOFF)) / gears
     np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-12 * float(np.max(expected)))
