@@ -15,7 +15,9 @@ paper's settings, the bias on an open contact) it builds the interp tables from
 and prints for each the noise-free APMD ratio to the floor (Eq 1 over every cell of the sensed
 surface, :func:`linearize.noise_free`), the excess by command band, the CAPMD at commands 1 to
 3, and the pulse-width error against the floor's table at commands 1 to 3 by a position's offset
-in its block of measured positions (0: measured; 1 to 3: between). ``--draws N``: also the
+in its block of measured positions (0: measured; 1 to 3: between), and the share of the PAPMD
+excess (Eq 3) at the ramp's hand-overs (positions within half a position step of a phase's
+fractional share; docs/linearize.md, "Seed 160"). ``--draws N``: also the
 measured ratio through N verification runs with different noise (the benchmark's run is draw 0).
 
 This reads the simulator's truth (the floor, the noise-free rig): a benchmark-side diagnosis,
@@ -104,12 +106,23 @@ def main(argv: list[str] | None = None) -> int:
     want = np.arange(cmax + 1) * tpc
     best = np.abs(surface[:, :, None] - want[None, None, :]).argmin(axis=1)  # the floor's base
     step = int(np.median(np.diff(np.unique(noisy.position[noisy.level == 0]))))
+    ramp = np.asarray(spec.ramp, dtype=np.float64)
+    fractional = np.any((ramp > 0) & (ramp < 1), axis=1)
+    handover = np.zeros(n, dtype=bool)
+    for shift in range(-(step // 2), step // 2 + 1):
+        handover |= np.roll(fractional, shift)
     for name, t in tables.items():
         r = noise_free(rig, t)
         excess = (np.nan_to_num(r.capmd) - np.nan_to_num(fl.capmd)) / cmax
         bands = ", ".join(f"{a}-{b} {100 * excess[a : b + 1].sum():.3f}" for a, b in BANDS)
         print(f"{name}: {r.apmd / fl.apmd:.2f}x; excess points by command {bands}")
         print(f"    CAPMD 1-3 {np.round(100 * r.capmd[1:4], 1).tolist()} %")
+        papmd = np.nan_to_num(r.papmd) - np.nan_to_num(fl.papmd)
+        if handover.any() and papmd.sum() > 0:
+            print(
+                f"    hand-overs ({handover.sum()} of {n} positions): "
+                f"{100 * papmd[handover].sum() / papmd.sum():.0f} % of the PAPMD excess"
+            )
         for c in (1, 2, 3):
             err = t.base[:, c] - best[:, c]
             by = [f"{err[p % step == k].mean():+.1f}" for k in range(step)]
