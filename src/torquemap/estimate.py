@@ -509,7 +509,7 @@ def force_space_bridge(
     True
     """
     out = force.copy()
-    union = bridged.any(axis=1)
+    union: NDArray[np.bool_] = np.asarray(bridged.any(axis=1), dtype=bool)
     if not union.any() or union.all():
         return out
     tie = 0.01 * float(t[-1] - t[0]) / max(t.size - 1, 1)
@@ -802,17 +802,20 @@ def estimate_forces(
             if lined.any():
                 jac = np.asarray(robot.arm.jacobian(log.q), dtype=np.float64)
                 ok = ~singular & finite
-                force[ok] = force_space_bridge(
-                    log.t[ok],
-                    jac[ok],
-                    force[ok],
-                    tau_ext[ok],
-                    lined[ok],
-                    longest=FORCE_BRIDGE_LONGEST,
-                    support=win,
-                    shape=FORCE_BRIDGE,
-                    ends=FORCE_BRIDGE_ENDS,
-                )
+                for piece in clean.pieces:  # each piece on its own, as its joints were bridged
+                    sel = piece.rows[ok[piece.rows]]
+                    if sel.size and lined[sel].any():
+                        force[sel] = force_space_bridge(
+                            log.t[sel],
+                            jac[sel],
+                            force[sel],
+                            tau_ext[sel],
+                            lined[sel],
+                            longest=FORCE_BRIDGE_LONGEST,
+                            support=win,
+                            shape=FORCE_BRIDGE,
+                            ends=FORCE_BRIDGE_ENDS,
+                        )
         force[~finite] = np.nan
         flag[singular] |= FLAG_SINGULAR
         if singular.any():
