@@ -433,6 +433,128 @@ def bridged_runs(
     return out
 
 
+#: Bridging in force space (F42; docs/estimation.md, "Bridging in force space"): ``"off"``
+#: (default: every joint's ``T_est`` is bridged on its own, a line in time), ``"line"`` (over a
+#: run where some joint is bridged, the force is the Cartesian line between the run's ends,
+#: corrected only along what an answered joint's torque observes) or ``"quadratic"`` (a
+#: quadratic in time fitted to the samples of both ends' windows instead of the line).
+FORCE_BRIDGE: Literal["off", "line", "quadratic"] = "line"
+#: Longest run [s] bridged in force space; longer runs keep the joint-space answer.
+FORCE_BRIDGE_LONGEST = 0.5
+#: Whether the runs at the log's ends are bridged in force space (the one side's mean, held).
+FORCE_BRIDGE_ENDS = True
+
+
+def force_space_bridge(
+    t: NDArray[np.float64],
+    jac: NDArray[np.float64],
+    force: NDArray[np.float64],
+    tau: NDArray[np.float64],
+    bridged: NDArray[np.bool_],
+    *,
+    longest: float,
+    support: float,
+    shape: Literal["line", "quadratic"] = "line",
+    ends: bool = False,
+) -> NDArray[np.float64]:
+    """Bridge the force across runs where some joint's friction is undetermined, in Cartesian
+    space: the external load (a spring, a contact) is smooth in the base frame, while the
+    Jacobian turns under it, so a line in each joint's torque is not a line in force.
+
+    Over each run of samples where any joint is ``bridged`` (inside the log and at most
+    ``longest`` [s] long, or at its ends when ``ends``), the force is the line in time between the means of ``force`` over the
+    samples within ``support`` [s] before and after the run (``shape="quadratic"``: a quadratic
+    in time least-squares fitted to those samples), then corrected by the smallest change that
+    makes each answered joint's torque hold (``J^T F = tau`` on the joints not bridged at that
+    sample: a minimum-norm least-squares correction). At the log's ends (``ends``) the one
+    side's mean is held, corrected as above, however long the run. Other runs keep ``force``.
+
+    Parameters
+    ----------
+    t
+        Time [s], shape (n,).
+    jac
+        Jacobian ``d x_i / d q_j`` at each sample, shape (n, axes, nj) (``tau = J^T F``).
+    force
+        The force answered joint by joint [N], shape (n, axes).
+    tau
+        The external joint torques [N m, joint side], shape (n, nj).
+    bridged
+        Per sample and joint, whether the joint's torque was bridged, shape (n, nj).
+    longest, support
+        [s].
+    shape
+        ``"line"`` or ``"quadratic"``.
+    ends
+        Bridge the runs at the log's ends too, whatever their length.
+
+    Returns
+    -------
+    ndarray
+        The force, shape (n, axes).
+
+    Examples
+    --------
+    A constant force seen through a turning Jacobian, joint 0 bridged in the middle: joint 1's
+    torque and the ends' force give it back exactly.
+
+    >>> t = np.arange(10.0)
+    >>> c, s = np.cos(0.2 * t), np.sin(0.2 * t)
+    >>> jac = np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], 1)
+    >>> f = np.tile([1.0, 2.0], (10, 1))
+    >>> tau = np.einsum("nij,ni->nj", jac, f)
+    >>> mask = np.zeros((10, 2), bool); mask[3:7, 0] = True
+    >>> bad = f.copy(); bad[3:7] = 9.0
+    >>> np.allclose(force_space_bridge(t, jac, bad, tau, mask, longest=9, support=1), f)
+    True
+    """
+    out = force.copy()
+    union: NDArray[np.bool_] = np.asarray(bridged.any(axis=1), dtype=bool)
+    if not union.any() or union.all():
+        return out
+    tie = 0.01 * float(t[-1] - t[0]) / max(t.size - 1, 1)
+    for a, b in _gap_runs(union):
+        at_end = a == 0 or b == union.size
+        if (at_end and not ends) or (not at_end and t[b - 1] - t[a] > longest):
+            continue
+        origin = t[a]
+        sides = []
+        if a > 0:
+            a0 = min(int(np.searchsorted(t, t[a - 1] - support - tie, side="left")), a - 1)
+            sides.append(np.arange(a0, a))
+        if b < union.size:
+            b1 = max(int(np.searchsorted(t, t[b] + support + tie, side="right")), b + 1)
+            sides.append(np.arange(b, b1))
+        sides = [i[~union[i] & np.isfinite(force[i]).all(axis=1)] for i in sides]
+        if not sides or any(i.size == 0 for i in sides):
+            continue
+        x = t[a:b] - origin
+        if len(sides) == 1:  # a run at the log's end: the one side's mean, held
+            line = np.tile(force[sides[0]].mean(axis=0), (b - a, 1))
+        elif shape == "quadratic" and sides[0].size + sides[1].size >= 3:
+            idx = np.concatenate(sides)
+            tx = t[idx] - origin
+            span = max(float(t[b1 - 1] - t[a0]), 1e-12)
+            basis = np.column_stack([np.ones_like(tx), tx / span, (tx / span) ** 2])
+            coef, *_ = np.linalg.lstsq(basis, force[idx], rcond=None)
+            line = np.column_stack([np.ones_like(x), x / span, (x / span) ** 2]) @ coef
+        else:
+            ts = [float((t[i] - origin).mean()) for i in sides]
+            fs = [force[i].mean(axis=0) for i in sides]
+            line = np.column_stack(
+                [np.interp(x, ts, [fs[0][c], fs[1][c]]) for c in range(force.shape[1])]
+            )
+        for i in range(a, b):
+            answered = ~bridged[i] & np.isfinite(tau[i])
+            f = line[i - a]
+            if answered.any():
+                jb = jac[i][:, answered]  # (axes, m): tau_b = jb^T F
+                miss = tau[i, answered] - jb.T @ f
+                f = f + np.linalg.lstsq(jb.T, miss, rcond=None)[0]
+            out[i] = f
+    return out
+
+
 def _position_filter(
     angle: NDArray[np.float64],
     values: NDArray[np.float64],
@@ -674,6 +796,26 @@ def estimate_forces(
             force = np.array(f.wrench, dtype=np.float64)
             singular = f.singular
             force_sigma = _force_sigma(robot.arm, log.q, tau_sigma, singular)
+        if FORCE_BRIDGE != "off" and whole:
+            lined = np.nan_to_num(out["rest"]) > 0
+            lined[:, [j.name not in whole for j in robot.joints]] = False
+            if lined.any():
+                jac = np.asarray(robot.arm.jacobian(log.q), dtype=np.float64)
+                ok = ~singular & finite
+                for piece in clean.pieces:  # each piece on its own, as its joints were bridged
+                    sel = piece.rows[ok[piece.rows]]
+                    if sel.size and lined[sel].any():
+                        force[sel] = force_space_bridge(
+                            log.t[sel],
+                            jac[sel],
+                            force[sel],
+                            tau_ext[sel],
+                            lined[sel],
+                            longest=FORCE_BRIDGE_LONGEST,
+                            support=win,
+                            shape=FORCE_BRIDGE,
+                            ends=FORCE_BRIDGE_ENDS,
+                        )
         force[~finite] = np.nan
         flag[singular] |= FLAG_SINGULAR
         if singular.any():
