@@ -30,6 +30,7 @@ This module never imports the simulator.
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 from dataclasses import dataclass
@@ -1305,7 +1306,8 @@ def build_tables(
             onset_law = (fit.dead_zone, fit.exponent)
             anchors = np.unique(pos[pw == 0])
             if surface and ramp_share_step(ramp, anchors) > SURFACE_SHARE_STEP:
-                modelled, fitted = _surface_forward(
+                surface_forward = functools.partial(
+                    _surface_forward,
                     spec,
                     pos,
                     pw,
@@ -1319,6 +1321,7 @@ def build_tables(
                     track=track,
                     raw=raw_tau,
                 )
+                modelled, fitted = surface_forward()
                 fine = np.where(np.isnan(fine), np.nan, modelled)
                 check = check_position_sampling(
                     fitted.rest, anchors, n, torque_per_count=torque_max / cmax
@@ -1328,21 +1331,7 @@ def build_tables(
                     if nyquist:
                         # the ripple the measured positions sample twice a period, read by
                         # the rows the compliance moved between them (surface.rest_basis)
-                        modelled, fitted = _surface_forward(
-                            spec,
-                            pos,
-                            pw,
-                            tau,
-                            levels,
-                            onset_law,
-                            readable,
-                            sigma,
-                            knee=knee,
-                            nyquist=True,
-                            pool=pool,
-                            track=track,
-                            raw=raw_tau,
-                        )
+                        modelled, fitted = surface_forward(nyquist=True)
                         fine = np.where(np.isnan(fine), np.nan, modelled)
                 if fitted.series is not None:
                     unheld, period = fitted.series.unheld_at(
