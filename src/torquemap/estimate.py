@@ -513,6 +513,7 @@ def force_space_bridge(
     if not union.any() or union.all():
         return out
     tie = 0.01 * float(t[-1] - t[0]) / max(t.size - 1, 1)
+    lined = np.zeros(union.size, dtype=bool)  # the samples given the line, to be corrected
     for a, b in _gap_runs(union):
         at_end = a == 0 or b == union.size
         if (at_end and not ends) or (not at_end and t[b - 1] - t[a] > longest):
@@ -544,14 +545,19 @@ def force_space_bridge(
             line = np.column_stack(
                 [np.interp(x, ts, [fs[0][c], fs[1][c]]) for c in range(force.shape[1])]
             )
-        for i in range(a, b):
-            answered = ~bridged[i] & np.isfinite(tau[i])
-            f = line[i - a]
-            if answered.any():
-                jb = jac[i][:, answered]  # (axes, m): tau_b = jb^T F
-                miss = tau[i, answered] - jb.T @ f
-                f = f + np.linalg.lstsq(jb.T, miss, rcond=None)[0]
-            out[i] = f
+        out[a:b] = line
+        lined[a:b] = True
+    rows = np.flatnonzero(lined)
+    answered = ~bridged[rows] & np.isfinite(tau[rows])
+    # the smallest change making J^T F = tau hold on the joints answered: one batched
+    # pseudo-inverse per pattern of answered joints (a handful), not one solve per sample
+    for pattern in np.unique(answered, axis=0):
+        if not pattern.any():
+            continue
+        sel = rows[(answered == pattern).all(axis=1)]
+        jt = np.swapaxes(jac[sel][:, :, pattern], 1, 2)  # (k, m, axes): tau_b = jt F
+        miss = tau[sel][:, pattern] - np.einsum("kma,ka->km", jt, out[sel])
+        out[sel] += np.einsum("kam,km->ka", np.linalg.pinv(jt), miss)
     return out
 
 
