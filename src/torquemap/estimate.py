@@ -551,13 +551,21 @@ def force_space_bridge(
     answered = ~bridged[rows] & np.isfinite(tau[rows])
     # the smallest change making J^T F = tau hold on the joints answered: one batched
     # pseudo-inverse per pattern of answered joints (a handful), not one solve per sample
-    for pattern in np.unique(answered, axis=0):
-        if not pattern.any():
+    code = answered.astype(np.int64) @ (1 << np.arange(answered.shape[1], dtype=np.int64))
+    for value in np.unique(code):
+        if value == 0:
             continue
-        sel = rows[(answered == pattern).all(axis=1)]
+        sel = rows[code == value]
+        pattern = ((int(value) >> np.arange(answered.shape[1])) & 1).astype(bool)
         jt = np.swapaxes(jac[sel][:, :, pattern], 1, 2)  # (k, m, axes): tau_b = jt F
         miss = tau[sel][:, pattern] - np.einsum("kma,ka->km", jt, out[sel])
-        out[sel] += np.einsum("kam,km->ka", np.linalg.pinv(jt), miss)
+        if jt.shape[1] == 1:  # one answered joint: the pseudo-inverse of a row is a column
+            row = jt[:, 0, :]
+            norm = np.einsum("ka,ka->k", row, row)
+            scale = np.divide(miss[:, 0], norm, out=np.zeros_like(norm), where=norm > 0)
+            out[sel] += row * scale[:, None]
+        else:
+            out[sel] += np.einsum("kam,km->ka", np.linalg.pinv(jt), miss)
     return out
 
 
