@@ -73,3 +73,32 @@ def test_curved_force_within_the_line_bound_and_better_than_the_joint_line() -> 
     fs, js = _case(force, [0])
     assert fs <= bound
     assert fs < 0.5 * js
+
+
+def test_two_answered_joints_give_the_force_back_and_one_gives_its_projection() -> None:
+    # three joints on a planar force (a redundant arm): with two joints answered the force is
+    # fixed by J^T F = tau alone (the batched pseudo-inverse), whatever the line; with one, the
+    # line's error survives only across that joint's row of J^T (a closed form)
+    rng = np.random.default_rng(4)
+    n = 40
+    t = np.arange(n) * 0.01
+    jac = rng.normal(size=(n, 2, 3))
+    f = np.column_stack([np.sin(t), 2.0 + t])
+    tau = np.einsum("nij,ni->nj", jac, f)
+    mask = np.zeros((n, 3), bool)
+    mask[10:20, 0] = True
+    mask[20:30, :2] = True
+    wrong = f.copy()
+    wrong[10:30] += 5.0
+    got = force_space_bridge(t, jac, wrong, tau, mask, longest=1.0, support=0.05)
+    np.testing.assert_allclose(got[:20], f[:20], atol=1e-9)  # joints 1 and 2 answered
+    line = force_space_bridge(
+        t, jac, wrong, np.full_like(tau, np.nan), mask, longest=1.0, support=0.05
+    )
+    row = jac[20:30, :, 2]  # joint 2 alone answered: the error left is orthogonal to its row
+    err = got[20:30] - f[20:30]
+    np.testing.assert_allclose(np.einsum("ka,ka->k", row, err), 0.0, atol=1e-9)
+    start = line[20:30] - f[20:30]
+    removed = np.einsum("ka,ka->k", row, start) / np.einsum("ka,ka->k", row, row)
+    np.testing.assert_allclose(err, start - row * removed[:, None], atol=1e-9)
+    assert np.allclose(got[30:], f[30:]) and np.allclose(got[:10], f[:10])
