@@ -102,3 +102,22 @@ def test_two_answered_joints_give_the_force_back_and_one_gives_its_projection() 
     removed = np.einsum("ka,ka->k", row, start) / np.einsum("ka,ka->k", row, row)
     np.testing.assert_allclose(err, start - row * removed[:, None], atol=1e-9)
     assert np.allclose(got[30:], f[30:]) and np.allclose(got[:10], f[:10])
+
+
+def test_the_logs_ends_hold_the_one_sides_force_only_when_asked() -> None:
+    # a constant force, joint 0 bridged over the first 10 samples: held from the samples after
+    # (corrected along joint 1's row, here exact), and left alone unless ends=True
+    n = 30
+    t = np.arange(n) * 0.01
+    c, s = np.cos(0.1 * t), np.sin(0.1 * t)
+    jac = np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], 1)
+    f = np.tile([1.0, -2.0], (n, 1))
+    tau = np.einsum("nij,ni->nj", jac, f)
+    mask = np.zeros((n, 2), bool)
+    mask[:10, 0] = True
+    wrong = f.copy()
+    wrong[:10] = 7.0
+    kept = force_space_bridge(t, jac, wrong, tau, mask, longest=1.0, support=0.05)
+    np.testing.assert_array_equal(kept, wrong)
+    held = force_space_bridge(t, jac, wrong, tau, mask, longest=1.0, support=0.05, ends=True)
+    np.testing.assert_allclose(held, f, atol=1e-12)
