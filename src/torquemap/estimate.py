@@ -395,18 +395,27 @@ def bridge_gaps(
             continue
         origin = t[a]
         sides_t, sides_v = [], []
-        if a > 0:
-            a0 = min(int(np.searchsorted(t, t[a - 1] - support - tie, side="left")), a - 1)
-            keep = ~gaps[a0:a]
-            sides_t.append((t[a0:a][keep] - origin).mean())
-            sides_v.append(values[a0:a][keep].mean())
-        if b < gaps.size:
-            b1 = max(int(np.searchsorted(t, t[b] + support + tie, side="right")), b + 1)
-            keep = ~gaps[b:b1]
-            sides_t.append((t[b:b1][keep] - origin).mean())
-            sides_v.append(values[b:b1][keep].mean())
+        for side in _run_sides(t, a, b, support=support, tie=tie):
+            keep = ~gaps[side]
+            sides_t.append((t[side][keep] - origin).mean())
+            sides_v.append(values[side][keep].mean())
         out[a:b] = np.interp(t[a:b] - origin, sides_t, sides_v)
     return out
+
+
+def _run_sides(
+    t: NDArray[np.float64], a: int, b: int, *, support: float, tie: float
+) -> list[slice]:
+    """The samples within ``support`` [s] (``tie`` [s] of slack) before and after the run
+    ``a:b``, at least the one neighbour each side; none on a side the log ends at."""
+    sides = []
+    if a > 0:
+        a0 = min(int(np.searchsorted(t, t[a - 1] - support - tie, side="left")), a - 1)
+        sides.append(slice(a0, a))
+    if b < t.size:
+        b1 = max(int(np.searchsorted(t, t[b] + support + tie, side="right")), b + 1)
+        sides.append(slice(b, b1))
+    return sides
 
 
 def bridged_runs(
@@ -522,13 +531,8 @@ def force_space_bridge(
         if (at_end and not ends) or (not at_end and t[b - 1] - t[a] > longest):
             continue
         origin = t[a]
-        sides = []
-        if a > 0:
-            a0 = min(int(np.searchsorted(t, t[a - 1] - support - tie, side="left")), a - 1)
-            sides.append(np.arange(a0, a))
-        if b < union.size:
-            b1 = max(int(np.searchsorted(t, t[b] + support + tie, side="right")), b + 1)
-            sides.append(np.arange(b, b1))
+        windows = _run_sides(t, a, b, support=support, tie=tie)
+        sides = [np.arange(w.start, w.stop) for w in windows]
         sides = [i[~union[i] & np.isfinite(force[i]).all(axis=1)] for i in sides]
         if not sides or any(i.size == 0 for i in sides):
             continue
@@ -538,7 +542,7 @@ def force_space_bridge(
         elif shape == "quadratic" and sides[0].size + sides[1].size >= 3:
             idx = np.concatenate(sides)
             tx = t[idx] - origin
-            span = max(float(t[b1 - 1] - t[a0]), 1e-12)
+            span = max(float(t[windows[1].stop - 1] - t[windows[0].start]), 1e-12)
             basis = np.column_stack([np.ones_like(tx), tx / span, (tx / span) ** 2])
             coef, *_ = np.linalg.lstsq(basis, force[idx], rcond=None)
             line = np.column_stack([np.ones_like(x), x / span, (x / span) ** 2]) @ coef
