@@ -40,13 +40,14 @@ from torquemap.arm_model import (
     joint_columns,
     joint_parameters,
 )
+from torquemap.arm_noise import noise_excess_variance
 from torquemap.errors import InputError
 from torquemap.estimate import torque_scale_warnings
 from torquemap.filters import lowpass
 from torquemap.identify_arm import is_rigid_body_arm
 from torquemap.io import Log
 from torquemap.model import Model
-from torquemap.sanitize import max_gap_for
+from torquemap.sanitize import max_gap_for, no_stretch_message
 
 ArmMethod = Literal["acceleration", "momentum"]
 ARM_METHODS: tuple[ArmMethod, ...] = ("acceleration", "momentum")
@@ -460,6 +461,16 @@ def _still_joints(arm: Any, q: NDArray[np.float64]) -> str:
     )
 
 
+def _longest_stretch(t: NDArray[np.float64], limit: float) -> float:
+    """Duration [s] of the longest stretch of ``t`` without a step longer than ``limit``."""
+    if t.size < 2:
+        return 0.0
+    edges = np.flatnonzero(np.diff(t) > limit) + 1
+    starts = np.r_[0, edges]
+    ends = np.r_[edges, t.size] - 1
+    return float(np.max(t[ends] - t[starts]))
+
+
 def _near_gaps(t: NDArray[np.float64], limit: float, reach: float) -> NDArray[np.bool_]:
     """Samples within ``reach`` [s] of a step in time longer than ``limit`` [s]."""
     steps = np.flatnonzero(np.diff(t) > limit)
@@ -526,6 +537,10 @@ def estimate_arm(
         raise InputError(f"cutoff must be positive, got {cutoff!r}")
     robot = model.robot
     joints = dict(model.joints)
+    if _longest_stretch(log.t, max_gap_for(window)) < window:
+        # before the filters, which would refuse a log stamped in ns with a cut-off's range
+        # or, for the observer, answer every sample (all flagged as near a gap)
+        raise InputError(no_stretch_message(log.t, window), path=log.path)
     signals = arm_signals(log, robot, window=window)
     drive = drive_torque(robot, joints, signals, smooth=method == "acceleration")
     if method == "acceleration":
@@ -555,6 +570,10 @@ def estimate_arm(
     info = model.notes.get("arm") if isinstance(model.notes, Mapping) else None
     reach, edge, outside = _extrapolation(info, robot, joints, signals)
     sigma, warnings = _sigma(model, arm, signals, tau_ext.shape, bandwidth, reach, edge)
+    louder, note = noise_excess_variance(info, robot, joints, signals, bandwidth)
+    sigma = np.sqrt(sigma**2 + louder)
+    if note is not None:
+        warnings.append(note)
     warnings += outside
     warnings += torque_scale_warnings(model, signals.motor_torque)
     A, singular = arm.wrench_map(signals.q, singular_threshold=singular_threshold)

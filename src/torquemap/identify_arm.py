@@ -35,11 +35,12 @@ from torquemap.arm_model import (
     joint_columns,
     pdtv_lines,
 )
+from torquemap.arm_noise import arm_noise_levels, pooled_levels
 from torquemap.errors import InputError
 from torquemap.friction_law import StribeckFriction, coulomb_levels_valid
 from torquemap.io import Log
 from torquemap.model import InertiaModel, JointModel, Model
-from torquemap.sanitize import max_gap_for
+from torquemap.sanitize import max_gap_for, no_stretch_message
 
 PRIOR_MASS_FRACTION = 0.3
 """Prior standard deviation of each body's mass, relative to the URDF's [-] ..."""
@@ -575,6 +576,7 @@ def identify_arm(
     robot = model.robot
     nj = len(robot.joints)
     warnings: list[str] = []
+    given = list(logs)
     logs, cut = split_at_gaps(logs, window)
     if cut:
         warnings.append(
@@ -582,7 +584,15 @@ def identify_arm(
             "identified as separate stretches (stretches shorter than 4 windows are left out)"
         )
     if not logs:
-        raise InputError("no stretch of the logs between gaps in time lasts 4 windows")
+        # a log stamped in ns or ms looks sparse: say so, naming it (no_stretch_message)
+        first = given[0]
+        raise InputError(
+            no_stretch_message(first.t, window).replace(
+                f"lasts the {window:.3g} s differentiator window",
+                f"lasts 4 differentiator windows ({4 * window:.3g} s)",
+            ),
+            path=first.path,
+        )
     signals = [arm_signals(log, robot, window=window) for log in logs]
     # a joint held still throughout (a brake, a disabled drive) was refused as "friction is
     # negative in both directions: check the robot file's gravity, gear ratios..." or kept with
@@ -841,6 +851,10 @@ def identify_arm(
             for bm in masses
         },
         **visited_region(signals, picks),
+        "noise_high_psd": pooled_levels(
+            [arm_noise_levels(robot, joints, sig) for sig in signals],
+            [float(sig.t.size) for sig in signals],
+        ),
         "motor_torque_p99": [
             float(f"{v:.4g}")
             for v in np.percentile(
