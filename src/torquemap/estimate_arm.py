@@ -41,6 +41,7 @@ from torquemap.arm_model import (
     joint_parameters,
 )
 from torquemap.arm_noise import noise_excess_variance
+from torquemap.arm_units import angles_beyond_limits
 from torquemap.errors import InputError
 from torquemap.estimate import torque_scale_warnings
 from torquemap.filters import lowpass
@@ -541,6 +542,9 @@ def estimate_arm(
         # before the filters, which would refuse a log stamped in ns with a cut-off's range
         # or, for the observer, answer every sample (all flagged as near a gap)
         raise InputError(no_stretch_message(log.t, window), path=log.path)
+    problem = angles_beyond_limits(log.q, arm)
+    if problem is not None:
+        raise InputError(problem, path=log.path)
     signals = arm_signals(log, robot, window=window)
     drive = drive_torque(robot, joints, signals, smooth=method == "acceleration")
     if method == "acceleration":

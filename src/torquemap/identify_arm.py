@@ -36,6 +36,7 @@ from torquemap.arm_model import (
     pdtv_lines,
 )
 from torquemap.arm_noise import arm_noise_levels, pooled_levels
+from torquemap.arm_units import angles_beyond_limits
 from torquemap.errors import InputError
 from torquemap.friction_law import StribeckFriction, coulomb_levels_valid
 from torquemap.io import Log
@@ -577,6 +578,10 @@ def identify_arm(
     nj = len(robot.joints)
     warnings: list[str] = []
     given = list(logs)
+    for log in given:
+        problem = angles_beyond_limits(log.q, arm)
+        if problem is not None:
+            raise InputError(problem, path=log.path)
     logs, cut = split_at_gaps(logs, window)
     if cut:
         warnings.append(
