@@ -217,3 +217,23 @@ def test_a_turn_off_is_no_unit_error(identified: dict[str, object]) -> None:
     assert isinstance(model, Model) and isinstance(task, Log)
     turned = dataclasses.replace(task, q=task.q + np.array([2.0 * np.pi, -2.0 * np.pi]))
     assert_allclose(estimate_arm(model, turned).wrench, estimate_arm(model, task).wrench, atol=1e-9)
+
+
+def test_a_prismatic_joints_extrapolation_is_in_metres(tmp_path: Path) -> None:
+    """Before: a PR2's torso lift was warned 'up to 0.0583 rad beyond the identified range'."""
+    from torquemap.arm_model import arm_signals
+    from torquemap.estimate_arm import _extrapolation
+
+    text = TWO_LINK.read_text().replace(
+        'name="elbow" type="revolute"', 'name="elbow" type="prismatic"'
+    )
+    (tmp_path / "slide.urdf").write_text(text)
+    arm = urdf_arm(tmp_path / "slide.urdf", ["shoulder", "elbow"], end_effector="tool")
+    robot = _robot(arm)
+    t = np.arange(2000) / 1000.0
+    q = np.column_stack([0.9 * np.ones_like(t), 0.9 + 0.2 * t])  # 0.4 and 0.8 beyond 0.5
+    log = Log(t=t, q=q, motor_torque=np.zeros_like(q), joint_names=arm.joint_names, path="x")
+    info = {"position_range": [[-0.5, 0.5], [-0.5, 0.5]]}
+    _, _, warnings = _extrapolation(info, robot, {}, arm_signals(log, robot, window=0.05))
+    assert len(warnings) == 1
+    assert "shoulder up to 0.4 rad, elbow up to 0.8 m beyond" in warnings[0], warnings

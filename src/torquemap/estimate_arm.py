@@ -237,7 +237,8 @@ def _extrapolation(
         far = beyond > POSE_TOLERANCE * width
         if far.any():
             worst = ", ".join(
-                f"{names[k]} up to {beyond[:, k].max():.3g} rad"
+                f"{names[k]} up to {beyond[:, k].max():.3g} "
+                f"{'rad' if np.isfinite(period[k]) else 'm'}"  # a prismatic joint's is metres
                 for k in range(nj)
                 if far[:, k].any()
             )
