@@ -237,3 +237,44 @@ def test_a_prismatic_joints_extrapolation_is_in_metres(tmp_path: Path) -> None:
     _, _, warnings = _extrapolation(info, robot, {}, arm_signals(log, robot, window=0.05))
     assert len(warnings) == 1
     assert "shoulder up to 0.4 rad, elbow up to 0.8 m beyond" in warnings[0], warnings
+
+
+def test_estimate_repeats_the_identifications_misfit(identified: dict[str, object]) -> None:
+    """A robot file whose gravity is not the arm's (the two-link moves in its x-y plane with
+    gravity -y; the file says -z): identify warns; estimate of that model used to say nothing
+    (a Talos arm on a wall: 45 N against the true 9 N, exit 0)."""
+    free, task = identified["free"], identified["task"]
+    assert isinstance(free, Log) and isinstance(task, Log)
+    wrong = urdf_arm(TWO_LINK, ["shoulder", "elbow"], end_effector="tool", gravity=(0, 0, -9.81))
+    start = Model(
+        robot=_robot(wrong),
+        joints={n: JointModel(inertia=InertiaModel(constant=0.0), friction=_law(0.0), pdtv=())
+                for n in wrong.joint_names},
+    )  # fmt: skip
+    result = identify_arm(start, [free], max_samples=3000, pdtv_max_order=0)
+    assert any("explains only" in w for w in result.warnings), result.warnings
+    est = estimate_arm(result.model, task)
+    assert est.warnings[0].startswith("the model's identification found it at odds"), est.warnings
+    assert "check the robot file's gravity" in est.warnings[0]
+    # the model identified with the right gravity carries no such warning
+    model = identified["model"]
+    assert isinstance(model, Model)
+    assert not any("at odds" in w for w in estimate_arm(model, task).warnings)
+
+
+def test_a_log_wholly_outside_the_identified_poses_asks_if_it_is_this_robot() -> None:
+    from torquemap.arm_model import arm_signals
+    from torquemap.estimate_arm import ANOTHER_ROBOT, _extrapolation
+
+    nominal, _ = _arms()
+    robot = _robot(nominal)
+    t = np.arange(2000) / 1000.0
+    info = {"position_range": [[-0.5, 0.5], [-0.5, 0.5]]}
+    for shoulder, asked in ((0.9, True), (0.3 + 0.4 * t, False)):  # all outside; 62 % outside
+        q = np.column_stack([shoulder * np.ones_like(t), np.zeros_like(t)])
+        log = Log(
+            t=t, q=q, motor_torque=np.zeros_like(q), joint_names=nominal.joint_names, path="x"
+        )
+        _, _, warnings = _extrapolation(info, robot, {}, arm_signals(log, robot, window=0.05))
+        assert len(warnings) == 1
+        assert warnings[0].endswith(ANOTHER_ROBOT) is asked, warnings

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -207,6 +208,43 @@ def _beyond_range(
     return out
 
 
+ANOTHER_ROBOT_SHARE = 0.9
+"""Share of a log's samples outside the identified poses from which the warning also asks
+whether the log is of the model's robot."""
+ANOTHER_ROBOT = "; or is the log of another robot, or are its columns of other joints?"
+"""(a Z1's task log read with a 6-axis Talos arm's model: 106 N against the true 12 N, with
+only the poses' warning; docs/arm.md, new-user QA)"""
+
+
+def fit_warnings(info: Mapping[str, Any] | None) -> str | None:
+    """One warning repeating what the model's identification said of its fit to its logs (a
+    joint's torque the model explains poorly, a rigid-body gain far from the URDF's: a robot
+    file at odds with the arm), or None. ``identify`` prints them; ``estimate`` of that model
+    used to say nothing (a Talos arm on a wall, identified with a robot file saying gravity
+    -z: forces 45 N against the true 9 N)."""
+    said = info.get("warnings") if isinstance(info, Mapping) else None
+    if not isinstance(said, list):
+        return None
+    found = []
+    for w in said:
+        if not isinstance(w, str):
+            continue
+        share = re.match(r"joint (\S+): the identified model explains only (\S+)", w)
+        gain = re.match(r"joint (\S+): its rigid-body torque is (\S+) times the URDF's", w)
+        if share:
+            found.append(f"{share[1]} explains {share[2]} of its torque")
+        elif gain:
+            found.append(f"{gain[1]}'s rigid-body torque {gain[2]}x the URDF's")
+    if not found:
+        return None
+    return (
+        "the model's identification found it at odds with its logs ("
+        + "; ".join(found)
+        + "): check the robot file's gravity, gear ratios and torque constants; the forces "
+        "carry that error"
+    )
+
+
 def _extrapolation(
     info: Mapping[str, Any] | None, robot: Any, joints: Mapping[str, Any], signals: ArmSignals
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], list[str]]:
@@ -242,11 +280,13 @@ def _extrapolation(
                 for k in range(nj)
                 if far[:, k].any()
             )
+            share = float(far.any(axis=1).mean())
             warnings.append(
-                f"{far.any(axis=1).mean():.0%} of the samples lie at poses outside those the "
+                f"{share:.0%} of the samples lie at poses outside those the "
                 f"model was identified from ({worst} beyond the identified range); the model "
                 "extrapolates there and its sigmas grow with the distance: excite about the "
                 "working poses (torquemap excite --centre)"
+                + (ANOTHER_ROBOT if share >= ANOTHER_ROBOT_SHARE else "")
             )
     levels = np.asarray(info.get("motor_speed_levels", []), dtype=float)
     quantiles = np.asarray(info.get("motor_speed_quantiles", []), dtype=float)
@@ -580,6 +620,9 @@ def estimate_arm(
     if note is not None:
         warnings.append(note)
     warnings += outside
+    odds = fit_warnings(info)
+    if odds is not None:
+        warnings.insert(0, odds)
     warnings += torque_scale_warnings(model, signals.motor_torque)
     A, singular = arm.wrench_map(signals.q, singular_threshold=singular_threshold)
     wrench = np.einsum("nij,nj->ni", A, tau_ext)
