@@ -278,3 +278,19 @@ def test_a_log_wholly_outside_the_identified_poses_asks_if_it_is_this_robot() ->
         _, _, warnings = _extrapolation(info, robot, {}, arm_signals(log, robot, window=0.05))
         assert len(warnings) == 1
         assert warnings[0].endswith(ANOTHER_ROBOT) is asked, warnings
+
+
+def test_an_arm_held_still_is_refused_as_such(identified: dict[str, object]) -> None:
+    """A servo holding a pose jitters by a few encoder counts (0.09-0.35 rad at the motors of
+    a simulated 6-axis arm, more than the 0.01 rad that marks a joint that never moves):
+    before, refused as 'friction negative in both directions: check the robot file's
+    gravity, gear ratios...'."""
+    model, free = identified["model"], identified["free"]
+    assert isinstance(model, Model) and isinstance(free, Log)
+    rng = np.random.default_rng(5)
+    pose = np.array([0.4, -0.8])
+    jitter = 0.002 * np.cumsum(rng.standard_normal(free.q.shape), axis=0) / 100.0
+    held = dataclasses.replace(free, q=pose + jitter - jitter.mean(axis=0), path="held.csv")
+    assert np.all(np.ptp(held.q, axis=0) * np.array(GEAR) > 0.01)  # more than "never moves"
+    with pytest.raises(InputError, match=r"held\.csv: joint shoulder only jitters about a held"):
+        identify_arm(model, [held], max_samples=500, pdtv_max_order=0)

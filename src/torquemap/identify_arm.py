@@ -410,6 +410,11 @@ file without gravity: 7 %; else above 99.8 % on the benches)."""
 
 #: A joint whose motor angle spans less than this [rad] in every log never moved there.
 STILL_MOTOR_SPAN = 0.01
+#: A joint whose angle spans less than this [rad, or m for a prismatic joint] in every log
+#: only jittered about a held pose (a servo holding the arm still: 0.001-0.0035 rad at the
+#: joints of a simulated 6-axis arm, 0.09-0.35 rad at the motors, which was refused as
+#: "friction negative in both directions: check the robot file's gravity, gear ratios...").
+STILL_JOINT_SPAN = 0.01
 
 
 def scale_warnings(
@@ -603,14 +608,21 @@ def identify_arm(
     # negative in both directions: check the robot file's gravity, gear ratios..." or kept with
     # "the model explains 0% of its torque", by the rounding of a friction it cannot show
     for k, joint in enumerate(robot.joints):
-        span = joint.gear_ratio * max(float(np.ptp(log.q[:, k])) for log in logs)
-        if span < STILL_MOTOR_SPAN:
+        travel = max(float(np.ptp(log.q[:, k])) for log in logs)
+        span = joint.gear_ratio * travel
+        if span < STILL_MOTOR_SPAN or travel < STILL_JOINT_SPAN:
             paths = ", ".join(dict.fromkeys(str(log.path) for log in logs if log.path))
+            moves = (
+                f"never moves in the logs (its motor angle spans {span:.3g} rad)"
+                if span < STILL_MOTOR_SPAN
+                else f"only jitters about a held pose in the logs (it spans {travel:.3g} "
+                f"{'m' if np.isinf(arm.angle_period[k]) else 'rad'}, under "
+                f"{STILL_JOINT_SPAN:g})"
+            )
             raise InputError(
-                f"joint {joint.name} never moves in the logs (its motor angle spans {span:.3g} "
-                "rad): its friction and rotor inertia cannot be identified; excite it (torquemap "
-                "excite), or, if it is locked, leave it out of the robot file (locked at zero) "
-                "or make it fixed in the URDF at its angle",
+                f"joint {joint.name} {moves}: its friction and rotor inertia cannot be "
+                "identified; excite it (torquemap excite), or, if it is locked, leave it out of "
+                "the robot file (locked at zero) or make it fixed in the URDF at its angle",
                 path=paths or None,
             )
     inner = []
