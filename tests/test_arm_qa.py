@@ -294,3 +294,33 @@ def test_an_arm_held_still_is_refused_as_such(identified: dict[str, object]) -> 
     assert np.all(np.ptp(held.q, axis=0) * np.array(GEAR) > 0.01)  # more than "never moves"
     with pytest.raises(InputError, match=r"held\.csv: joint shoulder only jitters about a held"):
         identify_arm(model, [held], max_samples=500, pdtv_max_order=0)
+
+
+def test_spectrum_of_an_excite_log_says_what_it_needs(
+    identified: dict[str, object], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """An arm's free log from `torquemap excite` has no steady-speed pass. Before, spectrum
+    said `no joint moves at a steady speed in the logs; identification needs constant-speed
+    sweeps` (a Talos arm's log, following docs/arm.md)."""
+    from torquemap.cli.main import main
+    from torquemap.io import write_table
+
+    free = identified["free"]
+    assert isinstance(free, Log)
+    (tmp_path / "two_link.urdf").write_text(TWO_LINK.read_text())
+    (tmp_path / "robot.toml").write_text(
+        '[robot]\nkinematics = "urdf"\nurdf = "two_link.urdf"\nend_effector = "tool"\n'
+        "gravity = [0.0, -9.81, 0.0]\n"
+        "[joints.shoulder]\ngear_ratio = 60\ntorque_constant = 0.1\n"
+        "[joints.elbow]\ngear_ratio = 40\ntorque_constant = 0.1\n"
+    )
+    cols = {"t": free.t[:5000]}
+    for k, j in enumerate(free.joint_names):
+        cols[f"q_{j}"] = free.q[:5000, k]
+        cols[f"tau_{j}"] = free.motor_torque[:5000, k]
+    write_table(tmp_path / "free.csv", cols)
+    argv = ["-q", "spectrum", str(tmp_path / "robot.toml"), str(tmp_path / "free.csv")]
+    assert main([*argv, "--joint", "elbow"]) == 2
+    err = capsys.readouterr().err
+    assert "free.csv: joint elbow has no slow constant-speed pass" in err, err
+    assert "identification needs" not in err
