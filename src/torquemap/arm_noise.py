@@ -102,6 +102,7 @@ def noise_excess_variance(
     )
     return var, (
         f"the log's torque noise above 20 Hz exceeds the identification logs' ({named}; this "
-        f"log is sampled at {1.0 / step:.4g} Hz: a slower log holds the same noise per sample "
-        "in a narrower band); the sigmas include the excess"
+        f"log is sampled at {1.0 / step:.4g} Hz: a log slower than theirs holds the same noise "
+        "per sample in a narrower band; impacts, or a model at odds with the log, add to it); "
+        "the sigmas include the excess"
     )
