@@ -324,3 +324,43 @@ def test_spectrum_of_an_excite_log_says_what_it_needs(
     err = capsys.readouterr().err
     assert "free.csv: joint elbow has no slow constant-speed pass" in err, err
     assert "identification needs" not in err
+
+
+def _counts_robot(tmp_path: Path) -> Path:
+    (tmp_path / "two_link.urdf").write_text(TWO_LINK.read_text())
+    joint = "gear_ratio = {g}\ntorque_constant = 0.1\nencoder_counts_per_rev = 16384\n"
+    joint += 'position_unit = "counts"\n'
+    path = tmp_path / "robot.toml"
+    path.write_text(
+        '[robot]\nkinematics = "urdf"\nurdf = "two_link.urdf"\nend_effector = "tool"\n'
+        "[joints.shoulder]\n" + joint.format(g=60) + "[joints.elbow]\n" + joint.format(g=40)
+    )
+    return path
+
+
+@pytest.mark.parametrize("reader", ["whole", "chunks"])
+def test_single_turn_counts_of_an_arm_are_refused(tmp_path: Path, reader: str) -> None:
+    """Counts that wrap each motor turn hold an arm's joint angles only modulo 2 pi / N.
+    Before: unwrapped from the first sample, a Talos arm's task log read every pose near zero
+    (all 10 000 samples singular, exit 0); another pose would be silently wrong."""
+    from torquemap.io import iter_log_chunks, read_log, write_table
+    from torquemap.robot import load_robot
+
+    robot = load_robot(_counts_robot(tmp_path))
+    t = np.arange(3000) / 1000.0
+    q = np.column_stack([0.8 + 0.3 * np.sin(t), -1.1 + 0.2 * np.cos(2 * t)])  # [rad]
+    counts = np.floor(q * np.array([60.0, 40.0]) * 16384 / (2 * np.pi))
+    cols = {"t": t, "q_shoulder": counts[:, 0], "q_elbow": counts[:, 1]}
+    cols |= {"i_shoulder": np.zeros_like(t), "i_elbow": np.zeros_like(t)}
+    write_table(tmp_path / "multi.csv", cols)
+    # multi-turn counts: the joint angles, to a count
+    assert_allclose(read_log(tmp_path / "multi.csv", robot).q, q, atol=2 * np.pi / 16384 / 40)
+    wrapped = cols | {"q_shoulder": np.mod(counts[:, 0], 16384), "q_elbow": counts[:, 1]}
+    write_table(tmp_path / "wrapped.csv", wrapped)
+    with pytest.raises(
+        InputError, match=r"wrapped\.csv: joint shoulder: q_shoulder wraps by a motor turn"
+    ):
+        if reader == "whole":
+            read_log(tmp_path / "wrapped.csv", robot)
+        else:
+            list(iter_log_chunks(tmp_path / "wrapped.csv", robot, rows=700))
