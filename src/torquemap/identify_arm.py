@@ -35,11 +35,13 @@ from torquemap.arm_model import (
     joint_columns,
     pdtv_lines,
 )
+from torquemap.arm_noise import arm_noise_levels, pooled_levels
+from torquemap.arm_units import angles_beyond_limits
 from torquemap.errors import InputError
 from torquemap.friction_law import StribeckFriction, coulomb_levels_valid
 from torquemap.io import Log
 from torquemap.model import InertiaModel, JointModel, Model
-from torquemap.sanitize import max_gap_for
+from torquemap.sanitize import max_gap_for, no_stretch_message
 
 PRIOR_MASS_FRACTION = 0.3
 """Prior standard deviation of each body's mass, relative to the URDF's [-] ..."""
@@ -408,6 +410,11 @@ file without gravity: 7 %; else above 99.8 % on the benches)."""
 
 #: A joint whose motor angle spans less than this [rad] in every log never moved there.
 STILL_MOTOR_SPAN = 0.01
+#: A joint whose angle spans less than this [rad, or m for a prismatic joint] in every log
+#: only jittered about a held pose (a servo holding the arm still: 0.001-0.0035 rad at the
+#: joints of a simulated 6-axis arm, 0.09-0.35 rad at the motors, which was refused as
+#: "friction negative in both directions: check the robot file's gravity, gear ratios...").
+STILL_JOINT_SPAN = 0.01
 
 
 def scale_warnings(
@@ -575,6 +582,11 @@ def identify_arm(
     robot = model.robot
     nj = len(robot.joints)
     warnings: list[str] = []
+    given = list(logs)
+    for log in given:
+        problem = angles_beyond_limits(log.q, arm)
+        if problem is not None:
+            raise InputError(problem, path=log.path)
     logs, cut = split_at_gaps(logs, window)
     if cut:
         warnings.append(
@@ -582,20 +594,35 @@ def identify_arm(
             "identified as separate stretches (stretches shorter than 4 windows are left out)"
         )
     if not logs:
-        raise InputError("no stretch of the logs between gaps in time lasts 4 windows")
+        # a log stamped in ns or ms looks sparse: say so, naming it (no_stretch_message)
+        first = given[0]
+        raise InputError(
+            no_stretch_message(first.t, window).replace(
+                f"lasts the {window:.3g} s differentiator window",
+                f"lasts 4 differentiator windows ({4 * window:.3g} s)",
+            ),
+            path=first.path,
+        )
     signals = [arm_signals(log, robot, window=window) for log in logs]
     # a joint held still throughout (a brake, a disabled drive) was refused as "friction is
     # negative in both directions: check the robot file's gravity, gear ratios..." or kept with
     # "the model explains 0% of its torque", by the rounding of a friction it cannot show
     for k, joint in enumerate(robot.joints):
-        span = joint.gear_ratio * max(float(np.ptp(log.q[:, k])) for log in logs)
-        if span < STILL_MOTOR_SPAN:
+        travel = max(float(np.ptp(log.q[:, k])) for log in logs)
+        span = joint.gear_ratio * travel
+        if span < STILL_MOTOR_SPAN or travel < STILL_JOINT_SPAN:
             paths = ", ".join(dict.fromkeys(str(log.path) for log in logs if log.path))
+            moves = (
+                f"never moves in the logs (its motor angle spans {span:.3g} rad)"
+                if span < STILL_MOTOR_SPAN
+                else f"only jitters about a held pose in the logs (it spans {travel:.3g} "
+                f"{'m' if np.isinf(arm.angle_period[k]) else 'rad'}, under "
+                f"{STILL_JOINT_SPAN:g})"
+            )
             raise InputError(
-                f"joint {joint.name} never moves in the logs (its motor angle spans {span:.3g} "
-                "rad): its friction and rotor inertia cannot be identified; excite it (torquemap "
-                "excite), or, if it is locked, leave it out of the robot file (locked at zero) "
-                "or make it fixed in the URDF at its angle",
+                f"joint {joint.name} {moves}: its friction and rotor inertia cannot be "
+                "identified; excite it (torquemap excite), or, if it is locked, leave it out of "
+                "the robot file (locked at zero) or make it fixed in the URDF at its angle",
                 path=paths or None,
             )
     inner = []
@@ -841,6 +868,10 @@ def identify_arm(
             for bm in masses
         },
         **visited_region(signals, picks),
+        "noise_high_psd": pooled_levels(
+            [arm_noise_levels(robot, joints, sig) for sig in signals],
+            [float(sig.t.size) for sig in signals],
+        ),
         "motor_torque_p99": [
             float(f"{v:.4g}")
             for v in np.percentile(

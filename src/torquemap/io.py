@@ -761,6 +761,26 @@ def unwrap_counts(
     return np.concatenate(([out[0]], out[0] + np.cumsum(step)))
 
 
+def single_turn_wrap(raw: NDArray[np.float64], cpr: float) -> int | None:
+    """Index of the sample after the first step of more than half a turn in counts that never
+    leave one turn (``|count| <= cpr``: a single-turn register wrapping each motor revolution),
+    else None. An arm's log in such counts holds each joint's angle only modulo ``2 pi / N``:
+    unwrapped from its first sample, a Talos arm's task log read every pose near zero, all
+    10 000 samples singular (new-user QA, docs/arm.md); another pose would be silently wrong.
+
+    Examples
+    --------
+    >>> single_turn_wrap(np.array([100.0, 4000.0, 8000.0, 12000.0, 16300.0, 40.0]), 16384.0)
+    5
+    >>> single_turn_wrap(np.array([16300.0, 16500.0, 17000.0]), 16384.0) is None
+    True
+    """
+    if raw.size < 2 or np.any(np.abs(raw) > cpr):
+        return None
+    jumps = np.flatnonzero(np.abs(np.diff(raw)) > cpr / 2)
+    return int(jumps[0]) + 1 if jumps.size else None
+
+
 def _log_arrays(
     cols: Columns,
     robot: Robot,
@@ -812,14 +832,28 @@ def _log_arrays(
             cpr = float(joint.encoder_counts_per_rev or 0)
             if last_counts is None:
                 counts = unwrap_counts(raw_q, cpr, t)
+                seen = raw_q
             else:
                 before_raw, before = float(last_counts[0, k]), float(last_counts[1, k])
+                seen = np.concatenate(([before_raw], raw_q))
                 joined = unwrap_counts(
-                    np.concatenate(([before_raw], raw_q)),
+                    seen,
                     cpr,
                     np.concatenate(([t[0] if last_t is None else last_t], t)),
                 )
                 counts = joined[1:] + (before - before_raw)
+            if robot.kinematics == "urdf" and joint.gear_ratio != 1.0:
+                wrap = single_turn_wrap(seen, cpr)
+                if wrap is not None:
+                    raise InputError(
+                        f"joint {joint.name}: {name} wraps by a motor turn at data row "
+                        f"{first_row + wrap + (1 if last_counts is None else 0)} (a single-turn "
+                        "encoder register): an arm's pose needs each joint's absolute angle, "
+                        f"which motor counts modulo a turn through a {joint.gear_ratio:g}:1 gear "
+                        "do not hold; log multi-turn counts from the homed zero, or the joint "
+                        "angles in rad (position_unit)",
+                        path=p,
+                    )
             q[:, k] = counts * (2.0 * np.pi / cpr) / joint.gear_ratio
             far = np.abs(q[:, k]) > MAX_ANGLE
             if far.any():

@@ -344,7 +344,7 @@ def no_stretch_message(t: NDArray[np.float64], window: float) -> str:
     step = float(np.median(np.diff(t))) if t.size > 1 else 0.0
     if step > limit:
         text += (
-            f" (its median time step is {step:.3g} s: 't' must be in seconds, not ms or us; "
+            f" (its median time step is {step:.3g} s: 't' must be in seconds, not ms, us or ns; "
             f"else the --window must be at least {step / 2.5:.3g} s)"
         )
     return text

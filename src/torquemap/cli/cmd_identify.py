@@ -296,25 +296,36 @@ def _spectrum(args: argparse.Namespace) -> int:
             "take out the rigid-body torque",
             lambda: without_rigid_body(log, model.robot, window=window),
         )
-    result = args.progress.run(
-        f"identify joint {args.joint}",
-        lambda: identify_model(
-            model,
-            [log],
-            joints=[args.joint],
-            window=window,
-            friction="passes",
-            # the spectrum is the log's, whatever the gravity check on this pass model says
-            # (identify decides on the model; a pass model's misfit can look like gravity)
-            vertical="warn",
-        ),
+    excite = " (an exciting trajectory, torquemap excite's, has none)"
+    no_pass = InputError(
+        f"joint {args.joint} has no slow constant-speed pass for a PDTV spectrum"
+        f"{excite if is_rigid_body_arm(model.robot.arm) else ''}; record each joint alone at "
+        "several steady speeds, both directions, at least a quarter motor revolution per pass",
+        path=args.log,
     )
+    try:
+        result = args.progress.run(
+            f"identify joint {args.joint}",
+            lambda: identify_model(
+                model,
+                [log],
+                joints=[args.joint],
+                window=window,
+                friction="passes",
+                # the spectrum is the log's, whatever the gravity check on this pass model says
+                # (identify decides on the model; a pass model's misfit can look like gravity)
+                vertical="warn",
+            ),
+        )
+    except InputError as exc:
+        # identify's "no joint moves at a steady speed ...; identification needs
+        # constant-speed sweeps" read as if identify had been asked for
+        if exc.message.startswith("no joint moves at a steady speed"):
+            raise no_pass from None
+        raise
     jr = result.joints[args.joint]
     if jr.spectrum is None:
-        raise InputError(
-            f"joint {args.joint} has no slow constant-speed pass for a PDTV spectrum",
-            path=args.log,
-        )
+        raise no_pass
     lines = model.joints[args.joint].pdtv
     if args.output:
         from torquemap.plots.pdtv import save_figure, spectrum_figure
