@@ -676,16 +676,18 @@ def test_a_high_resolution_log_from_another_robot_is_refused(delayed) -> None:  
     assert estimate_forces(model, same).tau_ext.shape == (same.t.size, 1)
 
 
-def test_a_coarser_encoder_whose_counts_are_near_whole_is_refused(delayed) -> None:  # type: ignore[no-untyped-def]
+@pytest.mark.parametrize("step", [9.118, 69.87])
+def test_a_coarser_encoder_whose_counts_are_near_whole_is_refused(delayed, step: float) -> None:  # type: ignore[no-untyped-def]
     # random SCARA 214's model (2^20 counts) took 213's circle (2^17 counts, gear ratio 14 %
     # lower): each of its counts is 9.118 of the model's, within the 2 % tolerance of 9, and
-    # the forces came out 2.7 times the truth with exit 0. A log of the model's robot moves by
-    # whole counts to far better than 0.05 count; this one by 9.118, 18.24, ... counts
+    # the forces came out 2.7 times the truth with exit 0; on 204's circle each is 69.87. A
+    # log of the model's robot moves by whole counts to far better than 0.05 count; these by
+    # 9.118, 18.24, ... counts
     counts = 2**20
     notes = {"joints": {"m": {"motor_angle_quantum": 2 * np.pi / counts}}}
     model = dataclasses.replace(delayed.model, notes=notes)
-    other = simulate(counts=round(counts / 9.118), seed=5)
-    with pytest.raises(InputError, match=r"not whole \(9\.1.*another robot"):
+    other = simulate(counts=round(counts / step), seed=5)
+    with pytest.raises(InputError, match=rf"not whole \({str(step)[:3]}.*another robot"):
         estimate_forces(model, other)
     same = simulate(counts=counts, seed=5)
     assert estimate_forces(model, same).tau_ext.shape == (same.t.size, 1)
