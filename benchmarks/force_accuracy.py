@@ -366,7 +366,12 @@ def describe(bench: ScaraBench) -> dict[str, Any]:
 
 
 def _score(est: Any, true_force: np.ndarray, spring: float) -> dict[str, Any]:
-    cols = forces_columns(est)
+    return score_columns(forces_columns(est), true_force, spring)
+
+
+def score_columns(cols: dict[str, Any], true_force: np.ndarray, spring: float) -> dict[str, Any]:
+    """Score an estimate's output columns (:func:`forces_columns`, or a forces table read back):
+    RMS error in % of ``spring`` over the answered samples, flagged share, 2-sigma share."""
     force = np.c_[cols["fx"], cols["fy"]]
     ok = (np.asarray(cols["flag"]) == 0) & np.all(np.isfinite(force), axis=1)
     err = force - true_force

@@ -676,6 +676,23 @@ def test_a_high_resolution_log_from_another_robot_is_refused(delayed) -> None:  
     assert estimate_forces(model, same).tau_ext.shape == (same.t.size, 1)
 
 
+@pytest.mark.parametrize("step", [9.118, 69.87])
+def test_a_coarser_encoder_whose_counts_are_near_whole_is_refused(delayed, step: float) -> None:  # type: ignore[no-untyped-def]
+    # random SCARA 214's model (2^20 counts) took 213's circle (2^17 counts, gear ratio 14 %
+    # lower): each of its counts is 9.118 of the model's, within the 2 % tolerance of 9, and
+    # the forces came out 2.7 times the truth with exit 0; on 204's circle each is 69.87. A
+    # log of the model's robot moves by whole counts to far better than 0.05 count; these by
+    # 9.118, 18.24, ... counts
+    counts = 2**20
+    notes = {"joints": {"m": {"motor_angle_quantum": 2 * np.pi / counts}}}
+    model = dataclasses.replace(delayed.model, notes=notes)
+    other = simulate(counts=round(counts / step), seed=5)
+    with pytest.raises(InputError, match=rf"not whole \({str(step)[:3]}.*another robot"):
+        estimate_forces(model, other)
+    same = simulate(counts=counts, seed=5)
+    assert estimate_forces(model, same).tau_ext.shape == (same.t.size, 1)
+
+
 def test_the_table_between_passes_far_apart_follows_the_passes(monkeypatch) -> None:  # type: ignore[no-untyped-def]
     # a Stribeck drop (exponent 2 at 2 rad/s) swept at passes 3.0-3.3x apart (0.5, 1.5, 5, 15
     # rad/s, the paper's bench spacing) with ramps of 20 ms: between the passes the sweep holds
