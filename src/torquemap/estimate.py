@@ -821,7 +821,13 @@ def estimate_forces(
             lined = np.nan_to_num(out["rest"]) > 0
             lined[:, [j.name not in whole for j in robot.joints]] = False
             if lined.any():
-                jac = np.asarray(robot.arm.jacobian(log.q), dtype=np.float64)
+                # the bridge reads J only where a joint is bridged: the rest NaN, not computed
+                # (four sines and cosines a sample)
+                need = lined.any(axis=1)
+                jac = np.full(
+                    (*log.q.shape[:1], len(robot.arm.wrench_axes), log.q.shape[1]), np.nan
+                )
+                jac[need] = robot.arm.jacobian(log.q[need])
                 ok = ~singular & finite
                 for piece in clean.pieces:  # each piece on its own, as its joints were bridged
                     sel = piece.rows[ok[piece.rows]]
