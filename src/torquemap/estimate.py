@@ -830,8 +830,11 @@ def estimate_forces(
                 jac[need] = robot.arm.jacobian(log.q[need])
                 ok = ~singular & finite
                 for piece in clean.pieces:  # each piece on its own, as its joints were bridged
-                    sel = piece.rows[ok[piece.rows]]
-                    if sel.size and lined[sel].any():
+                    kept = piece.rows[ok[piece.rows]]
+                    sel: NDArray[np.int64] | slice = kept
+                    if kept.size and int(kept[-1]) - int(kept[0]) == kept.size - 1:
+                        sel = slice(int(kept[0]), int(kept[-1]) + 1)  # views, not gathers
+                    if lined[sel].size and lined[sel].any():
                         force[sel] = force_space_bridge(
                             log.t[sel],
                             jac[sel],
