@@ -88,3 +88,27 @@ def test_table_levels_leave_other_laws_to_numpy() -> None:
         )
         is None
     )
+
+
+def test_hypot_into_within_an_ulp_of_numpy() -> None:
+    # second algorithm: numpy's hypot (the C library's); sqrt(a^2 + b^2) rounds twice, so
+    # within 2 ulp; zeros, NaN, infinity and squares that would overflow or underflow exactly
+    from torquemap._estimate_kernels import hypot_into
+
+    rng = np.random.default_rng(3)
+    a = rng.lognormal(0.0, 3.0, 5000) * rng.choice([-1.0, 1.0], 5000)
+    b = rng.lognormal(0.0, 3.0, 5000)
+    special = [0.0, -0.0, np.nan, np.inf, -np.inf, 1e200, 1e-200, 3.0]
+    a = np.concatenate([a, np.repeat(special, len(special))])
+    b = np.concatenate([b, np.tile(special, len(special))])
+    out = np.empty_like(a)
+    hypot_into(a, b, out)
+    want = np.hypot(a, b)
+    np.testing.assert_array_equal(np.isnan(out), np.isnan(want))
+    np.testing.assert_array_equal(np.isinf(out), np.isinf(want))
+    finite = np.isfinite(want)
+    np.testing.assert_allclose(out[finite], want[finite], rtol=4.5e-16, atol=0.0)
+    exact = (a == 0) | (b == 0) | ~np.isfinite(a) | ~np.isfinite(b)
+    np.testing.assert_array_equal(out[exact], want[exact])
+    hypot_into(a, b, a)  # in place
+    np.testing.assert_array_equal(a, out)

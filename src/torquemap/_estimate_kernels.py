@@ -52,7 +52,10 @@ def _value(x: float, xp: NDArray[np.float64], fp: NDArray[np.float64], j: int) -
 @jit
 def _hypot(a: float, b: float) -> float:
     """``hypot(a, b)`` as ``sqrt(a^2 + b^2)`` where the squares neither overflow nor underflow
-    (within an ulp of the C library's, which costs 30 ns a call), else the C library's."""
+    (within an ulp of the C library's, which costs 30 ns a call), else the C library's (NaN
+    and infinity too: ``hypot(0, NaN)`` is NaN, ``hypot(NaN, inf)`` inf)."""
+    if a != a or b != b:
+        return math.hypot(a, b)
     a, b = abs(a), abs(b)
     big, small = max(a, b), min(a, b)
     if small == 0.0:
@@ -60,6 +63,15 @@ def _hypot(a: float, b: float) -> float:
     if big < 1e150 and small > 1e-150:
         return math.sqrt(a * a + b * b)
     return math.hypot(a, b)
+
+
+@jit
+def hypot_into(a: NDArray[np.float64], b: NDArray[np.float64], out: NDArray[np.float64]) -> None:
+    """``out[i] = hypot(a[i], b[i])`` (shape (n,), C-contiguous; ``out`` may be ``a``) by
+    :func:`_hypot`: within an ulp of ``numpy.hypot`` (the C library's, 23-30 ns a value),
+    NaN and infinity as it gives them."""
+    for i in range(a.size):
+        out[i] = _hypot(a[i], b[i])
 
 
 @jit
