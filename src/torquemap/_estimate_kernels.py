@@ -75,6 +75,35 @@ def hypot_into(a: NDArray[np.float64], b: NDArray[np.float64], out: NDArray[np.f
 
 
 @jit
+def coupling_torques(
+    elbow: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    acceleration: NDArray[np.float64],
+    gears: NDArray[np.float64],
+    a2: float,
+    a3: float,
+    out: NDArray[np.float64],
+) -> None:
+    """The planar arm's coupling torques [N m, joint side] into ``out`` (n, 2), 0 where not
+    finite: :func:`torquemap.uncertainty.coupling_level`'s ``c_1``, ``c_2`` from the elbow
+    angle ``elbow`` [rad] (n,) and the motor-side ``velocity`` and ``acceleration`` (n, 2)
+    over ``gears`` (2,), in one pass; the numpy expressions' operations in their order."""
+    g0, g1 = gears[0], gears[1]
+    for i in range(elbow.size):
+        qd0 = velocity[i, 0] / g0
+        qd1 = velocity[i, 1] / g1
+        qdd0 = acceleration[i, 0] / g0
+        qdd1 = acceleration[i, 1] / g1
+        c = math.cos(elbow[i])
+        s = math.sin(elbow[i])
+        t0 = a2 * (c * qdd1 - s * (2.0 * qd0 * qd1 + qd1 * qd1))
+        t0 = t0 + a3 * qdd1
+        t1 = a2 * (c * qdd0 + s * (qd0 * qd0)) + a3 * qdd0
+        out[i, 0] = t0 if abs(t0) < math.inf else 0.0
+        out[i, 1] = t1 if abs(t1) < math.inf else 0.0
+
+
+@jit
 def table_sigma_levels(
     velocity: NDArray[np.float64],
     blend: NDArray[np.float64],
