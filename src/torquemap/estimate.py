@@ -1203,6 +1203,7 @@ def _folded_tones(
     ``joint`` once folded to the log's ``rate`` [Hz] (:func:`torquemap.tones.folded_sd`), and a
     warning when it widens the median ``sigma`` by more than :data:`TONE_REPORT`; None when
     none folds into the band."""
+    from torquemap.robust import exact_median
     from torquemap.tones import folded, folded_sd
     from torquemap.uncertainty import model_tones
 
@@ -1212,7 +1213,8 @@ def _folded_tones(
     sd = folded_sd(tones, rate, cutoff)
     if not sd > 0:
         return None
-    base = float(np.nanmedian(sigma)) if np.isfinite(sigma).any() else 0.0
+    # numpy's nanmedian: the median of the values that are not NaN
+    base = exact_median(sigma[~np.isnan(sigma)]) if np.isfinite(sigma).any() else 0.0
     if math.hypot(base, sd) <= (1.0 + TONE_REPORT) * base:
         return sd, ""
     worst = max(tones, key=lambda x: folded_sd([x], rate, cutoff))
