@@ -713,7 +713,9 @@ def estimate_forces(
     names = ("angle", "velocity", "t_est", "filtered", "external", "sigma", "rest")
     whole_log = len(clean.pieces) == 1 and _covers(clean.pieces[0].rows, n)
     # one piece that is the whole log (no gap, no dropped stamp): its arrays are the answer
-    out = {} if whole_log else {name: np.full((n, nj), np.nan) for name in names}
+    # else NaN where no piece answers: filled after the pieces, not written twice everywhere
+    out = {} if whole_log else {name: np.empty((n, nj)) for name in names}
+    answered = np.zeros(n, dtype=bool)
     flag = np.zeros(n, dtype=np.int64)
     flag[clean.unprocessed] |= FLAG_GAP
     flag[clean.implausible] |= FLAG_IMPLAUSIBLE
@@ -766,6 +768,7 @@ def estimate_forces(
             out = {key: part.arrays[key] for key in names}
         for key in () if whole_log else names:
             out[key][at] = part.arrays[key]
+        answered[at] = True
         flag[at] |= part.flag
         any_pass |= part.any_pass
         for k in range(nj):
@@ -776,6 +779,9 @@ def estimate_forces(
         for w in part.warnings:
             if w not in warnings:
                 warnings.append(w)
+    if not whole_log and not answered.all():
+        for key in names:
+            out[key][~answered] = np.nan
     if method == "paper" and not any_pass:
         raise InputError(
             "no joint with PDTV lines makes a monotonic pass of at least "
