@@ -88,3 +88,57 @@ def test_table_levels_leave_other_laws_to_numpy() -> None:
         )
         is None
     )
+
+
+def test_hypot_into_within_an_ulp_of_numpy() -> None:
+    # second algorithm: numpy's hypot (the C library's); sqrt(a^2 + b^2) rounds twice, so
+    # within 2 ulp; zeros, NaN, infinity and squares that would overflow or underflow exactly
+    from torquemap._estimate_kernels import hypot_into
+
+    rng = np.random.default_rng(3)
+    a = rng.lognormal(0.0, 3.0, 5000) * rng.choice([-1.0, 1.0], 5000)
+    b = rng.lognormal(0.0, 3.0, 5000)
+    special = [0.0, -0.0, np.nan, np.inf, -np.inf, 1e200, 1e-200, 3.0]
+    a = np.concatenate([a, np.repeat(special, len(special))])
+    b = np.concatenate([b, np.tile(special, len(special))])
+    out = np.empty_like(a)
+    hypot_into(a, b, out)
+    want = np.hypot(a, b)
+    np.testing.assert_array_equal(np.isnan(out), np.isnan(want))
+    np.testing.assert_array_equal(np.isinf(out), np.isinf(want))
+    finite = np.isfinite(want)
+    np.testing.assert_allclose(out[finite], want[finite], rtol=4.5e-16, atol=0.0)
+    exact = (a == 0) | (b == 0) | ~np.isfinite(a) | ~np.isfinite(b)
+    np.testing.assert_array_equal(out[exact], want[exact])
+    hypot_into(a, b, a)  # in place
+    np.testing.assert_array_equal(a, out)
+
+
+def test_coupling_torques_equal_numpy_terms() -> None:
+    # the numpy expressions the kernel replaces (uncertainty.coupling_level before it): the
+    # same operations in the same order, and numpy's cos and sin are the C library's, so
+    # bit for bit; NaN and infinite inputs give 0
+    from torquemap._estimate_kernels import coupling_torques
+
+    rng = np.random.default_rng(8)
+    n = 5000
+    q2 = rng.uniform(-4.0, 4.0, n)
+    velocity = rng.normal(0.0, 30.0, (n, 2))
+    acceleration = rng.normal(0.0, 500.0, (n, 2))
+    velocity[:3, 0] = [np.nan, np.inf, 1e200]
+    acceleration[3:5, 1] = [np.nan, -np.inf]
+    gears = np.array([10.0, 6.0])
+    a2, a3 = 3e-3, 1e-3
+    with np.errstate(invalid="ignore", over="ignore"):  # the non-finite rows
+        qd = velocity / gears
+        qdd = acceleration / gears
+        c, s = np.cos(q2), np.sin(q2)
+        want = np.empty_like(qd)
+        want[:, 0] = a2 * (c * qdd[:, 1] - s * (2.0 * qd[:, 0] * qd[:, 1] + qd[:, 1] ** 2))
+        want[:, 0] += a3 * qdd[:, 1]
+        want[:, 1] = a2 * (c * qdd[:, 0] + s * qd[:, 0] ** 2) + a3 * qdd[:, 0]
+    want = np.where(np.isfinite(want), want, 0.0)
+    got = np.empty((n, 2))
+    coupling_torques(q2, velocity, acceleration, gears, a2, a3, got)
+    assert np.count_nonzero(want[:5] == 0.0) >= 5  # the non-finite rows are in the case
+    np.testing.assert_array_equal(got.view(np.int64), want.view(np.int64))

@@ -151,3 +151,25 @@ def test_irregular_stamps_random_regressor_within_the_stated_accuracy(seed: int)
     t = _jittered(60_000, 2000.0, rng)
     full, fast = _irregular(t, _random_combinations(t, rng), 2.0)
     np.testing.assert_allclose(fast, full, rtol=multirate.VARIANCE_RTOL, atol=0.0)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_boxcar_rows_skip_zeros_bit_for_bit(seed: int) -> None:
+    # second algorithm: every regressor row in full (zeros included) through the boxcars,
+    # the irregular-grid path's accumulation; the regular log's compact rows must add the
+    # same products in the same order, so the decimated rows are identical, not close
+    from test_kernels import _regressor_case
+
+    from torquemap._kernels import _boxcar_rows_grid, boxcar_rows
+
+    spec, _, _ = _regressor_case(20_000, seed)
+    fs, cutoff = 1000.0, 2.0
+    sos, _ = _butter_lowpass(2, cutoff, fs)
+    m = multirate.decimation_factor(1.0 / fs, cutoff)
+    plan = multirate.multirate_plan(sos.tobytes(), m)
+    n = 20_000
+    count = (n - 1 - 2 * ((3 * m - 3) // 2)) // m + 1
+    want = _boxcar_rows_grid(spec, plan, REGULAR, n, count)
+    got = boxcar_rows(spec, plan, n, count)
+    assert np.count_nonzero(want) > want.size // 4  # the case has rows to compare
+    np.testing.assert_array_equal(got.view(np.int64), want.view(np.int64))

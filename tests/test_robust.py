@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.testing import assert_array_equal
 
@@ -84,3 +86,49 @@ def test_cluster_jackknife_covariance_equals_explicit_refits() -> None:
     d = b - b.mean(axis=0)
     want = (len(b) - 1) / len(b) * d.T @ d
     np.testing.assert_allclose(cluster_jackknife_covariance(a, y, w, groups), want, rtol=1e-8)
+
+
+def _median_cases() -> list[np.ndarray]:
+    rng = np.random.default_rng(11)
+    cases = [
+        rng.normal(size=62_001),
+        rng.normal(size=62_000),
+        rng.standard_cauchy(size=50_000),
+        rng.integers(-3, 4, size=40_000).astype(np.float64),  # ties at the median
+        np.full(10_000, 2.5),
+        np.sort(rng.normal(size=30_000)),
+        rng.exponential(size=4096),
+        np.abs(rng.normal(size=20_001)) * 1e-300,
+    ]
+    spiky = rng.normal(size=33_333)
+    spiky[::16] = 1e9  # the sample sees only outliers: the count must catch it
+    cases.append(spiky)
+    with_inf = rng.normal(size=8192)
+    with_inf[:3000] = np.inf
+    cases.append(with_inf)
+    with_nan = rng.normal(size=9000)
+    with_nan[17] = np.nan
+    cases.append(with_nan)
+    cases.append(rng.normal(size=100))  # short: numpy's itself
+    return cases
+
+
+def test_exact_median_is_numpys() -> None:
+    # second algorithm: numpy's median (a partition of every value); the same order
+    # statistics and numpy's mean of the two, so the same bits
+    from torquemap.robust import exact_median
+
+    for x in _median_cases():
+        want = np.median(x)
+        got = exact_median(x)
+        assert (math.isnan(got) and math.isnan(want)) or got == want, x.size
+        assert np.float64(got).tobytes() == np.float64(want).tobytes() or got == 0.0
+
+
+def test_mad_scale_is_robust_scale() -> None:
+    from torquemap.robust import mad_scale, robust_scale
+
+    for x in _median_cases():
+        a, b = mad_scale(x), robust_scale(x)
+        assert (math.isnan(a) and math.isnan(b)) or a == b, x.size
+    assert mad_scale(np.empty(0)) == robust_scale(np.empty(0)) == 0.0

@@ -149,6 +149,20 @@ def test_the_summary_median_keeps_every_stride_th_value() -> None:
     assert keep.median() == np.median(values[::16])
 
 
+def test_the_summary_magnitudes_are_the_kept_values_hypot() -> None:
+    # the hypot formed for the kept values only: exactly add() of every value's hypot
+    from torquemap.stream import _Decimated
+
+    xy = np.random.default_rng(2).normal(size=(10_000, 2))
+    whole, kept = _Decimated(cap=1000), _Decimated(cap=1000)
+    for a in range(0, xy.shape[0], 777):
+        part = xy[a : a + 777]
+        whole.add(np.hypot(part[:, 0], part[:, 1]))
+        kept.add_hypot(part[:, 0], part[:, 1])
+    assert kept.stride == whole.stride == 16
+    assert kept.median() == whole.median()
+
+
 def _one_motor() -> Model:
     from torquemap.model import model_from_dict
 

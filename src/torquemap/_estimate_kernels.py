@@ -52,7 +52,10 @@ def _value(x: float, xp: NDArray[np.float64], fp: NDArray[np.float64], j: int) -
 @jit
 def _hypot(a: float, b: float) -> float:
     """``hypot(a, b)`` as ``sqrt(a^2 + b^2)`` where the squares neither overflow nor underflow
-    (within an ulp of the C library's, which costs 30 ns a call), else the C library's."""
+    (within an ulp of the C library's, which costs 30 ns a call), else the C library's (NaN
+    and infinity too: ``hypot(0, NaN)`` is NaN, ``hypot(NaN, inf)`` inf)."""
+    if a != a or b != b:
+        return math.hypot(a, b)
     a, b = abs(a), abs(b)
     big, small = max(a, b), min(a, b)
     if small == 0.0:
@@ -60,6 +63,44 @@ def _hypot(a: float, b: float) -> float:
     if big < 1e150 and small > 1e-150:
         return math.sqrt(a * a + b * b)
     return math.hypot(a, b)
+
+
+@jit
+def hypot_into(a: NDArray[np.float64], b: NDArray[np.float64], out: NDArray[np.float64]) -> None:
+    """``out[i] = hypot(a[i], b[i])`` (shape (n,), C-contiguous; ``out`` may be ``a``) by
+    :func:`_hypot`: within an ulp of ``numpy.hypot`` (the C library's, 23-30 ns a value),
+    NaN and infinity as it gives them."""
+    for i in range(a.size):
+        out[i] = _hypot(a[i], b[i])
+
+
+@jit
+def coupling_torques(
+    elbow: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    acceleration: NDArray[np.float64],
+    gears: NDArray[np.float64],
+    a2: float,
+    a3: float,
+    out: NDArray[np.float64],
+) -> None:
+    """The planar arm's coupling torques [N m, joint side] into ``out`` (n, 2), 0 where not
+    finite: :func:`torquemap.uncertainty.coupling_level`'s ``c_1``, ``c_2`` from the elbow
+    angle ``elbow`` [rad] (n,) and the motor-side ``velocity`` and ``acceleration`` (n, 2)
+    over ``gears`` (2,), in one pass; the numpy expressions' operations in their order."""
+    g0, g1 = gears[0], gears[1]
+    for i in range(elbow.size):
+        qd0 = velocity[i, 0] / g0
+        qd1 = velocity[i, 1] / g1
+        qdd0 = acceleration[i, 0] / g0
+        qdd1 = acceleration[i, 1] / g1
+        c = math.cos(elbow[i])
+        s = math.sin(elbow[i])
+        t0 = a2 * (c * qdd1 - s * (2.0 * qd0 * qd1 + qd1 * qd1))
+        t0 = t0 + a3 * qdd1
+        t1 = a2 * (c * qdd0 + s * (qd0 * qd0)) + a3 * qdd0
+        out[i, 0] = t0 if abs(t0) < math.inf else 0.0
+        out[i, 1] = t1 if abs(t1) < math.inf else 0.0
 
 
 @jit

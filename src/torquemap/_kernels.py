@@ -472,18 +472,17 @@ def _powers_top(line_power: NDArray[np.int64]) -> int:
 
 
 @jit
-def _regressor_lines(start: int, stop: int, spec: RegressorSpec, rows: NDArray[np.float64]) -> None:
-    """Rows ``0:stop - start`` zeroed and the PDTV lines' cosines and sines of samples
-    ``start:stop`` written (:func:`regressor_directions`). Each line's powers of
-    ``exp(i theta)`` run over the stretch's samples side by side (independent: vectorised),
-    not sample by sample (a chain of dependent products each)."""
+def _line_values(
+    start: int, stop: int, spec: RegressorSpec, values: NDArray[np.float64], offset: int
+) -> None:
+    """The PDTV lines' cosines and sines of samples ``start:stop`` into ``values[0:stop -
+    start]``, line ``l`` at columns ``offset + 2 l`` and ``offset + 2 l + 1`` (0 where the
+    line's direction of motion excludes the sample). Each line's powers of ``exp(i theta)``
+    run over the stretch's samples side by side (independent: vectorised), not sample by
+    sample (a chain of dependent products each)."""
     theta, velocity = spec[2], spec[3]
-    line_order, line_power, line_cos, line_sin, line_direction = spec[4:9]
+    line_order, line_power, line_direction = spec[4], spec[5], spec[8]
     count = stop - start
-    p = rows.shape[1]
-    for at_row in range(count):
-        for j in range(p):
-            rows[at_row, j] = 0.0
     if not line_order.size:
         return
     top = _powers_top(line_power)
@@ -524,16 +523,67 @@ def _regressor_lines(start: int, stop: int, spec: RegressorSpec, rows: NDArray[n
                 pr[at_row] = math.cos(angle)
                 pi[at_row] = math.sin(angle)
         direction = line_direction[line]
-        at_cos = line_cos[line]
-        at_sin = line_sin[line]
+        at_cos = offset + 2 * line
         for at_row in range(count):
             w = velocity[start + at_row]
             if (direction > 0 and not w > 0) or (direction < 0 and not w < 0):
-                continue
+                values[at_row, at_cos] = 0.0
+                values[at_row, at_cos + 1] = 0.0
+            else:
+                values[at_row, at_cos] = pr[at_row]
+                values[at_row, at_cos + 1] = pi[at_row]
+
+
+@jit
+def _regressor_lines(start: int, stop: int, spec: RegressorSpec, rows: NDArray[np.float64]) -> None:
+    """Rows ``0:stop - start`` zeroed and the PDTV lines' cosines and sines of samples
+    ``start:stop`` written (:func:`regressor_directions`, :func:`_line_values`)."""
+    line_cos, line_sin = spec[6], spec[7]
+    count = stop - start
+    p = rows.shape[1]
+    for at_row in range(count):
+        for j in range(p):
+            rows[at_row, j] = 0.0
+    lines = line_cos.size
+    if not lines:
+        return
+    values = np.empty((count, 2 * lines))
+    _line_values(start, stop, spec, values, 0)
+    for line in range(lines):
+        at_cos = line_cos[line]
+        at_sin = line_sin[line]
+        for at_row in range(count):
             if at_cos >= 0:
-                rows[at_row, at_cos] = pr[at_row]
+                rows[at_row, at_cos] = values[at_row, 2 * line]
             if at_sin >= 0:
-                rows[at_row, at_sin] = pi[at_row]
+                rows[at_row, at_sin] = values[at_row, 2 * line + 1]
+
+
+@jit
+def _branch_blend(w: float, saturated: float, zero_velocity: float) -> float:
+    """The positive branch's weight ``(1 + tanh(w / zero_velocity)) / 2`` of a speed table
+    (:func:`regressor_directions`); 1 or 0 exactly beyond ``saturated``."""
+    if w > saturated:
+        return 1.0
+    if w < -saturated:
+        return 0.0
+    return 0.5 * (1.0 + math.tanh(w / zero_velocity))
+
+
+@jit
+def _knot_segment(s: float, lo: int, knot_logs: NDArray[np.float64]) -> tuple[int, int, float]:
+    """The knot count ``lo`` below ``log(s)`` (``numpy.searchsorted(knot_logs, log(s),
+    side="right")``, walked from the last sample's), the segment ``at`` it falls in and the
+    fraction ``u`` of the way to knot ``at + 1`` (clipped to [0, 1])."""
+    k_knots = knot_logs.size
+    x = math.log(max(s, 1e-300))
+    while lo > 0 and knot_logs[lo - 1] > x:
+        lo -= 1
+    while lo < k_knots and knot_logs[lo] <= x:
+        lo += 1
+    at = min(max(lo - 1, 0), k_knots - 2)
+    u = (x - knot_logs[at]) / (knot_logs[at + 1] - knot_logs[at])
+    return lo, at, min(max(u, 0.0), 1.0)
 
 
 @jit
@@ -555,23 +605,10 @@ def _regressor_block(start: int, stop: int, spec: RegressorSpec, rows: NDArray[n
         w = velocity[i]
         if k_knots >= 2 or viscous >= 0 or viscous_negative >= 0:
             s = abs(w)
-            if w > saturated:
-                blend = 1.0
-            elif w < -saturated:
-                blend = 0.0
-            else:
-                blend = 0.5 * (1.0 + math.tanh(w / zero_velocity))
+            blend = _branch_blend(w, saturated, zero_velocity)
             other = -(1.0 - blend)
             if k_knots >= 2:
-                x = math.log(max(s, 1e-300))
-                # numpy.searchsorted(knot_logs, x, side="right"), from the last sample's
-                while lo > 0 and knot_logs[lo - 1] > x:
-                    lo -= 1
-                while lo < k_knots and knot_logs[lo] <= x:
-                    lo += 1
-                at = min(max(lo - 1, 0), k_knots - 2)
-                u = (x - knot_logs[at]) / (knot_logs[at + 1] - knot_logs[at])
-                u = min(max(u, 0.0), 1.0)
+                lo, at, u = _knot_segment(s, lo, knot_logs)
                 if knot_positive[at] >= 0:
                     rows[at_row, knot_positive[at]] = blend * (1.0 - u)
                 if knot_negative[at] >= 0:
@@ -804,39 +841,23 @@ def _multirate_step(
     ``x[at - direction], x[at], x[at + direction], x[at + 2 direction]``, and the output at
     the new sample into ``out`` (r,)."""
     step, inputs, step_short, inputs_short = plan[3], plan[4], plan[5], plan[6]
+    # the plan's coefficients as scalars: read from the arrays inside the loop they are
+    # loaded again for every column (the compiler cannot prove ``out`` does not alias them)
+    t00, t01 = step_short[0, 0], step_short[0, 1]
+    u0, u1, u2, u3 = inputs_short[0, 0], inputs_short[1, 0], inputs_short[2, 0], inputs_short[3, 0]
+    s00, s01, s10, s11 = step[0, 0], step[0, 1], step[1, 0], step[1, 1]
+    a0, a1, a2, a3 = inputs[0, 0], inputs[1, 0], inputs[2, 0], inputs[3, 0]
+    c0, c1, c2, c3 = inputs[0, 1], inputs[1, 1], inputs[2, 1], inputs[3, 1]
     r = z0.size
-    xa = x[at - direction]
-    xb = x[at]
-    xc = x[at + direction]
-    xd = x[at + 2 * direction]
+    ia, ib = at - direction, at
+    ic, id_ = at + direction, at + 2 * direction
     for k in range(r):
-        a, b, c, d = xa[k], xb[k], xc[k], xd[k]
+        a, b, c, d = x[ia, k], x[ib, k], x[ic, k], x[id_, k]
         s0, s1 = z0[k], z1[k]
-        short0 = (
-            step_short[0, 0] * s0
-            + step_short[0, 1] * s1
-            + inputs_short[0, 0] * a
-            + inputs_short[1, 0] * b
-            + inputs_short[2, 0] * c
-            + inputs_short[3, 0] * d
-        )
+        short0 = t00 * s0 + t01 * s1 + u0 * a + u1 * b + u2 * c + u3 * d
         out[k] = b0 * c + short0
-        z0[k] = (
-            step[0, 0] * s0
-            + step[0, 1] * s1
-            + inputs[0, 0] * a
-            + inputs[1, 0] * b
-            + inputs[2, 0] * c
-            + inputs[3, 0] * d
-        )
-        z1[k] = (
-            step[1, 0] * s0
-            + step[1, 1] * s1
-            + inputs[0, 1] * a
-            + inputs[1, 1] * b
-            + inputs[2, 1] * c
-            + inputs[3, 1] * d
-        )
+        z0[k] = s00 * s0 + s01 * s1 + a0 * a + a1 * b + a2 * c + a3 * d
+        z1[k] = s10 * s0 + s11 * s1 + c0 * a + c1 * b + c2 * c + c3 * d
 
 
 @jit
@@ -913,6 +934,114 @@ def _grid_rows(
 
 
 @jit
+def _boxcar_rows_grid(
+    spec: RegressorSpec, plan: MultiratePlan, grid: ResampleGrid, n: int, count: int
+) -> NDArray[np.float64]:
+    """The grid points' regressor rows (:func:`_grid_block`) through the decimation's three
+    boxcars of ``m`` (``plan[1]``), centred on grid point ``(3 m - 3) / 2 + j m`` for
+    decimated sample ``j``: shape (count, p). Each row (p,) in full into the (about three)
+    decimated rows it falls under."""
+    m, cic = plan[0], plan[1]
+    p = spec[15].shape[0]
+    span = 3 * m - 2
+    block = np.empty((TILE, p))
+    rows = np.zeros((count, p))
+    for begin in range(0, n, TILE):
+        end = min(begin + TILE, n)
+        _grid_block(begin, end, spec, grid, block)
+        for i in range(begin, end):
+            lo = max(0, -((span - 1 - i) // m))
+            hi = min(i // m, count - 1)
+            for j in range(lo, hi + 1):
+                w = cic[i - j * m]
+                for q in range(p):
+                    rows[j, q] += w * block[i - begin, q]
+    return rows
+
+
+@jit
+def boxcar_rows(
+    spec: RegressorSpec, plan: MultiratePlan, n: int, count: int
+) -> NDArray[np.float64]:
+    """:func:`_boxcar_rows_grid` of a regular log's own samples, bit for bit, without the
+    zeros: a speed table's row (:func:`regressor_directions`) has two knots of each
+    direction's table out of every knot, so only those four go into the decimated rows, and
+    the columns every row has (dense, PDTV lines, viscous) are accumulated side by side in a
+    row of their own. Each decimated row's sum over the samples runs in the same order and
+    adds the same products; the zeros it skips add nothing (``x + 0.0`` is ``x``; a sum that
+    starts at ``+0.0`` stays ``+0.0`` under added zeros of either sign)."""
+    m, cic = plan[0], plan[1]
+    dense, dense_index, velocity = spec[0], spec[1], spec[3]
+    line_cos, line_sin = spec[6], spec[7]
+    knot_logs, knot_positive, knot_negative = spec[9], spec[10], spec[11]
+    viscous, viscous_negative, zero_velocity = spec[12], spec[13], spec[14]
+    p = spec[15].shape[0]
+    span = 3 * m - 2
+    n_dense = dense_index.size
+    lines = line_cos.size
+    k_knots = knot_logs.size
+    friction = k_knots >= 2 or viscous >= 0 or viscous_negative >= 0
+    # the compact row: dense, the lines' cos and sin, viscous and viscous_negative
+    width = n_dense + 2 * lines + 2
+    column = np.full(width, -1, dtype=np.int64)
+    for d in range(n_dense):
+        column[d] = dense_index[d]
+    for line in range(lines):
+        column[n_dense + 2 * line] = line_cos[line]
+        column[n_dense + 2 * line + 1] = line_sin[line]
+    column[width - 2] = viscous
+    column[width - 1] = viscous_negative
+    values = np.zeros((TILE, width))
+    knot_value = np.zeros((TILE, 4))
+    knot_column = np.full((TILE, 4), -1, dtype=np.int64)
+    compact = np.zeros((count, width))
+    rows = np.zeros((count, p))
+    saturated = 20.0 * abs(zero_velocity)
+    lo = 0
+    for begin in range(0, n, TILE):
+        end = min(begin + TILE, n)
+        for i in range(begin, end):
+            for d in range(n_dense):
+                values[i - begin, d] = dense[d, i]
+        _line_values(begin, end, spec, values, n_dense)
+        if friction:
+            for i in range(begin, end):
+                w = velocity[i]
+                s = abs(w)
+                blend = _branch_blend(w, saturated, zero_velocity)
+                other = -(1.0 - blend)
+                if k_knots >= 2:
+                    lo, at, u = _knot_segment(s, lo, knot_logs)
+                    knot_column[i - begin, 0] = knot_positive[at]
+                    knot_value[i - begin, 0] = blend * (1.0 - u)
+                    knot_column[i - begin, 1] = knot_negative[at]
+                    knot_value[i - begin, 1] = other * (1.0 - u)
+                    knot_column[i - begin, 2] = knot_positive[at + 1]
+                    knot_value[i - begin, 2] = blend * u
+                    knot_column[i - begin, 3] = knot_negative[at + 1]
+                    knot_value[i - begin, 3] = other * u
+                values[i - begin, width - 2] = blend * s
+                values[i - begin, width - 1] = other * s
+        for i in range(begin, end):
+            lo_j = max(0, -((span - 1 - i) // m))
+            hi_j = min(i // m, count - 1)
+            for j in range(lo_j, hi_j + 1):
+                w = cic[i - j * m]
+                for q in range(width):
+                    compact[j, q] += w * values[i - begin, q]
+                for e in range(4):
+                    q = knot_column[i - begin, e]
+                    if q >= 0:
+                        rows[j, q] += w * knot_value[i - begin, e]
+    for q in range(width):
+        at = column[q]
+        if at >= 0:
+            for j in range(count):
+                rows[j, at] = compact[j, q]
+    return rows
+
+
+@jit
 def decimated_variance(
     spec: RegressorSpec,
     weights: NDArray[np.float64],
@@ -947,29 +1076,20 @@ def decimated_variance(
     interpolation of the output to a time a fraction ``w`` into step ``i`` has the variance
     ``(1 - w) v_i + w v_(i+1) - w (1 - w) steps[i]``.
     """
-    m, cic, alpha = plan[0], plan[1], plan[2]
+    m, alpha = plan[0], plan[2]
     centred = plan[7]
     directions, reach = spec[15], spec[16]
     p, r = directions.shape
     n = grid[0].size if grid[0].size else spec[2].size
     half = (3 * m - 3) // 2
-    span = 3 * m - 2
     count = (n - 1 - 2 * half) // m + 1  # decimated samples, c_j = half + j m
     b0 = sos[0, 0]
     za, zb = zi[0, 0], zi[0, 1]
     # 1. the regressor's rows through the boxcars, at the decimated samples
-    block = np.empty((TILE, p))
-    rows = np.zeros((count, p))
-    for begin in range(0, n, TILE):
-        end = min(begin + TILE, n)
-        _grid_block(begin, end, spec, grid, block)
-        for i in range(begin, end):
-            lo = max(0, -((span - 1 - i) // m))
-            hi = min(i // m, count - 1)
-            for j in range(lo, hi + 1):
-                w = cic[i - j * m]
-                for q in range(p):
-                    rows[j, q] += w * block[i - begin, q]
+    if grid[0].size:
+        rows = _boxcar_rows_grid(spec, plan, grid, n, count)
+    else:
+        rows = boxcar_rows(spec, plan, n, count)
     row = np.empty((1, p))
     # 2. droop compensated and times the factor (decimated samples 1 .. count - 2)
     x = np.zeros((count, r))

@@ -36,6 +36,15 @@ class Derivatives:
 
 
 def _time_and_values(t: ArrayLike, x: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    tt, xx, _, _ = _time_values_and_steps(t, x)
+    return tt, xx
+
+
+def _time_values_and_steps(
+    t: ArrayLike, x: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64], float, float]:
+    """:func:`_time_and_values` and the smallest and largest step of the time [s] it checked
+    (for :func:`_regular_step_within`: one pass over the time, not two)."""
     from torquemap._kernels import max_abs, step_range
 
     tt = np.asarray(t, dtype=np.float64)
@@ -44,13 +53,13 @@ def _time_and_values(t: ArrayLike, x: ArrayLike) -> tuple[NDArray[np.float64], N
         raise InputError(f"time and values must be of equal length, got {tt.shape} and {xx.shape}")
     if tt.size < 3:
         raise InputError(f"need at least 3 samples to filter, got {tt.size}")
-    finite, smallest, _ = step_range(np.ascontiguousarray(tt))
+    finite, smallest, largest = step_range(np.ascontiguousarray(tt))
     values = xx if xx.flags.c_contiguous or xx.flags.f_contiguous else np.ascontiguousarray(xx)
     if not (finite and math.isfinite(max_abs(values.reshape(-1, order="A")))):
         raise InputError("time or values hold NaN or inf")
     if not smallest > 0:
         raise InputError("time is not strictly increasing")
-    return tt, xx
+    return tt, xx, smallest, largest
 
 
 #: Fewest samples a differentiator window holds: where the sampling is sparser (a gap, a slow
@@ -520,9 +529,21 @@ def regular_step(t: NDArray[np.float64], *, rtol: float = 1e-9) -> float | None:
         return None
     from torquemap._kernels import step_range
 
+    _, smallest, largest = step_range(np.ascontiguousarray(t, dtype=np.float64))
+    return _regular_step_within(t, smallest, largest, rtol=rtol)
+
+
+def _regular_step_within(
+    t: NDArray[np.float64], smallest: float, largest: float, *, rtol: float
+) -> float | None:
+    """:func:`regular_step` of ``t`` (n >= 2) whose smallest and largest steps [s] the caller
+    has (:func:`_time_values_and_steps`)."""
+    n = t.size
+    h = float(t[-1] - t[0]) / (n - 1)
+    if not h > 0:
+        return None
     resolution = float(np.spacing(max(abs(float(t[0])), abs(float(t[-1])))))
     tol = rtol * h + 2.0 * resolution
-    _, smallest, largest = step_range(np.ascontiguousarray(t, dtype=np.float64))
     if largest - h > tol or h - smallest > tol:
         return None
     return round_step(h, resolution=resolution, n=n)
@@ -588,10 +609,10 @@ def lowpass(t: ArrayLike, x: ArrayLike, *, cutoff: float, order: int = 2) -> NDA
     >>> bool(np.allclose(y, 1.0))
     True
     """
-    tt, xx = _time_and_values(t, x)
+    tt, xx, smallest, largest = _time_values_and_steps(t, x)
     if order < 1:
         raise InputError(f"filter order must be >= 1, got {order}")
-    step = regular_step(tt, rtol=1e-6)
+    step = _regular_step_within(tt, smallest, largest, rtol=1e-6)  # regular_step's
     regular = step is not None
     h = uniform_step(tt) if step is None else step
     nyquist = 0.5 / h

@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 
 from torquemap.errors import InputError
 from torquemap.filters import lowpass
-from torquemap.robust import robust_scale
+from torquemap.robust import mad_scale
 
 #: [Hz] The high band starts here: ten times the estimate's default cut-off (2 Hz).
 HIGH_BAND_SPLIT = 20.0
@@ -74,4 +74,4 @@ def high_band_psd(
         high = x - lowpass(t, x, cutoff=split)
     except InputError:  # too short for the filter
         return float("nan")
-    return robust_scale(high[use]) ** 2 / band
+    return mad_scale(high[use]) ** 2 / band  # robust_scale's number, sooner

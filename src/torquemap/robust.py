@@ -12,6 +12,7 @@ blocks are longer than the correlation.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -63,6 +64,56 @@ def robust_scale(residual: ArrayLike) -> float:
     if r.size == 0:
         return 0.0
     return float(1.4826 * np.median(np.abs(r - np.median(r))))
+
+
+def exact_median(values: ArrayLike) -> float:
+    """``numpy.median`` of ``values`` (flattened), selecting among the values near the median
+    only.
+
+    The two order statistics numpy averages (one for an odd count) lie between two bounds a
+    sample of every 16th value suggests, six standard deviations of the sample's median apart;
+    a count confirms it, and only the values between the bounds are partitioned (about a
+    tenth of them; numpy copies and partitions all). Fewer than 4096 values, a NaN, or a
+    count that falls short: numpy's median itself. Bit for bit numpy's but for the sign of a
+    zero median (``-0.0 == 0.0`` ties may select either; tests/test_robust.py).
+
+    Examples
+    --------
+    >>> x = np.random.default_rng(0).normal(size=100_001)
+    >>> exact_median(x) == float(np.median(x))
+    True
+    """
+    a = np.ravel(np.asarray(values, dtype=np.float64))
+    n = a.size
+    if n < 4096 or math.isnan(float(np.max(a))):
+        return float(np.median(a))
+    upper = n // 2  # numpy's order statistics: ``upper`` and, for an even count, ``upper - 1``
+    lower = upper - 1 if n % 2 == 0 else upper
+    sample = a[::16]
+    m = sample.size
+    # the sample's middle order statistic has a standard deviation of 0.5 / sqrt(m) in rank
+    # share: 6 of them either side of the middle
+    reach = math.ceil(3.0 * math.sqrt(m)) + 1
+    j_lo, j_hi = max(m // 2 - reach, 0), min(m // 2 + reach, m - 1)
+    picked = np.partition(sample, [j_lo, j_hi])
+    lo, hi = picked[j_lo], picked[j_hi]
+    below = int(np.count_nonzero(a < lo))
+    window = a[(a >= lo) & (a <= hi)]
+    if below > lower or below + window.size <= upper:
+        return float(np.median(a))
+    part = np.partition(window, [lower - below, upper - below])
+    if lower == upper:
+        return float(part[upper - below])
+    return float(np.mean(part[lower - below : upper - below + 1]))  # numpy's mean of the two
+
+
+def mad_scale(residual: ArrayLike) -> float:
+    """:func:`robust_scale` by :func:`exact_median`: the same number, fewer values
+    partitioned."""
+    r = np.asarray(residual, dtype=np.float64)
+    if r.size == 0:
+        return 0.0
+    return float(1.4826 * exact_median(np.abs(r - np.float64(exact_median(r)))))
 
 
 def huber_weights(residual: NDArray[np.float64], scale: float) -> NDArray[np.float64]:

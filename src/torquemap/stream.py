@@ -703,9 +703,18 @@ class _Decimated:
 
     def add(self, values: NDArray[np.float64]) -> None:
         first = (-self.seen) % self.stride
-        self.parts.append(values[first :: self.stride])
-        self.kept += self.parts[-1].size
-        self.seen += values.size
+        self._keep(values[first :: self.stride], values.size)
+
+    def add_hypot(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> None:
+        """:meth:`add` of ``hypot(x, y)``, formed for the kept values only."""
+        first = (-self.seen) % self.stride
+        step = self.stride
+        self._keep(np.hypot(x[first::step], y[first::step]), x.size)
+
+    def _keep(self, part: NDArray[np.float64], size: int) -> None:
+        self.parts.append(part)
+        self.kept += part.size
+        self.seen += size
         while self.kept > self.cap:
             kept = np.concatenate(self.parts)[::2]
             self.parts, self.kept = [kept], kept.size
@@ -794,7 +803,7 @@ def estimate_to_file(
             counts["sound"] += int(ok.sum())
             totals[:] += part.tau_ext[ok].sum(axis=0)
             if part.force is not None and part.force.shape[1] >= 2:
-                magnitudes.add(np.hypot(part.force[ok, 0], part.force[ok, 1]))
+                magnitudes.add_hypot(part.force[ok, 0], part.force[ok, 1])
 
         try:
             for chunk in chunks:

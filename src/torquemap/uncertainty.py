@@ -984,14 +984,18 @@ def coupling_level(
         a2, a3 = 0.5 * gears[0] ** 2 * float(first.cos_elbow), 0.0
     if not (math.isfinite(a2) and math.isfinite(a3)) or (a2 == 0.0 and a3 == 0.0):
         return None
-    qd = velocity / gears
-    qdd = acceleration / gears
-    c, s = np.cos(q[:, 1]), np.sin(q[:, 1])
-    torque = np.empty_like(qd)
-    torque[:, 0] = a2 * (c * qdd[:, 1] - s * (2.0 * qd[:, 0] * qd[:, 1] + qd[:, 1] ** 2))
-    torque[:, 0] += a3 * qdd[:, 1]
-    torque[:, 1] = a2 * (c * qdd[:, 0] + s * qd[:, 0] ** 2) + a3 * qdd[:, 0]
-    torque = np.where(np.isfinite(torque), torque, 0.0)
+    from torquemap._estimate_kernels import coupling_torques
+
+    torque = np.empty((q.shape[0], 2))
+    coupling_torques(
+        np.ascontiguousarray(q[:, 1], dtype=np.float64),
+        np.ascontiguousarray(velocity, dtype=np.float64),
+        np.ascontiguousarray(acceleration, dtype=np.float64),
+        gears,
+        a2,
+        a3,
+        torque,
+    )
     low = lowpass(t, torque, cutoff=cutoff)
     return np.asarray(np.abs(low) / gears, dtype=np.float64)
 
