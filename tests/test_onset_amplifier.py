@@ -7,9 +7,10 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from torquemap.linearize.motor import ramp_function
+from torquemap.linearize.motor import motor_spec, ramp_function
 from torquemap.linearize.onset import amplifier_shape, fit_onset, onset_curve, onset_psi
 from torquemap.linearize.surface import _lift
+from torquemap.linearize.tables import build_tables
 
 A = 255
 
@@ -120,3 +121,27 @@ def test_surface_lift_follows_the_curved_law_below_the_join() -> None:
     assert_allclose(lift[low, 0], expected, rtol=1e-12)
     # with no curve, the power law as before
     assert_allclose(_lift(kx, 20.0, 2.0, join)[low, 0], (np.maximum(kx[low] - 20.0, 0) / 40.0) ** 2)
+
+
+def test_build_tables_amplifier_form_at_the_lowest_commands() -> None:
+    # one phase, a convex amplifier (c = 1.5) past a dead zone of 25.5, torque ~ current,
+    # friction 0.4 N m, rows every 4th pulse width with noise: through build_tables the
+    # amplifier form brings the three lowest commands closer to their targets than the
+    # interpolation (measured: mean relative error 10.1 % against 12.2 %; the power form
+    # gives 12.2 % here); 0.9 of the interpolation's error: between the two
+    n = 24
+    spec = motor_spec("m1", phases=1, positions_per_cycle=n, equilibrium_positions=(0,))
+    g = 10.0 * (2.0 + np.cos(2 * np.pi * 3 * np.arange(n) / n))
+    u = np.arange(A + 1, dtype=float)
+    truth = np.maximum(g[:, None] * _law(u, 25.5, 1.5, 1.0)[None, :] - 0.4, 0.0)
+    rng = np.random.default_rng(0)
+    p, w = np.meshgrid(np.arange(n), np.arange(0, A + 1, 4), indexing="ij")
+    p, w = p.ravel(), w.ravel()
+    tau = truth[p, w] + 0.01 * rng.standard_normal(p.size)
+    err = {}
+    for name, kw in (("none", {"onset": False}), ("amplifier", {"onset_form": "amplifier"})):
+        tab = build_tables(spec, p, w, tau, **kw)  # type: ignore[arg-type]
+        got = truth[np.arange(n)[:, None], tab.phases[0][:, 1:4]]
+        target = np.arange(1, 4)[None, :] * tab.torque_per_count
+        err[name] = float(np.mean(np.abs(got - target) / target))
+    assert err["amplifier"] < 0.9 * err["none"]
