@@ -34,6 +34,7 @@ This module never imports the simulator.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -43,6 +44,17 @@ from numpy.typing import NDArray
 EXPONENTS = np.linspace(0.8, 3.2, 13)
 #: Dead zones tried, as fractions of the full-scale pulse width.
 DEAD_ZONES = np.linspace(0.0, 0.3, 31)
+#: The amplifier's curve tried by the ``"amplifier"`` form: ``c`` of ``expm1(c x) / expm1(c)``
+#: (``c > 0`` convex, ``c < 0`` concave, 0 linear; ``|c| = 3`` is a slope ratio of 20 between
+#: the two ends of the pulse-width range).
+CURVES = np.linspace(-3.0, 3.0, 13)
+#: Torque exponents of the ``"amplifier"`` form: torque ~ current (brushless DC) and ~ current
+#: squared (variable reluctance).
+CURRENT_EXPONENTS = np.array([1.0, 2.0])
+#: The onset law's forms: ``"power"`` ``max(a - d, 0)^n`` with ``n`` free, ``"amplifier"``
+#: ``i(a)^n`` with the amplifier's current ``i`` a curve ``c`` past the dead zone and ``n``
+#: 1 or 2.
+OnsetForm = Literal["power", "amplifier"]
 #: Fewest readings in a position's window for it to be fitted.
 MIN_POINTS = 3
 #: Cells the search over dead zones and exponents runs on (spread over the positions).
@@ -65,6 +77,9 @@ class OnsetFit:
         ``F(p)`` [N m], shape (P,); NaN where not fitted.
     fitted
         Positions whose curve was extended, shape (P,).
+    curve
+        ``c``, the amplifier's curve of the ``"amplifier"`` form (0: the ``"power"`` form,
+        current linear in the pulse width past the dead zone).
     """
 
     dead_zone: float
@@ -72,12 +87,61 @@ class OnsetFit:
     gain: NDArray[np.float64]
     friction: NDArray[np.float64]
     fitted: NDArray[np.bool_]
+    curve: float = 0.0
 
 
-def _psi(a: NDArray[np.float64], d: float, n: float, top: float) -> NDArray[np.float64]:
-    x = np.maximum(a - d, 0.0) / max(top - d, 1.0)
-    out: NDArray[np.float64] = x**n
+def amplifier_shape(x: NDArray[np.float64], curve: float) -> NDArray[np.float64]:
+    """The amplifier's current against its drive, both normalised to 0 .. 1.
+
+    Parameters
+    ----------
+    x
+        Drive past the dead zone, as a fraction of the range above it (any shape).
+    curve
+        ``c``: ``expm1(c x) / expm1(c)``; convex for ``c > 0``, concave for ``c < 0``, ``x``
+        for ``c = 0``.
+
+    Returns
+    -------
+    ndarray
+        The current as a fraction of full scale, the shape of ``x``.
+
+    Examples
+    --------
+    >>> amplifier_shape(np.array([0.0, 0.5, 1.0]), 0.0).tolist()
+    [0.0, 0.5, 1.0]
+    >>> bool(amplifier_shape(np.array([0.5]), 2.0)[0] < 0.5)  # convex: slow start
+    True
+    """
+    if abs(curve) < 1e-9:
+        return np.asarray(x, dtype=np.float64)
+    out: NDArray[np.float64] = np.expm1(curve * np.asarray(x, dtype=np.float64)) / np.expm1(curve)
     return out
+
+
+def onset_psi(
+    actuation: NDArray[np.float64],
+    dead_zone: float,
+    exponent: float,
+    top: float,
+    curve: float = 0.0,
+) -> NDArray[np.float64]:
+    """``psi(a) = amplifier_shape(max(a - d, 0) / (top - d), c) ** n``, 0 .. 1 over 0 .. top.
+
+    Examples
+    --------
+    >>> onset_psi(np.array([0.0, 10.0, 110.0]), 10.0, 2.0, 110.0).tolist()
+    [0.0, 0.0, 1.0]
+    """
+    x = np.clip(np.maximum(actuation - dead_zone, 0.0) / max(top - dead_zone, 1.0), 0.0, None)
+    out: NDArray[np.float64] = amplifier_shape(x, curve) ** exponent
+    return out
+
+
+def _psi(
+    a: NDArray[np.float64], d: float, n: float, top: float, c: float = 0.0
+) -> NDArray[np.float64]:
+    return onset_psi(a, d, n, top, c)
 
 
 def _solve_cells(
@@ -101,10 +165,15 @@ def _solve_cells(
 
 
 def _cell_design(
-    u: NDArray[np.float64], r: NDArray[np.float64], d: float, n: float, top: float
+    u: NDArray[np.float64],
+    r: NDArray[np.float64],
+    d: float,
+    n: float,
+    top: float,
+    c: float = 0.0,
 ) -> NDArray[np.float64]:
     """(cells, m + 1): psi(r_k u) per phase (0 where the phase is off), then -1."""
-    phi = _psi(r * u[:, None], d, n, top) * (r > 0)
+    phi = _psi(r * u[:, None], d, n, top, c) * (r > 0)
     return np.concatenate([phi, -np.ones((u.size, 1))], axis=1)
 
 
@@ -116,6 +185,7 @@ def fit_onset(
     readable: float,
     upper: float,
     actuation_max: int,
+    form: OnsetForm = "power",
 ) -> OnsetFit:
     """Fit the onset law to each position's curve between ``readable`` and ``upper`` [N m].
 
@@ -133,12 +203,21 @@ def fit_onset(
         Top of the fitting window [N m].
     actuation_max
         Full-scale pulse width.
+    form
+        ``"power"``: ``psi(a) = max(a - d, 0)^n``, ``d`` and ``n`` searched (``n`` on
+        :data:`EXPONENTS`). ``"amplifier"``: ``psi(a) = i(a)^n`` with the amplifier's current
+        ``i`` the curve ``c`` (:func:`amplifier_shape`, ``c`` on :data:`CURVES`) past the dead
+        zone ``d``, and ``n`` 1 (torque ~ current) or 2 (~ current squared): the onset's
+        curvature then need not come from the dead zone. ``d``, ``c`` and ``n`` searched
+        jointly over every position (one amplifier, shared by every phase and position).
 
     Returns
     -------
     OnsetFit
-        ``d``, ``n`` and per-position gains and friction.
+        ``d``, ``n``, ``c`` and per-position gains and friction.
     """
+    if form not in ("power", "amplifier"):
+        raise ValueError(f"form must be 'power' or 'amplifier', got {form!r}")
     n_pos, m = ramp.shape
     inside = np.isfinite(forward) & (forward >= readable) & (forward <= upper)
     enough = inside.sum(axis=1) >= MIN_POINTS
@@ -148,38 +227,37 @@ def fit_onset(
     u = levels[cj]
     r = ramp[cp]
     top = float(actuation_max)
-    tried: list[tuple[float, float, float]] = []
+    if form == "amplifier":
+        exponents, curves = CURRENT_EXPONENTS, CURVES
+    else:
+        exponents, curves = EXPONENTS, np.zeros(1)
+    tried: list[tuple[float, float, float, float]] = []
     if cp.size:
         # the search on at most SEARCH_CELLS cells spread evenly over the positions
         pick = np.unique(np.linspace(0, cp.size - 1, min(cp.size, SEARCH_CELLS)).astype(int))
         sp, su, sr, sy = cp[pick], u[pick], r[pick], y[pick]
-        done: dict[tuple[int, int], float] = {}
-
-        def score(i: int, j: int) -> float:
-            if (i, j) not in done:
-                design = _cell_design(su, sr, float(DEAD_ZONES[i] * top), float(EXPONENTS[j]), top)
-                done[(i, j)] = float(np.sum(_solve_cells(sp, design, sy, n_pos)[1]))
-            return done[(i, j)]
-
-        for i in range(DEAD_ZONES.size):  # every pair: the residual has several minima
-            for j in range(EXPONENTS.size):
-                score(i, j)
-        tried = [(v, float(DEAD_ZONES[i] * top), float(EXPONENTS[j])) for (i, j), v in done.items()]
-    d, n = 0.0, 1.0
+        # every combination: the residual has several minima
+        for dz in DEAD_ZONES:
+            for ex in exponents:
+                for cv in curves:
+                    design = _cell_design(su, sr, float(dz * top), float(ex), top, float(cv))
+                    v = float(np.sum(_solve_cells(sp, design, sy, n_pos)[1]))
+                    tried.append((v, float(dz * top), float(ex), float(cv)))
+    d, n, c = 0.0, 1.0, 0.0
     if tried:
-        # among the pairs that fit as well as the best (a linear law's dead zone trades with
+        # among the laws that fit as well as the best (a linear law's dead zone trades with
         # the friction exactly), the smallest dead zone: the law then reaches zero torque
         least = min(t[0] for t in tried)
         scale = float(np.sum(y * y))
         good = [t for t in tried if t[0] <= least * (1 + 1e-3) + 1e-12 * scale]
-        _, d, n = min(good, key=lambda t: (t[1], abs(t[0] - least)))
-    coef, _ = _solve_cells(cp, _cell_design(u, r, d, n, top), y, n_pos)
+        _, d, n, c = min(good, key=lambda t: (t[1], abs(t[0] - least)))
+    coef, _ = _solve_cells(cp, _cell_design(u, r, d, n, top, c), y, n_pos)
     active = ramp > 0
     gain = coef[:, :m] * active
     ok = enough & np.all(gain >= 0.0, axis=1) & np.any(gain > 0.0, axis=1)
     gain = np.where(ok[:, None], gain, np.nan)
     friction = np.where(ok, coef[:, m], np.nan)
-    return OnsetFit(dead_zone=d, exponent=n, gain=gain, friction=friction, fitted=ok)
+    return OnsetFit(dead_zone=d, exponent=n, gain=gain, friction=friction, fitted=ok, curve=c)
 
 
 def onset_curve(
@@ -188,7 +266,7 @@ def onset_curve(
     """The law's sensed torque at base pulse widths ``u`` (shape (U,)), shape (P, U); NaN
     where the position was not fitted."""
     a = ramp[:, None, :] * u[None, :, None]
-    phi = _psi(a, fit.dead_zone, fit.exponent, float(top))
+    phi = _psi(a, fit.dead_zone, fit.exponent, float(top), fit.curve)
     g = np.where(np.isfinite(fit.gain), fit.gain, 0.0)
     out = (
         np.einsum("pum,pm->pu", phi, g)

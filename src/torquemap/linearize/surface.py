@@ -44,6 +44,7 @@ from scipy.sparse.linalg import spsolve
 
 from torquemap.linearize.detent import loo_press
 from torquemap.linearize.gaps import check_gaps, fourier_design
+from torquemap.linearize.onset import onset_psi
 
 #: Most alternating least-squares rounds.
 ROUNDS = 40
@@ -232,12 +233,21 @@ def rest_basis(anchors: NDArray[np.int64], n: int) -> sp.csr_matrix | None:
     return sp.hstack([lin, sp.csr_matrix(wave)], format="csr")
 
 
-def _lift(kx: NDArray[np.float64], d: float, n: float, join: float) -> NDArray[np.float64]:
+def _lift(
+    kx: NDArray[np.float64], d: float, n: float, join: float, curve: float = 0.0
+) -> NDArray[np.float64]:
     """Knot values from non-negative parameters: ``alpha`` times the onset law up to the
     join, then ``alpha`` plus the running sum of non-negative steps."""
     low = kx <= join
     out = np.zeros((kx.size, 1 + int((~low).sum())))
-    out[:, 0] = np.where(low, (np.maximum(kx - d, 0.0) / max(join - d, 1e-9)) ** n, 1.0)
+    if curve == 0.0:
+        law = (np.maximum(kx - d, 0.0) / max(join - d, 1e-9)) ** n
+    else:
+        top = float(kx[-1])
+        law = onset_psi(kx, d, n, top, curve) / max(
+            float(onset_psi(np.array([join]), d, n, top, curve)[0]), 1e-300
+        )
+    out[:, 0] = np.where(low, law, 1.0)
     free = np.flatnonzero(~low)
     for i, j in enumerate(free):
         out[j:, 1 + i] = 1.0
@@ -262,6 +272,7 @@ def fit_surface(
     readable: float,
     dead_zone: float,
     exponent: float,
+    curve: float = 0.0,
     bias_weight: float = 10.0,
     smoothness: float = 1.0,
     anchors: NDArray[np.int64] | None = None,
@@ -284,6 +295,9 @@ def fit_surface(
     dead_zone, exponent
         The onset law ``max(a - d, 0)^n`` (:mod:`torquemap.linearize.onset`) that ``phi``
         follows below the actuations that read torque.
+    curve
+        The onset law's amplifier curve ``c`` (:func:`torquemap.linearize.onset.onset_psi`;
+        0: the power law above).
     bias_weight
         Weight, in readings, of each block's bias measurement against the readings that
         measure its error (where the model is below zero).
@@ -314,7 +328,10 @@ def fit_surface(
     knots = int(np.ceil(top / PHI_KNOT_STEP)) + 1
     kx = np.minimum(np.arange(knots) * PHI_KNOT_STEP, top)
     # start from the onset law over the whole range
-    phi_k = (np.maximum(kx - dead_zone, 0.0) / max(top - dead_zone, 1.0)) ** exponent
+    if curve == 0.0:
+        phi_k = (np.maximum(kx - dead_zone, 0.0) / max(top - dead_zone, 1.0)) ** exponent
+    else:
+        phi_k = onset_psi(kx, dead_zone, exponent, top, curve)
     targets = np.unique(cp)
     anchors = np.flatnonzero(np.isfinite(grid[:, 0])) if anchors is None else anchors
     indicator = sp.csr_matrix((np.ones(cp.size), (np.arange(cp.size), cp)), shape=(cp.size, n))
@@ -377,7 +394,7 @@ def fit_surface(
         contribution = target[idx] - o_cells[idx]
         held = contribution > readable
         lowest = float(np.percentile(a[idx][held].max(axis=1), 2)) if held.any() else top / 2
-        lift = _lift(kx, dead_zone, exponent, max(dead_zone + 8.0, lowest))
+        lift = _lift(kx, dead_zone, exponent, max(dead_zone + 8.0, lowest), curve)
         dth = dphi @ lift
         s2 = float(np.mean(g[idx] ** 2 * (a[idx] > 0))) * m  # phi's penalty in N m^2
         d2p = (np.diff(np.eye(knots), 2, axis=0) @ lift) * np.sqrt(smoothness * scale * s2)

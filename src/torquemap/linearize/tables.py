@@ -49,7 +49,7 @@ from torquemap.linearize.handover import check_handover, fill_handover
 from torquemap.linearize.knee import check_uncensored, knee_levels, pool_onset, uncensored_residual
 from torquemap.linearize.knee_track import cut_below_knee, knee_at, knee_between
 from torquemap.linearize.motor import MotorSpec
-from torquemap.linearize.onset import extend_below, fit_onset
+from torquemap.linearize.onset import OnsetForm, extend_below, fit_onset
 from torquemap.linearize.resume import check_collected_for
 from torquemap.linearize.sampling import (
     MATTERS,
@@ -794,7 +794,7 @@ def _surface_forward(
     pw: NDArray[np.float64],
     tau: NDArray[np.float64],
     levels: NDArray[np.float64],
-    onset_law: tuple[float, float],
+    onset_law: tuple[float, float, float],
     readable: float,
     noise: float,
     *,
@@ -827,6 +827,7 @@ def _surface_forward(
         readable=readable,
         dead_zone=onset_law[0],
         exponent=onset_law[1],
+        curve=onset_law[2],
         nyquist=nyquist,
     )
     pred = surface_prediction(fit, ramp, levels)
@@ -1063,6 +1064,7 @@ def build_tables(
     denoise: bool = True,
     bias_weight: float = 10.0,
     onset: bool = True,
+    onset_form: OnsetForm = "power",
     handover: bool = True,
     detent: bool = True,
     surface: bool = True,
@@ -1119,6 +1121,11 @@ def build_tables(
         row's noise), extend each position's curve with the physical onset law of
         :mod:`torquemap.linearize.onset` fitted to the readings above it (the friction zone),
         and invert on every pulse width.
+    onset_form
+        With ``onset``: the law's form (:func:`torquemap.linearize.onset.fit_onset`):
+        ``"power"`` (``max(a - d, 0)^n``) or ``"amplifier"`` (the amplifier's curved current
+        past its dead zone, torque ~ current or ~ current squared). ``"power"`` by default
+        (docs/linearize.md, "stop 35 (L37)").
     handover
         ``"interp"`` only: between measured positions where one phase's ramp switches on or
         off, read that phase at its own actuation (:mod:`torquemap.linearize.handover`) when
@@ -1293,6 +1300,7 @@ def build_tables(
                 readable=readable,
                 upper=0.3 * torque_max,
                 actuation_max=spec.actuation_max,
+                form=onset_form,
             )
             fine, _ = extend_below(
                 fine,
@@ -1303,7 +1311,7 @@ def build_tables(
                 levels=levels,
             )
             base = _invert(fine, np.arange(spec.actuation_max + 1, dtype=np.float64), target)
-            onset_law = (fit.dead_zone, fit.exponent)
+            onset_law = (fit.dead_zone, fit.exponent, fit.curve)
             anchors = np.unique(pos[pw == 0])
             if surface and ramp_share_step(ramp, anchors) > SURFACE_SHARE_STEP:
                 surface_forward = functools.partial(
