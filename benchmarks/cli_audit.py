@@ -105,17 +105,18 @@ def scored_estimate(
     if code != 0:
         out["wrote_output"] = out_csv.exists()
         return out
-    oracle = oracle_score(d, seed, cutoff, circle_csv, truth_csv)
-    spring = random_bench(seed).circle.spring_force
-    s = score_forces(out_csv, truth_csv, spring, oracle)
-    out.update(
-        rms=s["rms"],
-        ratio=s["ratio"],
-        within=s["within"],
-        flagged=s["flagged"],
-        oracle_rms=oracle["rms"],
-    )
+    out.update(_scores(seed, d, out_csv, circle_csv, truth_csv, cutoff))
     return out
+
+
+def _scores(
+    seed: int, d: Path, forces_csv: Path, circle_csv: Path, truth_csv: Path, cutoff: float
+) -> dict[str, float]:
+    """The forces in ``forces_csv`` scored against ``truth_csv`` and the oracle on the circle."""
+    oracle = oracle_score(d, seed, cutoff, circle_csv, truth_csv)
+    s = score_forces(forces_csv, truth_csv, random_bench(seed).circle.spring_force, oracle)
+    keys = ("rms", "ratio", "within", "flagged")
+    return {**{k: s[k] for k in keys}, "oracle_rms": oracle["rms"]}
 
 
 def _write_rows(src: Path, dst: Path, rows: np.ndarray, t_offset: float = 0.0) -> None:
@@ -209,17 +210,8 @@ def audit_robot(seed: int, work: Path, cutoff: float, report: bool) -> dict[str,
         )
     if codes["estimate"] != 0:
         return out
-    oracle = oracle_score(d, seed, cutoff, d / "circle.csv", d / "truth.csv")
-    s = score_forces(
-        d / "forces.csv", d / "truth.csv", random_bench(seed).circle.spring_force, oracle
-    )
-    out.update(
-        rms=s["rms"],
-        ratio=s["ratio"],
-        within=s["within"],
-        flagged=s["flagged"],
-        oracle_rms=oracle["rms"],
-    )
+    circle, truth = d / "circle.csv", d / "truth.csv"
+    out.update(_scores(seed, d, d / "forces.csv", circle, truth, cutoff))
     return out
 
 

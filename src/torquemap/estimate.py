@@ -31,7 +31,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -49,6 +49,7 @@ from torquemap.pdtv import (
     discrete_position_signal,
     notch_position_signal,
 )
+from torquemap.robot import Joint
 
 Method = Literal["model", "paper", "lowpass", "raw"]
 METHODS: tuple[Method, ...] = ("model", "paper", "lowpass", "raw")
@@ -1322,6 +1323,24 @@ def model_window(model: Model) -> float:
     return 0.05
 
 
+def _motor_steps(model: Model, log: Log) -> Iterator[tuple[int, Joint, float, NDArray[np.float64]]]:
+    """Each joint with a recorded encoder count: its index, the joint, one count at the motor
+    [rad] (``[identification.joints.<j>] motor_angle_quantum``) and the log's nonzero
+    motor-angle steps [rad]."""
+    joints = model.notes.get("joints", {})
+    if not isinstance(joints, Mapping):
+        return
+    for k, joint in enumerate(model.robot.joints):
+        entry = joints.get(joint.name)
+        if not isinstance(entry, Mapping):
+            continue
+        quantum = entry.get("motor_angle_quantum")
+        if not isinstance(quantum, int | float) or not (quantum > 0 and math.isfinite(quantum)):
+            continue
+        step = np.abs(np.diff(joint.gear_ratio * log.q[:, k]))
+        yield k, joint, float(quantum), step[step > 1e-12]
+
+
 #: Steps of at most this many encoder counts decide whether a log is of the model's robot.
 FEW_COUNTS = 10
 
@@ -1336,18 +1355,7 @@ def check_log_matches_model(model: Model, log: Log) -> None:
     of at most ``FEW_COUNTS`` counts, only those (a step of many counts is whole within the 2 %
     tolerance for any encoder).
     """
-    joints = model.notes.get("joints", {})
-    if not isinstance(joints, Mapping):
-        return
-    for k, joint in enumerate(model.robot.joints):
-        entry = joints.get(joint.name)
-        if not isinstance(entry, Mapping):
-            continue
-        quantum = entry.get("motor_angle_quantum")
-        if not isinstance(quantum, int | float) or not (quantum > 0 and math.isfinite(quantum)):
-            continue
-        step = np.abs(np.diff(joint.gear_ratio * log.q[:, k]))
-        step = step[step > 1e-12]
+    for k, joint, quantum, step in _motor_steps(model, log):
         if step.size < 20:
             continue
         ratio = step / quantum
@@ -1430,18 +1438,7 @@ def check_log_steps_exact(model: Model, log: Log) -> None:
     half are whole to that, the log is refused, unless its angles were rounded when written
     (the rounding, not the robot, is then off; :func:`check_log_matches_model` names it).
     """
-    joints = model.notes.get("joints", {})
-    if not isinstance(joints, Mapping):
-        return
-    for k, joint in enumerate(model.robot.joints):
-        entry = joints.get(joint.name)
-        if not isinstance(entry, Mapping):
-            continue
-        quantum = entry.get("motor_angle_quantum")
-        if not isinstance(quantum, int | float) or not (quantum > 0 and math.isfinite(quantum)):
-            continue
-        step = np.abs(np.diff(joint.gear_ratio * log.q[:, k]))
-        step = step[step > 1e-12]
+    for k, joint, quantum, step in _motor_steps(model, log):
         ratio = step / quantum
         few = (np.round(ratio) >= 1) & (np.round(ratio) <= EXACT_STEPS)
         if int(few.sum()) < 20:
