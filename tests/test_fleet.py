@@ -17,13 +17,14 @@ import pytest
 from numpy.testing import assert_allclose
 
 from torquemap.cli.main import main
-from torquemap.drift import fleet_drift, trend
+from torquemap.drift import drift_columns, fleet_drift, trend
 from torquemap.errors import InputError
 from torquemap.fleet import identify_fleet, read_fleet
 from torquemap.io import write_table, write_toml
 from torquemap.model import FrictionModel, JointModel, Model, PdtvLine, model_to_dict
 from torquemap.robot import robot_from_dict
 from torquemap.sim.fleet import MOTOR_ROBOT, motor_sweep_columns
+from torquemap.tomlfile import read_toml
 
 ROBOT = MOTOR_ROBOT
 
@@ -526,3 +527,33 @@ def test_a_weak_or_shifted_line_is_not_a_new_line(tmp_path: Path) -> None:
     ]
     drift = fleet_drift(_lines_folder(tmp_path, days))
     assert not drift.flagged, [(s.parameter, s.note) for s in drift.flagged]
+
+
+def _with_pdtv_speeds(folder: Path, speeds: list[float]) -> Path:
+    """Every day's model of :func:`_lines_folder` as identified from PDTV passes at ``speeds``."""
+    for path in sorted((folder / "r").glob("*.toml")):
+        doc = read_toml(path)
+        doc["identification"]["joints"]["m"]["pdtv_speeds"] = speeds
+        write_toml(path, doc)
+    return folder
+
+
+def test_a_line_from_passes_at_one_speed_may_be_a_ripple_in_time(tmp_path: Path) -> None:
+    """The SCARA fleet's daily sweeps take PDTV from 5 rad/s passes only: the bench's 300 Hz
+    inverter ripple sits at 377 CPR there, is kept on some days and not on others, and was
+    flagged as a line appearing with no word that it may be no line of the motor angle
+    (docs/fleet.md). The flag stays; its note names the ripple's frequency in time,
+    377 * 5 / (2 pi) = 300.0 Hz, and the way to tell. Passes at two speeds: no such note."""
+    base = [(2.0, 0.02)]
+    days = [base] * 3 + [[*base, (377.0, 0.006)]]
+    (tmp_path / "one").mkdir()
+    (tmp_path / "two").mkdir()
+    one = fleet_drift(_with_pdtv_speeds(_lines_folder(tmp_path / "one", days), [5.0, -5.0]))
+    s = {x.parameter: x for x in one.series}["pdtv.377.amplitude"]
+    assert s.flag and "appears on 2026-01-04" in s.note, s.note
+    assert "one speed (5 rad/s)" in s.note and "300 Hz in time" in s.note, s.note
+    assert not {x.parameter: x for x in one.series}["pdtv.2.amplitude"].flag
+    write_table(tmp_path / "drift.csv", drift_columns(one))  # the note is one CSV field
+    two = fleet_drift(_with_pdtv_speeds(_lines_folder(tmp_path / "two", days), [3.0, 5.0]))
+    s2 = {x.parameter: x for x in two.series}["pdtv.377.amplitude"]
+    assert s2.flag and "appears on 2026-01-04" in s2.note and "one speed" not in s2.note

@@ -351,6 +351,29 @@ def _presence(
     return dataclasses.replace(series, flag=True, note="; ".join(notes))
 
 
+def _one_speed_note(order: float, speeds: list[list[float]]) -> str:
+    """What a line found or missed from day to day may be when every day's PDTV came from
+    passes at one speed (speeds within :data:`torquemap.time_lines.LEVEL_TOLERANCE`): a ripple
+    fixed in time at ``order |v| / 2 pi`` Hz sits at that order there, and identify cannot tell
+    it from a line of the motor angle (docs/identification.md, "Lines fixed in time"); ``""``
+    when some day had two speeds or none are recorded. No commas: the note is a CSV field."""
+    from torquemap.time_lines import LEVEL_TOLERANCE
+
+    if not speeds or any(not day for day in speeds):
+        return ""
+    magnitudes = np.abs(np.concatenate([np.asarray(day, dtype=float) for day in speeds]))
+    low, high = float(magnitudes.min()), float(magnitudes.max())
+    if not (low > 0.0 and high <= low * (1.0 + LEVEL_TOLERANCE)):
+        return ""
+    speed = float(np.median(magnitudes))
+    return (
+        f"every day's PDTV from passes at one speed ({speed:.3g} rad/s) where a ripple of "
+        f"{order * speed / (2 * math.pi):.4g} Hz in time (current loop or PWM or mains) sits at "
+        "this order too and cannot be told from a line of the motor angle: sweep a second speed "
+        "10 % apart or more to tell"
+    )
+
+
 def fleet_drift(out_dir: str | os.PathLike[str]) -> FleetDrift:
     """Trends of every robot's friction and PDTV over the days of a fleet identification.
 
@@ -386,6 +409,10 @@ def fleet_drift(out_dir: str | os.PathLike[str]) -> FleetDrift:
     seen: dict[str, dict[str, dict[str, list[tuple[float, str]]]]] = defaultdict(
         lambda: defaultdict(dict)
     )
+    # robot -> joint -> date identified -> the motor speeds its PDTV came from [rad/s]
+    pdtv_speeds: dict[str, dict[str, dict[str, list[float]]]] = defaultdict(
+        lambda: defaultdict(dict)
+    )
     for entry in sorted(runs, key=lambda e: (str(e.get("robot")), str(e.get("date")))):
         robot, date = str(entry.get("robot")), str(entry.get("date"))
         if not entry.get("ok"):
@@ -397,6 +424,11 @@ def fleet_drift(out_dir: str | os.PathLike[str]) -> FleetDrift:
         days_of[robot] += 1
         for joint in model.robot.joint_names:
             seen[robot][joint][date] = [(ln.order, ln.direction) for ln in model.joints[joint].pdtv]
+            notes = model.notes.get("joints", {}).get(joint, {})
+            recorded = notes.get("pdtv_speeds", []) if isinstance(notes, Mapping) else []
+            pdtv_speeds[robot][joint][date] = [
+                float(v) for v in recorded if isinstance(v, int | float) and math.isfinite(v)
+            ]
             errors = _standard_errors(model, joint)
             for parameter, value in _parameters(model, joint).items():
                 dates, values, errs = table[robot][joint].setdefault(parameter, ([], [], []))
@@ -410,6 +442,13 @@ def fleet_drift(out_dir: str | os.PathLike[str]) -> FleetDrift:
         for joint, params in table[robot].items():
             for parameter, (dates, values, errs) in params.items():
                 s = _presence(robot, joint, parameter, seen[robot][joint], dates, values, errs)
+                if s is not None:
+                    key = parameter[len("pdtv.") : -len(".amplitude")]
+                    order_cpr = float(key.removesuffix(".positive").removesuffix(".negative"))
+                    speeds = list(pdtv_speeds[robot][joint].values())
+                    caution = _one_speed_note(order_cpr, speeds)
+                    if caution:
+                        s = dataclasses.replace(s, note=f"{s.note}; {caution}")
                 if s is None:
                     s = _series(robot, joint, parameter, dates, values, errs)
                 if s is not None:
