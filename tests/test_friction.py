@@ -185,19 +185,3 @@ def test_segmentation_finds_no_pass_in_a_servo_dithering_at_rest() -> None:
     theta = np.concatenate(([0.0], np.cumsum(v[:-1]) * 1e-3))
     seg = segment_motion(t, theta, v, np.ones_like(t))
     assert seg.passes == ()
-
-
-def test_segmentation_keeps_a_fast_pass_followed_by_slow_bursts_apart() -> None:
-    # a fast pass at 20 rad/s (0.2 s ramps), then the joint sticks and slips the same way: two
-    # passes at their own closed-form speeds, the bursts never joined to the fast pass (random
-    # robot 6 of the family: chaining before the bridge turned its 92 rad/s pass into 8.95)
-    t = np.arange(0.0, 44.0, 1e-3)
-    fast = 20.0 * np.clip(t / 0.2, 0, 1) * np.clip((3.2 - t) / 0.2, 0, 1)
-    slow = np.where((t > 3.5) & (((t - 3.5) % 0.2) < 0.06), 0.8, 0.0)
-    v = fast + slow
-    theta = np.concatenate(([0.0], np.cumsum(v[:-1]) * 1e-3))
-    seg = segment_motion(t, theta, v, np.ones_like(t))
-    speeds = sorted(p.speed for p in seg.passes)
-    assert len(speeds) == 2
-    # the slow one as in the test above; the fast one is flat at 20 rad/s between its ramps
-    np.testing.assert_allclose(speeds, [0.24, 20.0], rtol=0.01)

@@ -117,7 +117,7 @@ def segment_motion(
        ``|velocity|``) and ``allowed`` (for example: the other joints still).
     2. Runs: maximal stretches moving in one direction; short interruptions (under 1 s and
        under 0.02 revolution of travel, such as speed ripple dipping through zero) are bridged,
-       and then, on their own, the bursts of a joint that sticks and slips.
+       and so are those between the bursts of a joint that sticks and slips.
     3. In each run the velocity is averaged over a centred window of one motor revolution
        (shrinking symmetrically at the run's ends), which cancels PDTV ripple of every integer
        order; the pass is the span from the first to the last sample whose averaged speed is
@@ -166,7 +166,7 @@ def segment_motion(
         return Segmentation(passes=(), accelerating=accelerating, speed_threshold=0.0)
     label = np.where(ok & (w > thr), 1, np.where(ok & (w < -thr), -1, 0))
     runs = _runs(label)
-    runs = _chain(_bridge(runs, tt, theta), tt, theta)
+    runs = _bridge(_chain(runs, tt, theta), tt, theta)
     passes: list[Pass] = []
     for a, b, sign in runs:
         if sign == 0 or b - a < 5:
@@ -244,8 +244,7 @@ def _chain(
     revolution), the velocity between them falls to zero, and :func:`_bridge`, which bridges
     only between significant runs, would see no pass at all. A chain of small runs of one
     direction, each interruption under 1 s and 0.02 revolution of travel and no significant run
-    in between, becomes one run. It runs after :func:`_bridge` and never joins a significant
-    run: a fast pass followed by slow bursts the same way stays the pass it was.
+    in between, becomes one run (which :func:`_bridge` then treats as any other).
     """
     out: list[tuple[int, int, int]] = []
     i, n = 0, len(runs)
