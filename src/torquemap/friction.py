@@ -116,8 +116,7 @@ def segment_motion(
     1. Moving samples: ``|velocity| > speed_threshold`` (default 2 % of the 99th percentile of
        ``|velocity|``) and ``allowed`` (for example: the other joints still).
     2. Runs: maximal stretches moving in one direction; short interruptions (under 1 s and
-       under 0.02 revolution of travel, such as speed ripple dipping through zero) are bridged,
-       and so are those between the bursts of a joint that sticks and slips.
+       under 0.02 revolution of travel, such as speed ripple dipping through zero) are bridged.
     3. In each run the velocity is averaged over a centred window of one motor revolution
        (shrinking symmetrically at the run's ends), which cancels PDTV ripple of every integer
        order; the pass is the span from the first to the last sample whose averaged speed is
@@ -166,7 +165,7 @@ def segment_motion(
         return Segmentation(passes=(), accelerating=accelerating, speed_threshold=0.0)
     label = np.where(ok & (w > thr), 1, np.where(ok & (w < -thr), -1, 0))
     runs = _runs(label)
-    runs = _bridge(_chain(runs, tt, theta), tt, theta)
+    runs = _bridge(runs, tt, theta)
     passes: list[Pass] = []
     for a, b, sign in runs:
         if sign == 0 or b - a < 5:
@@ -227,48 +226,6 @@ def _runs(label: NDArray[np.int64]) -> list[tuple[int, int, int]]:
     change = np.flatnonzero(np.diff(label)) + 1
     edges = np.concatenate(([0], change, [label.size]))
     return [(int(a), int(b), int(label[a])) for a, b in itertools.pairwise(edges)]
-
-
-def _small_span(t: NDArray[np.float64], theta: NDArray[np.float64], a: int, b: int) -> bool:
-    """Whether samples ``a:b`` last under 1 s and travel under 0.02 revolution."""
-    return bool((t[b - 1] - t[a]) < 1.0 and abs(theta[b - 1] - theta[a]) < 0.02 * TWO_PI)
-
-
-def _chain(
-    runs: list[tuple[int, int, int]], t: NDArray[np.float64], theta: NDArray[np.float64]
-) -> list[tuple[int, int, int]]:
-    """Merge chains of small runs of one direction separated by short, small interruptions.
-
-    A joint that sticks and slips (a slow pass below its Stribeck speed, a short
-    differentiator window) moves in bursts: each burst's run is small (under 1 s and 0.02
-    revolution), the velocity between them falls to zero, and :func:`_bridge`, which bridges
-    only between significant runs, would see no pass at all. A chain of small runs of one
-    direction, each interruption under 1 s and 0.02 revolution of travel and no significant run
-    in between, becomes one run (which :func:`_bridge` then treats as any other).
-    """
-    out: list[tuple[int, int, int]] = []
-    i, n = 0, len(runs)
-    while i < n:
-        a, b, s = runs[i]
-        if s == 0 or not _small_span(t, theta, a, b):
-            out.append(runs[i])
-            i += 1
-            continue
-        end, j = i, i + 1
-        while j < n:
-            aj, bj, sj = runs[j]
-            if t[aj] - t[runs[end][1] - 1] >= 1.0 or (
-                sj != 0 and not _small_span(t, theta, aj, bj)
-            ):
-                break
-            if sj == s:
-                if not _small_span(t, theta, runs[end][1] - 1, aj + 1):
-                    break
-                end = j
-            j += 1
-        out.append((a, runs[end][1], s))
-        i = end + 1
-    return out
 
 
 def _bridge(
