@@ -771,3 +771,55 @@ def delayed_columns_at(
                             v = y[j]
                     out[i, c] = v
     return out
+
+
+@jit
+def savgol_acceleration(
+    y: NDArray[np.float64], even: NDArray[np.float64], acceleration: NDArray[np.float64]
+) -> None:
+    """The acceleration of :func:`torquemap._kernels.savgol_fit` alone, in place (``y`` (n,),
+    ``even[k]`` the acceleration's weights at lags ``k = 0..half``), for the smoothing that
+    reads the acceleration only (:func:`torquemap.filters.smooth_as_acceleration`).
+
+    The same operations in the same order as ``savgol_fit``'s acceleration (four lags per pass
+    over a stretch of 512 outputs, then one at a time; each from the local differences
+    ``(y[i + k] - y[i]) + (y[i - k] - y[i])``), without the velocity's sums: the same bits.
+    """
+    n = y.size
+    half = even.size - 1
+    tile = 512  # torquemap._kernels.TILE: the stretches, and so the sums' order, are its
+    acc_a = np.empty(tile)
+    for start in range(half, n - half, tile):
+        m = min(tile, n - half - start)
+        centre = y[start : start + m]
+        for j in range(m):
+            acc_a[j] = 0.0
+        k = 1
+        while k + 3 <= half:
+            e1, e2, e3, e4 = even[k], even[k + 1], even[k + 2], even[k + 3]
+            a1 = y[start + k : start + k + m]
+            a2 = y[start + k + 1 : start + k + 1 + m]
+            a3 = y[start + k + 2 : start + k + 2 + m]
+            a4 = y[start + k + 3 : start + k + 3 + m]
+            b1 = y[start - k : start - k + m]
+            b2 = y[start - k - 1 : start - k - 1 + m]
+            b3 = y[start - k - 2 : start - k - 2 + m]
+            b4 = y[start - k - 3 : start - k - 3 + m]
+            for j in range(m):
+                c = centre[j]
+                d1 = (a1[j] - c) + (b1[j] - c)
+                d2 = (a2[j] - c) + (b2[j] - c)
+                d3 = (a3[j] - c) + (b3[j] - c)
+                d4 = (a4[j] - c) + (b4[j] - c)
+                acc_a[j] += (e1 * d1 + e2 * d2) + (e3 * d3 + e4 * d4)
+            k += 4
+        while k <= half:
+            ek = even[k]
+            ahead = y[start + k : start + k + m]
+            behind = y[start - k : start - k + m]
+            for j in range(m):
+                c = centre[j]
+                acc_a[j] += ek * ((ahead[j] - c) + (behind[j] - c))
+            k += 1
+        for j in range(m):
+            acceleration[start + j] = acc_a[j]
