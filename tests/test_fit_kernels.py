@@ -14,6 +14,7 @@ from torquemap._fit_kernels import (
     curvature_weights,
     delayed_columns,
     delayed_columns_at,
+    double_integral,
     group_sums,
     interp_increasing,
     run_starts,
@@ -411,3 +412,41 @@ def test_smooth_at_step_equals_the_rates_path() -> None:
     second = integrate.cumulative_trapezoid(first, t, initial=0.0, axis=0)
     want = differentiate_rates(t, second, window=0.04).acceleration + mean
     np.testing.assert_array_equal(_smooth_as_acceleration_at_step(t, x, 0.04, step), want)
+
+
+@pytest.mark.parametrize("uniform", [True, False])
+@pytest.mark.parametrize("n", [1, 2, 3, 1000])
+def test_double_integral_is_scipys_cumulative_trapezoid_twice(uniform: bool, n: int) -> None:
+    # the second algorithm: scipy's cumulative_trapezoid, twice, as smooth_as_acceleration
+    # called it; a column of zeros of both signs included (sign of zero kept)
+    from scipy import integrate
+
+    rng = np.random.default_rng(n)
+    t = np.arange(n) * 5e-4 if uniform else np.cumsum(rng.uniform(3e-4, 7e-4, n))
+    x = rng.normal(size=(n, 3)) * np.array([1.0, 1e6, 0.0])
+    x[::2, 2] = -0.0
+    mean = np.mean(x, axis=0)
+    first = integrate.cumulative_trapezoid(x - mean, t, initial=0.0, axis=0)
+    want = integrate.cumulative_trapezoid(first, t, initial=0.0, axis=0)
+    got = double_integral(t, x, mean)
+    np.testing.assert_array_equal(got, want)
+    assert (np.signbit(got) == np.signbit(want)).all()
+
+
+@pytest.mark.parametrize("uniform", [True, False])
+def test_smooth_as_acceleration_as_before(uniform: bool) -> None:
+    # smooth_as_acceleration as it was written (scipy's double integral, differentiate_rates'
+    # acceleration) against the compiled integral and the acceleration-only filter, 1-D and 2-D
+    from scipy import integrate
+
+    from torquemap.filters import smooth_as_acceleration
+
+    rng = np.random.default_rng(5)
+    n = 2000
+    t = np.arange(n) * 5e-4 if uniform else np.cumsum(rng.uniform(3e-4, 7e-4, n))
+    for x in (rng.normal(size=n), rng.normal(size=(n, 3))):
+        mean = np.mean(x, axis=0)
+        first = integrate.cumulative_trapezoid(x - mean, t, initial=0.0, axis=0)
+        second = integrate.cumulative_trapezoid(first, t, initial=0.0, axis=0)
+        want = differentiate_rates(t, second, window=0.03).acceleration + mean
+        np.testing.assert_array_equal(smooth_as_acceleration(t, x, window=0.03), want)

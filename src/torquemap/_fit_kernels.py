@@ -823,3 +823,37 @@ def savgol_acceleration(
             k += 1
         for j in range(m):
             acceleration[start + j] = acc_a[j]
+
+
+@jit
+def double_integral(
+    t: NDArray[np.float64], x: NDArray[np.float64], mean: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Twice scipy's ``cumulative_trapezoid(..., initial=0.0, axis=0)`` of ``x - mean`` (x (n,
+    m), mean (m,)) over ``t`` [s] (n,), shape (n, m), in one pass without the temporaries.
+
+    scipy's operations in its order: ``u = x - mean``, each step's area ``(dt * (u[i] +
+    u[i - 1])) / 2.0`` with ``dt = t[i] - t[i - 1]``, summed from the first area itself (as
+    ``cumulative_sum`` starts), 0.0 at the first sample: the same bits.
+    """
+    n, m = x.shape
+    out = np.empty((n, m))
+    if n == 0:
+        return out
+    for c in range(m):
+        mc = mean[c]
+        prev = x[0, c] - mc
+        first = 0.0
+        second = 0.0
+        out[0, c] = 0.0
+        for i in range(1, n):
+            dt = t[i] - t[i - 1]
+            cur = x[i, c] - mc
+            step = (dt * (cur + prev)) / 2.0
+            new_first = step if i == 1 else first + step
+            area = (dt * (new_first + first)) / 2.0
+            second = area if i == 1 else second + area
+            out[i, c] = second
+            first = new_first
+            prev = cur
+    return out

@@ -451,14 +451,26 @@ def smooth_as_acceleration(t: ArrayLike, x: ArrayLike, *, window: float) -> NDAr
     >>> bool(np.allclose(acc, smoothed, atol=1e-4))
     True
     """
-    from scipy import integrate
-
     tt, xx = _time_and_values(t, x)
     mean = np.mean(xx, axis=0)  # a constant passes a unit-sum kernel unchanged
-    first = integrate.cumulative_trapezoid(xx - mean, tt, initial=0.0, axis=0)
-    second = integrate.cumulative_trapezoid(first, tt, initial=0.0, axis=0)
+    second = _double_integral(tt, xx, mean)
     out: NDArray[np.float64] = _acceleration_rate(tt, second, window) + mean
     return out
+
+
+def _double_integral(
+    tt: NDArray[np.float64], xx: NDArray[np.float64], mean: NDArray[np.float64] | np.float64
+) -> NDArray[np.float64]:
+    """``cumulative_trapezoid`` (scipy's, ``initial=0.0``, along time) applied twice to ``xx
+    - mean`` over ``tt`` [s], shaped like ``xx`` ((n,) or (n, m)): the same numbers
+    (:func:`torquemap._fit_kernels.double_integral`), without five temporaries of the log's
+    size."""
+    from torquemap._fit_kernels import double_integral
+
+    columns = np.ascontiguousarray(xx.reshape(xx.shape[0], -1), dtype=np.float64)
+    centre = np.ascontiguousarray(np.reshape(mean, -1), dtype=np.float64)
+    out = double_integral(np.ascontiguousarray(tt, dtype=np.float64), columns, centre)
+    return out.reshape(xx.shape)
 
 
 def _acceleration_rate(t: ArrayLike, x: ArrayLike, window: float) -> NDArray[np.float64]:
@@ -486,11 +498,8 @@ def _smooth_as_acceleration_at_step(
     :func:`smooth_as_acceleration` accepts, at least a window long and ``MIN_WINDOW_SAMPLES``
     samples).
     """
-    from scipy import integrate
-
     mean = np.mean(xx, axis=0)
-    first = integrate.cumulative_trapezoid(xx - mean, tt, initial=0.0, axis=0)
-    second = integrate.cumulative_trapezoid(first, tt, initial=0.0, axis=0)
+    second = _double_integral(tt, xx, mean)
     half = math.floor(window / (2 * step) + 1e-9) if step is not None else 0
     if step is not None and half >= 2 and 2 * half + 1 <= tt.size:
         acc = _acceleration_uniform(second, step, 2 * half + 1)
