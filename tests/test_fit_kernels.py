@@ -14,15 +14,25 @@ from torquemap._fit_kernels import (
     curvature_weights,
     delayed_columns,
     delayed_columns_at,
+    double_integral,
     group_sums,
     interp_increasing,
     run_starts,
+    savgol_acceleration,
     search_increasing,
     smooth_at_rows,
     speed_table_block,
     window_sums,
 )
-from torquemap.filters import _windows
+from torquemap._kernels import savgol_fit
+from torquemap.filters import (
+    _acceleration_rate,
+    _savgol_lags,
+    _smooth_as_acceleration_at_step,
+    _windows,
+    differentiate_rates,
+    regular_step,
+)
 from torquemap.identify_whole import pdtv_basis
 from torquemap.smooth_rows import RowSmoother
 
@@ -358,3 +368,85 @@ def test_cluster_medians_in_order_equal_the_sorting_path() -> None:
     shuffled = np.empty(clusters.size)
     shuffled[perm] = cluster_medians(values[perm], clusters[perm])
     np.testing.assert_array_equal(cluster_medians(values, clusters), shuffled)
+
+
+@pytest.mark.parametrize("length", [5, 7, 9, 11, 13, 101, 1201])
+def test_savgol_acceleration_is_savgol_fits_acceleration(length: int) -> None:
+    # the second algorithm: savgol_fit, which also sums the velocity (and the position); four
+    # lags per pass and a remainder of 0-3, over several 512-sample stretches and a short one
+    y = np.cumsum(np.random.default_rng(length).normal(size=1700))
+    smooth, odd, even = _savgol_lags(length, 1e-3)
+    p, v, a = np.empty(0), np.full(y.size, np.nan), np.full(y.size, np.nan)
+    savgol_fit(y, smooth, odd, even, p, v, a, False)
+    got = np.full(y.size, np.nan)
+    savgol_acceleration(y, even, got)
+    half = length // 2
+    np.testing.assert_array_equal(got[half:-half], a[half:-half])
+
+
+@pytest.mark.parametrize("uniform", [True, False])
+@pytest.mark.parametrize("two_d", [True, False])
+def test_acceleration_rate_is_differentiate_rates_acceleration(uniform: bool, two_d: bool) -> None:
+    # the same path (the Savitzky-Golay filter on a regular grid, the local fits otherwise)
+    # and the same bits, the ends included
+    rng = np.random.default_rng(3)
+    n = 3000
+    t = np.arange(n) * 5e-4 if uniform else np.cumsum(rng.uniform(3e-4, 7e-4, n))
+    x = np.cumsum(rng.normal(size=(n, 3)), axis=0)
+    x = x if two_d else x[:, 1]
+    want = differentiate_rates(t, x, window=0.05).acceleration
+    np.testing.assert_array_equal(_acceleration_rate(t, x, 0.05), want)
+
+
+def test_smooth_at_step_equals_the_rates_path() -> None:
+    # _smooth_as_acceleration_at_step as it was (differentiate_rates' uniform acceleration of
+    # the double integral) against the acceleration-only filter it now calls
+    from scipy import integrate
+
+    rng = np.random.default_rng(4)
+    t = np.arange(2500) * 5e-4
+    x = rng.normal(size=(t.size, 4))
+    step = regular_step(t)
+    mean = np.mean(x, axis=0)
+    first = integrate.cumulative_trapezoid(x - mean, t, initial=0.0, axis=0)
+    second = integrate.cumulative_trapezoid(first, t, initial=0.0, axis=0)
+    want = differentiate_rates(t, second, window=0.04).acceleration + mean
+    np.testing.assert_array_equal(_smooth_as_acceleration_at_step(t, x, 0.04, step), want)
+
+
+@pytest.mark.parametrize("uniform", [True, False])
+@pytest.mark.parametrize("n", [1, 2, 3, 1000])
+def test_double_integral_is_scipys_cumulative_trapezoid_twice(uniform: bool, n: int) -> None:
+    # the second algorithm: scipy's cumulative_trapezoid, twice, as smooth_as_acceleration
+    # called it; a column of zeros of both signs included (sign of zero kept)
+    from scipy import integrate
+
+    rng = np.random.default_rng(n)
+    t = np.arange(n) * 5e-4 if uniform else np.cumsum(rng.uniform(3e-4, 7e-4, n))
+    x = rng.normal(size=(n, 3)) * np.array([1.0, 1e6, 0.0])
+    x[::2, 2] = -0.0
+    mean = np.mean(x, axis=0)
+    first = integrate.cumulative_trapezoid(x - mean, t, initial=0.0, axis=0)
+    want = integrate.cumulative_trapezoid(first, t, initial=0.0, axis=0)
+    got = double_integral(t, x, mean)
+    np.testing.assert_array_equal(got, want)
+    assert (np.signbit(got) == np.signbit(want)).all()
+
+
+@pytest.mark.parametrize("uniform", [True, False])
+def test_smooth_as_acceleration_as_before(uniform: bool) -> None:
+    # smooth_as_acceleration as it was written (scipy's double integral, differentiate_rates'
+    # acceleration) against the compiled integral and the acceleration-only filter, 1-D and 2-D
+    from scipy import integrate
+
+    from torquemap.filters import smooth_as_acceleration
+
+    rng = np.random.default_rng(5)
+    n = 2000
+    t = np.arange(n) * 5e-4 if uniform else np.cumsum(rng.uniform(3e-4, 7e-4, n))
+    for x in (rng.normal(size=n), rng.normal(size=(n, 3))):
+        mean = np.mean(x, axis=0)
+        first = integrate.cumulative_trapezoid(x - mean, t, initial=0.0, axis=0)
+        second = integrate.cumulative_trapezoid(first, t, initial=0.0, axis=0)
+        want = differentiate_rates(t, second, window=0.03).acceleration + mean
+        np.testing.assert_array_equal(smooth_as_acceleration(t, x, window=0.03), want)

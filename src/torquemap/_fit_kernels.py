@@ -771,3 +771,89 @@ def delayed_columns_at(
                             v = y[j]
                     out[i, c] = v
     return out
+
+
+@jit
+def savgol_acceleration(
+    y: NDArray[np.float64], even: NDArray[np.float64], acceleration: NDArray[np.float64]
+) -> None:
+    """The acceleration of :func:`torquemap._kernels.savgol_fit` alone, in place (``y`` (n,),
+    ``even[k]`` the acceleration's weights at lags ``k = 0..half``), for the smoothing that
+    reads the acceleration only (:func:`torquemap.filters.smooth_as_acceleration`).
+
+    The same operations in the same order as ``savgol_fit``'s acceleration (four lags per pass
+    over a stretch of 512 outputs, then one at a time; each from the local differences
+    ``(y[i + k] - y[i]) + (y[i - k] - y[i])``), without the velocity's sums: the same bits.
+    """
+    n = y.size
+    half = even.size - 1
+    tile = 512  # torquemap._kernels.TILE: the stretches, and so the sums' order, are its
+    acc_a = np.empty(tile)
+    for start in range(half, n - half, tile):
+        m = min(tile, n - half - start)
+        centre = y[start : start + m]
+        for j in range(m):
+            acc_a[j] = 0.0
+        k = 1
+        while k + 3 <= half:
+            e1, e2, e3, e4 = even[k], even[k + 1], even[k + 2], even[k + 3]
+            a1 = y[start + k : start + k + m]
+            a2 = y[start + k + 1 : start + k + 1 + m]
+            a3 = y[start + k + 2 : start + k + 2 + m]
+            a4 = y[start + k + 3 : start + k + 3 + m]
+            b1 = y[start - k : start - k + m]
+            b2 = y[start - k - 1 : start - k - 1 + m]
+            b3 = y[start - k - 2 : start - k - 2 + m]
+            b4 = y[start - k - 3 : start - k - 3 + m]
+            for j in range(m):
+                c = centre[j]
+                d1 = (a1[j] - c) + (b1[j] - c)
+                d2 = (a2[j] - c) + (b2[j] - c)
+                d3 = (a3[j] - c) + (b3[j] - c)
+                d4 = (a4[j] - c) + (b4[j] - c)
+                acc_a[j] += (e1 * d1 + e2 * d2) + (e3 * d3 + e4 * d4)
+            k += 4
+        while k <= half:
+            ek = even[k]
+            ahead = y[start + k : start + k + m]
+            behind = y[start - k : start - k + m]
+            for j in range(m):
+                c = centre[j]
+                acc_a[j] += ek * ((ahead[j] - c) + (behind[j] - c))
+            k += 1
+        for j in range(m):
+            acceleration[start + j] = acc_a[j]
+
+
+@jit
+def double_integral(
+    t: NDArray[np.float64], x: NDArray[np.float64], mean: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Twice scipy's ``cumulative_trapezoid(..., initial=0.0, axis=0)`` of ``x - mean`` (x (n,
+    m), mean (m,)) over ``t`` [s] (n,), shape (n, m), in one pass without the temporaries.
+
+    scipy's operations in its order: ``u = x - mean``, each step's area ``(dt * (u[i] +
+    u[i - 1])) / 2.0`` with ``dt = t[i] - t[i - 1]``, summed from the first area itself (as
+    ``cumulative_sum`` starts), 0.0 at the first sample: the same bits.
+    """
+    n, m = x.shape
+    out = np.empty((n, m))
+    if n == 0:
+        return out
+    for c in range(m):
+        mc = mean[c]
+        prev = x[0, c] - mc
+        first = 0.0
+        second = 0.0
+        out[0, c] = 0.0
+        for i in range(1, n):
+            dt = t[i] - t[i - 1]
+            cur = x[i, c] - mc
+            step = (dt * (cur + prev)) / 2.0
+            new_first = step if i == 1 else first + step
+            area = (dt * (new_first + first)) / 2.0
+            second = area if i == 1 else second + area
+            out[i, c] = second
+            first = new_first
+            prev = cur
+    return out

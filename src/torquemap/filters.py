@@ -269,6 +269,30 @@ def _rates_uniform(x: NDArray[np.float64], h: float, length: int) -> Rates:
     return Rates(velocity=velocity, acceleration=acceleration)
 
 
+def _acceleration_uniform(x: NDArray[np.float64], h: float, length: int) -> NDArray[np.float64]:
+    """The acceleration of :func:`_rates_uniform` alone (``x`` (n,) or (n, m), shaped like
+    it): the same numbers, without the velocity's sums
+    (:func:`torquemap._fit_kernels.savgol_acceleration`, the ends as
+    :func:`_savgol_columns` does them)."""
+    from torquemap._fit_kernels import savgol_acceleration
+
+    half = length // 2
+    even = _savgol_lags(length, h)[2]
+    heads = _savgol_kernels(length, 2, h)[1:]
+    columns = x[:, None] if x.ndim == 1 else x
+    outputs = []
+    for k in range(columns.shape[1]):
+        y = np.ascontiguousarray(columns[:, k], dtype=np.float64)
+        out = np.empty(y.size)
+        savgol_acceleration(y, even, out)
+        out[:half] = heads[0] @ (y[:length] - y[0]) + 0.0
+        out[-half:] = heads[1] @ (y[-length:] - y[0]) + 0.0
+        outputs.append(out)
+    if x.ndim == 1:
+        return outputs[0]
+    return np.stack(outputs, axis=1) if outputs else np.empty((0, x.shape[1]))
+
+
 def _savgol_columns(
     x: NDArray[np.float64], h: float, length: int, *, with_position: bool
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
@@ -427,14 +451,40 @@ def smooth_as_acceleration(t: ArrayLike, x: ArrayLike, *, window: float) -> NDAr
     >>> bool(np.allclose(acc, smoothed, atol=1e-4))
     True
     """
-    from scipy import integrate
-
     tt, xx = _time_and_values(t, x)
     mean = np.mean(xx, axis=0)  # a constant passes a unit-sum kernel unchanged
-    first = integrate.cumulative_trapezoid(xx - mean, tt, initial=0.0, axis=0)
-    second = integrate.cumulative_trapezoid(first, tt, initial=0.0, axis=0)
-    out: NDArray[np.float64] = differentiate_rates(tt, second, window=window).acceleration + mean
+    second = _double_integral(tt, xx, mean)
+    out: NDArray[np.float64] = _acceleration_rate(tt, second, window) + mean
     return out
+
+
+def _double_integral(
+    tt: NDArray[np.float64], xx: NDArray[np.float64], mean: NDArray[np.float64] | np.float64
+) -> NDArray[np.float64]:
+    """``cumulative_trapezoid`` (scipy's, ``initial=0.0``, along time) applied twice to ``xx
+    - mean`` over ``tt`` [s], shaped like ``xx`` ((n,) or (n, m)): the same numbers
+    (:func:`torquemap._fit_kernels.double_integral`), without five temporaries of the log's
+    size."""
+    from torquemap._fit_kernels import double_integral
+
+    columns = np.ascontiguousarray(xx.reshape(xx.shape[0], -1), dtype=np.float64)
+    centre = np.ascontiguousarray(np.reshape(mean, -1), dtype=np.float64)
+    out = double_integral(np.ascontiguousarray(tt, dtype=np.float64), columns, centre)
+    return out.reshape(xx.shape)
+
+
+def _acceleration_rate(t: ArrayLike, x: ArrayLike, window: float) -> NDArray[np.float64]:
+    """:func:`differentiate_rates`'s acceleration alone: the same checks, path and numbers
+    (:func:`_acceleration_uniform` on a regular grid), without the velocity."""
+    tt, xx = _time_and_values(t, x)
+    w = float(window)
+    n = tt.size
+    h = regular_step(tt, rtol=1e-9)
+    if h is not None and np.isfinite(w) and w > 0 and tt[-1] - tt[0] >= w:
+        half = math.floor(w / (2 * h) + 1e-9)
+        if half >= 2 and 2 * half + 1 <= n and n >= MIN_WINDOW_SAMPLES:
+            return _acceleration_uniform(xx, h, 2 * half + 1)
+    return differentiate(tt, xx, window=w).acceleration
 
 
 def _smooth_as_acceleration_at_step(
@@ -448,14 +498,11 @@ def _smooth_as_acceleration_at_step(
     :func:`smooth_as_acceleration` accepts, at least a window long and ``MIN_WINDOW_SAMPLES``
     samples).
     """
-    from scipy import integrate
-
     mean = np.mean(xx, axis=0)
-    first = integrate.cumulative_trapezoid(xx - mean, tt, initial=0.0, axis=0)
-    second = integrate.cumulative_trapezoid(first, tt, initial=0.0, axis=0)
+    second = _double_integral(tt, xx, mean)
     half = math.floor(window / (2 * step) + 1e-9) if step is not None else 0
     if step is not None and half >= 2 and 2 * half + 1 <= tt.size:
-        acc = _rates_uniform(second, step, 2 * half + 1).acceleration
+        acc = _acceleration_uniform(second, step, 2 * half + 1)
     else:
         acc = _differentiate_irregular(tt, second, window).acceleration
     out: NDArray[np.float64] = acc + mean
