@@ -186,6 +186,7 @@ def fit_onset(
     upper: float,
     actuation_max: int,
     form: OnsetForm = "power",
+    censored: bool = False,
 ) -> OnsetFit:
     """Fit the onset law to each position's curve between ``readable`` and ``upper`` [N m].
 
@@ -210,6 +211,16 @@ def fit_onset(
         zone ``d``, and ``n`` 1 (torque ~ current) or 2 (~ current squared): the onset's
         curvature then need not come from the dead zone. ``d``, ``c`` and ``n`` searched
         jointly over every position (one amplifier, shared by every phase and position).
+    censored
+        Also score each law on the censored readings: at every position, the readings below
+        its first reliable one (``< readable``) are censored: they bound the sensed torque
+        from above (the rig reads about zero below its static friction) but not from below
+        (the law's negative values read zero). A law whose curve, with that position's gains
+        and friction, rises above such a reading ``y`` pays the excess squared, in the same
+        units as the window's residual (a one-sided, Tobit-like term at the row's noise):
+        ``score = sum_window (law - y)^2 + sum_censored max(law - max(y, 0), 0)^2``. The
+        gains and friction are still solved on the window alone. Off by default: measured not to help
+        (docs/linearize.md, "stop 35 (L38)").
 
     Returns
     -------
@@ -231,6 +242,12 @@ def fit_onset(
         exponents, curves = CURRENT_EXPONENTS, CURVES
     else:
         exponents, curves = EXPONENTS, np.zeros(1)
+    # censored cells: below each fitted position's first reading of at least ``readable``
+    reliable = np.isfinite(forward) & (forward >= readable)
+    first = np.where(reliable.any(axis=1), np.argmax(reliable, axis=1), forward.shape[1])
+    below = (np.arange(forward.shape[1])[None, :] < first[:, None]) & np.isfinite(forward)
+    qp, qj = np.nonzero(below & enough[:, None]) if censored else (cp[:0], cj[:0])
+    qu, qr, qy = levels[qj], ramp[qp], np.maximum(forward[qp, qj], 0.0)
     tried: list[tuple[float, float, float, float]] = []
     if cp.size:
         # the search on at most SEARCH_CELLS cells spread evenly over the positions
@@ -241,7 +258,15 @@ def fit_onset(
             for ex in exponents:
                 for cv in curves:
                     design = _cell_design(su, sr, float(dz * top), float(ex), top, float(cv))
-                    v = float(np.sum(_solve_cells(sp, design, sy, n_pos)[1]))
+                    coef, sse = _solve_cells(sp, design, sy, n_pos)
+                    v = float(np.sum(sse))
+                    if qp.size:
+                        law = np.sum(
+                            _cell_design(qu, qr, float(dz * top), float(ex), top, float(cv))
+                            * coef[qp],
+                            axis=1,
+                        )
+                        v += float(np.sum(np.maximum(law - qy, 0.0) ** 2))
                     tried.append((v, float(dz * top), float(ex), float(cv)))
     d, n, c = 0.0, 1.0, 0.0
     if tried:

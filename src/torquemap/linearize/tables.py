@@ -1065,6 +1065,7 @@ def build_tables(
     bias_weight: float = 10.0,
     onset: bool = True,
     onset_form: OnsetForm = "power",
+    onset_censored: bool = False,
     handover: bool = True,
     detent: bool = True,
     surface: bool = True,
@@ -1126,6 +1127,10 @@ def build_tables(
         ``"power"`` (``max(a - d, 0)^n``) or ``"amplifier"`` (the amplifier's curved current
         past its dead zone, torque ~ current or ~ current squared). ``"power"`` by default
         (docs/linearize.md, "stop 35 (L37)").
+    onset_censored
+        With ``onset``: also score the law's search on the censored readings below each
+        position's first reliable one (``fit_onset(censored=True)``). Off by default
+        (docs/linearize.md, "stop 35 (L38)": measured not to help).
     handover
         ``"interp"`` only: between measured positions where one phase's ramp switches on or
         off, read that phase at its own actuation (:mod:`torquemap.linearize.handover`) when
@@ -1301,6 +1306,7 @@ def build_tables(
                 upper=0.3 * torque_max,
                 actuation_max=spec.actuation_max,
                 form=onset_form,
+                censored=onset_censored,
             )
             fine, _ = extend_below(
                 fine,
