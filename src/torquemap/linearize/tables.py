@@ -49,7 +49,7 @@ from torquemap.linearize.handover import check_handover, fill_handover
 from torquemap.linearize.knee import check_uncensored, knee_levels, pool_onset, uncensored_residual
 from torquemap.linearize.knee_track import cut_below_knee, knee_at, knee_between
 from torquemap.linearize.motor import MotorSpec
-from torquemap.linearize.onset import OnsetForm, extend_below, fit_onset
+from torquemap.linearize.onset import CensoredUse, OnsetForm, extend_below, fit_onset
 from torquemap.linearize.resume import check_collected_for
 from torquemap.linearize.sampling import (
     MATTERS,
@@ -1065,7 +1065,7 @@ def build_tables(
     bias_weight: float = 10.0,
     onset: bool = True,
     onset_form: OnsetForm = "power",
-    onset_censored: bool = False,
+    onset_censored: CensoredUse = "none",
     handover: bool = True,
     detent: bool = True,
     surface: bool = True,
@@ -1129,8 +1129,9 @@ def build_tables(
         (docs/linearize.md, "stop 35 (L37)").
     onset_censored
         With ``onset``: also score the law's search on the censored readings below each
-        position's first reliable one (``fit_onset(censored=True)``). Off by default
-        (docs/linearize.md, "stop 35 (L38)": measured not to help).
+        position's first reliable one: ``"score"`` or ``"ties"``
+        (:func:`torquemap.linearize.onset.fit_onset`'s ``censored``). ``"none"`` by default
+        (docs/linearize.md, "stop 35 (L38)").
     handover
         ``"interp"`` only: between measured positions where one phase's ramp switches on or
         off, read that phase at its own actuation (:mod:`torquemap.linearize.handover`) when
