@@ -55,6 +55,12 @@ CURRENT_EXPONENTS = np.array([1.0, 2.0])
 #: ``i(a)^n`` with the amplifier's current ``i`` a curve ``c`` past the dead zone and ``n``
 #: 1 or 2.
 OnsetForm = Literal["power", "amplifier"]
+#: How :func:`fit_onset` uses the censored readings (below each position's first reliable one):
+#: ``"none"`` not at all, ``"score"`` added to every law's score, ``"ties"`` to choose among the
+#: laws that fit the window nearly as well as the best (within :data:`TIE_TOLERANCE`).
+CensoredUse = Literal["none", "score", "ties"]
+#: Laws whose window residual is within this factor of the least are ties for ``"ties"``.
+TIE_TOLERANCE = 1.05
 #: Fewest readings in a position's window for it to be fitted.
 MIN_POINTS = 3
 #: Cells the search over dead zones and exponents runs on (spread over the positions).
@@ -186,6 +192,7 @@ def fit_onset(
     upper: float,
     actuation_max: int,
     form: OnsetForm = "power",
+    censored: CensoredUse = "none",
 ) -> OnsetFit:
     """Fit the onset law to each position's curve between ``readable`` and ``upper`` [N m].
 
@@ -210,6 +217,18 @@ def fit_onset(
         zone ``d``, and ``n`` 1 (torque ~ current) or 2 (~ current squared): the onset's
         curvature then need not come from the dead zone. ``d``, ``c`` and ``n`` searched
         jointly over every position (one amplifier, shared by every phase and position).
+    censored
+        Also score each law on the censored readings: at every position, the readings below
+        its first reliable one (``< readable``) are censored: they bound the sensed torque
+        from above (the rig reads about zero below its static friction) but not from below
+        (the law's negative values read zero). A law whose curve, with that position's gains
+        and friction, rises above such a reading ``y`` pays the excess squared, in the same
+        units as the window's residual (a one-sided, Tobit-like term at the row's noise),
+        ``excess = sum_censored max(law - max(y, 0), 0)^2``; the gains and friction are still
+        solved on the window alone. ``"score"``: each law scored by
+        ``sum_window (law - y)^2 + excess``; ``"ties"``: among the laws whose window residual
+        is within :data:`TIE_TOLERANCE` of the least, the least ``excess`` (instead of the
+        smallest dead zone). ``"none"`` by default (docs/linearize.md, "stop 35 (L38)").
 
     Returns
     -------
@@ -218,6 +237,8 @@ def fit_onset(
     """
     if form not in ("power", "amplifier"):
         raise ValueError(f"form must be 'power' or 'amplifier', got {form!r}")
+    if censored not in ("none", "score", "ties"):
+        raise ValueError(f"censored must be 'none', 'score' or 'ties', got {censored!r}")
     n_pos, m = ramp.shape
     inside = np.isfinite(forward) & (forward >= readable) & (forward <= upper)
     enough = inside.sum(axis=1) >= MIN_POINTS
@@ -231,7 +252,14 @@ def fit_onset(
         exponents, curves = CURRENT_EXPONENTS, CURVES
     else:
         exponents, curves = EXPONENTS, np.zeros(1)
+    # censored cells: below each fitted position's first reading of at least ``readable``
+    reliable = np.isfinite(forward) & (forward >= readable)
+    first = np.where(reliable.any(axis=1), np.argmax(reliable, axis=1), forward.shape[1])
+    below = (np.arange(forward.shape[1])[None, :] < first[:, None]) & np.isfinite(forward)
+    qp, qj = np.nonzero(below & enough[:, None]) if censored != "none" else (cp[:0], cj[:0])
+    qu, qr, qy = levels[qj], ramp[qp], np.maximum(forward[qp, qj], 0.0)
     tried: list[tuple[float, float, float, float]] = []
+    excess: list[float] = []
     if cp.size:
         # the search on at most SEARCH_CELLS cells spread evenly over the positions
         pick = np.unique(np.linspace(0, cp.size - 1, min(cp.size, SEARCH_CELLS)).astype(int))
@@ -241,8 +269,19 @@ def fit_onset(
             for ex in exponents:
                 for cv in curves:
                     design = _cell_design(su, sr, float(dz * top), float(ex), top, float(cv))
-                    v = float(np.sum(_solve_cells(sp, design, sy, n_pos)[1]))
-                    tried.append((v, float(dz * top), float(ex), float(cv)))
+                    coef, sse = _solve_cells(sp, design, sy, n_pos)
+                    v = float(np.sum(sse))
+                    e = 0.0
+                    if qp.size:
+                        law = np.sum(
+                            _cell_design(qu, qr, float(dz * top), float(ex), top, float(cv))
+                            * coef[qp],
+                            axis=1,
+                        )
+                        e = float(np.sum(np.maximum(law - qy, 0.0) ** 2))
+                    excess.append(e)
+                    score = v + e if censored == "score" else v
+                    tried.append((score, float(dz * top), float(ex), float(cv)))
     d, n, c = 0.0, 1.0, 0.0
     if tried:
         # among the laws that fit as well as the best (a linear law's dead zone trades with
@@ -251,6 +290,10 @@ def fit_onset(
         scale = float(np.sum(y * y))
         good = [t for t in tried if t[0] <= least * (1 + 1e-3) + 1e-12 * scale]
         _, d, n, c = min(good, key=lambda t: (t[1], abs(t[0] - least)))
+        if censored == "ties":
+            near = [k for k, t in enumerate(tried) if t[0] <= least * TIE_TOLERANCE]
+            k = min(near, key=lambda k: (excess[k], tried[k][0]))
+            _, d, n, c = tried[k]
     coef, _ = _solve_cells(cp, _cell_design(u, r, d, n, top, c), y, n_pos)
     active = ramp > 0
     gain = coef[:, :m] * active

@@ -49,7 +49,7 @@ from torquemap.linearize.handover import check_handover, fill_handover
 from torquemap.linearize.knee import check_uncensored, knee_levels, pool_onset, uncensored_residual
 from torquemap.linearize.knee_track import cut_below_knee, knee_at, knee_between
 from torquemap.linearize.motor import MotorSpec
-from torquemap.linearize.onset import OnsetForm, extend_below, fit_onset
+from torquemap.linearize.onset import CensoredUse, OnsetForm, extend_below, fit_onset
 from torquemap.linearize.resume import check_collected_for
 from torquemap.linearize.sampling import (
     MATTERS,
@@ -1065,6 +1065,7 @@ def build_tables(
     bias_weight: float = 10.0,
     onset: bool = True,
     onset_form: OnsetForm = "power",
+    onset_censored: CensoredUse = "none",
     handover: bool = True,
     detent: bool = True,
     surface: bool = True,
@@ -1126,6 +1127,11 @@ def build_tables(
         ``"power"`` (``max(a - d, 0)^n``) or ``"amplifier"`` (the amplifier's curved current
         past its dead zone, torque ~ current or ~ current squared). ``"power"`` by default
         (docs/linearize.md, "stop 35 (L37)").
+    onset_censored
+        With ``onset``: also score the law's search on the censored readings below each
+        position's first reliable one: ``"score"`` or ``"ties"``
+        (:func:`torquemap.linearize.onset.fit_onset`'s ``censored``). ``"none"`` by default
+        (docs/linearize.md, "stop 35 (L38)").
     handover
         ``"interp"`` only: between measured positions where one phase's ramp switches on or
         off, read that phase at its own actuation (:mod:`torquemap.linearize.handover`) when
@@ -1301,6 +1307,7 @@ def build_tables(
                 upper=0.3 * torque_max,
                 actuation_max=spec.actuation_max,
                 form=onset_form,
+                censored=onset_censored,
             )
             fine, _ = extend_below(
                 fine,
