@@ -252,15 +252,24 @@ def differentiate_rates(t: ArrayLike, x: ArrayLike, *, window: float) -> Rates:
     (3.0, 6.0)
     """
     tt, xx = _time_and_values(t, x)
-    w = float(window)
+    uniform = _uniform_window(tt, float(window))
+    if uniform is not None:
+        return _rates_uniform(xx, *uniform)
+    d = differentiate(tt, xx, window=float(window))
+    return Rates(velocity=d.velocity, acceleration=d.acceleration)
+
+
+def _uniform_window(tt: NDArray[np.float64], w: float) -> tuple[float, int] | None:
+    """The regular step [s] of ``tt`` and the odd window length [samples] of ``w`` [s] when
+    the uniform-grid path applies (a regular log at least a window long, the window 5 samples
+    or more, the log at least ``MIN_WINDOW_SAMPLES``), else None."""
     n = tt.size
     h = regular_step(tt, rtol=1e-9)
     if h is not None and np.isfinite(w) and w > 0 and tt[-1] - tt[0] >= w:
         half = math.floor(w / (2 * h) + 1e-9)
         if half >= 2 and 2 * half + 1 <= n and n >= MIN_WINDOW_SAMPLES:
-            return _rates_uniform(xx, h, 2 * half + 1)
-    d = differentiate(tt, xx, window=w)
-    return Rates(velocity=d.velocity, acceleration=d.acceleration)
+            return h, 2 * half + 1
+    return None
 
 
 def _rates_uniform(x: NDArray[np.float64], h: float, length: int) -> Rates:
@@ -477,14 +486,10 @@ def _acceleration_rate(t: ArrayLike, x: ArrayLike, window: float) -> NDArray[np.
     """:func:`differentiate_rates`'s acceleration alone: the same checks, path and numbers
     (:func:`_acceleration_uniform` on a regular grid), without the velocity."""
     tt, xx = _time_and_values(t, x)
-    w = float(window)
-    n = tt.size
-    h = regular_step(tt, rtol=1e-9)
-    if h is not None and np.isfinite(w) and w > 0 and tt[-1] - tt[0] >= w:
-        half = math.floor(w / (2 * h) + 1e-9)
-        if half >= 2 and 2 * half + 1 <= n and n >= MIN_WINDOW_SAMPLES:
-            return _acceleration_uniform(xx, h, 2 * half + 1)
-    return differentiate(tt, xx, window=w).acceleration
+    uniform = _uniform_window(tt, float(window))
+    if uniform is not None:
+        return _acceleration_uniform(xx, *uniform)
+    return differentiate(tt, xx, window=float(window)).acceleration
 
 
 def _smooth_as_acceleration_at_step(
