@@ -352,3 +352,28 @@ def test_linearize_warns_of_a_cut_last_line(inputs: Path, tmp_path: Path, comman
     status, err = _run(argv)
     assert status == 0, err
     assert f"torquemap: warning: {cut}: the last line has no line end" in err
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["simulate", "fleet", "--robots", "1", "--days", "1", "--out"],
+        ["simulate", "actuator", "--out"],
+        ["simulate", "arm", "--out"],
+        ["fleet", "identify", "{FLEET.toml}", "--workers", "1", "-o"],
+    ],
+    ids=["simulate fleet", "simulate actuator", "simulate arm", "fleet identify"],
+)
+def test_an_output_folder_below_a_file_is_named(
+    inputs: Path, tmp_path: Path, argv: list[str]
+) -> None:
+    # before: "torquemap: error: .../a_file/out: Not a directory" (the OS's words, after the
+    # fleet was read); now the words of the other commands, before any work
+    (tmp_path / "a_file").write_text("x")
+    out = tmp_path / "a_file" / "out"
+    status, err = _run([*_argv(argv, _files(inputs), tmp_path), str(out)])
+    assert status == 2
+    assert err.strip() == (
+        f"torquemap: error: {out}: cannot create output folder: {tmp_path / 'a_file'} is a "
+        "file, not a folder"
+    )
