@@ -258,7 +258,7 @@ def read_table(path: str | os.PathLike[str]) -> Columns:
     Raises
     ------
     InputError
-        On a missing, empty, truncated or malformed file.
+        On a missing, empty, truncated or malformed file, or a folder.
     """
     import pyarrow as pa
     import pyarrow.csv as pacsv
@@ -268,6 +268,8 @@ def read_table(path: str | os.PathLike[str]) -> Columns:
     kind = _suffix(p)
     if not p.exists():
         raise InputError("file not found", path=p)
+    if p.is_dir():  # pyarrow would read a folder as an (empty) Parquet data set
+        raise InputError(f"is a folder, expected a {kind.lstrip('.').upper()} file", path=p)
     if p.stat().st_size == 0:
         raise InputError("file is empty", path=p)
     try:

@@ -210,7 +210,9 @@ def robot_from_dict(
     head = document["robot"]
     if not isinstance(head, Mapping):
         raise InputError("[robot] must be a table", path=p)
-    name = str(head.get("name", ""))
+    name = head.get("name", "")
+    if not isinstance(name, str):
+        raise InputError(f"[robot] name must be a string, got {name!r}", path=p)
     kinematics = head.get("kinematics", "none")
     own = _ROBOT_KEYS | arm_head_keys_or_error(kinematics, p)
     for key in head:

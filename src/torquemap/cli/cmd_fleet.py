@@ -98,8 +98,10 @@ def register_simulate(benches: argparse._SubParsersAction[Any]) -> None:
 
 
 def _simulate(args: argparse.Namespace) -> int:
+    from torquemap.cli.outputs import check_outputs
     from torquemap.sim.fleet import write_fleet, write_motor_fleet
 
+    check_outputs([], folders=[(args.out, ())])  # one line, before any work
     if args.motors:
         path = write_motor_fleet(args.out, robots=args.robots, days=args.days, seed=args.seed)
         print(f"wrote {path}")
@@ -114,8 +116,10 @@ def _simulate(args: argparse.Namespace) -> int:
 
 
 def _identify(args: argparse.Namespace) -> int:
+    from torquemap.cli.outputs import check_outputs
     from torquemap.fleet import DayOutcome, identify_fleet, read_fleet, summary_lines
 
+    check_outputs([], folders=[(args.output, ())])  # one line, before any work
     fleet = read_fleet(args.fleet)
 
     def tick(outcome: DayOutcome, done: int, total: int) -> None:

@@ -386,4 +386,5 @@ def _figures(args: argparse.Namespace) -> int:
         ),
     )
     print(f"wrote {len(written)} figures to {args.out}")
+    warn_cut_last_lines([p for p in (args.data, args.verification) if p is not None])
     return 0

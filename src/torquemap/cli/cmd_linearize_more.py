@@ -12,6 +12,7 @@ import sys
 from typing import Any
 
 from torquemap.cli.argtypes import float_in
+from torquemap.cli.outputs import warn_cut_last_lines
 
 
 def register(subparsers: argparse._SubParsersAction[Any]) -> None:
@@ -175,6 +176,7 @@ def _transfer(args: argparse.Namespace) -> int:
     )
     for warning in result.warnings:
         print(f"torquemap: warning: {args.second_motor}: {warning}", file=sys.stderr)
+    warn_cut_last_lines([args.first_data, args.few])  # after the run: a refusal stays one line
     return 0
 
 

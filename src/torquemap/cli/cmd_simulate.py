@@ -142,6 +142,7 @@ def _arm(args: argparse.Namespace) -> int:
 
     if args.random < 0:
         raise InputError(f"--random must be >= 0, got {args.random}")
+    check_outputs([], folders=[(args.out, ())])  # one line, before any work
     for name in ("free_duration", "task_duration"):
         if not 2.0 <= getattr(args, name) <= 600.0:
             raise InputError(f"--{name.replace('_', '-')} must be in [2, 600] s")

@@ -46,6 +46,9 @@ def _actuator(args: argparse.Namespace) -> int:
 
     if args.positions < 8:
         raise InputError(f"--positions must be at least 8, got {args.positions}")
+    from torquemap.cli.outputs import check_outputs
+
+    check_outputs([], folders=[(args.out, ())])  # one line, before any work
     written = write_actuator_bench(
         args.out, seed=args.seed, compensation_path=args.map, positions=args.positions
     )

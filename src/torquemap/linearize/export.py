@@ -142,8 +142,8 @@ def load_tables(path: str | os.PathLike[str]) -> TableSet:
     ------
     InputError
         On a missing, corrupt or truncated file, a missing array, inconsistent shapes, table
-        entries that are not integers in ``0 .. actuation_max``, or a torque scale that is not
-        a positive number.
+        entries that are not integers in ``0 .. actuation_max``, a torque scale that is not
+        a positive number, or a NaN or infinity in ``base`` or ``ramp``.
     """
     p = os.fspath(path)
     data = read_npz_arrays(p)
@@ -223,6 +223,14 @@ def load_tables(path: str | os.PathLike[str]) -> TableSet:
         value = getattr(tables, name)
         if not (math.isfinite(value) and value > 0):
             raise InputError(f"{name} is {value}, not a positive number: corrupt tables?", path=p)
+    for name in ("base", "ramp"):  # the builder writes finite values only (clipped, rounded)
+        values = getattr(tables, name)
+        if not np.all(np.isfinite(values)):
+            at = tuple(int(i) for i in np.argwhere(~np.isfinite(values))[0])
+            raise InputError(
+                f"array {name!r} holds {values[at]} at {list(at)}, not a number: corrupt tables?",
+                path=p,
+            )
     return tables
 
 
