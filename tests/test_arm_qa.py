@@ -20,7 +20,7 @@ from torquemap.estimate_arm import estimate_arm
 from torquemap.excite import exciting_trajectory
 from torquemap.filters import lowpass
 from torquemap.friction_law import StribeckFriction
-from torquemap.identify_arm import identify_arm
+from torquemap.identify_arm import ArmIdentification, identify_arm
 from torquemap.io import Log
 from torquemap.model import InertiaModel, JointModel, Model
 from torquemap.robot import Joint, Robot
@@ -95,16 +95,21 @@ def _simulate(arm: UrdfArm, seed: int, *, force: bool, duration: float) -> tuple
     return Log(t=t, q=q, motor_torque=tau_m, joint_names=arm.joint_names, path="sim.csv"), tau_ext
 
 
+def _identified(arm: UrdfArm, free: Log) -> ArmIdentification:
+    """``identify_arm`` from a zero start on ``arm`` (no PDTV lines) over the free log."""
+    start = Model(
+        robot=_robot(arm),
+        joints={n: JointModel(inertia=InertiaModel(constant=0.0), friction=_law(0.0), pdtv=())
+                for n in arm.joint_names},
+    )  # fmt: skip
+    return identify_arm(start, [free], max_samples=3000, pdtv_max_order=0)
+
+
 @pytest.fixture(scope="module")
 def identified() -> dict[str, object]:
     nominal, true_arm = _arms()
     free, _ = _simulate(true_arm, 1, force=False, duration=20.0)
-    start = Model(
-        robot=_robot(nominal),
-        joints={n: JointModel(inertia=InertiaModel(constant=0.0), friction=_law(0.0), pdtv=())
-                for n in nominal.joint_names},
-    )  # fmt: skip
-    result = identify_arm(start, [free], max_samples=3000, pdtv_max_order=0)
+    result = _identified(nominal, free)
     task, tau_ext = _simulate(true_arm, 2, force=True, duration=20.0)
     return {"model": result.model, "task": task, "tau_ext": tau_ext, "free": free}
 
@@ -246,12 +251,7 @@ def test_estimate_repeats_the_identifications_misfit(identified: dict[str, objec
     free, task = identified["free"], identified["task"]
     assert isinstance(free, Log) and isinstance(task, Log)
     wrong = urdf_arm(TWO_LINK, ["shoulder", "elbow"], end_effector="tool", gravity=(0, 0, -9.81))
-    start = Model(
-        robot=_robot(wrong),
-        joints={n: JointModel(inertia=InertiaModel(constant=0.0), friction=_law(0.0), pdtv=())
-                for n in wrong.joint_names},
-    )  # fmt: skip
-    result = identify_arm(start, [free], max_samples=3000, pdtv_max_order=0)
+    result = _identified(wrong, free)
     assert any("explains only" in w for w in result.warnings), result.warnings
     est = estimate_arm(result.model, task)
     assert est.warnings[0].startswith("the model's identification found it at odds"), est.warnings

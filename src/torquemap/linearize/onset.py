@@ -144,12 +144,6 @@ def onset_psi(
     return out
 
 
-def _psi(
-    a: NDArray[np.float64], d: float, n: float, top: float, c: float = 0.0
-) -> NDArray[np.float64]:
-    return onset_psi(a, d, n, top, c)
-
-
 def _solve_cells(
     cp: NDArray[np.int64], design: NDArray[np.float64], y: NDArray[np.float64], n: int
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -179,7 +173,7 @@ def _cell_design(
     c: float = 0.0,
 ) -> NDArray[np.float64]:
     """(cells, m + 1): psi(r_k u) per phase (0 where the phase is off), then -1."""
-    phi = _psi(r * u[:, None], d, n, top, c) * (r > 0)
+    phi = onset_psi(r * u[:, None], d, n, top, c) * (r > 0)
     return np.concatenate([phi, -np.ones((u.size, 1))], axis=1)
 
 
@@ -309,7 +303,7 @@ def onset_curve(
     """The law's sensed torque at base pulse widths ``u`` (shape (U,)), shape (P, U); NaN
     where the position was not fitted."""
     a = ramp[:, None, :] * u[None, :, None]
-    phi = _psi(a, fit.dead_zone, fit.exponent, float(top), fit.curve)
+    phi = onset_psi(a, fit.dead_zone, fit.exponent, float(top), fit.curve)
     g = np.where(np.isfinite(fit.gain), fit.gain, 0.0)
     out = (
         np.einsum("pum,pm->pu", phi, g)
