@@ -20,6 +20,7 @@ import tomli_w
 from numpy.typing import ArrayLike, NDArray
 
 from torquemap.errors import InputError
+from torquemap.log_quirks import register_overflow
 from torquemap.robot import Robot
 
 Columns = dict[str, NDArray[Any]]
@@ -844,6 +845,18 @@ def _log_arrays(
                     np.concatenate(([t[0] if last_t is None else last_t], t)),
                 )
                 counts = joined[1:] + (before - before_raw)
+            overflow = register_overflow(seen, cpr)
+            if overflow is not None:
+                bits, at = overflow
+                raise InputError(
+                    f"joint {joint.name}: {name} steps by {seen[at] - seen[at - 1]:+.0f} counts "
+                    f"at data row {first_row + at + (1 if last_counts is None else 0)}: a "
+                    f"{bits}-bit count register overflowed (or a signed count was written "
+                    f"unsigned), so the log holds the count only modulo 2**{bits} and the joint's "
+                    "angle is lost; log the count as a signed 64-bit number from the homed zero, "
+                    "or the joint angle in rad (position_unit)",
+                    path=p,
+                )
             if robot.kinematics == "urdf" and joint.gear_ratio != 1.0:
                 wrap = single_turn_wrap(seen, cpr)
                 if wrap is not None:
