@@ -62,3 +62,100 @@ def test_an_overflowing_count_register_is_refused(
         list(iter_log_chunks(p, COUNTS, rows=700))
     with pytest.raises(InputError, match=message):
         read_log(p, COUNTS)
+
+
+#: The paper bench's robot in rad, with its encoder declared.
+RAD = Robot(
+    name="m", kinematics="none", link_lengths=(), joints=(Joint("m", 100.0, 0.11, 8000, "rad"),)
+)
+
+
+@pytest.mark.parametrize(
+    ("scale", "says"),
+    [
+        (100.0, r"q_m holds the motor angle, not the joint angle \(the 100:1 gear not applied\)"),
+        (1 / 100.0, r"q_m holds the joint angle divided by the gear ratio once more"),
+        (100.0 / (2 * math.pi), r"q_m holds motor turns \(as ODrive's pos_estimate\)"),
+        (1 / (2 * math.pi), r"q_m holds joint turns, not rad: multiply it by 2 pi"),
+        (180 / math.pi, r"q_m holds degrees, not rad"),
+    ],
+)
+def test_an_angle_in_another_unit_is_named(scale: float, says: str) -> None:
+    # Before: identified and estimated alike (random SCARA 7), forces 35 to 39 N off, exit 0;
+    # a model from good logs refused such a task log as "a log from another robot?".
+    from torquemap.estimate import check_log_angle_units
+    from torquemap.identify import identify_model
+    from torquemap.log_quirks import check_angle_units
+    from torquemap.model import model_from_dict
+
+    cols = _counts()
+    cols["q_m"] = cols["q_m"] * (2 * math.pi / 8000 / 100.0)  # the joint angle [rad]
+    check_angle_units([log_from_columns(cols, RAD)], RAD)  # the clean log passes
+    cols["q_m"] = cols["q_m"] * scale
+    log = log_from_columns(cols, RAD, path="sweep.csv")
+    with pytest.raises(InputError, match=r"sweep.csv: joint m: the log's angle moves in steps "):
+        identify_model(RAD, [log])
+    with pytest.raises(InputError, match=says):
+        identify_model(RAD, [log])
+    document = {
+        "robot": {"kinematics": "none"},
+        "joints": {"m": {"gear_ratio": 100.0, "torque_constant": 0.11}},
+        "identification": {"joints": {"m": {"motor_angle_quantum": 2 * math.pi / 8000}}},
+    }
+    model = model_from_dict(document)
+    check_log_angle_units(model, log_from_columns(_counts(), COUNTS))  # the clean log passes
+    with pytest.raises(InputError, match=says):
+        check_log_angle_units(model, log)
+
+
+def _wrap(period: float) -> object:
+    """Stamps of a counter that wraps every ``period`` [s], read as seconds."""
+    return lambda t: (t + period - 1.5) % period  # wraps 1.5 s into the log
+
+
+def _interleaved(t: np.ndarray) -> np.ndarray:
+    late = t.copy()
+    late[1::2] += 0.0123  # every other row stamped by the host, 12 ms late
+    return late
+
+
+def _swapped(t: np.ndarray) -> np.ndarray:
+    out = t.copy()
+    out[[2100, 2101]] = out[[2101, 2100]]
+    return out
+
+
+@pytest.mark.parametrize(
+    ("stamp", "says"),
+    [
+        (
+            _wrap(2**32 * 1e-6),
+            r"\(at data row 1501\): t falls by 4294.97 s: a 32-bit microsecond time stamp counter "
+            r"wrapped \(every 4294.967296 s\); add 4294.967296 s to t from data row 1501 on",
+        ),
+        (
+            _wrap(2**16 * 1e-3),
+            r"\(at data row 1501\): t falls by 65.535 s: a 16-bit millisecond time stamp counter "
+            r"wrapped \(every 65.536 s\); add 65.536 s to t from data row 1501 on",
+        ),
+        (
+            _interleaved,
+            r"\(at data row 3\): t goes back on \d+ of its \d+ steps \(by 0.0113 s in the "
+            r"median\): time stamps of two clocks interleaved",
+        ),
+        (
+            _swapped,
+            r"\(at data row 2102\): data rows 2101 and 2102 are out of order \(t 2.101 then 2.1\)",
+        ),
+    ],
+)
+def test_time_going_back_says_why(tmp_path: Path, stamp: object, says: str) -> None:
+    # Before: "time 't' goes backwards (at data row 1501)" and nothing more.
+    cols = _counts()
+    cols["t"] = stamp(cols["t"])  # type: ignore[operator]
+    with pytest.raises(InputError, match=r"time 't' goes backwards " + says):
+        log_from_columns(cols, COUNTS)
+    p = tmp_path / "log.parquet"  # in chunks, the fault in a later chunk: the same words
+    write_table(p, cols)
+    with pytest.raises(InputError, match=r"time 't' goes backwards " + says):
+        list(iter_log_chunks(p, COUNTS, rows=1400))

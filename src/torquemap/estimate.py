@@ -42,6 +42,7 @@ from torquemap._callable import make_callable as _make_callable
 from torquemap.errors import InputError
 from torquemap.filters import Rates, differentiate_rates, lowpass, regular_step
 from torquemap.io import Log
+from torquemap.log_quirks import angle_unit_hint, motor_angle_quantum
 from torquemap.model import Model, friction_torque, pdtv_torque
 from torquemap.pdtv import (
     PositionSignal,
@@ -699,6 +700,7 @@ def estimate_forces(
         raise InputError(f"differentiation window must be positive, got {window!r} s")
     robot = model.robot
     if check_robot:
+        check_log_angle_units(model, log)
         check_log_matches_model(model, log)
         check_log_steps_exact(model, log)
     n, nj = log.t.size, len(robot.joints)
@@ -1339,6 +1341,33 @@ def _motor_steps(model: Model, log: Log) -> Iterator[tuple[int, Joint, float, ND
             continue
         step = np.abs(np.diff(joint.gear_ratio * log.q[:, k]))
         yield k, joint, float(quantum), step[step > 1e-12]
+
+
+def check_log_angle_units(model: Model, log: Log) -> None:
+    """Refuse a log whose angles move by whole encoder counts of another unit or side of the
+    gear than the model's robot (:func:`torquemap.log_quirks.angle_unit_hint`).
+
+    Where identification recorded a joint's ``motor_angle_quantum`` and the log moves by
+    whole multiples of its own smallest step (:func:`torquemap.log_quirks.motor_angle_quantum`),
+    that step over the model's is 1 for the joint angle in rad, the gear ratio for the motor
+    angle, ``gear_ratio / 2 pi`` for motor turns, and so on. Before (new-user QA, stop 36), a
+    motor angle of the paper bench (100:1: whole counts, 100 at a time) passed the checks
+    below, and other ratios were refused as "a log from another robot?".
+    """
+    for k, joint, quantum, _ in _motor_steps(model, log):
+        if joint.position_unit != "rad":
+            continue
+        own = motor_angle_quantum(log.q[:, k], joint.gear_ratio)
+        if not own:
+            continue
+        ratio = own / quantum
+        hint = angle_unit_hint(ratio, gear_ratio=joint.gear_ratio, column=f"q_{joint.name}")
+        if hint is not None:
+            raise InputError(
+                f"joint {joint.name}: the log's motor angle moves in steps of {ratio:.4g} "
+                f"encoder counts of the model's robot: {hint}",
+                path=log.path,
+            )
 
 
 #: Steps of at most this many encoder counts decide whether a log is of the model's robot.

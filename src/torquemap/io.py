@@ -20,7 +20,7 @@ import tomli_w
 from numpy.typing import ArrayLike, NDArray
 
 from torquemap.errors import InputError
-from torquemap.log_quirks import register_overflow
+from torquemap.log_quirks import backwards_time_hint, register_overflow
 from torquemap.robot import Robot
 
 Columns = dict[str, NDArray[Any]]
@@ -672,8 +672,11 @@ def check_time(t: NDArray[np.float64], path: str | os.PathLike[str], *, first_ro
         raise InputError("log needs at least two samples", path=path)
     step = np.diff(t)
     if not np.all(step >= 0):
-        row = int(np.argmax(step < 0)) + 2 + first_row
-        raise InputError(f"time 't' goes backwards (at data row {row})", path=path)
+        at = int(np.argmax(step < 0))
+        hint = backwards_time_hint(t, at, first_row=first_row)
+        raise InputError(
+            f"time 't' goes backwards (at data row {at + 2 + first_row}){hint}", path=path
+        )
     if not np.any(step > 0):
         raise InputError("time 't' never advances" + _float32_time_note(t), path=path)
 
@@ -1143,8 +1146,12 @@ class _ChunkChain:
         joined = t if self.last_t is None else np.concatenate(([self.last_t], t))
         step = np.diff(joined)
         if step.size and not np.all(step >= 0):
-            row = int(np.argmax(step < 0)) + first_row + (2 if self.last_t is None else 1)
-            raise InputError(f"time 't' goes backwards (at data row {row})", path=self.path)
+            at = int(np.argmax(step < 0))
+            offset = first_row - (0 if self.last_t is None else 1)
+            hint = backwards_time_hint(joined, at, first_row=offset)
+            raise InputError(
+                f"time 't' goes backwards (at data row {at + 2 + offset}){hint}", path=self.path
+            )
         self.advanced = self.advanced or bool(np.any(step > 0))
         for k, joint in enumerate(robot.joints):
             if joint.position_unit != "counts":

@@ -10,8 +10,18 @@ decimals (:func:`coarse_time_warning`), angles in another unit or on the other s
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 from numpy.typing import NDArray
+
+from torquemap.errors import InputError
+from torquemap.robot import Robot
+
+if TYPE_CHECKING:
+    from torquemap.io import Log
 
 #: Widths [bits] of the count registers drives and encoder interfaces keep: 16-bit timers in
 #: encoder mode, 32-bit shadow counts (ODrive's ``shadow_count``, CiA 402's position actual
@@ -75,3 +85,156 @@ def register_overflow(raw: NDArray[np.float64], cpr: float) -> tuple[int, int] |
         if signed or unsigned:
             return bits, int(np.argmax(wraps)) + 1
     return None
+
+
+#: How close [relative] a ratio of angle steps must come to a unit mix-up to be named one.
+UNIT_MATCH = 0.02
+
+
+def angle_unit_hint(ratio: float, *, gear_ratio: float, column: str) -> str | None:
+    """What a log's angle holds when its encoder count is ``ratio`` times the robot's, else None.
+
+    ``ratio`` is the motor-angle step of one encoder count as the log reads (its angle times
+    the gear ratio, as if in rad) over the robot's (``2 pi / encoder_counts_per_rev``): 1 for a
+    joint angle in rad; ``gear_ratio`` for the motor angle (the gear not applied), ``1 /
+    gear_ratio`` for the gear applied twice, ``gear_ratio / 2 pi`` for motor turns (ODrive's
+    ``pos_estimate``), ``1 / 2 pi`` for joint turns, ``180 / pi`` for degrees, each within
+    :data:`UNIT_MATCH`. Such a log, identified and estimated alike, gave exit 0 and forces 35 to
+    39 N off (random SCARA 7, 1.2 N clean; new-user QA, stop 36).
+
+    Examples
+    --------
+    >>> angle_unit_hint(46.2, gear_ratio=46.2, column="q_a")[:46]
+    'q_a holds the motor angle, not the joint angle'
+    >>> angle_unit_hint(1.0, gear_ratio=46.2, column="q_a") is None
+    True
+    """
+    n = float(gear_ratio)
+    deg = 180.0 / np.pi
+    turn = 2.0 * np.pi
+    candidates = (
+        (n, f"{column} holds the motor angle, not the joint angle (the {n:g}:1 gear not applied): divide it by gear_ratio"),
+        (1.0 / n, f"{column} holds the joint angle divided by the gear ratio once more ({n:g}:1 applied twice)"),
+        (n / turn, f"{column} holds motor turns (as ODrive's pos_estimate), not the joint angle in rad: set position_unit = 'turns'"),
+        (1.0 / turn, f"{column} holds joint turns, not rad: multiply it by 2 pi"),
+        (deg, f"{column} holds degrees, not rad: convert it to rad"),
+        (n * deg, f"{column} holds the motor angle in degrees, not the joint angle in rad"),
+    )  # fmt: skip
+    for value, text in candidates:
+        if value != 1.0 and abs(ratio / value - 1.0) < UNIT_MATCH:
+            return text
+    return None
+
+
+def motor_angle_quantum(q: NDArray[np.float64], gear_ratio: float) -> float:
+    """One encoder count at the motor [rad] when the joint angles ``q`` [rad] move by whole
+    counts (95 % of the steps within 2 % of a whole number of the smallest), else 0 (as
+    identification records ``motor_angle_quantum``).
+
+    Examples
+    --------
+    >>> round(motor_angle_quantum(np.array([0.0, 1, 3, 4, 7, 8, 6, 5] * 4) * 1e-3, 10.0), 12)
+    0.01
+    """
+    step = np.abs(np.diff(gear_ratio * np.asarray(q, dtype=np.float64)))
+    step = step[step > 1e-12]
+    if step.size < 20:
+        return 0.0
+    quantum = float(np.min(step))  # as torquemap.identify records it
+    ratio = step / quantum
+    whole = np.abs(ratio - np.round(ratio)) < 0.02 * np.maximum(1.0, ratio)
+    return quantum if float(np.mean(whole)) > 0.95 else 0.0
+
+
+def check_angle_units(logs: Sequence[Log], robot: Robot) -> None:
+    """Refuse a log whose angles move by whole encoder counts of another unit or side of the
+    gear than the robot file's (:func:`angle_unit_hint`): the motor angle, turns, degrees.
+
+    Only joints in rad with ``encoder_counts_per_rev`` and quantised logs are checked (a drive's
+    filtered estimate, ODrive's ``pos_estimate``, is no whole count: nothing to compare).
+    Identified and estimated alike, such logs gave a model consistent with them and forces 35
+    to 39 N off, exit 0 (random SCARA 7; new-user QA, stop 36).
+
+    Raises
+    ------
+    InputError
+        Naming the log, the joint and what its angle holds.
+    """
+    for k, joint in enumerate(robot.joints):
+        cpr = joint.encoder_counts_per_rev
+        if not cpr or joint.position_unit != "rad":
+            continue
+        for log in logs:
+            quantum = motor_angle_quantum(log.q[:, k], joint.gear_ratio)
+            if not quantum:
+                continue
+            ratio = quantum / (2.0 * math.pi / cpr)
+            hint = angle_unit_hint(ratio, gear_ratio=joint.gear_ratio, column=f"q_{joint.name}")
+            if hint is not None:
+                raise InputError(
+                    f"joint {joint.name}: the log's angle moves in steps of {ratio:.4g} encoder "
+                    f"counts of the robot file ({cpr} per motor turn, {joint.gear_ratio:g}:1): "
+                    f"{hint}",
+                    path=log.path,
+                )
+
+
+#: Time stamp counters: (bits, tick [s], name). A counter of ``bits`` bits that counts ticks
+#: wraps every ``2**bits`` ticks: a 32-bit microsecond counter every 71.6 min, a 16-bit
+#: millisecond counter every 65.5 s.
+TIME_COUNTERS = (
+    (16, 1e-6, "microsecond"),
+    (16, 1e-3, "millisecond"),
+    (32, 1e-9, "nanosecond"),
+    (32, 1e-6, "microsecond"),
+    (32, 1e-3, "millisecond"),
+)
+
+
+def backwards_time_hint(t: NDArray[np.float64], at: int, *, first_row: int = 0) -> str:
+    """What makes time ``t`` [s] go back between samples ``at`` and ``at + 1``, as ``": ..."``
+    to add to the refusal, or "" when nothing is recognised.
+
+    Recognised: a time stamp counter that wrapped (:data:`TIME_COUNTERS`: ``t`` falls by its
+    period less about one step); time stamps of two clocks interleaved, or rows not in time
+    order (``t`` goes back on more than one step in a hundred); two rows out of order (swapping
+    them puts ``t`` in order). ``first_row`` is the data row (0-based) of ``t[0]`` in its file.
+    Before (new-user QA, stop 36), each of these was refused as "time 't' goes backwards (at
+    data row 2789)" alone.
+
+    Examples
+    --------
+    >>> t = (np.arange(100) * 1e-3 + 4294.9 ) % 4294.967296
+    >>> backwards_time_hint(t, int(np.argmax(np.diff(t) < 0)))[:66]
+    ': t falls by 4294.97 s: a 32-bit microsecond time stamp counter wr'
+    >>> backwards_time_hint(np.array([0.0, 1, 3, 2, 4, 5]), 2)[:49]
+    ': data rows 3 and 4 are out of order (t 3 then 2)'
+    """
+    step = np.diff(t)
+    forward = step[step > 0]
+    typical = float(np.median(forward)) if forward.size else 0.0
+    drop = float(t[at] - t[at + 1])
+    for bits, tick, name in TIME_COUNTERS:
+        period = 2.0**bits * tick
+        if period > 10.0 * typical and abs(drop + typical - period) <= max(3.0 * typical, tick):
+            return (
+                f": t falls by {drop:.6g} s: a {bits}-bit {name} time stamp counter wrapped "
+                f"(every {period:.10g} s); add {period:.10g} s to t from data row "
+                f"{first_row + at + 2} on (and at each later wrap)"
+            )
+    back = int(np.count_nonzero(step < 0))
+    if back > max(1, step.size // 100):
+        drops = -step[step < 0]
+        return (
+            f": t goes back on {back} of its {step.size} steps (by {float(np.median(drops)):.3g} "
+            "s in the median): time stamps of two clocks interleaved (the host's and the "
+            "device's?) or rows not in time order; keep one clock's stamps, in order"
+        )
+    before = t[at - 1] if at > 0 else -np.inf
+    after = t[at + 2] if at + 2 < t.size else np.inf
+    if before <= t[at + 1] <= t[at] <= after:
+        return (
+            f": data rows {first_row + at + 1} and {first_row + at + 2} are out of order (t "
+            f"{t[at]:.10g} then {t[at + 1]:.10g}); sort the rows by t"
+        )
+    return ""
