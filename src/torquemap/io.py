@@ -20,7 +20,12 @@ import tomli_w
 from numpy.typing import ArrayLike, NDArray
 
 from torquemap.errors import InputError
-from torquemap.log_quirks import backwards_time_hint, register_overflow
+from torquemap.log_quirks import (
+    backwards_time_hint,
+    cell_hint,
+    decimal_comma_rows,
+    register_overflow,
+)
 from torquemap.robot import Robot
 
 Columns = dict[str, NDArray[Any]]
@@ -237,9 +242,27 @@ def _parse_hint(path: Path) -> str:
     shown = head if len(head) <= 40 else head[:37] + "..."
     if head.startswith("#"):
         return f"; the first line {shown!r} is a comment: the first line must be the header"
+    try:
+        with path.open("rb") as f:
+            lines = f.read(4096).splitlines()
+        row = lines[1].decode("utf-8", "replace") if len(lines) > 1 else ""
+    except OSError:
+        row = ""
     for sep, name in ((";", "semicolons"), ("\t", "tabs")):
         if sep in head and "," not in head.replace(sep, ""):
-            return f"; the header {shown!r} is separated by {name}: separate columns with commas"
+            commas = " and decimal points" if re.search(r"\d,\d", row) else ""
+            return (
+                f"; the header {shown!r} is separated by {name}: separate columns with "
+                f"commas{commas}"
+            )
+    if decimal_comma_rows(row, head):
+        return (
+            "; the rows hold more commas than the header: decimal commas? write numbers with a "
+            "decimal point"
+        )
+    cells = row.split(",")
+    if row and all(cell_hint(c, 1).startswith(": a units row") for c in cells):
+        return "; the first row is" + cell_hint(cells[0], 1)[1:]
     return ""
 
 
@@ -445,7 +468,7 @@ def numeric_column(
             again = (
                 ": the header again (files joined with their headers?); keep the first only"
                 if isinstance(cell, str) and cell.strip() == name
-                else ""
+                else cell_hint(cell, first_row + row + 1)
             )
             raise InputError(
                 f"column {name!r} is not numeric (data row {first_row + row + 1}: {cell!r}){again}",

@@ -2,15 +2,18 @@
 
 Each function recognises one quirk that a simulated bench does not produce and that, read as
 written, gave a wrong number or a refusal that did not say why (docs/safety.md, "Log quirks
-QA"): an encoder count register that overflows (:func:`register_overflow`), a time stamp counter
-that wraps or rows out of order (:func:`backwards_time_hint`), time stamps rounded to a few
-decimals (:func:`coarse_time_warning`), angles in another unit or on the other side of the gear
-(:func:`angle_unit_hint`), and a units row or decimal commas in a CSV (:func:`cell_hint`).
+QA"): an encoder count register that overflows
+(:func:`torquemap.log_quirks.register_overflow`), a time stamp counter that wraps or rows out of
+order (:func:`torquemap.log_quirks.backwards_time_hint`), time stamps rounded to a few decimals
+(:func:`torquemap.log_quirks.coarse_time_warning`), angles in another unit or on the other side
+of the gear (:func:`torquemap.log_quirks.angle_unit_hint`), and a units row or decimal commas in
+a CSV (:func:`torquemap.log_quirks.cell_hint`).
 """
 
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
@@ -238,3 +241,113 @@ def backwards_time_hint(t: NDArray[np.float64], at: int, *, first_row: int = 0) 
             f"{t[at]:.10g} then {t[at + 1]:.10g}); sort the rows by t"
         )
     return ""
+
+
+#: A time stamp's decimal quantum this large against the median time step [fraction] is warned
+#: of (:func:`coarse_time_warning`).
+COARSE_TIME = 0.25
+
+
+def time_decimals(t: NDArray[np.float64]) -> int | None:
+    """The fewest decimals (0 to 9) that hold 99 % of the time stamps ``t`` [s] exactly (as
+    written to a CSV with a fixed format), else None.
+
+    Examples
+    --------
+    >>> time_decimals(np.round(np.arange(100) / 400.0, 3))
+    3
+    >>> time_decimals(np.arange(100) / 3.0) is None
+    True
+    """
+    for digits in range(10):
+        scaled = t * 10.0**digits
+        off = np.abs(scaled - np.round(scaled))
+        if float(np.mean(off <= 1e-6 * np.maximum(1.0, np.abs(scaled) * 1e-9))) >= 0.99:
+            return digits
+    return None
+
+
+def coarse_time_warning(t: NDArray[np.float64]) -> str | None:
+    """A warning when the time stamps ``t`` [s] are rounded to a decimal that is a large part
+    (:data:`COARSE_TIME`) of the time step and the steps vary by it, else None.
+
+    A 400 Hz log whose ``t`` was written with 3 decimals steps 2 and 3 ms in turn: each stamp
+    is off by up to 0.5 ms, noise the differentiator reads as speed and acceleration (random
+    SCARA 7: force error 1.41 N against 1.20 N, exit 0 and no word; new-user QA, stop 36). A log
+    whose steps are all the same whole number of such decimals (1 kHz in whole ms) is exact:
+    None. Rounding that repeats stamps is named by :func:`torquemap.sanitize.sanitize_log`.
+
+    Examples
+    --------
+    >>> coarse_time_warning(np.round(np.arange(100) / 400.0, 3))[:62]
+    "'t' is written with 3 decimals (steps of 0.001 s, 40% of its t"
+    >>> coarse_time_warning(np.arange(100) / 1000.0) is None
+    True
+    """
+    step = np.diff(t)
+    step = step[step > 0]
+    if step.size < 10:
+        return None
+    median = float(np.median(step))
+    typical = float(np.mean(step[step <= 2.0 * median]))  # the rate's step, gaps left out
+    digits = time_decimals(t)
+    if digits is None:
+        return None
+    quantum = 10.0**-digits
+    if quantum < COARSE_TIME * typical or float(np.ptp(step)) < 0.5 * quantum:
+        return None
+    return (
+        f"'t' is written with {digits} decimals (steps of {quantum:g} s, {quantum / typical:.0%} "
+        f"of its time step {typical:.3g} s): each stamp may be off by up to "
+        f"{quantum / 2:g} s, which the differentiator reads as speed and acceleration noise; "
+        "write t with all its digits"
+    )
+
+
+_DECIMAL_COMMA = re.compile(r"^\s*[+-]?\d+,\d+([eE][+-]?\d+)?\s*$")
+_UNIT = re.compile(r"^\s*[\[(]?\s*[A-Za-z%°µ][A-Za-z0-9%°µ/*.^ _-]*[\])]?\s*$")
+
+
+def cell_hint(cell: object, data_row: int) -> str:
+    """What a text cell of a numeric column says about the file, as ``": ..."``, or "".
+
+    A number with a decimal comma (``'0,0025'``, a spreadsheet's export in a European locale);
+    a unit (``'s'``, ``'[rad]'``) on the first data row, the units row some loggers write under
+    the header. ``data_row`` is the cell's data row, 1-based. Before (new-user QA, stop 36):
+    "column 't' is not numeric (data row 1: 's')" alone.
+
+    Examples
+    --------
+    >>> cell_hint("0,0025", 7)
+    ': decimal commas: write numbers with a decimal point'
+    >>> cell_hint("[rad]", 1)
+    ': a units row under the header? delete it (the names carry no unit: t in s, q in rad, i in A)'
+    >>> cell_hint("rad", 5)
+    ''
+    """
+    if not isinstance(cell, str):
+        return ""
+    if _DECIMAL_COMMA.match(cell):
+        return ": decimal commas: write numbers with a decimal point"
+    if data_row == 1 and _UNIT.match(cell):
+        return (
+            ": a units row under the header? delete it (the names carry no unit: t in s, q in "
+            "rad, i in A)"
+        )
+    return ""
+
+
+def decimal_comma_rows(line: str, header: str) -> bool:
+    """Whether a CSV data ``line`` holds more commas than its comma-separated ``header``
+    because its numbers have decimal commas (``0,0025,-0,168`` under ``t,q_a``).
+
+    Examples
+    --------
+    >>> decimal_comma_rows("0,0025,-0,168", "t,q_a")
+    True
+    >>> decimal_comma_rows("0.0025,-0.168", "t,q_a")
+    False
+    """
+    fields = line.count(",") + 1
+    names = header.count(",") + 1
+    return fields > names and "." not in line and re.search(r"\d,\d", line) is not None
