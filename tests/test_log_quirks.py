@@ -209,3 +209,69 @@ def test_a_units_row_and_decimal_commas_are_named(
     if "units" in says:  # the block reader of large logs (estimate) says it too
         with pytest.raises(InputError, match=r"the first row is a units row under the header\?"):
             list(iter_log_chunks(p, COUNTS))
+
+
+def _bag(path: Path, publishers: list[tuple[str, tuple[str, ...], int, int]]) -> Path:
+    """A ROS 1 bag on /joint_states: per publisher (caller id, joints, every n-th sample, stamp
+    delay [ns]), JointState messages of one 400 Hz motion (q = sin t, effort = cos t)."""
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    types = store.types
+    state, header, time = (
+        types["sensor_msgs/msg/JointState"],
+        types["std_msgs/msg/Header"],
+        types["builtin_interfaces/msg/Time"],
+    )
+    items = []
+    with Writer(path) as writer:
+        for caller, joints, every, delay in publishers:
+            conn = writer.add_connection(
+                "/joint_states", "sensor_msgs/msg/JointState", typestore=store, callerid=caller
+            )
+            for k in range(0, 800, every):
+                items.append((1_700_000_000 * 10**9 + k * 2_500_000 + delay, conn, joints, k))
+        for seq, (ns, conn, joints, k) in enumerate(sorted(items, key=lambda x: x[0])):
+            msg = state(
+                header=header(
+                    seq=seq, stamp=time(sec=ns // 10**9, nanosec=ns % 10**9), frame_id=""
+                ),
+                name=list(joints),
+                position=np.full(len(joints), math.sin(k * 0.0025)),
+                velocity=np.zeros(len(joints)),
+                effort=np.full(len(joints), math.cos(k * 0.0025)),
+            )
+            writer.write(conn, ns, store.serialize_ros1(msg, "sensor_msgs/msg/JointState"))
+    return path
+
+
+def test_a_bag_with_a_second_publisher_reads_the_driver_alone(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Before: a relay republishing every 4th state 20 ms late was merged in time order, its
+    # stale copies read as the joints stepping back and forth (random SCARA 7's circle: forces
+    # 8.2 N off against 1.2 N, exit 0); joints published in separate messages were refused
+    # without saying so.
+    from torquemap.cli.main import main
+    from torquemap.io import read_table, write_toml
+
+    robot = tmp_path / "robot.toml"
+    write_toml(robot, {"robot": {"kinematics": "none"}, "joints": {"a": {"gear_ratio": 1.0, "torque_constant": 0.1}}})  # fmt: skip
+    bag = _bag(
+        tmp_path / "relay.bag", [("/drive", ("a",), 1, 0), ("/relay", ("a",), 4, 20_000_000)]
+    )
+    out = tmp_path / "log.csv"
+    assert main(["import", "rosbag", str(bag), "--robot", str(robot), "-o", str(out), "--effort", "current"]) == 0  # fmt: skip
+    err = capsys.readouterr().err
+    assert "more than one publisher on /joint_states sends every joint" in err
+    assert "dropped /relay's 200" in err
+    log = read_table(out)
+    # the driver's own stamps (integer ns times 1e-9: within a rounding of float64)
+    np.testing.assert_allclose(log["t"], np.arange(800) * 0.0025, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(log["q_a"], np.sin(np.arange(800) * 0.0025), rtol=0, atol=1e-15)
+    bag = _bag(tmp_path / "split.bag", [("/drive_a", ("a",), 1, 0), ("/drive_b", ("b",), 4, 0)])
+    two = tmp_path / "robot2.toml"
+    write_toml(two, {"robot": {"kinematics": "none"}, "joints": {"a": {"gear_ratio": 1.0, "torque_constant": 0.1}, "b": {"gear_ratio": 1.0, "torque_constant": 0.1}}})  # fmt: skip
+    assert main(["import", "rosbag", str(bag), "--robot", str(two), "-o", str(out)]) == 2
+    assert "the joints come in separate messages (a in 800, b in 200)" in capsys.readouterr().err
