@@ -275,3 +275,24 @@ def test_a_bag_with_a_second_publisher_reads_the_driver_alone(
     write_toml(two, {"robot": {"kinematics": "none"}, "joints": {"a": {"gear_ratio": 1.0, "torque_constant": 0.1}, "b": {"gear_ratio": 1.0, "torque_constant": 0.1}}})  # fmt: skip
     assert main(["import", "rosbag", str(bag), "--robot", str(two), "-o", str(out)]) == 2
     assert "the joints come in separate messages (a in 800, b in 200)" in capsys.readouterr().err
+
+
+def test_a_multi_turn_count_moving_more_than_half_a_turn_between_samples_is_motion() -> None:
+    # Before: a step of a multi-turn counter beyond half a turn within 0.125 s was unwrapped
+    # as a wrap: random SCARA 7's circle in counts (0.66 motor turn across a 0.1 s gap) read
+    # joint b one turn off from there on, forces 1.36 N off against 1.20 N from the log in rad.
+    cols = _counts()
+    cols["t"][2000:] += 0.1  # a 0.1 s gap ...
+    cols["q_m"][2000:] += 5300.0  # ... across which the motor turned 0.66 turn more
+    log = log_from_columns(cols, COUNTS)
+    np.testing.assert_allclose(
+        log.q[:, 0], cols["q_m"] * (2 * math.pi / 8000 / 100.0), rtol=0, atol=1e-12
+    )
+    fast = _counts(40)  # a fast motor logged slowly: 0.6 turn a sample, every sample
+    fast["q_m"] = 20_000.0 + 4800.0 * np.arange(40)
+    np.testing.assert_allclose(
+        log_from_columns(fast, COUNTS).q[:, 0],
+        fast["q_m"] * (2 * math.pi / 8000 / 100.0),
+        rtol=0,
+        atol=1e-12,
+    )

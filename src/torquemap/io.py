@@ -790,6 +790,40 @@ def unwrap_counts(
     return np.concatenate(([out[0]], out[0] + np.cumsum(step)))
 
 
+def unwrap_multi_turn_counts(
+    raw: NDArray[np.float64], cpr: float, t: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Encoder counts with their wraps undone, a multi-turn counter's by its register's size.
+
+    Counts that never leave one turn (``|count| <= cpr``) wrap each turn: as
+    :func:`unwrap_counts`. A counter that holds more than one turn does not wrap each turn, so
+    a step of more than half a turn is motion (a fast motor at a low logging rate, or across a
+    short gap), not a wrap; only the overflows of a 16-bit register whose size is a whole number
+    of turns (``2**16`` a multiple of ``cpr``) are undone (other registers' overflows are
+    refused: :func:`torquemap.log_quirks.register_overflow`). Before (new-user QA, stop 36),
+    :func:`unwrap_counts` took every such step within 0.125 s as a turn's wrap: random SCARA
+    7's circle in counts, 0.66 motor turn of joint b across a 0.1 s gap, read one turn off
+    (0.09 rad of the joint) from there on, its forces 1.36 N off against 1.20 N from the same
+    log in rad.
+
+    Examples
+    --------
+    >>> unwrap_multi_turn_counts(np.array([0.0, 9000.0, 14000.0]), 16384.0, np.arange(3.0))
+    array([    0.,  9000., 14000.])
+    >>> unwrap_multi_turn_counts(np.array([20000.0, 32767.0, -32760.0]), 16384.0, np.arange(3.0))
+    array([20000., 32767., 32776.])
+    """
+    if raw.size < 2 or not np.any(np.abs(raw) > cpr):
+        return unwrap_counts(raw, cpr, t)
+    period = float(2**16)
+    lo, hi = float(np.min(raw)), float(np.max(raw))
+    in_register = (lo >= -period / 2 and hi < period / 2) or (lo >= 0 and hi < period)
+    if cpr > 0 and period % cpr == 0 and in_register:
+        unwrapped: NDArray[np.float64] = np.unwrap(raw, period=period)
+        return unwrapped
+    return np.array(raw, dtype=np.float64)
+
+
 def single_turn_wrap(raw: NDArray[np.float64], cpr: float) -> int | None:
     """Index of the sample after the first step of more than half a turn in counts that never
     leave one turn (``|count| <= cpr``: a single-turn register wrapping each motor revolution),
@@ -860,12 +894,12 @@ def _log_arrays(
             raw_q = column(name, max_abs=MAX_COUNTS, unit="counts")
             cpr = float(joint.encoder_counts_per_rev or 0)
             if last_counts is None:
-                counts = unwrap_counts(raw_q, cpr, t)
+                counts = unwrap_multi_turn_counts(raw_q, cpr, t)
                 seen = raw_q
             else:
                 before_raw, before = float(last_counts[0, k]), float(last_counts[1, k])
                 seen = np.concatenate(([before_raw], raw_q))
-                joined = unwrap_counts(
+                joined = unwrap_multi_turn_counts(
                     seen,
                     cpr,
                     np.concatenate(([t[0] if last_t is None else last_t], t)),

@@ -38,19 +38,21 @@ def register_overflow(raw: NDArray[np.float64], cpr: float) -> tuple[int, int] |
 
     A register of ``b`` bits that overflows steps by about ``2**b`` counts between two samples
     (from ``2**15 - 1`` to ``-2**15``, or from ``2**16 - 1`` to 0), far more than the motor
-    turns in a sample: recognised when some step is within a quarter of ``2**b`` of it, every
-    other step is under a quarter of ``2**b``, and the counts stay in the register's signed or
-    unsigned range. Such a log holds the count modulo ``2**b``: unwrapped from its first row,
+    turns in a sample: recognised when some step is within a quarter of ``2**b`` of it (and
+    nearer it than a turn), 99 % of the other steps are under a quarter of ``2**b`` (a gap in
+    time may hold a longer one), and the counts stay in the register's signed or unsigned
+    range. Such a log holds the count modulo ``2**b``: unwrapped from its first row,
     the joint's angle is off by every overflow before it (a 16-bit register holds 8 motor turns
-    of an 8000-count encoder, 0.5 rad of a 100:1 joint). Left to
-    :func:`torquemap.io.unwrap_counts`, as before: a 16-bit register whose size is a whole
-    number of turns (``2**16`` a multiple of ``cpr``: its overflows unwrap as turns), and a
-    register that holds at most two turns (a single-turn encoder's own wrap).
+    of an 8000-count encoder, 0.5 rad of a 100:1 joint; it cannot hold one turn of a 2**17
+    count encoder). Left to :func:`torquemap.io.unwrap_counts`, as before: a 16-bit register
+    whose size is a whole number of turns (``2**16`` a multiple of ``cpr``, a single-turn 16-bit
+    encoder among them: its overflows unwrap as turns), and an encoder of ``2**31`` counts or
+    more.
 
     Before (new-user QA, stop 36), such an overflow was unwrapped by whole turns: each left
     1536 counts (0.19 turn) of an 8000-count encoder behind, an "encoder glitch" that cut the
     log, and every angle was off; the paper bench's forces were 10 to 35 N off (0.10 N clean),
-    exit 0.
+    exit 0; random SCARA 7's (2**17 counts in a 16-bit register), 161 N.
 
     Parameters
     ----------
@@ -75,13 +77,14 @@ def register_overflow(raw: NDArray[np.float64], cpr: float) -> tuple[int, int] |
     lo, hi = float(np.min(raw)), float(np.max(raw))
     for bits in REGISTER_BITS:
         period = float(2**bits)
-        if cpr >= period / 2 or (bits == 16 and cpr > 0 and period % cpr == 0):
+        if (bits == 16 and cpr > 0 and period % cpr == 0) or cpr >= 2.0**31:
             continue
-        wraps = np.abs(step - period) < period / 4
+        # nearer the register's size than a turn (a single-turn encoder's own wrap)
+        wraps = (np.abs(step - period) < period / 4) & (np.abs(step - period) < np.abs(step - cpr))
         if not wraps.any():
             continue
         others = step[~wraps]
-        if others.size and float(np.max(others)) >= period / 4:
+        if others.size and float(np.percentile(others, 99)) >= period / 4:
             continue
         signed = lo >= -period / 2 and hi < period / 2
         unsigned = lo >= 0 and hi < period
