@@ -296,3 +296,36 @@ def test_a_multi_turn_count_moving_more_than_half_a_turn_between_samples_is_moti
         rtol=0,
         atol=1e-12,
     )
+
+
+def test_a_float32_parquet_log_of_a_fine_encoder_is_read_as_the_robots(tmp_path: Path) -> None:
+    # Before: random SCARA 7's circle (2**17 counts, 46:1) with q as float32 was refused as "a
+    # log from another robot?": float32 rounds its steps by up to 0.06 count.
+    from torquemap.estimate import check_log_matches_model, check_log_steps_exact
+    from torquemap.model import model_from_dict
+
+    gear, cpr = 46.21665132328604, 2**17
+    count = 2 * math.pi / cpr / gear  # one count at the joint [rad]
+    t = np.arange(3000) * 2.5e-3
+    counts = np.floor(0.84 / count * np.sin(0.3 * t) + 5000.0 * np.sin(2.0 * t))
+    document = {
+        "robot": {"kinematics": "none"},
+        "joints": {"a": {"gear_ratio": gear, "torque_constant": 0.05}},
+        "identification": {"joints": {"a": {"motor_angle_quantum": 2 * math.pi / cpr}}},
+    }
+    model = model_from_dict(document)
+    p = tmp_path / "log.parquet"
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    for other in (1.0, 1.013):  # the robot's own log, and one of a 1.3 % other gear
+        q = (counts * count * other).astype(np.float32)
+        pq.write_table(pa.table({"t": t, "q_a": q, "i_a": np.cos(t)}), p)
+        log = read_log(p, model.robot)
+        if other == 1.0:
+            check_log_matches_model(model, log)
+            check_log_steps_exact(model, log)
+            continue
+        with pytest.raises(InputError, match="a log from another robot"):
+            check_log_matches_model(model, log)
+            check_log_steps_exact(model, log)

@@ -42,7 +42,7 @@ from torquemap._callable import make_callable as _make_callable
 from torquemap.errors import InputError
 from torquemap.filters import Rates, differentiate_rates, lowpass, regular_step
 from torquemap.io import Log
-from torquemap.log_quirks import angle_unit_hint, motor_angle_quantum
+from torquemap.log_quirks import angle_unit_hint, motor_angle_quantum, narrow_float_column
 from torquemap.model import Model, friction_torque, pdtv_torque
 from torquemap.pdtv import (
     PositionSignal,
@@ -1397,6 +1397,8 @@ def check_log_matches_model(model: Model, log: Log) -> None:
             whole, ratio = whole[few], ratio[few]
         if float(np.mean(whole & (np.round(ratio) >= 1))) < 0.9:
             seen = float(np.min(step))
+            if _narrow_float_whole(joint, log.q[:, k], quantum, log.path):
+                continue
             # the decimals are those of the log's own unit: counts written "%.3f" (a drive's
             # counts with 1/64 fractions) were "a log from another robot"
             unit, scale, at = "rad", 1.0 / joint.gear_ratio, " at the joint"
@@ -1481,6 +1483,8 @@ def check_log_steps_exact(model: Model, log: Log) -> None:
         if _significant_digits(log.q[:, k], quantum / joint.gear_ratio) is not None:
             continue
         typical = float(np.median(ratio[few]))
+        if _narrow_float_whole(joint, log.q[:, k], quantum, log.path):
+            continue
         raise InputError(
             f"joint {joint.name}: the log's motor angle moves in steps of a few encoder counts "
             f"of the model's robot that are not whole ({float(np.min(ratio)):.4g}, median "
@@ -1489,6 +1493,37 @@ def check_log_steps_exact(model: Model, log: Log) -> None:
             "robot's own no-load logs",
             path=log.path,
         )
+
+
+def _narrow_float_whole(joint: Joint, q: NDArray[np.float64], quantum: float, path: str) -> bool:
+    """Whether the log's angle column is a narrow float in a Parquet file
+    (:func:`torquemap.log_quirks.narrow_float_column`) whose steps of a few counts are whole
+    counts of the model's robot within what that float holds: then the log is of the robot,
+    rounded by its float32 column (random SCARA 7's circle as float32: 0.06 count, refused as
+    "a log from another robot?" before, new-user QA stop 36). InputError naming float32 when it
+    cannot hold a quarter count; False otherwise (another robot: the caller refuses)."""
+    column = f"q_{joint.name}"
+    kind = narrow_float_column(path, column)
+    if kind is None:
+        return False
+    narrow = np.float32 if kind == "float" else np.float16
+    top = float(np.max(np.abs(q)))
+    count = quantum / joint.gear_ratio  # one count at the joint [rad]
+    rounding = float(np.spacing(narrow(top))) / count  # [counts]
+    name = "float32" if kind == "float" else "float16"
+    if rounding >= 0.25:
+        raise InputError(
+            f"joint {joint.name}: the log's {column} is {name}, which holds the angle near "
+            f"{top:.3g} rad only to {rounding:.2g} encoder counts of the model's robot: write "
+            "the angles as float64",
+            path=path,
+        )
+    step = np.abs(np.diff(q)) / count
+    few = (np.round(step) >= 1) & (np.round(step) <= EXACT_STEPS)
+    if int(few.sum()) < 20:
+        return False
+    off = np.abs(step[few] - np.round(step[few]))
+    return float(np.mean(off < 2.0 * rounding + EXACT_COUNT)) >= 0.5
 
 
 def _written_digits(step: NDArray[np.float64]) -> int | None:
