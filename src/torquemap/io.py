@@ -250,11 +250,7 @@ def _parse_hint(path: Path) -> str:
         row = ""
     for sep, name in ((";", "semicolons"), ("\t", "tabs")):
         if sep in head and "," not in head.replace(sep, ""):
-            commas = " and decimal points" if re.search(r"\d,\d", row) else ""
-            return (
-                f"; the header {shown!r} is separated by {name}: separate columns with "
-                f"commas{commas}"
-            )
+            return f"; the header {shown!r} is separated by {name}: separate columns with commas"
     if decimal_comma_rows(row, head):
         return (
             "; the rows hold more commas than the header: decimal commas? write numbers with a "
@@ -808,8 +804,8 @@ def unwrap_multi_turn_counts(
 
     Examples
     --------
-    >>> unwrap_multi_turn_counts(np.array([0.0, 9000.0, 14000.0]), 16384.0, np.arange(3.0))
-    array([    0.,  9000., 14000.])
+    >>> unwrap_multi_turn_counts(np.array([0.0, 9000.0, 20000.0]), 16384.0, np.arange(3.0))
+    array([    0.,  9000., 20000.])
     >>> unwrap_multi_turn_counts(np.array([20000.0, 32767.0, -32760.0]), 16384.0, np.arange(3.0))
     array([20000., 32767., 32776.])
     """
