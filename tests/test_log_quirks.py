@@ -329,3 +329,28 @@ def test_a_float32_parquet_log_of_a_fine_encoder_is_read_as_the_robots(tmp_path:
         with pytest.raises(InputError, match="a log from another robot"):
             check_log_matches_model(model, log)
             check_log_steps_exact(model, log)
+
+
+def test_angles_computed_from_an_overflowing_register_are_refused() -> None:
+    # Before: the drive's 16-bit count turned into rad jumped by 0.51 rad at each overflow,
+    # taken for an encoder glitch: the log was cut there and every later angle was off (the
+    # paper bench's forces 73.7 N off, exit 0).
+    from torquemap.estimate import check_log_angle_units
+    from torquemap.identify import identify_model
+    from torquemap.model import model_from_dict
+
+    cols = _counts()
+    cols["q_m"] = ((cols["q_m"] + 2**15) % 2**16 - 2**15) * (2 * math.pi / 8000 / 100.0)
+    log = log_from_columns(cols, RAD, path="task.csv")
+    says = (
+        r"task.csv: joint m: q_m steps by -0.51\d* rad at t = 0.\d+ s, -65\d\d\d encoder counts: a "
+        r"16-bit count register overflowed before the angle was computed from it"
+    )
+    with pytest.raises(InputError, match=says):
+        identify_model(RAD, [log])
+    document = {
+        "robot": {"kinematics": "none"},
+        "joints": {"m": {"gear_ratio": 100.0, "torque_constant": 0.11, "encoder_counts_per_rev": 8000}},
+    }  # fmt: skip
+    with pytest.raises(InputError, match=says):
+        check_log_angle_units(model_from_dict(document), log)

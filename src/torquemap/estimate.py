@@ -42,7 +42,12 @@ from torquemap._callable import make_callable as _make_callable
 from torquemap.errors import InputError
 from torquemap.filters import Rates, differentiate_rates, lowpass, regular_step
 from torquemap.io import Log
-from torquemap.log_quirks import angle_unit_hint, motor_angle_quantum, narrow_float_column
+from torquemap.log_quirks import (
+    angle_unit_hint,
+    check_register_angles,
+    motor_angle_quantum,
+    narrow_float_column,
+)
 from torquemap.model import Model, friction_torque, pdtv_torque
 from torquemap.pdtv import (
     PositionSignal,
@@ -1352,8 +1357,11 @@ def check_log_angle_units(model: Model, log: Log) -> None:
     that step over the model's is 1 for the joint angle in rad, the gear ratio for the motor
     angle, ``gear_ratio / 2 pi`` for motor turns, and so on. Before (new-user QA, stop 36), a
     motor angle of the paper bench (100:1: whole counts, 100 at a time) passed the checks
-    below, and other ratios were refused as "a log from another robot?".
+    below, and other ratios were refused as "a log from another robot?". Angles computed from
+    a count register that overflows are refused first
+    (:func:`torquemap.log_quirks.check_register_angles`).
     """
+    check_register_angles(log, model.robot)
     for k, joint, quantum, _ in _motor_steps(model, log):
         if joint.position_unit != "rad":
             continue

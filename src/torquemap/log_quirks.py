@@ -152,6 +152,42 @@ def motor_angle_quantum(q: NDArray[np.float64], gear_ratio: float) -> float:
     return quantum if float(np.mean(whole)) > 0.95 else 0.0
 
 
+def check_register_angles(log: Log, robot: Robot) -> None:
+    """Refuse a log whose joint angles [rad] were computed from a count register that overflows.
+
+    Where the robot file gives ``encoder_counts_per_rev``, the angle in counts,
+    ``q * gear_ratio * cpr / 2 pi``, is tested as the counts are
+    (:func:`register_overflow`): a drive that turns its 16-bit register into an angle writes
+    the overflow as a jump of ``2**16`` counts' angle (0.51 rad of the paper bench's joint a).
+    Before (new-user QA, stop 36) such jumps were taken as encoder glitches: the log was cut
+    there and every later angle was off, the paper bench's forces 73.7 N off, exit 0.
+
+    Raises
+    ------
+    InputError
+        Naming the log, the joint, the time and the register's width.
+    """
+    for k, joint in enumerate(robot.joints):
+        cpr = joint.encoder_counts_per_rev
+        if not cpr or joint.position_unit != "rad":
+            continue
+        counts = log.q[:, k] * (joint.gear_ratio * cpr / (2.0 * math.pi))
+        overflow = register_overflow(np.round(counts), float(cpr))
+        if overflow is None:
+            continue
+        bits, at = overflow
+        if abs(abs(log.q[at, k] - log.q[at - 1, k]) - 2.0 * math.pi) < 0.1 * math.pi:
+            continue  # a joint turn: an angle wrapped to (-pi, pi] (sanitize names it)
+        raise InputError(
+            f"joint {joint.name}: q_{joint.name} steps by {log.q[at, k] - log.q[at - 1, k]:+.4g} "
+            f"rad at t = {log.t[at]:.6g} s, {counts[at] - counts[at - 1]:+.0f} encoder counts: "
+            f"a {bits}-bit count register overflowed before the angle was computed from it, so "
+            "the log holds the angle only modulo that register; log the drive's count as a "
+            "signed 64-bit number (position_unit = 'counts'), or an angle computed from one",
+            path=log.path,
+        )
+
+
 def check_angle_units(logs: Sequence[Log], robot: Robot) -> None:
     """Refuse a log whose angles move by whole encoder counts of another unit or side of the
     gear than the robot file's (:func:`angle_unit_hint`): the motor angle, turns, degrees.
@@ -166,6 +202,8 @@ def check_angle_units(logs: Sequence[Log], robot: Robot) -> None:
     InputError
         Naming the log, the joint and what its angle holds.
     """
+    for log in logs:
+        check_register_angles(log, robot)
     for k, joint in enumerate(robot.joints):
         cpr = joint.encoder_counts_per_rev
         if not cpr or joint.position_unit != "rad":
