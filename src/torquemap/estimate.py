@@ -42,6 +42,12 @@ from torquemap._callable import make_callable as _make_callable
 from torquemap.errors import InputError
 from torquemap.filters import Rates, differentiate_rates, lowpass, regular_step
 from torquemap.io import Log
+from torquemap.log_quirks import (
+    angle_unit_hint,
+    check_register_angles,
+    motor_angle_quantum,
+    narrow_float_column,
+)
 from torquemap.model import Model, friction_torque, pdtv_torque
 from torquemap.pdtv import (
     PositionSignal,
@@ -699,6 +705,7 @@ def estimate_forces(
         raise InputError(f"differentiation window must be positive, got {window!r} s")
     robot = model.robot
     if check_robot:
+        check_log_angle_units(model, log)
         check_log_matches_model(model, log)
         check_log_steps_exact(model, log)
     n, nj = log.t.size, len(robot.joints)
@@ -1341,6 +1348,36 @@ def _motor_steps(model: Model, log: Log) -> Iterator[tuple[int, Joint, float, ND
         yield k, joint, float(quantum), step[step > 1e-12]
 
 
+def check_log_angle_units(model: Model, log: Log) -> None:
+    """Refuse a log whose angles move by whole encoder counts of another unit or side of the
+    gear than the model's robot (:func:`torquemap.log_quirks.angle_unit_hint`).
+
+    Where identification recorded a joint's ``motor_angle_quantum`` and the log moves by
+    whole multiples of its own smallest step (:func:`torquemap.log_quirks.motor_angle_quantum`),
+    that step over the model's is 1 for the joint angle in rad, the gear ratio for the motor
+    angle, ``gear_ratio / 2 pi`` for motor turns, and so on. Before (new-user QA, stop 36), a
+    motor angle of the paper bench (100:1: whole counts, 100 at a time) passed the checks
+    below, and other ratios were refused as "a log from another robot?". Angles computed from
+    a count register that overflows are refused first
+    (:func:`torquemap.log_quirks.check_register_angles`).
+    """
+    check_register_angles(log, model.robot)
+    for k, joint, quantum, _ in _motor_steps(model, log):
+        if joint.position_unit != "rad":
+            continue
+        own = motor_angle_quantum(log.q[:, k], joint.gear_ratio)
+        if not own:
+            continue
+        ratio = own / quantum
+        hint = angle_unit_hint(ratio, gear_ratio=joint.gear_ratio, column=f"q_{joint.name}")
+        if hint is not None:
+            raise InputError(
+                f"joint {joint.name}: the log's motor angle moves in steps of {ratio:.4g} "
+                f"encoder counts of the model's robot: {hint}",
+                path=log.path,
+            )
+
+
 #: Steps of at most this many encoder counts decide whether a log is of the model's robot.
 FEW_COUNTS = 10
 
@@ -1368,6 +1405,8 @@ def check_log_matches_model(model: Model, log: Log) -> None:
             whole, ratio = whole[few], ratio[few]
         if float(np.mean(whole & (np.round(ratio) >= 1))) < 0.9:
             seen = float(np.min(step))
+            if _narrow_float_whole(joint, log.q[:, k], quantum, log.path):
+                continue
             # the decimals are those of the log's own unit: counts written "%.3f" (a drive's
             # counts with 1/64 fractions) were "a log from another robot"
             unit, scale, at = "rad", 1.0 / joint.gear_ratio, " at the joint"
@@ -1452,6 +1491,8 @@ def check_log_steps_exact(model: Model, log: Log) -> None:
         if _significant_digits(log.q[:, k], quantum / joint.gear_ratio) is not None:
             continue
         typical = float(np.median(ratio[few]))
+        if _narrow_float_whole(joint, log.q[:, k], quantum, log.path):
+            continue
         raise InputError(
             f"joint {joint.name}: the log's motor angle moves in steps of a few encoder counts "
             f"of the model's robot that are not whole ({float(np.min(ratio)):.4g}, median "
@@ -1460,6 +1501,37 @@ def check_log_steps_exact(model: Model, log: Log) -> None:
             "robot's own no-load logs",
             path=log.path,
         )
+
+
+def _narrow_float_whole(joint: Joint, q: NDArray[np.float64], quantum: float, path: str) -> bool:
+    """Whether the log's angle column is a narrow float in a Parquet file
+    (:func:`torquemap.log_quirks.narrow_float_column`) whose steps of a few counts are whole
+    counts of the model's robot within what that float holds: then the log is of the robot,
+    rounded by its float32 column (random SCARA 7's circle as float32: 0.06 count, refused as
+    "a log from another robot?" before, new-user QA stop 36). InputError naming float32 when it
+    cannot hold a quarter count; False otherwise (another robot: the caller refuses)."""
+    column = f"q_{joint.name}"
+    kind = narrow_float_column(path, column)
+    if kind is None:
+        return False
+    narrow = np.float32 if kind == "float" else np.float16
+    top = float(np.max(np.abs(q)))
+    count = quantum / joint.gear_ratio  # one count at the joint [rad]
+    rounding = float(np.spacing(narrow(top))) / count  # [counts]
+    name = "float32" if kind == "float" else "float16"
+    if rounding >= 0.25:
+        raise InputError(
+            f"joint {joint.name}: the log's {column} is {name}, which holds the angle near "
+            f"{top:.3g} rad only to {rounding:.2g} encoder counts of the model's robot: write "
+            "the angles as float64",
+            path=path,
+        )
+    step = np.abs(np.diff(q)) / count
+    few = (np.round(step) >= 1) & (np.round(step) <= EXACT_STEPS)
+    if int(few.sum()) < 20:
+        return False
+    off = np.abs(step[few] - np.round(step[few]))
+    return float(np.mean(off < 2.0 * rounding + EXACT_COUNT)) >= 0.5
 
 
 def _written_digits(step: NDArray[np.float64]) -> int | None:

@@ -40,6 +40,7 @@ from torquemap.friction import (
     segment_motion,
 )
 from torquemap.io import Log
+from torquemap.log_quirks import check_angle_units
 from torquemap.model import (
     InertiaModel,
     JointModel,
@@ -1077,6 +1078,7 @@ def identify_model(
     if not (math.isfinite(window) and window > 0):
         raise InputError(f"differentiation window must be positive, got {window!r} s")
     rb = robot.robot if isinstance(robot, Model) else robot
+    check_angle_units(logs, rb)
     pieces: list[Log] = []
     sound: list[NDArray[np.bool_]] = []
     cleaning: list[str] = []

@@ -20,6 +20,12 @@ import tomli_w
 from numpy.typing import ArrayLike, NDArray
 
 from torquemap.errors import InputError
+from torquemap.log_quirks import (
+    backwards_time_hint,
+    cell_hint,
+    decimal_comma_rows,
+    register_overflow,
+)
 from torquemap.robot import Robot
 
 Columns = dict[str, NDArray[Any]]
@@ -236,9 +242,23 @@ def _parse_hint(path: Path) -> str:
     shown = head if len(head) <= 40 else head[:37] + "..."
     if head.startswith("#"):
         return f"; the first line {shown!r} is a comment: the first line must be the header"
+    try:
+        with path.open("rb") as f:
+            lines = f.read(4096).splitlines()
+        row = lines[1].decode("utf-8", "replace") if len(lines) > 1 else ""
+    except OSError:
+        row = ""
     for sep, name in ((";", "semicolons"), ("\t", "tabs")):
         if sep in head and "," not in head.replace(sep, ""):
             return f"; the header {shown!r} is separated by {name}: separate columns with commas"
+    if decimal_comma_rows(row, head):
+        return (
+            "; the rows hold more commas than the header: decimal commas? write numbers with a "
+            "decimal point"
+        )
+    cells = row.split(",")
+    if row and all(cell_hint(c, 1).startswith(": a units row") for c in cells):
+        return "; the first row is" + cell_hint(cells[0], 1)[1:]
     return ""
 
 
@@ -444,7 +464,7 @@ def numeric_column(
             again = (
                 ": the header again (files joined with their headers?); keep the first only"
                 if isinstance(cell, str) and cell.strip() == name
-                else ""
+                else cell_hint(cell, first_row + row + 1)
             )
             raise InputError(
                 f"column {name!r} is not numeric (data row {first_row + row + 1}: {cell!r}){again}",
@@ -671,8 +691,11 @@ def check_time(t: NDArray[np.float64], path: str | os.PathLike[str], *, first_ro
         raise InputError("log needs at least two samples", path=path)
     step = np.diff(t)
     if not np.all(step >= 0):
-        row = int(np.argmax(step < 0)) + 2 + first_row
-        raise InputError(f"time 't' goes backwards (at data row {row})", path=path)
+        at = int(np.argmax(step < 0))
+        hint = backwards_time_hint(t, at, first_row=first_row)
+        raise InputError(
+            f"time 't' goes backwards (at data row {at + 2 + first_row}){hint}", path=path
+        )
     if not np.any(step > 0):
         raise InputError("time 't' never advances" + _float32_time_note(t), path=path)
 
@@ -763,6 +786,40 @@ def unwrap_counts(
     return np.concatenate(([out[0]], out[0] + np.cumsum(step)))
 
 
+def unwrap_multi_turn_counts(
+    raw: NDArray[np.float64], cpr: float, t: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Encoder counts with their wraps undone, a multi-turn counter's by its register's size.
+
+    Counts that never leave one turn (``|count| <= cpr``) wrap each turn: as
+    :func:`unwrap_counts`. A counter that holds more than one turn does not wrap each turn, so
+    a step of more than half a turn is motion (a fast motor at a low logging rate, or across a
+    short gap), not a wrap; only the overflows of a 16-bit register whose size is a whole number
+    of turns (``2**16`` a multiple of ``cpr``) are undone (other registers' overflows are
+    refused: :func:`torquemap.log_quirks.register_overflow`). Before (new-user QA, stop 36),
+    :func:`unwrap_counts` took every such step within 0.125 s as a turn's wrap: random SCARA
+    7's circle in counts, 0.66 motor turn of joint b across a 0.1 s gap, read one turn off
+    (0.09 rad of the joint) from there on, its forces 1.36 N off against 1.20 N from the same
+    log in rad.
+
+    Examples
+    --------
+    >>> unwrap_multi_turn_counts(np.array([0.0, 9000.0, 20000.0]), 16384.0, np.arange(3.0))
+    array([    0.,  9000., 20000.])
+    >>> unwrap_multi_turn_counts(np.array([20000.0, 32767.0, -32760.0]), 16384.0, np.arange(3.0))
+    array([20000., 32767., 32776.])
+    """
+    if raw.size < 2 or not np.any(np.abs(raw) > cpr):
+        return unwrap_counts(raw, cpr, t)
+    period = float(2**16)
+    lo, hi = float(np.min(raw)), float(np.max(raw))
+    in_register = (lo >= -period / 2 and hi < period / 2) or (lo >= 0 and hi < period)
+    if cpr > 0 and period % cpr == 0 and in_register:
+        unwrapped: NDArray[np.float64] = np.unwrap(raw, period=period)
+        return unwrapped
+    return np.array(raw, dtype=np.float64)
+
+
 def single_turn_wrap(raw: NDArray[np.float64], cpr: float) -> int | None:
     """Index of the sample after the first step of more than half a turn in counts that never
     leave one turn (``|count| <= cpr``: a single-turn register wrapping each motor revolution),
@@ -833,17 +890,29 @@ def _log_arrays(
             raw_q = column(name, max_abs=MAX_COUNTS, unit="counts")
             cpr = float(joint.encoder_counts_per_rev or 0)
             if last_counts is None:
-                counts = unwrap_counts(raw_q, cpr, t)
+                counts = unwrap_multi_turn_counts(raw_q, cpr, t)
                 seen = raw_q
             else:
                 before_raw, before = float(last_counts[0, k]), float(last_counts[1, k])
                 seen = np.concatenate(([before_raw], raw_q))
-                joined = unwrap_counts(
+                joined = unwrap_multi_turn_counts(
                     seen,
                     cpr,
                     np.concatenate(([t[0] if last_t is None else last_t], t)),
                 )
                 counts = joined[1:] + (before - before_raw)
+            overflow = register_overflow(seen, cpr)
+            if overflow is not None:
+                bits, at = overflow
+                raise InputError(
+                    f"joint {joint.name}: {name} steps by {seen[at] - seen[at - 1]:+.0f} counts "
+                    f"at data row {first_row + at + (1 if last_counts is None else 0)}: a "
+                    f"{bits}-bit count register overflowed (or a signed count was written "
+                    f"unsigned), so the log holds the count only modulo 2**{bits} and the joint's "
+                    "angle is lost; log the count as a signed 64-bit number from the homed zero, "
+                    "or the joint angle in rad (position_unit)",
+                    path=p,
+                )
             if robot.kinematics == "urdf" and joint.gear_ratio != 1.0:
                 wrap = single_turn_wrap(seen, cpr)
                 if wrap is not None:
@@ -1130,8 +1199,12 @@ class _ChunkChain:
         joined = t if self.last_t is None else np.concatenate(([self.last_t], t))
         step = np.diff(joined)
         if step.size and not np.all(step >= 0):
-            row = int(np.argmax(step < 0)) + first_row + (2 if self.last_t is None else 1)
-            raise InputError(f"time 't' goes backwards (at data row {row})", path=self.path)
+            at = int(np.argmax(step < 0))
+            offset = first_row - (0 if self.last_t is None else 1)
+            hint = backwards_time_hint(joined, at, first_row=offset)
+            raise InputError(
+                f"time 't' goes backwards (at data row {at + 2 + offset}){hint}", path=self.path
+            )
         self.advanced = self.advanced or bool(np.any(step > 0))
         for k, joint in enumerate(robot.joints):
             if joint.position_unit != "counts":

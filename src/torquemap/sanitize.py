@@ -17,7 +17,8 @@ Before anything is differentiated or filtered, :func:`sanitize_log`
    leaks across a cut.
 
 A joint whose current (torque) is the same at every sample while it moves gets a warning: no
-real current is that still, the log holds no current for it.
+real current is that still, the log holds no current for it. So do time stamps rounded to a
+decimal that is a large part of the time step (:func:`torquemap.log_quirks.coarse_time_warning`).
 
 The result keeps the original rows (for the output) and the pieces (for the filters).
 """
@@ -33,6 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from torquemap.io import Log
+from torquemap.log_quirks import coarse_time_warning
 
 #: A sample is implausible when it leaves the running median of its neighbours by more than
 #: this many robust standard deviations of that deviation (and by more than the largest step
@@ -416,6 +418,10 @@ def sanitize_log(log: Log, *, window: float, min_piece: float | None = None) -> 
                 )
         warnings.append(line)
     keep = np.flatnonzero(~repeated)
+    if not any("too few digits" in w for w in warnings):
+        coarse = coarse_time_warning(t[keep])
+        if coarse is not None:
+            warnings.append(coarse)
     # no repeated stamp: the log's own arrays, copied only when a sample is bridged (bridging
     # writes into them); else the kept rows (a gather: copies already)
     own = keep.size == n

@@ -87,6 +87,15 @@ def _rosbag(args: argparse.Namespace) -> int:
             "and were skipped",
             file=sys.stderr,
         )
+    if states.other_publishers:
+        dropped = ", ".join(f"{name}'s {n}" for name, n in states.other_publishers)
+        print(
+            f"torquemap: warning: more than one publisher on {args.topic} sends every joint: "
+            f"read the {states.t.size + states.duplicates} messages of the one with the most, "
+            f"dropped {dropped} (merged, their readings would be out of step: a relay's copies "
+            "or a second driver)",
+            file=sys.stderr,
+        )
     if states.unwrapped:
         print(
             f"torquemap: note: {', '.join(states.unwrapped)}: positions wrapped to one turn "
