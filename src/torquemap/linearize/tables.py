@@ -50,6 +50,7 @@ from torquemap.linearize.knee import check_uncensored, knee_levels, pool_onset, 
 from torquemap.linearize.knee_track import cut_below_knee, knee_at, knee_between
 from torquemap.linearize.motor import MotorSpec
 from torquemap.linearize.onset import CensoredUse, OnsetForm, extend_below, fit_onset
+from torquemap.linearize.reach import unreachable_message
 from torquemap.linearize.resume import check_collected_for
 from torquemap.linearize.sampling import (
     MATTERS,
@@ -57,6 +58,7 @@ from torquemap.linearize.sampling import (
     check_stated_cogging,
     unheld_gap_advice,
 )
+from torquemap.linearize.sign import check_torque_sign, pulse_width_hint
 from torquemap.linearize.surface import SurfaceFit, fit_surface, surface_prediction
 
 CommandScaling = Literal["linear", "log"]
@@ -258,7 +260,14 @@ def read_data(path: str | os.PathLike[str], spec: MotorSpec, *, kind: DataKind) 
     n = spec.positions_per_cycle
     position = _integer_column(columns, "position", p, 0, n - 1)
     if kind == "characterisation":
-        level = _integer_column(columns, "pulse_width", p, 0, spec.actuation_max)
+        try:
+            level = _integer_column(columns, "pulse_width", p, 0, spec.actuation_max)
+        except InputError as exc:
+            # a sign-magnitude drive or a current in amperes: say what the column holds
+            hint = pulse_width_hint(numeric_column(columns, "pulse_width", p), spec.actuation_max)
+            if not hint:
+                raise
+            raise InputError(exc.message + hint, path=p) from None
     else:
         half = 1 << (spec.command_bits - 1)
         level = _integer_column(columns, "command", p, -half, half - 1)
@@ -1251,6 +1260,7 @@ def build_tables(
             bias_advice = found.advice(restored=restored, bias_open=bias_open)
     gap = max(1, n // (4 * m)) if max_gap is None else int(max_gap)
     floor = _noise_floor(pw, tau)
+    check_torque_sign(pos, pw, tau, path=src)  # before the signal check: a reversed sensor
     _check_signal(pos, pw, tau, src)
     _check_phases(spec, pos, pw, tau, floor, src)
     _check_coverage(spec, pos, gap, src)
@@ -1273,13 +1283,9 @@ def build_tables(
         detent=detent and method == "interp",
     )
     reach = np.nanmax(np.where(np.isnan(forward), -np.inf, forward), axis=1)
-    if (reach <= floor).any():
-        p = int(np.argmax(reach <= floor))
-        raise InputError(
-            f"no torque is reachable at position {p} (largest {reach[p]:.3g} N m; noise floor "
-            f"{floor:.3g} N m)",
-            path=src,
-        )
+    unreachable = unreachable_message(reach, floor, phases=m)
+    if unreachable:
+        raise InputError(unreachable, path=src)
     torque_max = float(reach.min())
     cmax = (1 << (spec.command_bits - 1)) - 1
     weak = weak_phase_advice(reach, np.asarray(spec.ramp, dtype=np.float64))
