@@ -43,6 +43,7 @@ from scipy.optimize import isotonic_regression
 from torquemap.errors import InputError
 from torquemap.io import numeric_column, read_table
 from torquemap.linearize.bias import check_bias
+from torquemap.linearize.count import within_count_advice
 from torquemap.linearize.denoise import denoise_blocks, restore_misfit
 from torquemap.linearize.detent import detent_correction, fit_detent
 from torquemap.linearize.handover import check_handover, fill_handover
@@ -1376,6 +1377,9 @@ def build_tables(
         warnings.append(bias_advice)
     if noisy:
         warnings.append(noisy)
+    within = within_count_advice(pos, pw, tau, spec.ramp)  # few positions per cycle
+    if within:
+        warnings.append(within)
     base[:, 0] = 0.0
     base = np.clip(base, 0.0, float(spec.actuation_max))
 
