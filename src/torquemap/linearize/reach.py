@@ -11,8 +11,10 @@ reached it with a line that did not say why (docs/linearize.md, "New-user QA, st
   ``largest -inf N m``.
 * **A stretch of the cycle where no phase pushes the positive way**: a motor file that lists a
   winding driven both ways as one phase (a two-phase bipolar stepper given as 2 phases: its
-  pulse widths drive each winding one way only, which covers three quarters of the cycle). The
-  line named the first such position alone.
+  pulse widths drive each winding one way only, which covers three quarters of the cycle), or
+  phases wired in another order than the motor file's (a stepper's four phases one place round:
+  half of every phase's stretch without torque). The line named the first such position alone;
+  it now lists them and asks about both.
 
 This module never imports the simulator.
 """
@@ -96,8 +98,10 @@ def unreachable_message(reach: ArrayLike, floor: float, *, phases: int) -> str:
     )
     if bad.size >= n / (4.0 * phases):
         line += (
-            ": no phase of the motor file pushes the positive way there. Is a winding driven "
-            "both ways listed as one phase? Each direction is a phase of its own (a two-phase "
-            "bipolar stepper: four phases, A+ B+ A- B-)"
+            ": no phase the ramp energises there pushes the positive way. Are the phases wired "
+            "in the motor file's order (the ramp energises phase k over the k-th m-th of the "
+            "cycle, phases 1 .. m in the positive direction), and is each direction of a "
+            "winding driven both ways a phase of its own (a two-phase bipolar stepper: four "
+            "phases, A+ B+ A- B-)?"
         )
     return line
