@@ -226,3 +226,33 @@ def test_few_positions_per_cycle_warn_of_the_torque_within_a_position(tmp_path: 
     excess = float(np.mean(apmd) - np.min(apmd))  # the spread a count adds to its best point
     # the figure is a lower bound (a table right at one point, the motor spread evenly)
     assert 0.4 * excess < stated < excess
+
+
+def test_homing_on_a_coarse_grid_takes_the_right_motor_file() -> None:
+    # 12 positions per cycle, 3 phases: an eighth of the phase spacing is half a count, and a
+    # rest one count off (the encoder rounds) refused the right file as another motor's
+    from torquemap.linearize.homing import home_motor
+    from torquemap.linearize.motor import motor_spec
+    from torquemap.sim.free_motor import FreeMotorRig
+
+    motor = BrushlessDcMotor(
+        positions_per_cycle=12, equilibrium=(5.0, 9.0, 1.0), harmonics=(0.0, 0.0), cogging=0.0
+    )
+    amp = Amplifier(dead_band=12.0, curve=0.4)
+    rig = SimRig(motor, amp, STEPPER_BENCH)
+    eq = rig.equilibrium_positions()
+    spec = motor_spec("coarse", phases=3, positions_per_cycle=12, equilibrium_positions=eq)
+    for seed in range(6):
+        hidden = 3.3 + 1.7 * seed
+        free = FreeMotorRig(motor, amp, friction=0.06, encoder_offset=hidden,
+                            start_position=2.0 * seed, rng=seed)  # fmt: skip
+        found = home_motor(free, spec).offset
+        assert abs((found - hidden + 6.0) % 12.0 - 6.0) < 0.5  # within the encoder's count
+    # a file whose phase 3 sits 2 counts off (half the spacing) is still refused
+    other = motor_spec(
+        "other", phases=3, positions_per_cycle=12,
+        equilibrium_positions=(eq[0], eq[1], (eq[2] + 2) % 12),
+    )  # fmt: skip
+    free = FreeMotorRig(motor, amp, friction=0.06, encoder_offset=3.3, rng=0)
+    with pytest.raises(InputError, match=r"more than 1\.5 counts.*for another motor"):
+        home_motor(free, other)
