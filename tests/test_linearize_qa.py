@@ -256,3 +256,16 @@ def test_homing_on_a_coarse_grid_takes_the_right_motor_file() -> None:
     free = FreeMotorRig(motor, amp, friction=0.06, encoder_offset=3.3, rng=0)
     with pytest.raises(InputError, match=r"more than 1\.5 counts.*for another motor"):
         home_motor(free, other)
+
+
+def test_adaptive_levels_no_block_reached_stay_quiet() -> None:
+    # an 8-phase VR motor's coarse blocks were all cut short by the sensor's saturation: the
+    # top level held NaN in every block and numpy's "Mean of empty slice" reached the terminal
+    from torquemap.linearize.adaptive import choose_levels, refine_levels
+
+    levels = np.arange(0, 17, 2)
+    curves = np.array([levels * 1.0, levels * 2.0])
+    curves[:, -1] = np.nan  # no block reached level 16
+    # a straight line: every inner level goes (first and last always kept)
+    assert choose_levels(curves, levels, tolerance=0.01).tolist() == [0, 16]
+    assert refine_levels(curves, levels, tolerance=0.01, finest=2).tolist() == levels.tolist()
