@@ -269,3 +269,17 @@ def test_adaptive_levels_no_block_reached_stay_quiet() -> None:
     # a straight line: every inner level goes (first and last always kept)
     assert choose_levels(curves, levels, tolerance=0.01).tolist() == [0, 16]
     assert refine_levels(curves, levels, tolerance=0.01, finest=2).tolist() == levels.tolist()
+
+
+def test_a_finer_encoder_than_the_grid_is_told_what_fits() -> None:
+    # 16384 positions per cycle (a 14-bit encoder per electrical cycle) at 8-bit pulse widths:
+    # 4.2e6 cells, twice the builder's grid; the refusal did not say what fits
+    from torquemap.linearize.motor import motor_spec
+
+    n = 16384
+    spec = motor_spec("fine", phases=3, positions_per_cycle=n,
+                      equilibrium_positions=(5 * n // 12, 9 * n // 12, n // 12))  # fmt: skip
+    pos = np.repeat(np.arange(0, n, n // 64), 2)
+    pw = np.tile([0, 255], 64)
+    with pytest.raises(InputError, match=r"every 2 encoder counts \(positions_per_cycle 8192"):
+        build_tables(spec, pos, pw, pw / 255.0)

@@ -146,3 +146,45 @@ def within_count_advice(
         f"{100.0 * figure:.2g} % more than the APMD measured where the rig settles (a "
         "verification reads the same points); more positions per cycle (a finer encoder) hold it"
     )
+
+
+def coarser_grid_advice(positions_per_cycle: int, actuation_max: int, max_cells: int) -> str:
+    """``"; ..."``: the positions per cycle that fit the builder's grid, for a motor file whose
+    encoder is finer than the tables can be built on, else "".
+
+    A fine encoder (a 14-bit one on a motor of a few pole pairs: 16384 counts per electrical
+    cycle) gives more table positions than ``max_cells / (actuation_max + 1)``. The builder
+    refused it without saying what fits (QA stop 36). A table position of ``k`` counts costs
+    little where the torque changes little from count to count (:func:`within_count_advice`
+    measures it on the data); the smallest power of two ``k`` that fits is named.
+
+    Parameters
+    ----------
+    positions_per_cycle
+        The motor file's ``P``.
+    actuation_max
+        The motor file's full-scale pulse width.
+    max_cells
+        The builder's largest grid, ``P (actuation_max + 1)``.
+
+    Examples
+    --------
+    >>> coarser_grid_advice(16384, 255, 1 << 21)[:61]
+    '; with actuation_max 255 at most 8192 positions per cycle fit'
+    >>> coarser_grid_advice(512, 255, 1 << 21)
+    ''
+    """
+    n, width = int(positions_per_cycle), int(actuation_max) + 1
+    fit = max_cells // width
+    if n <= fit:
+        return ""
+    if fit < 1:
+        return f"; lower actuation_max (at most {max_cells - 1})"
+    k = 2
+    while -(-n // k) > fit:
+        k *= 2
+    return (
+        f"; with actuation_max {actuation_max} at most {fit} positions per cycle fit: count "
+        f"one table position every {k} encoder counts (positions_per_cycle {-(-n // k)}, the "
+        f"table position the count // {k}), and collect and run with the same"
+    )

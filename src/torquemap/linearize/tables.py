@@ -43,7 +43,7 @@ from scipy.optimize import isotonic_regression
 from torquemap.errors import InputError
 from torquemap.io import numeric_column, read_table
 from torquemap.linearize.bias import check_bias
-from torquemap.linearize.count import within_count_advice
+from torquemap.linearize.count import coarser_grid_advice, within_count_advice
 from torquemap.linearize.denoise import denoise_blocks, restore_misfit
 from torquemap.linearize.detent import detent_correction, fit_detent
 from torquemap.linearize.handover import check_handover, fill_handover
@@ -1242,7 +1242,8 @@ def build_tables(
         raise InputError(
             f"positions_per_cycle x (actuation_max + 1) = {cells:.3g} cells, more than the "
             f"{MAX_GRID_CELLS:.3g} the tables are built on (for example 512 positions up to "
-            "actuation_max 4095)",
+            "actuation_max 4095)"
+            + coarser_grid_advice(spec.positions_per_cycle, spec.actuation_max, MAX_GRID_CELLS),
             path=spec.path if spec.path is not None else src,
         )
     pos, pw, tau = _check_rows(spec, position, pulse_width, torque, src)
