@@ -283,3 +283,32 @@ def test_a_finer_encoder_than_the_grid_is_told_what_fits() -> None:
     pw = np.tile([0, 255], 64)
     with pytest.raises(InputError, match=r"every 2 encoder counts \(positions_per_cycle 8192"):
         build_tables(spec, pos, pw, pw / 255.0)
+
+
+# -- a DATA.csv edited by hand -------------------------------------------------------------------
+
+
+def test_a_typed_row_is_refused_and_reordered_rows_get_no_false_step(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    _, data = collect(hybrid_stepper(4), tmp_path)
+    table = np.loadtxt(data, delimiter=",", skiprows=1)
+    header = "position,pulse_width,torque,bias"
+    fmt = ["%d", "%d", "%.10g", "%.10g"]
+    motor = str(tmp_path / "motor.toml")
+    # one torque typed ten times too large (before: the tables of a 240-position motor went
+    # from 1.30 % to 7.47 % APMD, exit 0)
+    typo = table.copy()
+    row = int(np.flatnonzero(typo[:, 1] == 200)[3])
+    typo[row, 2] *= 10
+    np.savetxt(tmp_path / "typo.csv", typo, delimiter=",", header=header, comments="", fmt=fmt)
+    assert main(["linearize", "build", motor, str(tmp_path / "typo.csv"), "-o",
+                 str(tmp_path / "t.npz")]) == 2  # fmt: skip
+    err = capsys.readouterr().err
+    assert f"data row {row + 1} (position {int(typo[row, 0])}, pulse width 200) reads" in err
+    # the same rows shuffled (a spreadsheet's sort): no "every Nth pulse width" of the row order
+    order = np.random.default_rng(0).permutation(len(table))
+    shuffled = tmp_path / "shuffled.csv"
+    np.savetxt(shuffled, table[order], delimiter=",", header=header, comments="", fmt=fmt)
+    assert main(["linearize", "build", motor, str(shuffled), "-o", str(tmp_path / "s.npz")]) == 0
+    assert "pulse width" not in capsys.readouterr().err

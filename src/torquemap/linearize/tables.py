@@ -51,6 +51,7 @@ from torquemap.linearize.knee import check_uncensored, knee_levels, pool_onset, 
 from torquemap.linearize.knee_track import cut_below_knee, knee_at, knee_between
 from torquemap.linearize.motor import MotorSpec
 from torquemap.linearize.onset import CensoredUse, OnsetForm, extend_below, fit_onset
+from torquemap.linearize.outliers import check_outliers
 from torquemap.linearize.reach import unreachable_message
 from torquemap.linearize.resume import check_collected_for
 from torquemap.linearize.sampling import (
@@ -1247,6 +1248,7 @@ def build_tables(
             path=spec.path if spec.path is not None else src,
         )
     pos, pw, tau = _check_rows(spec, position, pulse_width, torque, src)
+    check_outliers(pos, pw, tau, path=src)  # a hand edit or a glitch, before it bends the fit
     n, m = spec.positions_per_cycle, spec.phases
     # the rows' noise from their level-0 rows as read: the bias's re-zeroing below restores
     # the load at rest to some of them, which is not noise
