@@ -51,7 +51,7 @@ from torquemap.linearize.knee import check_uncensored, knee_levels, pool_onset, 
 from torquemap.linearize.knee_track import cut_below_knee, knee_at, knee_between
 from torquemap.linearize.motor import MotorSpec
 from torquemap.linearize.onset import CensoredUse, OnsetForm, extend_below, fit_onset
-from torquemap.linearize.outliers import check_outliers
+from torquemap.linearize.outliers import check_outliers, row_order_advice
 from torquemap.linearize.reach import unreachable_message
 from torquemap.linearize.resume import check_collected_for
 from torquemap.linearize.sampling import (
@@ -1271,9 +1271,11 @@ def build_tables(
 
     rank = 0
     raw_tau = tau
+    order_advice = ""
     if denoise and method == "interp":
         cleaned = denoise_blocks(pw, tau, bias_weight=bias_weight)
         tau, rank = cleaned.torque, cleaned.rank
+        order_advice = row_order_advice(cleaned.reason)
         if rank:
             # where the low-rank fit misses the torque beyond the noise, the readings back
             tau = restore_misfit(pw, raw_tau, tau, bias_weight=bias_weight).torque
@@ -1383,6 +1385,8 @@ def build_tables(
     within = within_count_advice(pos, pw, tau, spec.ramp)  # few positions per cycle
     if within:
         warnings.append(within)
+    if order_advice:
+        warnings.append(order_advice)
     base[:, 0] = 0.0
     base = np.clip(base, 0.0, float(spec.actuation_max))
 
