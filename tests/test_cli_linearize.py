@@ -557,7 +557,8 @@ def test_fewer_actuation_bits_than_the_motor_is_warned(
     tables = load_tables(tmp_path / "a.npz")
     assert int(tables.phases.max()) == 3  # what the warning says: entries 0 .. 3
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == [
+    # the synthetic surface changes by 8.5 % a position: linearize.count's line comes too (Q40)
+    assert [line for line in err if "one table position is 1/48" not in line] == [
         f"torquemap: warning: {d}/motor.toml: --actuation-bits 2 gives entries 0 .. 3, coarser "
         "than the motor's pulse widths 0 .. 255: each entry step is 85 pulse widths (the option "
         "is for drives with more bits than the motor file's)"

@@ -250,9 +250,9 @@ def _build(args: argparse.Namespace) -> int:
     print("wrote " + ", ".join(written))
     for warning in tables.warnings:
         print(f"torquemap: warning: {args.data}: {warning}", file=sys.stderr)
-    from torquemap.linearize.pulse_step import pulse_step_advice
+    from torquemap.linearize.pulse_step import pulse_step_advice_rows
 
-    coarse = pulse_step_advice(data.level, data.torque, tables.torque_per_count)
+    coarse = pulse_step_advice_rows(data.position, data.level, data.torque, tables.torque_per_count)
     if coarse:
         print(f"torquemap: warning: {args.data}: {coarse}", file=sys.stderr)
     bits = args.actuation_bits
@@ -306,6 +306,12 @@ def _evaluate(args: argparse.Namespace) -> int:
     tables = None if args.tables is None else load_tables(args.tables)
     kind: DataKind = "characterisation" if tables is None else "verification"
     data = args.progress.run("read the data", lambda: _read_evaluated(args, spec, kind))
+    from torquemap.linearize.outliers import check_outliers
+    from torquemap.linearize.sign import check_torque_sign
+
+    what = "pulse width" if kind == "characterisation" else "command"
+    check_torque_sign(data.position, data.level, data.torque, what=what, path=args.data)
+    check_outliers(data.position, data.level, data.torque, what=what, path=args.data)
     report = args.progress.run(
         "evaluate linearity",
         lambda: evaluate_linearity(spec, data, tables=tables, tables_path=args.tables),

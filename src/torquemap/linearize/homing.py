@@ -121,6 +121,28 @@ def circular_difference(a: ArrayLike, b: ArrayLike, period: float) -> NDArray[np
     return out
 
 
+#: Counts a rest may lie from its equilibrium on any grid: the encoder rounds the reading and
+#: the motor file the equilibrium, half a count each, and friction adds to one approach.
+ROUNDING_COUNTS = 1.5
+
+
+def rest_tolerance(spacing: float) -> float:
+    """How far [table positions] a phase's rest may lie from the file's equilibrium (after the
+    offset) before the file is taken for another motor's: an eighth of the phase spacing, but
+    never less than :data:`ROUNDING_COUNTS`.
+
+    On a coarse grid an eighth of the spacing is less than the counts' own rounding: with 12
+    positions per cycle and 3 phases (spacing 4, an eighth 0.5) a rest one count off refused
+    the right motor file as another motor's (QA stop 36, docs/linearize.md).
+
+    Examples
+    --------
+    >>> rest_tolerance(512 / 3), rest_tolerance(4.0)
+    (21.333333333333332, 1.5)
+    """
+    return max(spacing / 8.0, ROUNDING_COUNTS)
+
+
 def _phase_order(spec: MotorSpec) -> list[int]:
     """Phases sorted by equilibrium (the order in which a forward walk reaches them)."""
     return sorted(range(spec.phases), key=lambda k: spec.equilibrium_positions[k])
@@ -158,7 +180,8 @@ def home_motor(
     InputError
         A motor with fewer than 3 phases, a pulse width out of range, a phase
         that does not pull the motor to its equilibrium, or rest positions that disagree with
-        the file's equilibria by more than an eighth of the phase spacing.
+        the file's equilibria by more than :func:`rest_tolerance` (an eighth of the phase
+        spacing, at least 1.5 counts).
 
     Notes
     -----
@@ -216,11 +239,16 @@ def home_motor(
     offset = circular_mean(single, n)
     residual = circular_difference(single, offset, n)
     worst = float(np.max(np.abs(residual)))
-    if worst > spacing / 8:
+    tolerance = rest_tolerance(spacing)
+    if worst > tolerance:
+        within = (
+            "an eighth of the phase spacing"
+            if tolerance > ROUNDING_COUNTS
+            else f"{ROUNDING_COUNTS:g} counts, the encoder's and the file's rounding"
+        )
         raise InputError(
             f"the phases rest up to {worst:.0f} table positions away from the equilibria in "
-            "the motor file (more than an eighth of the phase spacing): the file or tables are "
-            "for another motor?",
+            f"the motor file (more than {within}): the file or tables are for another motor?",
             path=path,
         )
     phase_offset = np.array(

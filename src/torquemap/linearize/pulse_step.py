@@ -90,4 +90,46 @@ def pulse_step_advice(pulse_width: ArrayLike, torque: ArrayLike, torque_per_coun
     )
 
 
-__all__ = ["RESOLUTIONS", "pulse_step_advice"]
+def pulse_step_advice_rows(
+    position: ArrayLike, pulse_width: ArrayLike, torque: ArrayLike, torque_per_count: float
+) -> str:
+    """:func:`pulse_step_advice` on rows in any order.
+
+    :func:`pulse_step_advice` reads the sweeps from the collection's row order. A DATA.csv whose
+    rows were reordered (sorted or shuffled in a spreadsheet: QA stop 36) breaks the sweeps
+    into runs across positions, and the line named "every 56th pulse width" of a collection
+    that measured every 4th. When fewer than half the runs of increasing pulse widths start at
+    the smallest one (a collection's sweeps all do), the rows are taken by position, then pulse
+    width, each position's rows one sweep.
+
+    Parameters
+    ----------
+    position
+        The rows' table positions, shape (n,).
+    pulse_width, torque, torque_per_count
+        As for :func:`pulse_step_advice`.
+
+    Examples
+    --------
+    >>> pos = np.repeat(np.arange(8), 64)
+    >>> pw = np.tile(np.arange(0, 256, 4.0), 8)
+    >>> tau = np.maximum(0.0, pw - 40.0) * 0.05
+    >>> order = np.random.default_rng(0).permutation(pw.size)
+    >>> pulse_step_advice(pw[order], tau[order], 0.05)[:46]
+    'the collection measured every 50th pulse width'
+    >>> pulse_step_advice_rows(pos[order], pw[order], tau[order], 0.05)
+    ''
+    """
+    pos = np.asarray(position)
+    pw = np.asarray(pulse_width, dtype=np.float64)
+    tau = np.asarray(torque, dtype=np.float64)
+    if pw.size == 0:
+        return ""
+    starts = np.flatnonzero(np.r_[True, np.diff(pw) <= 0])
+    if np.mean(pw[starts] == pw.min()) < 0.5:
+        order = np.lexsort((pw, pos))
+        pw, tau = pw[order], tau[order]
+    return pulse_step_advice(pw, tau, torque_per_count)
+
+
+__all__ = ["RESOLUTIONS", "pulse_step_advice", "pulse_step_advice_rows"]

@@ -43,6 +43,7 @@ from scipy.optimize import isotonic_regression
 from torquemap.errors import InputError
 from torquemap.io import numeric_column, read_table
 from torquemap.linearize.bias import check_bias
+from torquemap.linearize.count import coarser_grid_advice, within_count_advice
 from torquemap.linearize.denoise import denoise_blocks, restore_misfit
 from torquemap.linearize.detent import detent_correction, fit_detent
 from torquemap.linearize.handover import check_handover, fill_handover
@@ -50,6 +51,8 @@ from torquemap.linearize.knee import check_uncensored, knee_levels, pool_onset, 
 from torquemap.linearize.knee_track import cut_below_knee, knee_at, knee_between
 from torquemap.linearize.motor import MotorSpec
 from torquemap.linearize.onset import CensoredUse, OnsetForm, extend_below, fit_onset
+from torquemap.linearize.outliers import check_outliers, row_order_advice
+from torquemap.linearize.reach import unreachable_message
 from torquemap.linearize.resume import check_collected_for
 from torquemap.linearize.sampling import (
     MATTERS,
@@ -57,6 +60,7 @@ from torquemap.linearize.sampling import (
     check_stated_cogging,
     unheld_gap_advice,
 )
+from torquemap.linearize.sign import check_torque_sign, pulse_width_hint
 from torquemap.linearize.surface import SurfaceFit, fit_surface, surface_prediction
 
 CommandScaling = Literal["linear", "log"]
@@ -258,7 +262,14 @@ def read_data(path: str | os.PathLike[str], spec: MotorSpec, *, kind: DataKind) 
     n = spec.positions_per_cycle
     position = _integer_column(columns, "position", p, 0, n - 1)
     if kind == "characterisation":
-        level = _integer_column(columns, "pulse_width", p, 0, spec.actuation_max)
+        try:
+            level = _integer_column(columns, "pulse_width", p, 0, spec.actuation_max)
+        except InputError as exc:
+            # a sign-magnitude drive or a current in amperes: say what the column holds
+            hint = pulse_width_hint(numeric_column(columns, "pulse_width", p), spec.actuation_max)
+            if not hint:
+                raise
+            raise InputError(exc.message + hint, path=p) from None
     else:
         half = 1 << (spec.command_bits - 1)
         level = _integer_column(columns, "command", p, -half, half - 1)
@@ -1232,10 +1243,12 @@ def build_tables(
         raise InputError(
             f"positions_per_cycle x (actuation_max + 1) = {cells:.3g} cells, more than the "
             f"{MAX_GRID_CELLS:.3g} the tables are built on (for example 512 positions up to "
-            "actuation_max 4095)",
+            "actuation_max 4095)"
+            + coarser_grid_advice(spec.positions_per_cycle, spec.actuation_max, MAX_GRID_CELLS),
             path=spec.path if spec.path is not None else src,
         )
     pos, pw, tau = _check_rows(spec, position, pulse_width, torque, src)
+    check_outliers(pos, pw, tau, path=src)  # a hand edit or a glitch, before it bends the fit
     n, m = spec.positions_per_cycle, spec.phases
     # the rows' noise from their level-0 rows as read: the bias's re-zeroing below restores
     # the load at rest to some of them, which is not noise
@@ -1251,15 +1264,18 @@ def build_tables(
             bias_advice = found.advice(restored=restored, bias_open=bias_open)
     gap = max(1, n // (4 * m)) if max_gap is None else int(max_gap)
     floor = _noise_floor(pw, tau)
+    check_torque_sign(pos, pw, tau, path=src)  # before the signal check: a reversed sensor
     _check_signal(pos, pw, tau, src)
     _check_phases(spec, pos, pw, tau, floor, src)
     _check_coverage(spec, pos, gap, src)
 
     rank = 0
     raw_tau = tau
+    order_advice = ""
     if denoise and method == "interp":
         cleaned = denoise_blocks(pw, tau, bias_weight=bias_weight)
         tau, rank = cleaned.torque, cleaned.rank
+        order_advice = row_order_advice(cleaned.reason)
         if rank:
             # where the low-rank fit misses the torque beyond the noise, the readings back
             tau = restore_misfit(pw, raw_tau, tau, bias_weight=bias_weight).torque
@@ -1273,13 +1289,9 @@ def build_tables(
         detent=detent and method == "interp",
     )
     reach = np.nanmax(np.where(np.isnan(forward), -np.inf, forward), axis=1)
-    if (reach <= floor).any():
-        p = int(np.argmax(reach <= floor))
-        raise InputError(
-            f"no torque is reachable at position {p} (largest {reach[p]:.3g} N m; noise floor "
-            f"{floor:.3g} N m)",
-            path=src,
-        )
+    unreachable = unreachable_message(reach, floor, phases=m)
+    if unreachable:
+        raise InputError(unreachable, path=src)
     torque_max = float(reach.min())
     cmax = (1 << (spec.command_bits - 1)) - 1
     weak = weak_phase_advice(reach, np.asarray(spec.ramp, dtype=np.float64))
@@ -1370,6 +1382,11 @@ def build_tables(
         warnings.append(bias_advice)
     if noisy:
         warnings.append(noisy)
+    within = within_count_advice(pos, pw, tau, spec.ramp)  # few positions per cycle
+    if within:
+        warnings.append(within)
+    if order_advice:
+        warnings.append(order_advice)
     base[:, 0] = 0.0
     base = np.clip(base, 0.0, float(spec.actuation_max))
 
