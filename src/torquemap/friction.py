@@ -282,6 +282,9 @@ def _chain(
     only if the angle travels, over ``span`` (two differentiator windows) about each sample, at
     least a quarter of the chain's mean speed on all but ``HELD_SHARE`` of its samples (none of
     204's stick-slip pass; 37 % to 69 % of the hold logs of the tests, holds of 0.2 to 0.4 s).
+    The share of time the velocity clears the threshold does not tell them apart: a stiff hold
+    loop creeping through the stiction band clears it in short runs (57 % of the simulated
+    stand's 0.4 s holds, 70 % of 204's pass; docs/estimation.md, robot 204's rests).
     """
     out: list[tuple[int, int, int]] = []
     i, n = 0, len(runs)
