@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
 from torquemap.errors import InputError
+from torquemap.filters import differentiate
 from torquemap.friction import angle_mean, fit_friction, fit_inertia, segment_motion
 from torquemap.model import FrictionModel, friction_torque
 
@@ -147,3 +148,100 @@ def test_segmentation_bridges_ripple_and_finds_ramps() -> None:
     # the pass starts after the 1 s ramp (within the revolution-average window) and ends before
     assert 0.8 < t[p.start] < 2.5 and 17.5 < t[p.stop - 1] < 19.2
     assert seg.accelerating[:500].sum() > 0
+
+
+def _stick_slip(v_ref: float, duration: float) -> tuple[np.ndarray, ...]:
+    """A position servo (15 Hz, damping 0.8) ramping a rotor (1e-4 kg m^2) at ``v_ref``
+    through Stribeck friction (static 0.08, Coulomb 0.05 N m, 0.3 rad/s): at 0.5 rad/s it
+    sticks and slips. Logged at 1 kHz with a 4096-count encoder; returns the time, the encoder
+    angle, the true angle and the commanded torque."""
+    dt, inertia = 2e-4, 1e-4
+    wn = 2 * math.pi * 15.0
+    stiff, damp = inertia * wn**2, 2 * 0.8 * inertia * wn
+    n = round(duration / dt)
+    angle, torque = np.empty(n), np.empty(n)
+    th = w = 0.0
+    for i in range(n):
+        u = stiff * (v_ref * i * dt - th) + damp * (v_ref - w)
+        torque[i] = u
+        if w == 0.0 and abs(u) <= 0.08:  # stuck
+            angle[i] = th
+            continue
+        f = math.copysign(0.05 + 0.03 * math.exp(-((w / 0.3) ** 2)), w if w else u) + 1e-3 * w
+        w_new = w + dt * (u - f) / inertia
+        w = 0.0 if w * w_new < 0 else w_new
+        th += dt * w
+        angle[i] = th
+    count = 2 * math.pi / 4096
+    true = angle[::5]
+    return np.arange(true.size) * 1e-3, np.round(true / count) * count, true, torque[::5]
+
+
+def test_segmentation_chains_the_bursts_of_a_joint_that_sticks_and_slips() -> None:
+    # random SCARA 204's slowest positive sweep pass at the 0.05 s window: bursts of 0.05 to
+    # 0.1 s, each a run too small for the bridge between significant runs, so no pass was
+    # found (its friction below 3.9 rad/s then came from the prior alone)
+    t, q, true, tau = _stick_slip(0.5, 16.0)
+    # the premise: the rotor sticks and slips (still 30-50 % of the time, in 0.02-0.1 s rests)
+    still = np.diff(true) == 0
+    starts = np.flatnonzero(np.diff(still.astype(int)) == 1)
+    assert 0.3 < still.mean() < 0.5 and starts.size > 100
+    count = 2 * math.pi / 4096
+    for sign in (1.0, -1.0):
+        d = differentiate(t, sign * q, window=0.05)
+        threshold = 5 * count / 0.05  # identify's: five velocity quanta
+        old = segment_motion(t, d.position, d.velocity, tau, speed_threshold=threshold)
+        assert old.passes == ()
+        seg = segment_motion(
+            t, d.position, d.velocity, sign * tau, speed_threshold=threshold, window=0.05
+        )
+        assert [p.direction for p in seg.passes] == ["positive" if sign > 0 else "negative"]
+        # the servo tracks its ramp: the pass's mean speed is the commanded one
+        assert_allclose(seg.passes[0].speed, sign * 0.5, rtol=0.01)
+        assert seg.passes[0].revolutions > 0.8 * 16.0 * 0.5 / (2 * math.pi)
+
+
+@pytest.mark.parametrize(("hold", "found"), [(0.3, False), (0.1, False), (0.03, True)])
+def test_segmentation_chains_no_hold_and_step(hold: float, found: bool) -> None:
+    # an anti-cogging calibration: 0.05 s steps of 1/64 revolution (small runs, as the
+    # bursts above) and holds. Held for two differentiator windows or more, it is no pass (the
+    # CLI then points to identify --quasi-static); rests of 0.03 s are a stick-slip's
+    period, step = 0.05 + hold, 2 * math.pi / 64
+    t = np.arange(0.0, 64 * period, 1e-3)
+    k, phase = np.divmod(t, period)
+    moved = np.where(phase < 0.05, 0.5 - 0.5 * np.cos(math.pi * phase / 0.05), 1.0)
+    count = 2 * math.pi / 4096
+    q = np.round((k + moved) * step / count) * count
+    d = differentiate(t, q, window=0.05)
+    seg = segment_motion(
+        t, d.position, d.velocity, np.ones_like(t), speed_threshold=5 * count / 0.05, window=0.05
+    )
+    assert len(seg.passes) == int(found)
+    if found:
+        assert_allclose(seg.passes[0].speed, step / period, rtol=0.02)
+
+
+def test_segmentation_finds_no_pass_in_a_servo_dithering_at_rest() -> None:
+    # bursts both ways that cancel (no net travel): chaining must not make a pass of them
+    t = np.arange(0.0, 40.0, 1e-3)
+    phase = t % 0.2
+    v = np.where(phase < 0.06, 0.8, np.where((phase >= 0.1) & (phase < 0.16), -0.8, 0.0))
+    theta = np.concatenate(([0.0], np.cumsum(v[:-1]) * 1e-3))
+    seg = segment_motion(t, theta, v, np.ones_like(t), window=0.05)
+    assert seg.passes == ()
+
+
+def test_segmentation_keeps_a_fast_pass_followed_by_slow_bursts_apart() -> None:
+    # a fast pass at 20 rad/s (0.2 s ramps), then the joint sticks and slips the same way
+    # (bursts of 0.06 s at 0.8 rad/s every 0.1 s): two passes at their own closed-form speeds,
+    # the bursts never joined to the fast pass (random robot 6 of the family: chaining before
+    # the bridge turned its 92 rad/s pass into 8.95)
+    t = np.arange(0.0, 44.0, 1e-3)
+    fast = 20.0 * np.clip(t / 0.2, 0, 1) * np.clip((3.2 - t) / 0.2, 0, 1)
+    slow = np.where((t > 3.5) & (((t - 3.5) % 0.1) < 0.06), 0.8, 0.0)
+    v = fast + slow
+    theta = np.concatenate(([0.0], np.cumsum(v[:-1]) * 1e-3))
+    seg = segment_motion(t, theta, v, np.ones_like(t), window=0.05)
+    speeds = sorted(p.speed for p in seg.passes)
+    # the slow one 0.048 rad every 0.1 s; the fast one flat at 20 rad/s between its ramps
+    assert_allclose(speeds, [0.48, 20.0], rtol=0.01)

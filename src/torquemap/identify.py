@@ -478,6 +478,7 @@ def _identify_joint(
             log.motor_torque[:, k],
             allowed=allowed,
             speed_threshold=moving[k],
+            window=window,
         )
         passes.extend((li, p) for p in seg.passes)
         ramps.append((li, seg.accelerating & allowed & (np.abs(d[k].velocity) > moving[k])))
