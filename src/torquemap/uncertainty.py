@@ -33,6 +33,7 @@ from numpy.typing import NDArray
 from torquemap.errors import InputError
 from torquemap.filters import lowpass
 from torquemap.model import Model
+from torquemap.robust import exact_median
 
 #: Equivalent noise bandwidth of the forward-backward 2nd-order Butterworth low-pass, in units of
 #: its cut-off: integral of 1 / (1 + x^4)^2 over x >= 0 = 3 pi / (8 sqrt 2).
@@ -1355,7 +1356,7 @@ def residual_table(
     if not vs:
         return None
     speed = np.concatenate(vs)
-    spacing = float(np.median(np.concatenate(steps)))
+    spacing = exact_median(np.concatenate(steps))  # numpy's median (the steps are positive)
     low = np.concatenate(rs)
     acc = np.concatenate(acs)
     lo = max(band, 1e-6)
@@ -1373,8 +1374,9 @@ def residual_table(
     edges = np.geomspace(lo, max(top, 1.01 * lo), RESIDUAL_BINS + 1)
     centres, values = [], []
     which = np.clip(np.searchsorted(edges, speed[moving]) - 1, 0, RESIDUAL_BINS - 1)
+    low_moving = low[moving]  # once, not per bin
     for b in range(RESIDUAL_BINS):
-        sel = low[moving][which == b]
+        sel = low_moving[which == b]
         if sel.size < 50 or sel.size * spacing < 4.0 / RESIDUAL_CUTOFF:  # a few correlation times
             continue
         centres.append(float(math.sqrt(edges[b] * edges[b + 1])))
