@@ -33,7 +33,6 @@ from numpy.typing import NDArray
 from torquemap.errors import InputError
 from torquemap.filters import lowpass
 from torquemap.model import Model
-from torquemap.robust import exact_median
 
 #: Equivalent noise bandwidth of the forward-backward 2nd-order Butterworth low-pass, in units of
 #: its cut-off: integral of 1 / (1 + x^4)^2 over x >= 0 = 3 pi / (8 sqrt 2).
@@ -1356,7 +1355,7 @@ def residual_table(
     if not vs:
         return None
     speed = np.concatenate(vs)
-    spacing = exact_median(np.concatenate(steps))  # numpy's median (the steps are positive)
+    spacing = float(np.median(np.concatenate(steps)))
     low = np.concatenate(rs)
     acc = np.concatenate(acs)
     lo = max(band, 1e-6)
