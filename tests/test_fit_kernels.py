@@ -11,6 +11,7 @@ import pytest
 
 from torquemap._fit_kernels import (
     column_centres,
+    cos_sin,
     curvature_weights,
     delayed_columns,
     delayed_columns_at,
@@ -33,7 +34,7 @@ from torquemap.filters import (
     differentiate_rates,
     regular_step,
 )
-from torquemap.identify_whole import pdtv_basis
+from torquemap.identify_whole import gravity_basis, pdtv_basis
 from torquemap.smooth_rows import RowSmoother
 
 pytestmark = pytest.mark.xdist_group("kernels")
@@ -160,6 +161,13 @@ def test_both_ways_columns_smooth_as_the_numpy_columns(uniform: bool) -> None:
     velocity = np.gradient(theta, t)
     velocity[100:130] = 0.0
     velocity[200] = np.nan
+    # an encoder's angle: repeated values (the kernel reuses their cosine and sine), zeros of
+    # both signs among them (a zero's sine keeps its sign) and a NaN
+    theta[3000:6000] = np.round(theta[3000:6000] * 20.0) / 20.0
+    theta[500:520] = 0.0
+    theta[520:530] = -0.0
+    theta[530:535] = theta[529]
+    theta[11990] = theta[11991] = np.nan
     rows = np.arange(0, n, 7).astype(np.intp)
     smoother = RowSmoother.build(t, rows, 0.05)
     for order in (0.5, 1.0, 21.0):
@@ -168,8 +176,8 @@ def test_both_ways_columns_smooth_as_the_numpy_columns(uniform: bool) -> None:
         ref = smoother(np.hstack((both, split)))
         got = smoother.both_ways(theta, velocity, order)
         x = order * theta
-        if np.array_equal(np.cos(x), [math.cos(v) for v in x]) and np.array_equal(
-            np.sin(x), [math.sin(v) for v in x]
+        if np.array_equal(np.cos(x), [math.cos(v) for v in x], equal_nan=True) and np.array_equal(
+            np.sin(x), [math.sin(v) for v in x], equal_nan=True
         ):
             np.testing.assert_array_equal(got, ref)
         else:  # numpy's own SIMD cos and sin (an ulp off the C library's): the columns agree
@@ -450,3 +458,60 @@ def test_smooth_as_acceleration_as_before(uniform: bool) -> None:
         second = integrate.cumulative_trapezoid(first, t, initial=0.0, axis=0)
         want = differentiate_rates(t, second, window=0.03).acceleration + mean
         np.testing.assert_array_equal(smooth_as_acceleration(t, x, window=0.03), want)
+
+
+@pytest.mark.parametrize("uniform", [True, False])
+def test_angle_harmonics_smooth_as_the_gravity_columns(uniform: bool) -> None:
+    # the gravity test's joint-angle columns formed inside the smoother against
+    # gravity_basis's numpy columns (cumsum, cos, sin) through the smoother: planar chains of
+    # two and three joints from each joint, a joint alone; encoder angles that repeat, zeros
+    # of both signs, an irregular log with a gap (rows read through their indices)
+    rng = np.random.default_rng(40 + uniform)
+    n = 12001
+    step = np.full(n, 5e-4) if uniform else rng.uniform(2e-4, 8e-4, n)
+    if not uniform:
+        step[7000] = 0.03
+    t = 3.0 + np.cumsum(step)
+    q = np.column_stack([np.sin(t * (j + 1)) + 0.3 * j for j in range(3)])
+    q[2000:8000] = np.round(q[2000:8000] * 200.0) / 200.0
+    q[500:520, 0] = 0.0
+    q[520:530, 0] = -0.0
+    q[500:540, 1] = -0.0
+    smoother = RowSmoother.build(t, np.arange(0, n, 7).astype(np.intp), 0.05)
+    for joints, k, planar in (
+        (2, 0, True),
+        (2, 1, True),
+        (3, 1, True),
+        (2, 0, False),
+        (3, 2, False),
+    ):
+        qq = np.ascontiguousarray(q[:, :joints])
+        basis = gravity_basis(qq, k, planar)
+        ref = np.hstack([smoother(basis[:, j : j + 4]) for j in range(0, basis.shape[1], 4)])
+        got = smoother.angle_harmonics(qq, k, planar)
+        angles = np.concatenate((np.cumsum(qq, axis=1).ravel(), qq.ravel()))
+        if np.array_equal(np.cos(angles), [math.cos(v) for v in angles]) and np.array_equal(
+            np.sin(angles), [math.sin(v) for v in angles]
+        ):
+            np.testing.assert_array_equal(got, ref)
+        else:  # numpy's own SIMD cos and sin (an ulp off the C library's)
+            np.testing.assert_allclose(got, ref, rtol=0, atol=1e-8)
+
+
+def test_cos_sin_is_numpys_with_repeated_values() -> None:
+    # repeated values (their cosine and sine reused), zeros of both signs, NaN
+    rng = np.random.default_rng(50)
+    x = np.repeat(rng.uniform(-200.0, 200.0, 3000), rng.integers(1, 6, 3000))
+    x[10:20] = 0.0
+    x[15:18] = -0.0
+    x[30:33] = np.nan
+    c, s = cos_sin(x)
+    libm = np.array_equal(np.cos(x), [math.cos(v) for v in x], equal_nan=True)
+    libm &= np.array_equal(np.sin(x), [math.sin(v) for v in x], equal_nan=True)
+    if libm:
+        np.testing.assert_array_equal(c, np.cos(x))
+        np.testing.assert_array_equal(s, np.sin(x))
+        np.testing.assert_array_equal(np.signbit(s), np.signbit(np.sin(x)))
+    else:  # numpy's own SIMD cos and sin: within an ulp of the C library's
+        np.testing.assert_allclose(c, np.cos(x), rtol=0, atol=1e-15)
+        np.testing.assert_allclose(s, np.sin(x), rtol=0, atol=1e-15)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import itertools
 import math
 
@@ -14,7 +15,7 @@ from torquemap.errors import InputError
 from torquemap.estimate import estimate_forces
 from torquemap.friction_law import SpeedTableFriction, StribeckFriction
 from torquemap.identify import identify_model
-from torquemap.identify_whole import Piece
+from torquemap.identify_whole import Piece, pdtv_basis
 from torquemap.io import Log
 from torquemap.model import PdtvLine, pdtv_torque
 from torquemap.robot import robot_from_dict
@@ -561,19 +562,46 @@ def test_torques_prepared_four_at_a_time_are_those_of_one_at_a_time() -> None:
         np.testing.assert_array_equal(_torque(four, float(d)), _torque(one, float(d)))
 
 
-def test_lines_prepared_both_ways_are_those_of_each_way_alone() -> None:
+@pytest.mark.parametrize("quantised", [False, True])
+def test_lines_prepared_both_ways_are_those_of_each_way_alone(quantised: bool) -> None:
+    # the fit's PDTV columns (every line formed inside the smoother both ways at once, a line
+    # first asked for one way included) against pdtv_basis's numpy columns of each way alone
+    # through the smoother (the code the fit ran for a line not prepared both ways); an
+    # encoder's angle (quantised: repeated on most samples, zero among them) reuses the last
+    # cosine and sine
     from torquemap.identify_whole import _fixed_columns, _prepare_both_ways, _prepare_rows
 
     pieces = _sine_pieces(5)
+    if quantised:
+        pieces = [
+            dataclasses.replace(p, theta=np.round(p.theta * 400.0) / 400.0 - 0.5) for p in pieces
+        ]
     alone = _prepare_rows(pieces, 0.05, 1.0, 0.01)
     together = _prepare_rows(pieces, 0.05, 1.0, 0.01)
     _prepare_both_ways(together, [3.0, 7.5])
     for directional in (False, True):
-        lines = [(3.0, directional), (7.5, directional)]
-        got = _fixed_columns(together, lines, elbow_term=False, inertia=False)
-        ref = _fixed_columns(alone, lines, elbow_term=False, inertia=False)
-        np.testing.assert_array_equal(got[0], ref[0])
-        assert got[1] == ref[1]
+        lines = [(3.0, directional), (7.5, directional), (11.0, directional)]
+
+        def make(p: Piece, j0: int, j1: int, line: tuple[float, bool]) -> np.ndarray:
+            return pdtv_basis(p.theta, p.velocity, [line])[0][:, j0:j1]
+
+        ref = np.hstack(
+            [
+                alone.smooth(functools.partial(make, line=line), 4 if directional else 2)
+                for line in lines
+            ]
+        )
+        x = np.concatenate([o * p.theta for o, _ in lines for p in pieces])
+        libm = np.array_equal(np.cos(x), [math.cos(v) for v in x]) and np.array_equal(
+            np.sin(x), [math.sin(v) for v in x]
+        )
+        for rows in (together, alone):  # prepared both ways before, or on demand
+            got, names = _fixed_columns(rows, lines, elbow_term=False, inertia=False)
+            assert names == pdtv_basis(np.zeros(1), np.zeros(1), lines)[1]
+            if libm:
+                np.testing.assert_array_equal(got, ref)
+            else:  # numpy's own SIMD cos and sin (an ulp off the C library's)
+                np.testing.assert_allclose(got, ref, rtol=0, atol=1e-8)
 
 
 def _alternating_passes(count: int, samples: int) -> list[Piece]:

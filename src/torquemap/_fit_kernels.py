@@ -292,7 +292,10 @@ def smooth_both_ways_at_rows(
     Per column the operations of :func:`column_centres`, :func:`smooth_at_rows` and the
     smoother's ``+ centre`` in the same order, the masks a product by 1.0 or 0.0 as numpy's
     bool cast makes them: the same bits where numpy's ``cos`` and ``sin`` are the C library's
-    (where numpy uses its own SIMD versions, those differ from it within an ulp).
+    (where numpy uses its own SIMD versions, those differ from it within an ulp). A sample
+    whose argument ``order * theta`` equals the last sample's (nonzero) reuses its cosine and
+    sine: an encoder's angle repeats on most samples of a sweep, and the pair costs two
+    thirds of a sample's work.
     """
     n = t.size
     rows = indptr.size - 1
@@ -320,9 +323,17 @@ def smooth_both_ways_at_rows(
     pa = pb = pc = pd = pe = pf = 0.0  # the previous sample, centred
     fa = fb = fc = fd = fe = ff = 0.0  # the first integrals
     sa = sb = sc = sd = se = sf = 0.0  # the second
+    # an encoder's angle repeats from sample to sample (a joint at rest or slow, and the
+    # other joint's sweep): the cosine and sine of a repeated nonzero argument are the last
+    # ones (the same bits; a zero's sine keeps its sign, so a zero is always recomputed)
+    last = math.nan
+    c = s = 0.0
     for i in range(n):
-        c = math.cos(order * theta[i])
-        s = math.sin(order * theta[i])
+        x = order * theta[i]
+        if x != last or x == 0.0:
+            c = math.cos(x)
+            s = math.sin(x)
+            last = x
         up = 1.0 if velocity[i] > 0 else 0.0
         down = 1.0 if velocity[i] < 0 else 0.0
         ua, ub = c - ca, s - cb
@@ -389,6 +400,155 @@ def smooth_both_ways_at_rows(
         out[r, 4] = s4 + centre[4]
         out[r, 5] = s5 + centre[5]
     return out
+
+
+@jit
+def smooth_angle_harmonics_at_rows(
+    t: NDArray[np.float64],
+    q: NDArray[np.float64],
+    k: int,
+    planar: bool,
+    indptr: NDArray[np.int32],
+    indices: NDArray[np.int32],
+    data: NDArray[np.float64],
+    starts: NDArray[np.intp],
+) -> NDArray[np.float64]:
+    """:class:`torquemap.smooth_rows.RowSmoother` of the joint-angle columns of
+    :func:`torquemap.identify_whole.gravity_basis` (``q`` the joint angles (n, joints) [rad],
+    joint ``k``, ``planar``: the cosines, then the sines, of the absolute link angles from
+    joint ``k`` on, each the joint angles summed from the first in order as numpy's
+    ``cumsum`` sums them, or of joint ``k``'s angle), at most two angles (four columns):
+    shape (rows, 2 * angles), formed per sample as they are integrated instead of as an
+    (n, 4) array first.
+
+    Per column the operations of :func:`column_centres`, :func:`smooth_at_rows` and the
+    smoother's ``+ centre`` in the same order (as :func:`smooth_both_ways_at_rows`), and the
+    cosine and sine of an angle equal to the last sample's (nonzero) reused: the same bits
+    where numpy's ``cos`` and ``sin`` are the C library's.
+    """
+    n = t.size
+    joints = q.shape[1]
+    m = joints - k if planar else 1
+    rows = indptr.size - 1
+    out = np.empty((rows, 2 * m))
+    second = np.zeros((n, 4))
+    # slots: cos of angle 0, cos of angle 1, sin of angle 0, sin of angle 1 (one angle: the
+    # second slot repeats the first, its results dropped)
+    centre = np.zeros(4)
+    step = max(1, n // 1024)
+    count = 0
+    for i in range(0, n, step):
+        count += 1
+        x0 = x1 = q[i, k]
+        if planar:
+            acc = q[i, 0]
+            for j in range(1, k + 1):
+                acc = acc + q[i, j]
+            x0 = acc
+            x1 = acc + q[i, k + 1] if m == 2 else acc
+        centre[0] += math.cos(x0)
+        centre[1] += math.cos(x1)
+        centre[2] += math.sin(x0)
+        centre[3] += math.sin(x1)
+    for c in range(4):
+        centre[c] = centre[c] / max(count, 1)
+    ma, mb, mc, md = centre[0], centre[1], centre[2], centre[3]
+    pa = pb = pc = pd = 0.0  # the previous sample, centred
+    fa = fb = fc = fd = 0.0  # the first integrals
+    sa = sb = sc = sd = 0.0  # the second
+    last0 = last1 = math.nan
+    c0 = c1 = s0 = s1 = 0.0
+    for i in range(n):
+        x0 = x1 = q[i, k]
+        if planar:
+            acc = q[i, 0]
+            for j in range(1, k + 1):
+                acc = acc + q[i, j]
+            x0 = acc
+            x1 = acc + q[i, k + 1] if m == 2 else acc
+        if x0 != last0 or x0 == 0.0:
+            c0 = math.cos(x0)
+            s0 = math.sin(x0)
+            last0 = x0
+        if x1 != last1 or x1 == 0.0:
+            c1 = math.cos(x1)
+            s1 = math.sin(x1)
+            last1 = x1
+        ua, ub, uc, ud = c0 - ma, c1 - mb, s0 - mc, s1 - md
+        if i > 0:
+            dt = t[i] - t[i - 1]
+            ea = 0.5 * (ua + pa) * dt
+            eb = 0.5 * (ub + pb) * dt
+            ec = 0.5 * (uc + pc) * dt
+            ed = 0.5 * (ud + pd) * dt
+            if i == 1:
+                ga, gb, gc, gd = ea, eb, ec, ed
+            else:
+                ga, gb, gc, gd = fa + ea, fb + eb, fc + ec, fd + ed
+            ha = 0.5 * (ga + fa) * dt
+            hb = 0.5 * (gb + fb) * dt
+            hc = 0.5 * (gc + fc) * dt
+            hd = 0.5 * (gd + fd) * dt
+            if i == 1:
+                sa, sb, sc, sd = ha, hb, hc, hd
+            else:
+                sa, sb, sc, sd = sa + ha, sb + hb, sc + hc, sd + hd
+            second[i, 0] = sa
+            second[i, 1] = sb
+            second[i, 2] = sc
+            second[i, 3] = sd
+            fa, fb, fc, fd = ga, gb, gc, gd
+        pa, pb, pc, pd = ua, ub, uc, ud
+    for r in range(rows):
+        r0 = r1 = r2 = r3 = 0.0
+        lo = indptr[r]
+        if starts[r] >= 0:
+            at = starts[r] - lo
+            for jj in range(lo, indptr[r + 1]):
+                w = data[jj]
+                j = at + jj
+                r0 += w * second[j, 0]
+                r1 += w * second[j, 1]
+                r2 += w * second[j, 2]
+                r3 += w * second[j, 3]
+        else:
+            for jj in range(lo, indptr[r + 1]):
+                w = data[jj]
+                j = indices[jj]
+                r0 += w * second[j, 0]
+                r1 += w * second[j, 1]
+                r2 += w * second[j, 2]
+                r3 += w * second[j, 3]
+        if m == 2:
+            out[r, 0] = r0 + centre[0]
+            out[r, 1] = r1 + centre[1]
+            out[r, 2] = r2 + centre[2]
+            out[r, 3] = r3 + centre[3]
+        else:
+            out[r, 0] = r0 + centre[0]
+            out[r, 1] = r2 + centre[2]
+    return out
+
+
+@jit
+def cos_sin(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``cos(x)`` and ``sin(x)`` (n,) by the C library, a value equal to the last one
+    (nonzero) taking the last results: an encoder's angle repeats on most samples of a sweep.
+    numpy's ``cos`` and ``sin`` bit for bit where those are the C library's."""
+    n = x.size
+    c = np.empty(n)
+    s = np.empty(n)
+    last = math.nan
+    cv = sv = 0.0
+    for i in range(n):
+        v = x[i]
+        if v != last or v == 0.0:
+            cv = math.cos(v)
+            sv = math.sin(v)
+            last = v
+        c[i] = cv
+        s[i] = sv
+    return c, s
 
 
 @jit

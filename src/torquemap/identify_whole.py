@@ -53,7 +53,7 @@ from torquemap.robust import (
     cluster_medians,
     cluster_wald_pvalue,
     huber_weights,
-    robust_scale,
+    mad_scale,
 )
 from torquemap.smooth_rows import RowSmoother
 from torquemap.uncertainty import LOWPASS_ENB, residual_table
@@ -473,8 +473,12 @@ def _fixed_columns(
             cols.append((acc * np.cos(rows.at(lambda p: p.elbow)))[:, None])
             names.append("inertia.cos_elbow")
     _, pd_names = pdtv_basis(np.zeros(1), np.zeros(1), orders)
+    # a line not yet smoothed (a candidate from the residual, or a log swept one way) both
+    # ways at once: its cosine and sine formed inside the smoother, the same numbers as
+    # pdtv_basis's columns smoothed (tests/test_identify_whole.py)
+    _prepare_both_ways(rows, [o for o, d in orders if ("pdtv", o, d) not in rows.cache])
     for line in orders:  # one order's two (four) columns at a time, each smoothed once
-        cols.append(rows.smooth_once(("pdtv", *line), _pdtv_columns(line), 4 if line[1] else 2))
+        cols.append(rows.cache[("pdtv", *line)])
     names += pd_names
     n = sum(r.size for r in rows.rows)
     return (np.hstack(cols) if cols else np.zeros((n, 0))), names
@@ -503,15 +507,6 @@ def _prepare_both_ways(rows: _Rows, orders: Sequence[float]) -> None:
             kept = part.copy()
             kept.setflags(write=False)
             rows.cache[key] = kept
-
-
-def _pdtv_columns(line: tuple[float, bool]) -> Callable[[Piece, int, int], NDArray[np.float64]]:
-    """The columns of one PDTV line ``(order, directional)`` (:func:`pdtv_basis`)."""
-
-    def make(p: Piece, j0: int, j1: int) -> NDArray[np.float64]:
-        return pdtv_basis(p.theta, p.velocity, [line])[0][:, j0:j1]
-
-    return make
 
 
 def _friction_columns(
@@ -810,11 +805,11 @@ def _irls(
     for _ in range(iterations):
         local = trial.residual.copy()
         local[inside] -= cluster_medians(trial.residual[inside], clusters[inside])
-        scale = robust_scale(local[inside])
+        scale = mad_scale(local[inside])
         new = _Solver(a, huber_weights(local, scale) * keep, prior, gram)(y)
         moved = float(np.max(np.abs(new.residual - trial.residual)[inside], initial=0.0))
         trial = new
-        if moved < 1e-3 * robust_scale(trial.residual[inside]):
+        if moved < 1e-3 * mad_scale(trial.residual[inside]):
             break
     return trial
 
@@ -992,7 +987,7 @@ def fit_joint_whole(
 
     a = np.hstack((fixed, fric))
     first = _psolve(a, y0, keep, embed(fixed.shape[1], (0.1 * level) ** 2))
-    scale0 = robust_scale(first.residual[keep > 0])
+    scale0 = mad_scale(first.residual[keep > 0])
     noise = scale0**2 * _inflation(first.residual * keep, rows.clusters)
     prior = embed(fixed.shape[1], noise)
 
@@ -1054,7 +1049,7 @@ def fit_joint_whole(
 
     m0 = fixed.shape[1]
     rest_of_model = fixed @ fit.coef[:m0]
-    scale1 = robust_scale(fit.residual[keep > 0])
+    scale1 = mad_scale(fit.residual[keep > 0])
 
     def width_cost(x: float) -> float:
         return huber_cost(y - rest_of_model - with_width(x) @ fit.coef[m0:], scale1)
@@ -1174,7 +1169,7 @@ def fit_joint_whole(
     fit, bound_note = _dissipative(a, y, fit, prior, m, speeds, noise=noise)
     if bound_note:
         warnings.append(bound_note)
-    scale = robust_scale(fit.residual[keep > 0])
+    scale = mad_scale(fit.residual[keep > 0])
     # covariance: the sandwich where the data speak, plus what the prior adds (the posterior
     # (N + L)^-1 = B N B + B L B with B = (N + L)^-1; B N B -> the cluster sandwich)
     cov = cluster_covariance(a, fit.residual, fit.weights, fit.bread, rows.clusters)
@@ -1504,7 +1499,7 @@ def _dissipative(
     )
     # the posterior standard deviation (``noise``: the residual's variance with the rows'
     # correlation, as in the prior's scale)
-    var = robust_scale(fit.residual) ** 2 if noise is None else noise
+    var = mad_scale(fit.residual) ** 2 if noise is None else noise
     sd = np.sqrt(np.maximum(np.diag(to_magnitude @ fit.bread @ to_magnitude.T), 0.0) * var)
     moved = (phi < 0) & (np.arange(p) >= m) & (-phi > 2.0 * sd)
     note = ""
@@ -1584,7 +1579,7 @@ def _residual_psd(
     if not values:
         return scale**2 / 50.0
     low = np.concatenate(values)
-    var = robust_scale(low) ** 2
+    var = mad_scale(low) ** 2
     return float(var / (LOWPASS_ENB * REFERENCE_CUTOFF))
 
 
@@ -1599,7 +1594,15 @@ def _gravity_test(
 ) -> tuple[float, bool]:
     """Peak-to-peak torque explained by joint-angle harmonics, and whether it is significant."""
     width = gravity_basis(rows.pieces[0].joint_angles[:1], k, planar).shape[1]
-    g = rows.smooth(lambda p, j0, j1: gravity_basis(p.joint_angles, k, planar)[:, j0:j1], width)
+    if width <= 4:  # formed inside the smoother (the same numbers)
+        g = np.vstack(
+            [
+                sm.angle_harmonics(p.joint_angles, k, planar)
+                for p, sm in zip(rows.pieces, rows.smoothers, strict=True)
+            ]
+        )
+    else:
+        g = rows.smooth(lambda p, j0, j1: gravity_basis(p.joint_angles, k, planar)[:, j0:j1], width)
     full = np.hstack((a, g))
     pr = np.zeros((full.shape[1], full.shape[1]))
     pr[: a.shape[1], : a.shape[1]] = prior

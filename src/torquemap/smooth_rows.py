@@ -114,6 +114,28 @@ class RowSmoother:
             dtype=np.float64,
         )
 
+    def angle_harmonics(self, q: NDArray[np.float64], k: int, planar: bool) -> NDArray[np.float64]:
+        """The smoothed joint-angle columns of a gravity torque on joint ``k`` at the rows
+        (:func:`torquemap.identify_whole.gravity_basis` of the joint angles ``q`` [rad],
+        shape (n, joints), at most two absolute angles), shape (rows, 2 or 4): the same
+        numbers as this smoother applied to those columns, without forming them."""
+        from torquemap._fit_kernels import smooth_angle_harmonics_at_rows
+
+        op = self.operator
+        return np.asarray(
+            smooth_angle_harmonics_at_rows(
+                self.t,
+                np.ascontiguousarray(q, dtype=np.float64),
+                int(k),
+                bool(planar),
+                op.indptr,
+                op.indices,
+                op.data,
+                self.starts,
+            ),
+            dtype=np.float64,
+        )
+
     def speed_table(
         self,
         speed: NDArray[np.float64],

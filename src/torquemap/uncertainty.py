@@ -1373,8 +1373,9 @@ def residual_table(
     edges = np.geomspace(lo, max(top, 1.01 * lo), RESIDUAL_BINS + 1)
     centres, values = [], []
     which = np.clip(np.searchsorted(edges, speed[moving]) - 1, 0, RESIDUAL_BINS - 1)
+    low_moving = low[moving]  # once, not per bin
     for b in range(RESIDUAL_BINS):
-        sel = low[moving][which == b]
+        sel = low_moving[which == b]
         if sel.size < 50 or sel.size * spacing < 4.0 / RESIDUAL_CUTOFF:  # a few correlation times
             continue
         centres.append(float(math.sqrt(edges[b] * edges[b + 1])))

@@ -40,7 +40,7 @@ from numpy.typing import NDArray
 from torquemap.errors import InputError
 from torquemap.filters import lowpass
 from torquemap.io import Log
-from torquemap.model import Model, PdtvLine, pdtv_torque
+from torquemap.model import Model, PdtvLine, _power_order, pdtv_torque
 from torquemap.robust import cluster_jackknife_covariance, cluster_wald_pvalue, weighted_solve
 
 if TYPE_CHECKING:
@@ -202,7 +202,14 @@ def with_free(
     the residual table each read it."""
     if piece.free is not None:
         return piece, piece.free
-    free = piece.eq7 - pdtv_torque(piece.angle, lines, velocity=piece.velocity)
+    phasor = None
+    if sum(1 for line in lines if _power_order(line.order)) > 1 and piece.angle.size:
+        # the lines as powers of exp(i theta) (pdtv_torque's kernel): the angle's cosine and
+        # sine with an encoder's repeated angles computed once (the same numbers)
+        from torquemap._fit_kernels import cos_sin
+
+        phasor = cos_sin(np.ascontiguousarray(piece.angle, dtype=np.float64))
+    free = piece.eq7 - pdtv_torque(piece.angle, lines, velocity=piece.velocity, phasor=phasor)
     return dataclasses.replace(piece, free=free), free
 
 
