@@ -122,11 +122,13 @@ def test_reversed_sensor_is_refused_by_build_and_evaluate(
     flipped = tmp_path / "flipped.csv"
     np.savetxt(flipped, table, delimiter=",", header="position,pulse_width,torque,bias",
                comments="", fmt=["%d", "%d", "%.10g", "%.10g"])  # fmt: skip
-    for command in ("build", "evaluate"):
-        extra = ["-o", str(tmp_path / "t.npz")] if command == "build" else []
+    outputs = {"build": ["-o", str(tmp_path / "t.npz")], "figures": ["-o", str(tmp_path / "f")]}
+    for command in ("build", "evaluate", "figures"):
+        extra = outputs.get(command, [])
         status = main(["linearize", command, str(tmp_path / "motor.toml"), str(flipped), *extra])
         err = capsys.readouterr().err.strip()
-        # before: build asked whether the motor was powered; evaluate printed 21.6 %, exit 0
+        # before: build asked whether the motor was powered; evaluate printed 21.6 %, exit 0;
+        # figures drew the falling surface, exit 0
         assert status == 2
         assert err.startswith(f"torquemap: error: {flipped}: the torque falls as the pulse width")
         assert "negate the torque and bias columns" in err
@@ -305,7 +307,16 @@ def test_a_typed_row_is_refused_and_reordered_rows_get_no_false_step(
     assert main(["linearize", "build", motor, str(tmp_path / "typo.csv"), "-o",
                  str(tmp_path / "t.npz")]) == 2  # fmt: skip
     err = capsys.readouterr().err
-    assert f"data row {row + 1} (position {int(typo[row, 0])}, pulse width 200) reads" in err
+    said = f"data row {row + 1} (position {int(typo[row, 0])}, pulse width 200) reads"
+    assert said in err
+    # figures refuse it the same way (before: drawn, exit 0), and write no folder
+    figures = tmp_path / "figures"
+    assert main(["linearize", "figures", motor, str(tmp_path / "typo.csv"), "-o",
+                 str(figures)]) == 2  # fmt: skip
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"torquemap: error: {tmp_path / 'typo.csv'}: {said}")
+    assert "\n" not in err
+    assert not figures.exists()
     # the same rows shuffled (a spreadsheet's sort): no "every Nth pulse width" of the row order
     order = np.random.default_rng(0).permutation(len(table))
     shuffled = tmp_path / "shuffled.csv"
