@@ -113,7 +113,7 @@ def test_two_winding_stepper_is_refused_and_four_phases_build(tmp_path: Path) ->
 # -- a force sensor mounted the other way round --------------------------------------------------
 
 
-def test_reversed_sensor_is_refused_by_build_and_evaluate(
+def test_reversed_sensor_is_refused_by_build_evaluate_and_figures(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     _, data = collect(hybrid_stepper(4), tmp_path)
