@@ -287,6 +287,45 @@ def test_a_finer_encoder_than_the_grid_is_told_what_fits() -> None:
         build_tables(spec, pos, pw, pw / 255.0)
 
 
+def test_a_finer_encoder_than_the_grid_is_refused_before_collecting(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the same 16384-position motor file: collecting on a rig of the user's (the API) spent the
+    # rig's time on data that build then refused; now the collection refuses it before it
+    # touches the rig, with build's line (one shared check, count.check_grid_fits)
+    from torquemap.linearize.adaptive import collect_adaptive
+    from torquemap.linearize.motor import motor_spec
+
+    n = 16384
+    spec = motor_spec("fine", phases=3, positions_per_cycle=n,
+                      equilibrium_positions=(5 * n // 12, 9 * n // 12, n // 12))  # fmt: skip
+    motor = tmp_path / "motor.toml"
+    write_toml(motor, motor_to_dict(spec))
+    out = tmp_path / "data.csv"
+    # on the CLI's simulated rigs (128 to 512 positions) the motor file was refused already, as
+    # another motor's; on a rig of the user's (the API) it was collected
+    assert main(["linearize", "collect", str(motor), "--sim", "vr", "-o", str(out)]) == 2
+    assert "16384 positions per cycle; the simulated vr motor has 3 and 512" in (
+        capsys.readouterr().err
+    )
+
+    class Untouched:  # a rig that fails the test if the collection reads it at all
+        def __getattr__(self, name: str) -> object:
+            raise AssertionError(f"the rig was used ({name}) before the refusal")
+
+    pos = np.repeat(np.arange(0, n, n // 64), 2)
+    pw = np.tile([0, 255], 64)
+    with pytest.raises(
+        InputError, match=r"every 2 encoder counts \(positions_per_cycle 8192"
+    ) as build_said:
+        build_tables(spec, pos, pw, pw / 255.0)
+    for collect_api in (collect_characterisation, collect_adaptive):
+        with pytest.raises(InputError) as refused:
+            collect_api(Untouched(), spec, out)  # type: ignore[arg-type]
+        assert refused.value.message == build_said.value.message  # build's line, word for word
+    assert not out.exists()
+
+
 # -- a DATA.csv edited by hand -------------------------------------------------------------------
 
 
