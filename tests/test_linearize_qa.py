@@ -116,7 +116,7 @@ def test_two_winding_stepper_is_refused_and_four_phases_build(tmp_path: Path) ->
 def test_reversed_sensor_is_refused_by_build_evaluate_and_figures(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    _, data = collect(hybrid_stepper(4), tmp_path)
+    spec, data = collect(hybrid_stepper(4), tmp_path)
     table = np.loadtxt(data, delimiter=",", skiprows=1)
     table[:, 2:] *= -1  # torque and bias as a sensor mounted the other way round reads them
     flipped = tmp_path / "flipped.csv"
@@ -136,6 +136,24 @@ def test_reversed_sensor_is_refused_by_build_evaluate_and_figures(
     # the same rows as read build
     assert main(["linearize", "build", str(tmp_path / "motor.toml"), str(data), "-o",
                  str(tmp_path / "t.npz"), "-q"]) == 0  # fmt: skip
+    # a verification through them, read by the reversed sensor: figures drew it (exit 0)
+    from torquemap.linearize.collect import collect_verification, read_tables_npz
+
+    after = tmp_path / "after.csv"
+    tables = read_tables_npz(tmp_path / "t.npz", spec)
+    settings = CollectionSettings(progress=False, position_step=8, level_step=8)
+    collect_verification(hybrid_stepper(4, rng=2), spec, tables, after, settings)
+    table = np.loadtxt(after, delimiter=",", skiprows=1)
+    table[:, 2:] *= -1
+    flipped = tmp_path / "after-flipped.csv"
+    np.savetxt(flipped, table, delimiter=",", header="position,command,torque,bias",
+               comments="", fmt=["%d", "%d", "%.10g", "%.10g"])  # fmt: skip
+    args = ["--tables", str(tmp_path / "t.npz"), "-o", str(tmp_path / "g")]
+    for verification, status in ((after, 0), (flipped, 2)):
+        assert main(["linearize", "figures", str(tmp_path / "motor.toml"), str(data), *args,
+                     "--verification", str(verification)]) == status  # fmt: skip
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err.startswith(f"torquemap: error: {flipped}: the torque falls as the command rises")
 
 
 # -- a sign-magnitude drive, a current in amperes -----------------------------------------------
