@@ -113,20 +113,22 @@ def test_two_winding_stepper_is_refused_and_four_phases_build(tmp_path: Path) ->
 # -- a force sensor mounted the other way round --------------------------------------------------
 
 
-def test_reversed_sensor_is_refused_by_build_and_evaluate(
+def test_reversed_sensor_is_refused_by_build_evaluate_and_figures(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    _, data = collect(hybrid_stepper(4), tmp_path)
+    spec, data = collect(hybrid_stepper(4), tmp_path)
     table = np.loadtxt(data, delimiter=",", skiprows=1)
     table[:, 2:] *= -1  # torque and bias as a sensor mounted the other way round reads them
     flipped = tmp_path / "flipped.csv"
     np.savetxt(flipped, table, delimiter=",", header="position,pulse_width,torque,bias",
                comments="", fmt=["%d", "%d", "%.10g", "%.10g"])  # fmt: skip
-    for command in ("build", "evaluate"):
-        extra = ["-o", str(tmp_path / "t.npz")] if command == "build" else []
+    outputs = {"build": ["-o", str(tmp_path / "t.npz")], "figures": ["-o", str(tmp_path / "f")]}
+    for command in ("build", "evaluate", "figures"):
+        extra = outputs.get(command, [])
         status = main(["linearize", command, str(tmp_path / "motor.toml"), str(flipped), *extra])
         err = capsys.readouterr().err.strip()
-        # before: build asked whether the motor was powered; evaluate printed 21.6 %, exit 0
+        # before: build asked whether the motor was powered; evaluate printed 21.6 %, exit 0;
+        # figures drew the falling surface, exit 0
         assert status == 2
         assert err.startswith(f"torquemap: error: {flipped}: the torque falls as the pulse width")
         assert "negate the torque and bias columns" in err
@@ -134,6 +136,24 @@ def test_reversed_sensor_is_refused_by_build_and_evaluate(
     # the same rows as read build
     assert main(["linearize", "build", str(tmp_path / "motor.toml"), str(data), "-o",
                  str(tmp_path / "t.npz"), "-q"]) == 0  # fmt: skip
+    # a verification through them, read by the reversed sensor: figures drew it (exit 0)
+    from torquemap.linearize.collect import collect_verification, read_tables_npz
+
+    after = tmp_path / "after.csv"
+    tables = read_tables_npz(tmp_path / "t.npz", spec)
+    settings = CollectionSettings(progress=False, position_step=8, level_step=8)
+    collect_verification(hybrid_stepper(4, rng=2), spec, tables, after, settings)
+    table = np.loadtxt(after, delimiter=",", skiprows=1)
+    table[:, 2:] *= -1
+    flipped = tmp_path / "after-flipped.csv"
+    np.savetxt(flipped, table, delimiter=",", header="position,command,torque,bias",
+               comments="", fmt=["%d", "%d", "%.10g", "%.10g"])  # fmt: skip
+    args = ["--tables", str(tmp_path / "t.npz"), "-o", str(tmp_path / "g")]
+    for verification, status in ((after, 0), (flipped, 2)):
+        assert main(["linearize", "figures", str(tmp_path / "motor.toml"), str(data), *args,
+                     "--verification", str(verification)]) == status  # fmt: skip
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err.startswith(f"torquemap: error: {flipped}: the torque falls as the command rises")
 
 
 # -- a sign-magnitude drive, a current in amperes -----------------------------------------------
@@ -285,6 +305,45 @@ def test_a_finer_encoder_than_the_grid_is_told_what_fits() -> None:
         build_tables(spec, pos, pw, pw / 255.0)
 
 
+def test_a_finer_encoder_than_the_grid_is_refused_before_collecting(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the same 16384-position motor file: collecting on a rig of the user's (the API) spent the
+    # rig's time on data that build then refused; now the collection refuses it before it
+    # touches the rig, with build's line (one shared check, count.check_grid_fits)
+    from torquemap.linearize.adaptive import collect_adaptive
+    from torquemap.linearize.motor import motor_spec
+
+    n = 16384
+    spec = motor_spec("fine", phases=3, positions_per_cycle=n,
+                      equilibrium_positions=(5 * n // 12, 9 * n // 12, n // 12))  # fmt: skip
+    motor = tmp_path / "motor.toml"
+    write_toml(motor, motor_to_dict(spec))
+    out = tmp_path / "data.csv"
+    # on the CLI's simulated rigs (128 to 512 positions) the motor file was refused already, as
+    # another motor's; on a rig of the user's (the API) it was collected
+    assert main(["linearize", "collect", str(motor), "--sim", "vr", "-o", str(out)]) == 2
+    assert "16384 positions per cycle; the simulated vr motor has 3 and 512" in (
+        capsys.readouterr().err
+    )
+
+    class Untouched:  # a rig that fails the test if the collection reads it at all
+        def __getattr__(self, name: str) -> object:
+            raise AssertionError(f"the rig was used ({name}) before the refusal")
+
+    pos = np.repeat(np.arange(0, n, n // 64), 2)
+    pw = np.tile([0, 255], 64)
+    with pytest.raises(
+        InputError, match=r"every 2 encoder counts \(positions_per_cycle 8192"
+    ) as build_said:
+        build_tables(spec, pos, pw, pw / 255.0)
+    for collect_api in (collect_characterisation, collect_adaptive):
+        with pytest.raises(InputError) as refused:
+            collect_api(Untouched(), spec, out)  # type: ignore[arg-type]
+        assert refused.value.message == build_said.value.message  # build's line, word for word
+    assert not out.exists()
+
+
 # -- a DATA.csv edited by hand -------------------------------------------------------------------
 
 
@@ -305,7 +364,16 @@ def test_a_typed_row_is_refused_and_reordered_rows_get_no_false_step(
     assert main(["linearize", "build", motor, str(tmp_path / "typo.csv"), "-o",
                  str(tmp_path / "t.npz")]) == 2  # fmt: skip
     err = capsys.readouterr().err
-    assert f"data row {row + 1} (position {int(typo[row, 0])}, pulse width 200) reads" in err
+    said = f"data row {row + 1} (position {int(typo[row, 0])}, pulse width 200) reads"
+    assert said in err
+    # figures refuse it the same way (before: drawn, exit 0), and write no folder
+    figures = tmp_path / "figures"
+    assert main(["linearize", "figures", motor, str(tmp_path / "typo.csv"), "-o",
+                 str(figures)]) == 2  # fmt: skip
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"torquemap: error: {tmp_path / 'typo.csv'}: {said}")
+    assert "\n" not in err
+    assert not figures.exists()
     # the same rows shuffled (a spreadsheet's sort): no "every Nth pulse width" of the row order
     order = np.random.default_rng(0).permutation(len(table))
     shuffled = tmp_path / "shuffled.csv"

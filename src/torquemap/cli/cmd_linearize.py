@@ -306,12 +306,10 @@ def _evaluate(args: argparse.Namespace) -> int:
     tables = None if args.tables is None else load_tables(args.tables)
     kind: DataKind = "characterisation" if tables is None else "verification"
     data = args.progress.run("read the data", lambda: _read_evaluated(args, spec, kind))
-    from torquemap.linearize.outliers import check_outliers
-    from torquemap.linearize.sign import check_torque_sign
+    from torquemap.linearize.outliers import check_rows_read
 
     what = "pulse width" if kind == "characterisation" else "command"
-    check_torque_sign(data.position, data.level, data.torque, what=what, path=args.data)
-    check_outliers(data.position, data.level, data.torque, what=what, path=args.data)
+    check_rows_read(data.position, data.level, data.torque, what=what, path=args.data)
     report = args.progress.run(
         "evaluate linearity",
         lambda: evaluate_linearity(spec, data, tables=tables, tables_path=args.tables),

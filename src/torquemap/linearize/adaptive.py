@@ -61,6 +61,7 @@ from torquemap.linearize.collect import (
     move_to_target,
     parse_data_rows,
 )
+from torquemap.linearize.count import check_grid_fits
 from torquemap.linearize.denoise import denoise_blocks
 from torquemap.linearize.motor import MotorSpec, ramped_actuation
 from torquemap.linearize.resume import (
@@ -423,8 +424,10 @@ def collect_adaptive(
         A fraction outside (0, 1] or a budget below the coarse pass, an output folder that does
         not exist, the bias to be read on an open contact on a rig without ``open_contact()``,
         or a file that cannot be resumed (no record, malformed rows, a record listing more rows
-        than the file has, the bias read otherwise than the record says).
+        than the file has, the bias read otherwise than the record says), or a motor file
+        whose grid is larger than the tables are built on (before any reading).
     """
+    check_grid_fits(spec.positions_per_cycle, spec.actuation_max, path=spec.path)
     start = time.perf_counter()
     grid = CollectionSettings.paper() if settings is None else settings
     if not 0 < fraction <= 1:

@@ -45,6 +45,7 @@ from numpy.typing import NDArray
 
 from torquemap.errors import InputError
 from torquemap.io import atomic_output
+from torquemap.linearize.count import check_grid_fits
 from torquemap.linearize.motor import MotorSpec, ramped_actuation
 from torquemap.linearize.resume import (
     CollectionRecord,
@@ -642,9 +643,12 @@ def collect_characterisation(
     ------
     InputError
         If the existing file cannot be resumed (other header, other settings or motor than
-        its record's, malformed rows), another run holds the file's lock, or the bias is to be
-        read on an open contact on a rig without ``open_contact()``.
+        its record's, malformed rows), another run holds the file's lock, the bias is to be
+        read on an open contact on a rig without ``open_contact()``, or the motor file's grid
+        is larger than the tables are built on (:func:`~torquemap.linearize.count.
+        check_grid_fits`, before any reading).
     """
+    check_grid_fits(spec.positions_per_cycle, spec.actuation_max, path=spec.path)
     s = CollectionSettings() if settings is None else settings
     ramp = spec.ramp
     return _collect(

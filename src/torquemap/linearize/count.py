@@ -33,6 +33,13 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
+from torquemap.errors import InputError
+
+#: Largest ``positions_per_cycle * (actuation_max + 1)`` the tables are built on
+#: (:func:`torquemap.linearize.tables.build_tables`): its forward model holds every (position,
+#: pulse width) cell of every phase (512 x 4096 x 3 phases measured 1.1 GB and 3 min of CPU;
+#: 512 x 100001 was killed for memory).
+MAX_GRID_CELLS = 1 << 21
 #: The mean deviation within a count (a fraction) above which :func:`within_count_advice` speaks.
 WITHIN_COUNT = 0.01
 #: Fewest (pair, pulse width) cells the figure must rest on to be named.
@@ -188,3 +195,51 @@ def coarser_grid_advice(positions_per_cycle: int, actuation_max: int, max_cells:
         f"one table position every {k} encoder counts (positions_per_cycle {-(-n // k)}, the "
         f"table position the count // {k}), and collect and run with the same"
     )
+
+
+def check_grid_fits(
+    positions_per_cycle: int, actuation_max: int, *, path: str | None = None
+) -> None:
+    """Refuse a motor file whose grid is larger than the tables are built on
+    (:data:`MAX_GRID_CELLS`), saying what fits (:func:`coarser_grid_advice`).
+
+    ``linearize build`` refuses such a file; ``linearize collect`` refuses it as well, before
+    any rig time is spent on data no table can be built from (QA stop 36: 16384 positions per
+    cycle, a 14-bit encoder per electrical cycle, collected and then refused by build).
+
+    Parameters
+    ----------
+    positions_per_cycle
+        The motor file's ``P``.
+    actuation_max
+        The motor file's full-scale pulse width.
+    path
+        The file named in the refusal (the motor file).
+
+    Raises
+    ------
+    InputError
+        Naming ``path``, in one line.
+
+    Examples
+    --------
+    >>> check_grid_fits(512, 4095)
+    >>> check_grid_fits(16384, 255)
+    Traceback (most recent call last):
+    ...
+    torquemap.errors.InputError: positions_per_cycle x (actuation_max + 1) = 4.19e+06 cells, \
+more than the 2.1e+06 the tables are built on (for example 512 positions up to actuation_max \
+4095); with actuation_max 255 at most 8192 positions per cycle fit: count one table position \
+every 2 encoder counts (positions_per_cycle 8192, the table position the count // 2), and \
+collect and run with the same
+    """
+    cells = int(positions_per_cycle) * (int(actuation_max) + 1)
+    if cells > MAX_GRID_CELLS:
+        # the forward model is dense in (position, pulse width): beyond this it takes GBs
+        raise InputError(
+            f"positions_per_cycle x (actuation_max + 1) = {cells:.3g} cells, more than the "
+            f"{MAX_GRID_CELLS:.3g} the tables are built on (for example 512 positions up to "
+            "actuation_max 4095)"
+            + coarser_grid_advice(positions_per_cycle, actuation_max, MAX_GRID_CELLS),
+            path=path,
+        )

@@ -122,6 +122,42 @@ def check_outliers(
         raise InputError(advice, path=path)
 
 
+def check_rows_read(
+    position: ArrayLike,
+    level: ArrayLike,
+    torque: ArrayLike,
+    *,
+    what: str = "pulse width",
+    path: str | None = None,
+) -> None:
+    """Refuse rows as read that no table or figure should be drawn from: a torque falling as
+    the level rises (:func:`torquemap.linearize.sign.check_torque_sign`, a sensor mounted the
+    other way round) or a row far off its neighbours' line (:func:`check_outliers`).
+
+    The checks ``linearize evaluate`` and ``linearize figures`` run on the rows as read, in
+    that order (``build`` runs the same two, around its bias restoration).
+
+    Parameters
+    ----------
+    position, level, torque
+        The rows: table position, pulse width (characterisation) or command (verification),
+        torque [N m], each shape (n,).
+    what
+        The level's name in the line (``"pulse width"`` or ``"command"``).
+    path
+        The data file named in the refusal.
+
+    Raises
+    ------
+    InputError
+        Naming ``path``, in one line.
+    """
+    from torquemap.linearize.sign import check_torque_sign
+
+    check_torque_sign(position, level, torque, what=what, path=path)
+    check_outliers(position, level, torque, what=what, path=path)
+
+
 def row_order_advice(reason: str) -> str:
     """One line when the denoiser was skipped because the rows are not in the collection's
     order, else "".

@@ -43,7 +43,8 @@ from scipy.optimize import isotonic_regression
 from torquemap.errors import InputError
 from torquemap.io import numeric_column, read_table
 from torquemap.linearize.bias import check_bias
-from torquemap.linearize.count import coarser_grid_advice, within_count_advice
+from torquemap.linearize.count import MAX_GRID_CELLS as MAX_GRID_CELLS  # defined here before
+from torquemap.linearize.count import check_grid_fits, within_count_advice
 from torquemap.linearize.denoise import denoise_blocks, restore_misfit
 from torquemap.linearize.detent import detent_correction, fit_detent
 from torquemap.linearize.handover import check_handover, fill_handover
@@ -985,12 +986,6 @@ def _paper_inverse(
     return filled[:, : command_max + 1], voids, int((count > 1).sum())
 
 
-#: Largest ``positions_per_cycle * (actuation_max + 1)`` :func:`build_tables` builds from:
-#: its forward model holds every (position, pulse width) cell of every phase (512 x 4096 x 3
-#: phases measured 1.1 GB and 3 min of CPU; 512 x 100001 was killed for memory).
-MAX_GRID_CELLS = 1 << 21
-
-
 #: A phase whose peak torque is under this share of the strongest phase's is reported: the
 #: phases of one motor are built alike (the simulated family's gains differ by 0.85 .. 1.15).
 WEAK_PHASE = 0.5
@@ -1208,7 +1203,8 @@ def build_tables(
     InputError
         On positions or pulse widths out of range, NaN, a torque that never changes, a phase
         that never produced torque, positions without data and no data near them, a position
-        where no torque is reachable, or a grid beyond :data:`MAX_GRID_CELLS`.
+        where no torque is reachable, or a grid beyond
+        :data:`torquemap.linearize.count.MAX_GRID_CELLS`.
 
     Notes
     -----
@@ -1237,16 +1233,11 @@ def build_tables(
         raise ValueError(f"bias_weight must be >= 0, got {bias_weight}")
     if actuation_bits is not None and not 1 <= actuation_bits <= 32:
         raise ValueError(f"actuation_bits must be in 1 .. 32, got {actuation_bits}")
-    cells = spec.positions_per_cycle * (spec.actuation_max + 1)
-    if cells > MAX_GRID_CELLS:
-        # the forward model is dense in (position, pulse width): beyond this it takes GBs
-        raise InputError(
-            f"positions_per_cycle x (actuation_max + 1) = {cells:.3g} cells, more than the "
-            f"{MAX_GRID_CELLS:.3g} the tables are built on (for example 512 positions up to "
-            "actuation_max 4095)"
-            + coarser_grid_advice(spec.positions_per_cycle, spec.actuation_max, MAX_GRID_CELLS),
-            path=spec.path if spec.path is not None else src,
-        )
+    check_grid_fits(
+        spec.positions_per_cycle,
+        spec.actuation_max,
+        path=spec.path if spec.path is not None else src,
+    )
     pos, pw, tau = _check_rows(spec, position, pulse_width, torque, src)
     check_outliers(pos, pw, tau, path=src)  # a hand edit or a glitch, before it bends the fit
     n, m = spec.positions_per_cycle, spec.phases

@@ -167,13 +167,15 @@ def write_linearize_figures(
     ------
     InputError
         On unreadable inputs, tables for another motor, a verification run without its tables
-        or evaluated through other tables than its record's.
+        or evaluated through other tables than its record's, and on the rows ``linearize
+        evaluate`` refuses (a torque falling as the level rises, a row far off its neighbours).
     """
     from torquemap.errors import InputError
     from torquemap.io import Writer, figure_writer, output_folder, write_all
     from torquemap.linearize.export import load_tables
     from torquemap.linearize.metrics import check_tables_fit, evaluate_linearity
     from torquemap.linearize.motor import load_motor
+    from torquemap.linearize.outliers import check_rows_read
     from torquemap.linearize.tables import read_data
 
     spec = load_motor(motor_path)
@@ -184,6 +186,8 @@ def write_linearize_figures(
             path=verification_path,
         )
     data = read_data(data_path, spec, kind="characterisation")
+    # the rows build and evaluate refuse (a reversed sensor, a typed row): no figure of them
+    check_rows_read(data.position, data.level, data.torque, path=os.fspath(data_path))
     tables = None if tables_path is None else load_tables(tables_path)
     if tables is not None:
         check_tables_fit(spec, tables, path=tables_path)
@@ -199,6 +203,13 @@ def write_linearize_figures(
         figures["tables.png"] = table_surfaces_figure(tables)
     if verification_path is not None and tables is not None:
         verify = read_data(verification_path, spec, kind="verification")
+        check_rows_read(
+            verify.position,
+            verify.level,
+            verify.torque,
+            what="command",
+            path=os.fspath(verification_path),
+        )
         after = evaluate_linearity(spec, verify, tables=tables, tables_path=tables_path)
         reports["compensated"] = after
         figures["before_after.png"] = before_after_figure(before, after, title=spec.name)
