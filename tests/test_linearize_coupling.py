@@ -10,11 +10,21 @@ whose phases hand over between measured positions.
 
 from __future__ import annotations
 
+import dataclasses
+from pathlib import Path
+from typing import Any
+
 import numpy as np
+import pytest
 from numpy.typing import NDArray
 
+from torquemap.linearize import tables
+from torquemap.linearize.collect import collect_characterisation
 from torquemap.linearize.motor import MotorSpec, motor_spec, ramped_actuation
 from torquemap.linearize.surface import fit_surface, surface_prediction
+from torquemap.linearize.tables import build_tables, read_data
+from torquemap.sim.family import paper_bench
+from torquemap.sim.motors import BrushlessDcMotor
 
 A = 255
 N = 128
@@ -112,3 +122,36 @@ def test_coupling_off_by_default_reads_zero() -> None:
         exponent=2.0,
     )  # fmt: skip
     assert fit.coupling == 0.0
+
+
+def test_build_reads_the_simulated_brushless_motors_mutual_saturation(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """On the family's simulated BLDC bench 18 (3 phases, 192 positions, narrow ramp; each
+    phase's torque times ``1 - mu`` the others' current over full scale, the form of the
+    surface's term where torque ~ current), collected at the paper's settings, the ``kappa``
+    that ``build_tables(coupling=True)`` fits is the simulator's ``mu`` (read here only to
+    score)."""
+    bench = paper_bench(18)
+    rig = bench.rig
+    assert isinstance(rig.motor, BrushlessDcMotor)
+    spec = rig.motor_spec(ramping=bench.ramping)
+    out = tmp_path / "DATA.csv"
+    collect_characterisation(rig, spec, out, dataclasses.replace(bench.settings, bias_open=True))
+    data = read_data(out, spec, kind="characterisation")
+    fits = []
+    forward = tables._surface_forward
+
+    def spy(*args: Any, **kwargs: Any) -> Any:
+        result = forward(*args, **kwargs)
+        fits.append(result[1])
+        return result
+
+    monkeypatch.setattr(tables, "_surface_forward", spy)
+    built = build_tables(
+        spec, data.position, data.level, data.torque, bias=data.bias, coupling=True
+    )
+    assert built.surface and fits
+    mu = rig.motor.mutual_saturation
+    # measured 0.094 for 0.098
+    assert abs(fits[-1].coupling - mu) < 0.15 * mu
