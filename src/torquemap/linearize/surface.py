@@ -19,7 +19,9 @@ What the rig senses at table position ``p`` with base pulse width ``u`` is model
   interpolation of what it misses;
 * ``b(p)`` the error of the bias subtracted from the position's block, read where the model is
   below zero (the sensor's zero), weighed against the bias measurement;
-* ``r_k(p)`` the ramp (known), and ``max(., 0)`` the sensor's zero below the friction.
+* ``r_k(p)`` the ramp (known), and ``max(., 0)`` the sensor's zero below the friction;
+* optionally (``coupling``) the phases' mutual saturation: each phase's term times
+  ``1 - kappa sum_{j != k} phi(a_j)``, one ``kappa`` for the motor.
 
 It is fitted by alternating least squares (``S`` and ``o`` given ``phi``, then ``phi`` given
 them by non-negative least squares, then ``b``) until the residual sum of squares changes by
@@ -74,6 +76,8 @@ class SurfaceFit:
     series
         How ``o`` was carried between the measured positions (its harmonics, and where the
         data could not hold one it asked for).
+    coupling
+        ``kappa``, the phases' mutual saturation (0 unless fitted).
     """
 
     phi: NDArray[np.float64]
@@ -82,6 +86,7 @@ class SurfaceFit:
     rms: float
     offset: NDArray[np.float64]
     series: RestSeries | None = None
+    coupling: float = 0.0
 
 
 def _second_difference(n: int) -> sp.csr_matrix:
@@ -277,6 +282,7 @@ def fit_surface(
     smoothness: float = 1.0,
     anchors: NDArray[np.int64] | None = None,
     nyquist: bool = False,
+    coupling: bool = False,
 ) -> SurfaceFit:
     """Fit the structured surface to the measured cells of a (position, level) grid.
 
@@ -312,6 +318,11 @@ def fit_surface(
         carried by the anchors' series. For cogging the anchors sample twice a period or
         less (:func:`torquemap.linearize.sampling.check_position_sampling`); ignored unless
         the anchors are evenly spaced and even in number.
+    coupling
+        Also fit the phases' mutual saturation: phase ``k``'s torque is
+        ``S_k phi(a_k) (1 - kappa sum_{j != k} phi(a_j))`` (shared iron: two phases on give
+        less than the sum of each alone), with one ``kappa`` in ``0 .. 0.5`` read by least
+        squares from the cells two phases drive, between the rounds. Off: ``kappa = 0``.
 
     Returns
     -------
@@ -350,6 +361,7 @@ def fit_surface(
         return values[jj] * (1 - ww) + values[np.minimum(jj + 1, knots - 1)] * ww
 
     gain = np.zeros((n, m))
+    kappa = 0.0
     coef_o = np.zeros(nf)
     pred = np.zeros_like(y)
     offset = np.zeros(n)
@@ -359,6 +371,9 @@ def fit_surface(
         use = (y_adj > 0.0) | (pred > 0)
         target = y_adj
         f = phi_at(phi_k)  # (cells, m)
+        # the phases' mutual saturation: each phase's torque times 1 - kappa (the others' phi)
+        share = 1.0 - kappa * (f.sum(axis=1, keepdims=True) - f)
+        f = f * share
         # S and o given phi: columns p * m + k, then o at every position
         idx = np.flatnonzero(use)
         rows = np.repeat(np.arange(idx.size), m)
@@ -379,7 +394,7 @@ def fit_surface(
         coef_o = sol[n * m :]
         o_cells = indicator @ coef_o
         # phi given S and o: each cell touches two knots per active phase
-        g = gain[cp]  # (cells, m)
+        g = gain[cp] * share  # (cells, m)
         dphi = np.zeros((idx.size, knots))
         for k in range(m):
             np.add.at(dphi, (np.arange(idx.size), jj[idx, k]), g[idx, k] * (1 - ww[idx, k]))
@@ -403,8 +418,17 @@ def fit_surface(
         phi_k = lift @ nnls(stacked, rhs_p, maxiter=50 * stacked.shape[1])[0]
         norm = phi_k[-1] if phi_k[-1] > 0 else 1.0
         phi_k = phi_k / norm
-        pred = o_cells + np.sum(gain[cp] * norm * phi_at(phi_k), axis=1)
         gain = gain * norm
+        f = phi_at(phi_k)
+        others = f.sum(axis=1, keepdims=True) - f
+        if coupling:
+            # kappa given S, phi and o: least squares over the cells two phases drive
+            lin = o_cells + np.sum(gain[cp] * f, axis=1)
+            x = np.sum(gain[cp] * f * others, axis=1)
+            xi = x[idx]
+            if float(xi @ xi) > 0:
+                kappa = float(np.clip((lin[idx] - target[idx]) @ xi / (xi @ xi), 0.0, 0.5))
+        pred = o_cells + np.sum(gain[cp] * f * (1.0 - kappa * others), axis=1)
         # the offset outside the sensor's zero: the readings where the model is below zero
         below = pred <= 0
         weight = np.bincount(cp[below], minlength=n) + bias_weight
@@ -432,6 +456,7 @@ def fit_surface(
         rms=float(np.sqrt(np.mean(res**2))),
         offset=offset,
         series=series,
+        coupling=kappa,
     )
 
 
@@ -441,5 +466,8 @@ def surface_prediction(
     """The model's uncensored torque at base pulse widths ``u`` (shape (U,)), shape (P, U)."""
     a = np.rint(ramp[:, None, :] * u[None, :, None]).astype(np.int64)
     a = np.clip(a, 0, fit.phi.size - 1)
-    out: NDArray[np.float64] = fit.rest[:, None] + np.einsum("pum,pm->pu", fit.phi[a], fit.gain)
+    f = fit.phi[a]
+    if fit.coupling:
+        f = f * (1.0 - fit.coupling * (f.sum(axis=-1, keepdims=True) - f))
+    out: NDArray[np.float64] = fit.rest[:, None] + np.einsum("pum,pm->pu", f, fit.gain)
     return out
