@@ -37,6 +37,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.ndimage import uniform_filter
 
+from torquemap.robust import robust_scale
+
 #: Fewest blocks and levels for which a low-rank fit is meaningful.
 MIN_BLOCKS = 8
 MIN_LEVELS = 8
@@ -328,7 +330,7 @@ def restore_misfit(
     offset = total / (censored.sum(axis=1) + bias_weight)
     residual = np.where(measured, raw - offset[:, None] - fit, 0.0)
     zero = residual[censored]
-    sigma = float(1.4826 * np.median(np.abs(zero - np.median(zero))))
+    sigma = robust_scale(zero)
     use = measured & ~censored
     if sigma <= 0.0 or not use.any():
         return Restored(fit_rows.copy(), sigma, 0.0)

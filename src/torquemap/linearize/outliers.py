@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from torquemap.errors import InputError
+from torquemap.robust import robust_scale
 
 #: Share of the torque range a cell must leave its neighbours' line by.
 RANGE_SHARE = 0.25
@@ -82,7 +83,7 @@ def outlier_advice(
     a, b = inner - 1, inner + 1
     f = (cl[inner] - cl[a]) / (cl[b] - cl[a])
     r = mean[inner] - (mean[a] + f * (mean[b] - mean[a]))
-    spread = 1.4826 * float(np.median(np.abs(r - np.median(r))))
+    spread = robust_scale(r)
     scale = float(np.quantile(np.abs(mean), 0.99))
     bound = max(RANGE_SHARE * scale, NOISE_MULTIPLE * spread)
     if not bound > 0:

@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from torquemap.errors import InputError
+from torquemap.robust import robust_scale
 
 #: Share of the positions whose torque must fall (lowest to highest level) to call it reversed.
 FALLING_SHARE = 0.75
@@ -97,7 +98,7 @@ def torque_sign_advice(
         return ""
     d = (mean_top - mean_low)[spans]
     residual = (tau - mean_low[index])[at_low]
-    sigma = float(1.4826 * np.median(np.abs(residual - np.median(residual))))
+    sigma = robust_scale(residual)
     falling = int((d < 0).sum())
     median = float(np.median(d))
     if falling < FALLING_SHARE * d.size or median >= -NOISE_MULTIPLE * sigma or median >= 0:

@@ -63,6 +63,7 @@ from torquemap.linearize.sampling import (
 )
 from torquemap.linearize.sign import check_torque_sign, pulse_width_hint
 from torquemap.linearize.surface import SurfaceFit, fit_surface, surface_prediction
+from torquemap.robust import robust_scale
 
 CommandScaling = Literal["linear", "log"]
 Method = Literal["interp", "paper"]
@@ -797,7 +798,7 @@ def _row_noise(pw: NDArray[np.float64], tau: NDArray[np.float64]) -> float:
     zero = tau[pw == 0]
     if zero.size < 4:
         return 0.0
-    return float(1.4826 * np.median(np.abs(zero - np.median(zero))))
+    return robust_scale(zero)
 
 
 def _surface_forward(
