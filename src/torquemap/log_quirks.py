@@ -75,10 +75,15 @@ def register_overflow(raw: NDArray[np.float64], cpr: float) -> tuple[int, int] |
         return None
     step = np.abs(np.diff(raw))
     lo, hi = float(np.min(raw)), float(np.max(raw))
+    largest = float(np.max(step))
     for bits in REGISTER_BITS:
         period = float(2**bits)
         if (bits == 16 and cpr > 0 and period % cpr == 0) or cpr >= 2.0**31:
             continue
+        signed = lo >= -period / 2 and hi < period / 2
+        unsigned = lo >= 0 and hi < period
+        if not (signed or unsigned) or not largest > 0.75 * period:
+            continue  # outside the register's range, or no step near its size: no pass over the log
         # nearer the register's size than a turn (a single-turn encoder's own wrap)
         wraps = (np.abs(step - period) < period / 4) & (np.abs(step - period) < np.abs(step - cpr))
         if not wraps.any():
@@ -86,10 +91,7 @@ def register_overflow(raw: NDArray[np.float64], cpr: float) -> tuple[int, int] |
         others = step[~wraps]
         if others.size and float(np.percentile(others, 99)) >= period / 4:
             continue
-        signed = lo >= -period / 2 and hi < period / 2
-        unsigned = lo >= 0 and hi < period
-        if signed or unsigned:
-            return bits, int(np.argmax(wraps)) + 1
+        return bits, int(np.argmax(wraps)) + 1
     return None
 
 
