@@ -165,7 +165,7 @@ def _checked_fit(kappa: float, noise: float, seed: int) -> tuple[float, float]:
     grid = grid + rng.normal(0.0, noise, grid.shape)
     fit = fit_surface(
         grid, levels, np.asarray(spec.ramp), actuation_max=A, readable=0.1, dead_zone=DEAD,
-        exponent=2.0, coupling=True,
+        exponent=2.0, coupling="checked",
     )  # fmt: skip
     return fit.coupling, fit.coupling_f
 

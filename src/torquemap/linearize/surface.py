@@ -21,8 +21,9 @@ What the rig senses at table position ``p`` with base pulse width ``u`` is model
   below zero (the sensor's zero), weighed against the bias measurement;
 * ``r_k(p)`` the ramp (known), and ``max(., 0)`` the sensor's zero below the friction;
 * optionally (``coupling``) the phases' mutual saturation: each phase's term times
-  ``1 - kappa sum_{j != k} phi(a_j)``, one ``kappa`` for the motor, kept only where it lowers
-  the cells' misfit beyond the fit's own spread (an F statistic against the fit without it).
+  ``1 - kappa sum_{j != k} phi(a_j)``, one ``kappa`` for the motor (``"checked"``: kept only
+  where it lowers the cells' misfit beyond the fit's own spread, an F statistic against the
+  fit without it).
 
 It is fitted by alternating least squares (``S`` and ``o`` given ``phi``, then ``phi`` given
 them by non-negative least squares, then ``b``) until the residual sum of squares changes by
@@ -38,7 +39,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import scipy.sparse as sp
@@ -88,7 +89,7 @@ class SurfaceFit:
     coupling
         ``kappa``, the phases' mutual saturation (0 unless fitted and kept).
     coupling_f
-        The F statistic of the coupling term (0 unless fitted): the fall in the cells' sum of
+        The F statistic of the coupling term (0 unless ``coupling="checked"``): the fall in the cells' sum of
         squared misfits from the fit without it, over the coupled fit's residual variance;
         ``kappa`` is kept only where it exceeds :data:`COUPLING_F`, else the fit without it.
     """
@@ -444,7 +445,7 @@ def fit_surface(
     smoothness: float = 1.0,
     anchors: NDArray[np.int64] | None = None,
     nyquist: bool = False,
-    coupling: bool = False,
+    coupling: bool | Literal["checked"] = False,
 ) -> SurfaceFit:
     """Fit the structured surface to the measured cells of a (position, level) grid.
 
@@ -484,9 +485,8 @@ def fit_surface(
         Also fit the phases' mutual saturation: phase ``k``'s torque is
         ``S_k phi(a_k) (1 - kappa sum_{j != k} phi(a_j))`` (shared iron: two phases on give
         less than the sum of each alone), with one ``kappa`` in ``0 .. 0.5`` read by least
-        squares from the cells two phases drive, between the rounds, and kept only where the
-        data support it: the fit is repeated without it, and ``kappa`` is kept only where it
-        lowers the cells' sum of squared misfits by more than :data:`COUPLING_F` times the
+        squares from the cells two phases drive, between the rounds. ``"checked"``: also
+        fitted without it, and ``kappa`` kept only where it lowers the cells' sum of squared misfits by more than :data:`COUPLING_F` times the
         coupled fit's residual variance (an F test of the one parameter; the residual
         variance over the cells less the fit's parameters, a measured position's gains and
         offset and ``phi``'s knots). Off: ``kappa = 0``.
@@ -507,9 +507,9 @@ def fit_surface(
         anchors=anchors,
         nyquist=nyquist,
     )
+    if coupling != "checked":
+        return _fit_once(grid, levels, ramp, coupling=bool(coupling), **kwargs)
     plain = _fit_once(grid, levels, ramp, coupling=False, **kwargs)
-    if not coupling:
-        return plain
     coupled = _fit_once(grid, levels, ramp, coupling=True, **kwargs)
     measured = np.isfinite(grid)
     cells = int(measured.sum())
