@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from torquemap.linearize import tables
 from torquemap.linearize.collect import collect_characterisation
 from torquemap.linearize.motor import MotorSpec, motor_spec, ramped_actuation
-from torquemap.linearize.surface import fit_surface, surface_prediction
+from torquemap.linearize.surface import COUPLING_F, fit_surface, surface_prediction
 from torquemap.linearize.tables import build_tables, read_data
 from torquemap.sim.family import paper_bench
 from torquemap.sim.motors import BrushlessDcMotor
@@ -155,3 +155,33 @@ def test_build_reads_the_simulated_brushless_motors_mutual_saturation(
     mu = rig.motor.mutual_saturation
     # measured 0.094 for 0.098
     assert abs(fits[-1].coupling - mu) < 0.15 * mu
+
+
+def _checked_fit(kappa: float, noise: float, seed: int) -> tuple[float, float]:
+    """The kept coupling and its F statistic on the closed-form grid with sensor noise [N m]."""
+    spec = _spec()
+    grid, levels = _grid(spec, kappa)
+    rng = np.random.default_rng(seed)
+    grid = grid + rng.normal(0.0, noise, grid.shape)
+    fit = fit_surface(
+        grid, levels, np.asarray(spec.ramp), actuation_max=A, readable=0.1, dead_zone=DEAD,
+        exponent=2.0, coupling="checked",
+    )  # fmt: skip
+    return fit.coupling, fit.coupling_f
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_coupling_dropped_where_the_data_do_not_support_it(seed: int) -> None:
+    """Simulated without the mutual saturation (the phases add), with sensor noise: the coupled
+    fit lowers the misfit by no more than chance, and the fit without the term is returned."""
+    kappa, f_stat = _checked_fit(0.0, 0.05, seed)
+    assert f_stat <= COUPLING_F
+    assert kappa == 0.0
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_coupling_kept_where_the_data_support_it(seed: int) -> None:
+    """Simulated with it, the same noise: kept, and near the simulated value."""
+    kappa, f_stat = _checked_fit(KAPPA, 0.05, seed)
+    assert f_stat > COUPLING_F
+    assert 0.75 * KAPPA < kappa <= 1.1 * KAPPA

@@ -21,7 +21,9 @@ What the rig senses at table position ``p`` with base pulse width ``u`` is model
   below zero (the sensor's zero), weighed against the bias measurement;
 * ``r_k(p)`` the ramp (known), and ``max(., 0)`` the sensor's zero below the friction;
 * optionally (``coupling``) the phases' mutual saturation: each phase's term times
-  ``1 - kappa sum_{j != k} phi(a_j)``, one ``kappa`` for the motor.
+  ``1 - kappa sum_{j != k} phi(a_j)``, one ``kappa`` for the motor (``"checked"``: kept only
+  where it lowers the cells' misfit beyond the fit's own spread, an F statistic against the
+  fit without it).
 
 It is fitted by alternating least squares (``S`` and ``o`` given ``phi``, then ``phi`` given
 them by non-negative least squares, then ``b``) until the residual sum of squares changes by
@@ -37,6 +39,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from typing import Any, Literal
 
 import numpy as np
 import scipy.sparse as sp
@@ -52,6 +55,13 @@ from torquemap.linearize.onset import onset_psi
 ROUNDS = 40
 #: The rounds stop when the residual sum of squares changes by less than this fraction.
 TOLERANCE = 1e-3
+# the fitted coupling is kept only where it lowers the cells' misfit by more than this F
+# statistic. Not F(1, dof)'s 9 (three standard errors): the coupled and the plain fit each stop
+# where an alternating round changes the misfit by under TOLERANCE, not at the same optimum, and
+# on a closed-form surface without coupling (tests/test_linearize_coupling.py, sensor noise
+# 0.05 to 0.2 N m, 60 draws) the statistic spread from -33 to +37 (sd about 17): 50 is three
+# of those spreads
+COUPLING_F = 50.0
 #: Pulse-width units between the knots of ``phi``.
 PHI_KNOT_STEP = 2
 
@@ -77,7 +87,11 @@ class SurfaceFit:
         How ``o`` was carried between the measured positions (its harmonics, and where the
         data could not hold one it asked for).
     coupling
-        ``kappa``, the phases' mutual saturation (0 unless fitted).
+        ``kappa``, the phases' mutual saturation (0 unless fitted and kept).
+    coupling_f
+        The F statistic of the coupling term (0 unless ``coupling="checked"``): the fall in the cells' sum of
+        squared misfits from the fit without it, over the coupled fit's residual variance;
+        ``kappa`` is kept only where it exceeds :data:`COUPLING_F`, else the fit without it.
     """
 
     phi: NDArray[np.float64]
@@ -87,6 +101,7 @@ class SurfaceFit:
     offset: NDArray[np.float64]
     series: RestSeries | None = None
     coupling: float = 0.0
+    coupling_f: float = 0.0
 
 
 def _second_difference(n: int) -> sp.csr_matrix:
@@ -268,7 +283,7 @@ def _hat(
     return j, x - j
 
 
-def fit_surface(
+def _fit_once(
     grid: NDArray[np.float64],
     levels: NDArray[np.float64],
     ramp: NDArray[np.float64],
@@ -284,51 +299,7 @@ def fit_surface(
     nyquist: bool = False,
     coupling: bool = False,
 ) -> SurfaceFit:
-    """Fit the structured surface to the measured cells of a (position, level) grid.
-
-    Parameters
-    ----------
-    grid
-        Sensed torque [N m], shape (P, J); NaN where not measured.
-    levels
-        Base pulse width of each column, shape (J,).
-    ramp
-        The ramping function, shape (P, m).
-    actuation_max
-        Full-scale pulse width ``A``.
-    readable
-        Smallest torque the rig reads reliably [N m].
-    dead_zone, exponent
-        The onset law ``max(a - d, 0)^n`` (:mod:`torquemap.linearize.onset`) that ``phi``
-        follows below the actuations that read torque.
-    curve
-        The onset law's amplifier curve ``c`` (:func:`torquemap.linearize.onset.onset_psi`;
-        0: the power law above).
-    bias_weight
-        Weight, in readings, of each block's bias measurement against the readings that
-        measure its error (where the model is below zero).
-    smoothness
-        Weight of the second-difference penalties, relative to one cell.
-    anchors
-        The measured positions (default: those with a reading at the first level).
-    nyquist
-        Between the anchors, ``o`` is their linear interpolation plus the anchors' Nyquist
-        harmonic (:func:`rest_basis`), fitted with every row (those the rig's compliance moved
-        between the anchors read it), instead of free at every position with a reading and
-        carried by the anchors' series. For cogging the anchors sample twice a period or
-        less (:func:`torquemap.linearize.sampling.check_position_sampling`); ignored unless
-        the anchors are evenly spaced and even in number.
-    coupling
-        Also fit the phases' mutual saturation: phase ``k``'s torque is
-        ``S_k phi(a_k) (1 - kappa sum_{j != k} phi(a_j))`` (shared iron: two phases on give
-        less than the sum of each alone), with one ``kappa`` in ``0 .. 0.5`` read by least
-        squares from the cells two phases drive, between the rounds. Off: ``kappa = 0``.
-
-    Returns
-    -------
-    SurfaceFit
-        The fitted ``phi``, ``S`` and ``o``.
-    """
+    """One fit of the structured surface (:func:`fit_surface`), ``kappa`` free or 0."""
     n, m = ramp.shape
     cp, cj = np.nonzero(np.isfinite(grid))
     y = grid[cp, cj]
@@ -458,6 +429,97 @@ def fit_surface(
         series=series,
         coupling=kappa,
     )
+
+
+def fit_surface(
+    grid: NDArray[np.float64],
+    levels: NDArray[np.float64],
+    ramp: NDArray[np.float64],
+    *,
+    actuation_max: int,
+    readable: float,
+    dead_zone: float,
+    exponent: float,
+    curve: float = 0.0,
+    bias_weight: float = 10.0,
+    smoothness: float = 1.0,
+    anchors: NDArray[np.int64] | None = None,
+    nyquist: bool = False,
+    coupling: bool | Literal["checked"] = False,
+) -> SurfaceFit:
+    """Fit the structured surface to the measured cells of a (position, level) grid.
+
+    Parameters
+    ----------
+    grid
+        Sensed torque [N m], shape (P, J); NaN where not measured.
+    levels
+        Base pulse width of each column, shape (J,).
+    ramp
+        The ramping function, shape (P, m).
+    actuation_max
+        Full-scale pulse width ``A``.
+    readable
+        Smallest torque the rig reads reliably [N m].
+    dead_zone, exponent
+        The onset law ``max(a - d, 0)^n`` (:mod:`torquemap.linearize.onset`) that ``phi``
+        follows below the actuations that read torque.
+    curve
+        The onset law's amplifier curve ``c`` (:func:`torquemap.linearize.onset.onset_psi`;
+        0: the power law above).
+    bias_weight
+        Weight, in readings, of each block's bias measurement against the readings that
+        measure its error (where the model is below zero).
+    smoothness
+        Weight of the second-difference penalties, relative to one cell.
+    anchors
+        The measured positions (default: those with a reading at the first level).
+    nyquist
+        Between the anchors, ``o`` is their linear interpolation plus the anchors' Nyquist
+        harmonic (:func:`rest_basis`), fitted with every row (those the rig's compliance moved
+        between the anchors read it), instead of free at every position with a reading and
+        carried by the anchors' series. For cogging the anchors sample twice a period or
+        less (:func:`torquemap.linearize.sampling.check_position_sampling`); ignored unless
+        the anchors are evenly spaced and even in number.
+    coupling
+        Also fit the phases' mutual saturation: phase ``k``'s torque is
+        ``S_k phi(a_k) (1 - kappa sum_{j != k} phi(a_j))`` (shared iron: two phases on give
+        less than the sum of each alone), with one ``kappa`` in ``0 .. 0.5`` read by least
+        squares from the cells two phases drive, between the rounds. ``"checked"``: also
+        fitted without it, and ``kappa`` kept only where it lowers the cells' sum of squared misfits by more than :data:`COUPLING_F` times the
+        coupled fit's residual variance (an F test of the one parameter; the residual
+        variance over the cells less the fit's parameters, a measured position's gains and
+        offset and ``phi``'s knots). Off: ``kappa = 0``.
+
+    Returns
+    -------
+    SurfaceFit
+        The fitted ``phi``, ``S`` and ``o``.
+    """
+    kwargs: dict[str, Any] = dict(
+        actuation_max=actuation_max,
+        readable=readable,
+        dead_zone=dead_zone,
+        exponent=exponent,
+        curve=curve,
+        bias_weight=bias_weight,
+        smoothness=smoothness,
+        anchors=anchors,
+        nyquist=nyquist,
+    )
+    if coupling != "checked":
+        return _fit_once(grid, levels, ramp, coupling=bool(coupling), **kwargs)
+    plain = _fit_once(grid, levels, ramp, coupling=False, **kwargs)
+    coupled = _fit_once(grid, levels, ramp, coupling=True, **kwargs)
+    measured = np.isfinite(grid)
+    cells = int(measured.sum())
+    knots = int(np.ceil(actuation_max / PHI_KNOT_STEP)) + 1
+    params = int(measured.any(axis=1).sum()) * (ramp.shape[1] + 1) + knots + 1
+    dof = max(cells - params, cells // 2, 1)
+    sse_plain, sse_coupled = cells * plain.rms**2, cells * coupled.rms**2
+    f_stat = (sse_plain - sse_coupled) / max(sse_coupled / dof, 1e-300)
+    kept = coupled if coupled.coupling > 0.0 and f_stat > COUPLING_F else plain
+    return dataclasses.replace(kept, coupling_f=float(f_stat))
 
 
 def surface_prediction(

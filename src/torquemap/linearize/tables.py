@@ -816,7 +816,7 @@ def _surface_forward(
     pool: bool = False,
     track: bool = False,
     raw: NDArray[np.float64] | None = None,
-    coupling: bool = False,
+    coupling: bool | Literal["checked"] = False,
 ) -> tuple[NDArray[np.float64], SurfaceFit]:
     """Sensed torque on every base pulse width from the structured surface
     (:mod:`torquemap.linearize.surface`) plus what it misses at the measured cells,
@@ -1082,7 +1082,7 @@ def build_tables(
     pool: bool = False,
     track: bool = False,
     nyquist: bool = True,
-    coupling: bool = True,
+    coupling: bool | Literal["checked"] = True,
     bias: ArrayLike | None = None,
     restore_bias: bool = True,
     bias_open: bool = False,
@@ -1191,6 +1191,10 @@ def build_tables(
         measured worst went from 1.78x to 1.65x the floor, on 180 to 199 the median from 1.20x
         to 1.18x, neutral or better on the medians and worsts of every other set measured
         (docs/linearize.md, "stop 36 (L39)").
+        ``"checked"``: the same, ``kappa`` kept only where it lowers the cells' misfit by
+        more than the fit's own spread (``fit_surface(coupling="checked")``); not the default
+        (docs/linearize.md, "stop 36 (L40)": 197 1.16x -> 1.02x the floor, the median of
+        seeds 0 to 19 1.174x -> 1.179x).
     bias
         The bias the collection subtracted from each row (DATA.csv's ``bias`` column) [N m],
         shape (n,); None when the file has none. Split into the sensor's smooth drift and what
