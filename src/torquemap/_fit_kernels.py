@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from torquemap._jit import jit
+from torquemap._kernels import TILE
 
 
 @jit
@@ -947,10 +948,9 @@ def savgol_acceleration(
     """
     n = y.size
     half = even.size - 1
-    tile = 512  # torquemap._kernels.TILE: the stretches, and so the sums' order, are its
-    acc_a = np.empty(tile)
-    for start in range(half, n - half, tile):
-        m = min(tile, n - half - start)
+    acc_a = np.empty(TILE)  # savgol_fit's stretches, and so the sums' order
+    for start in range(half, n - half, TILE):
+        m = min(TILE, n - half - start)
         centre = y[start : start + m]
         for j in range(m):
             acc_a[j] = 0.0
