@@ -83,6 +83,8 @@ def _command_path(
 ) -> tuple[str, ...]:
     path: tuple[str, ...] = ()
     for word in words:
+        if not path and word.startswith("-"):  # a top-level option: torquemap --quiet ...
+            continue
         if (*path, word) not in tree:
             break
         path = (*path, word)
@@ -105,16 +107,15 @@ def test_every_command_in_the_docs_is_one_the_cli_takes(page: str, line: str) ->
     path = _command_path(words, tree)
     assert path, f"{page}: not a torquemap command: {line}"
     command = tree[path]
-    if SYNOPSIS.search(line):  # a synopsis: each option it names must be the command's
-        options = re.findall(
-            r"(?<![\w-])--\[no-\]([a-z][\w-]*)|(?<![\w-])(--?[a-zA-Z][\w-]*)", line
-        )
-        for negated, name in options:
-            names = [f"--{negated}", f"--no-{negated}"] if negated else [name]
-            for option in names:
-                assert option in command._option_string_actions, (
-                    f"{page}: `torquemap {' '.join(path)}` has no option {option}: {line}"
-                )
+    # each option it names, spelled in full (argparse would take an abbreviation), is the
+    # command's (or the top level's: --quiet)
+    options = re.findall(r"(?<![\w-])--\[no-\]([a-z][\w-]*)|(?<![\w-])(--?[a-zA-Z][\w-]*)", line)
+    for negated, name in options:
+        for option in [f"--{negated}", f"--no-{negated}"] if negated else [name]:
+            assert option in command._option_string_actions or (
+                option in parser._option_string_actions
+            ), f"{page}: `torquemap {' '.join(path)}` has no option {option}: {line}"
+    if SYNOPSIS.search(line):  # a synopsis: placeholders and alternatives do not parse
         return
     with contextlib.redirect_stderr(io.StringIO()) as err:
         try:
