@@ -115,6 +115,10 @@ def test_every_command_in_the_docs_is_one_the_cli_takes(page: str, line: str) ->
             assert option in command._option_string_actions or (
                 option in parser._option_string_actions
             ), f"{page}: `torquemap {' '.join(path)}` has no option {option}: {line}"
+    for option, listed in re.findall(r"(--[a-z][\w-]*) \(?([\w.-]+(?:\|[\w.-]+)+)", line):
+        choices = command._option_string_actions[option].choices
+        if choices is not None:  # the alternatives a synopsis lists are the option's choices
+            assert set(listed.split("|")) <= set(choices), f"{page}: {option} {listed}: {line}"
     if SYNOPSIS.search(line):  # a synopsis: placeholders and alternatives do not parse
         return
     with contextlib.redirect_stderr(io.StringIO()) as err:
