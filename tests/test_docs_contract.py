@@ -245,3 +245,30 @@ def test_fleet_drift_checks_its_output_before_the_trends(
     assert captured.out == ""
     assert captured.err.count("\n") == 1
     assert "does not match what is written (.csv or .parquet)" in captured.err
+
+
+def inline_commands() -> list[tuple[str, str]]:
+    """(page name, text) of the torquemap commands the pages quote inline (`torquemap ...`)."""
+    found = []
+    for page in PAGES:
+        text = re.sub(r"\s*\n\s*", " ", page.read_text(encoding="utf-8"))
+        found += [(page.name, m) for m in re.findall(r"`(torquemap [^`]+)`", text)]
+    return found
+
+
+def test_every_option_quoted_inline_is_the_commands() -> None:
+    parser = build_parser()
+    tree = _tree(parser)
+    bad = []
+    quoted = inline_commands()
+    assert len(quoted) > 50
+    for page, line in quoted:
+        words = line.replace("(", " ").replace(")", " ").split()
+        path = _command_path(words[1:], tree)
+        if not path:
+            continue  # prose such as `torquemap ... | head`
+        command = tree[path]
+        for option in re.findall(r"(?<![\w-])(--[a-zA-Z][\w-]*)", line):
+            if option not in command._option_string_actions | parser._option_string_actions:
+                bad.append(f"{page}: `{line}`: no option {option}")
+    assert not bad, "\n".join(bad)
