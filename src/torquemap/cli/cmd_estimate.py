@@ -36,9 +36,11 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
             "Estimate the torques the environment exerts on each joint, and for a planar arm "
             "the end-effector force, from motor currents (or torques) and encoders alone: the "
             "model's inertia, friction and PDTV are subtracted from the motor torque "
-            "(docs/estimation.md). Writes t, tau_ext_<j> [N m], fx, fy [N] and flag (0 = "
-            "sound) to -o, its format chosen by the suffix (.csv, .parquet, .json); prints a "
-            "one-line summary; warnings go to stderr.",
+            "(docs/estimation.md). Writes t, tau_ext_<j> [N m], fx, fy [N] (an arm: fx, fy, "
+            "fz [N], mx, my, mz [N m]), one standard deviation of each (<column>_sigma, NaN "
+            "where the model records no uncertainty) and flag (0 = sound) to -o, its format "
+            "chosen by the suffix (.csv, .parquet, .json; docs/formats.md); prints a one-line "
+            "summary; warnings go to stderr.",
             [
                 "torquemap estimate bench/model.toml bench/circle.csv -o forces.csv "
                 "--figure forces.png",

@@ -40,14 +40,16 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         default=None,
         metavar="S",
         help="length [s], whole traversals rounded up (default: one traversal at each speed, "
-        "100 s)",
+        "5 periods with the default speeds)",
     )
     p.add_argument(
         "--period",
         type=float,
-        default=20.0,
+        default=None,
         metavar="S",
-        help="fundamental period [s] of the path at full speed (20)",
+        help="fundamental period [s] of the path at full speed (default: twice the slowest "
+        "joint's swing over its range at --speed-fraction of its speed limit, at most "
+        "--duration: Panda 19.2 s, UR5 18 s; docs/arm.md)",
     )
     p.add_argument(
         "--speeds",
@@ -56,7 +58,7 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         help="speed schedule: the path is played at each of these fractions of its speed in "
         "turn (0 < |v| <= 1, negative: backwards; default 1,0.25)",
     )
-    p.add_argument("--harmonics", type=int, default=5, help="harmonics per joint (5)")
+    p.add_argument("--harmonics", type=int, default=5, metavar="N", help="harmonics per joint (5)")
     p.add_argument("--rate", type=float, default=500.0, metavar="HZ", help="sample rate (500)")
     p.add_argument(
         "--speed-fraction",
@@ -89,11 +91,13 @@ def _floats(text: str, flag: str, what: str) -> list[float]:
 def _excite(args: argparse.Namespace) -> int:
     import numpy as np
 
+    from torquemap.cli.outputs import TABLE, check_outputs
     from torquemap.errors import InputError
     from torquemap.excite import exciting_trajectory, trajectory_columns
     from torquemap.io import write_table
     from torquemap.robot import load_robot
 
+    check_outputs([(args.output, TABLE)], [args.robot])  # before the search (docs/safety.md)
     robot = load_robot(args.robot)
     arm: Any = robot.arm
     if not hasattr(arm, "position_limits"):

@@ -143,8 +143,10 @@ def _identify(args: argparse.Namespace) -> int:
 
 
 def _drift(args: argparse.Namespace) -> int:
+    from torquemap.cli.outputs import TABLE, check_outputs
     from torquemap.drift import drift_columns, fleet_drift
 
+    check_outputs([(args.output, TABLE)])  # one line, before the trends are printed
     drift = fleet_drift(args.out_dir)
     if args.output is not None:
         from torquemap.io import write_table

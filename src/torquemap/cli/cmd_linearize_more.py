@@ -144,11 +144,17 @@ def _home(args: argparse.Namespace) -> int:
 
 
 def _transfer(args: argparse.Namespace) -> int:
+    from torquemap.cli.outputs import CSV, check_outputs
     from torquemap.io import atomic_output
     from torquemap.linearize.motor import load_motor
     from torquemap.linearize.tables import read_data
     from torquemap.linearize.transfer import transfer_characterisation
 
+    # before any work, as every command does (docs/safety.md): the rows are written as CSV,
+    # and an output that is an input would replace it
+    check_outputs(
+        [(args.out, CSV)], [args.first_motor, args.first_data, args.second_motor, args.few]
+    )
     first_spec = load_motor(args.first_motor)
     second_spec = load_motor(args.second_motor)
     first = read_data(args.first_data, first_spec, kind="characterisation")

@@ -110,10 +110,13 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         "--free-duration",
         type=float,
         default=100.0,
-        help="[s] (default 100: torquemap excite's default, its 20 s path at full speed and "
-        "at a quarter)",
+        metavar="S",
+        help="[s] (default 100): whole traversals of torquemap excite's default path, at "
+        "full speed and at a quarter, up to this length rounded up (Panda 115 s)",
     )
-    arm.add_argument("--task-duration", type=float, default=15.0, help="[s] (default 15)")
+    arm.add_argument(
+        "--task-duration", type=float, default=15.0, metavar="S", help="[s] (default 15)"
+    )
     arm.set_defaults(handler=_arm)
     cmd_simulate_rig.register(benches)
     cmd_fleet.register_simulate(benches)
