@@ -62,6 +62,30 @@ def test_simulate_rig_writes_motor_and_data(
     assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary files left
 
 
+def test_simulate_rig_keeps_the_collection_record(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The record stays beside data.csv, as a real collection's: ``linearize build`` weighs the
+    bias by the bias readings per reading it names (before: the default 10, whatever
+    ``--bias-readings`` said), and ``linearize collect`` on the same file has nothing left."""
+    from torquemap.cli.cmd_linearize import _bias_weight
+    from torquemap.linearize.resume import read_record
+
+    out = tmp_path / "bench"
+    argv = ["--pulse-step", "32", "--readings", "4", "--bias-readings", "6"]
+    status = main(["simulate", "rig", "--motor", "bldc", "--out", str(out), *argv, *FAST[2:]])
+    assert status == 0
+    record = read_record(out / "data.csv")
+    assert record is not None and record.kind == "characterisation"
+    assert sum(rows for _, rows in record.done) == len(read_table(out / "data.csv")["position"])
+    assert _bias_weight(None, str(out / "data.csv")) == pytest.approx(6 / 4)
+    before = (out / "data.csv").read_bytes()
+    capsys.readouterr()
+    again = [str(out / "motor.toml"), "-o", str(out / "data.csv"), "--sim", "bldc", "--step"]
+    status, _ = _collect([*again, "32", *argv[2:], *FAST[2:]], capsys)
+    assert status == 0 and (out / "data.csv").read_bytes() == before
+
+
 @pytest.mark.parametrize(
     ("extra", "message"),
     [

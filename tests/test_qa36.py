@@ -149,12 +149,20 @@ def test_linearize_build_on_another_motors_data_says_so(
 ) -> None:
     # before: "phase 3 was never energised in the data (no rows where it leads)" alone
     out = tmp_path / "t.npz"
+    # simulate rig keeps the collection record beside data.csv (stop 37): it names the motor
     err = _build_error(rigs / "r0" / "motor.toml", rigs / "r6" / "data.csv", out, capsys)
+    assert "was collected with another motor file" in err
+    assert "positions per cycle 512 (the record: 192)" in err
+    # data copied without their record: the data themselves say it
+    bare = {rig: tmp_path / f"{rig}.csv" for rig in ("r0", "r6")}
+    for rig, path in bare.items():
+        path.write_bytes((rigs / rig / "data.csv").read_bytes())
+    err = _build_error(rigs / "r0" / "motor.toml", bare["r6"], out, capsys)
     assert "phase 3 was never energised" in err
     assert "the data reach positions 0 .. 191 of the motor file's 512 (3 phases)" in err
     assert "data from another motor?" in err
     # the other way round: "position 192 ... is outside 0 .. 191" alone
-    err = _build_error(rigs / "r6" / "motor.toml", rigs / "r0" / "data.csv", out, capsys)
+    err = _build_error(rigs / "r6" / "motor.toml", bare["r0"], out, capsys)
     assert "outside 0 .. 191, the motor file's 192 positions per cycle" in err
     assert "(the data reach 508): data from another motor?" in err
 

@@ -40,7 +40,7 @@ from torquemap.linearize.collect import (
     read_tables_npz,
 )
 from torquemap.linearize.motor import MotorSpec, RampKind, motor_spec, motor_to_dict
-from torquemap.linearize.resume import record_path
+from torquemap.linearize.resume import read_record, record_path, write_record
 from torquemap.sim.motors import (
     Amplifier,
     BrushlessDcMotor,
@@ -512,9 +512,14 @@ def write_rig_folder(
         partial = tmp.with_name(tmp.name + ".csv")  # still a recognisable temporary
         try:
             result = collect_characterisation(rig, spec, partial, s)
+            record = read_record(partial)
             os.replace(partial, tmp)
         finally:
             partial.unlink(missing_ok=True)
             record_path(partial).unlink(missing_ok=True)
         toml_writer(motor_to_dict(spec))(tmp_motor)
+    if record is not None:
+        # the record stays beside data.csv as a real collection's does: `linearize build` reads
+        # the bias readings' weight from it, and a later `linearize collect` resumes from it
+        write_record(target, record)
     return dataclasses.replace(result, path=os.fspath(target))
