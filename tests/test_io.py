@@ -109,7 +109,10 @@ GOOD = "t,q_a,q_b,i_a,i_b\n0,0,0,0,0\n0.5,1,1,1,1\n1,2,2,2,2\n"
     ("text", "message"),
     [
         ("t,q_a,i_a,i_b\n0,0,0,0\n1,1,1,1\n", r"missing column 'q_b'"),
-        ("t,q_a,q_b,i_a\n0,0,0,0\n1,1,1,1\n", r"missing column 'i_b' or 'tau_b' for joint 'b'"),
+        (
+            "t,q_a,q_b,i_a\n0,0,0,0\n1,1,1,1\n",
+            r"missing column 'i_b' or 'tau_b' for joint 'b' \(the file has t, q_a, q_b, i_a\)",
+        ),
         ("q_a,q_b,i_a,i_b\n0,0,0,0\n1,1,1,1\n", r"missing column 't'"),
         # what the file holds instead: another separator, a near miss, else its columns
         (

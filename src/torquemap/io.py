@@ -403,7 +403,8 @@ def missing_channel_message(joint: str, present: Sequence[str]) -> str:
     near = near_miss(f"i_{joint}", cols) or near_miss(f"tau_{joint}", cols)
     if near is not None:
         return f"{text} (the file has {near!r}: names are exact, lower case, no unit)"
-    return text
+    shown = ", ".join(cols[:8]) + (f", ... ({len(cols)} in all)" if len(cols) > 8 else "")
+    return f"{text} (the file has {shown})"
 
 
 def numeric_column(
