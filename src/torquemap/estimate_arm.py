@@ -225,23 +225,35 @@ def fit_warnings(info: Mapping[str, Any] | None) -> str | None:
     said = info.get("warnings") if isinstance(info, Mapping) else None
     if not isinstance(said, list):
         return None
-    found = []
+    found, lags = [], []
     for w in said:
         if not isinstance(w, str):
             continue
         share = re.match(r"joint (\S+): the identified model explains only (\S+)", w)
         gain = re.match(r"joint (\S+): its rigid-body torque is (\S+) times the URDF's", w)
+        lag = re.match(
+            r"the logs' motor currents \(or torques\) (lag|lead) their joint angles by about (\S+ ms)",
+            w,
+        )
         if share:
             found.append(f"{share[1]} explains {share[2]} of its torque")
         elif gain:
             found.append(f"{gain[1]}'s rigid-body torque {gain[2]}x the URDF's")
-    if not found:
+        elif lag:  # (torquemap.arm_lag; new-user QA, stop 37)
+            lags.append(f"its logs' currents {lag[1]} their angles by about {lag[2]}")
+    if not found and not lags:
         return None
+    checks = []
+    if found:
+        checks.append("check the robot file's gravity, gear ratios and torque constants")
+    if lags:
+        checks.append("align the log's current and angle columns in time")
     return (
         "the model's identification found it at odds with its logs ("
-        + "; ".join(found)
-        + "): check the robot file's gravity, gear ratios and torque constants; the forces "
-        "carry that error"
+        + "; ".join(found + lags)
+        + "): "
+        + "; ".join(checks)
+        + "; the forces carry that error"
     )
 
 

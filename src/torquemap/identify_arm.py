@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from torquemap.arm_lag import current_lag, lag_message
 from torquemap.arm_model import (
     ArmSignals,
     arm_signals,
@@ -464,7 +465,15 @@ def scale_warnings(
     # the bodies each joint carries: a joint nearer the base moves more of them
     carried = np.count_nonzero(np.abs(Y[:, :, :P]).max(axis=0) > 0, axis=1)
     for k, gain in gains.items():
-        if gain < SCALE_LIMITS[0]:
+        if gain < 0:
+            # the URDF's torque turned over: gravity upside down (a UR3 bench with gravity +z
+            # in its robot file: -1.10 and -1.23, warned as a gear ratio too small; QA, stop 37)
+            cause = (
+                "the opposite sign: does the robot file's gravity point up (it is the "
+                "acceleration of gravity, [0, 0, -9.81] for a floor-mounted arm), or is the "
+                "joint's direction or torque constant's sign reversed?"
+            )
+        elif gain < SCALE_LIMITS[0]:
             cause = (
                 "a gear ratio or torque constant in the robot file is too small, or the URDF is "
                 "not this arm's"
@@ -477,9 +486,13 @@ def scale_warnings(
             base = all(carried[i] <= carried[k] for i in gains)
             if not (base or (nearest and gain > 1.3 * max(nearest))):
                 continue
-            cause = "a gear ratio or torque constant in the robot file is too large"
-            if len(names) == 1:  # one joint: a tool the URDF lacks scales its torque alike
-                cause += ", or a load the URDF lacks (a tool, a payload) moves with the joint"
+            # a load the URDF lacks can do it too: a 3 kg payload on a UR3 doubled its
+            # shoulder_pan_joint's (whose torque is all inertia), forces right (QA, stop 37)
+            cause = (
+                "a gear ratio or torque constant in the robot file is too large, or a load the "
+                "URDF lacks (a tool, a payload) moves with the joint (which identification "
+                "takes in)"
+            )
         else:
             continue
         out.append(
@@ -488,6 +501,53 @@ def scale_warnings(
                 f"joint {names[k]}: its rigid-body torque is {gain:.2f} times the URDF's: {cause}",
             )
         )
+    return out
+
+
+#: The friction band [N m] an identified band within its noise of zero is kept at (a model
+#: file's law must dissipate: one Coulomb level may be negative only if their sum is positive).
+ZERO_BAND = 1e-9
+
+
+#: A joint whose identified friction (99th percentile of its magnitude over the logs' speeds)
+#: is at most this share of its motor torque's (99th percentile) cannot have its friction told
+#: from its rigid-body torque's error: a Coulomb band negative both ways is then kept at zero,
+#: not refused (a simulated direct-drive UR3: 0.3 % on its wrist_1_joint; a 30 ms current lag
+#: on the UR3 at gear 100, refused: ...).
+FRICTION_SHARE = 0.01
+
+
+def _friction_share(
+    friction: Any,
+    signals: Sequence[ArmSignals],
+    picks: Sequence[NDArray[np.intp]],
+    k: int,
+    tau: NDArray[np.float64],
+) -> float:
+    """The 99th percentile of joint ``k``'s friction magnitude over the picked samples' motor
+    speeds, over that of its motor torque ``tau`` (m,) [N m, motor side]."""
+    w = np.concatenate(
+        [sig.gear[k] * sig.qd[idx, k] for sig, idx in zip(signals, picks, strict=True)]
+    )
+    f = float(np.percentile(np.abs(friction.torque(w)), 99))
+    scale = float(np.percentile(np.abs(tau), 99))
+    return f / scale if scale > 0 else float("inf")
+
+
+def _refit_without_band(
+    block: NDArray[np.float64], target: NDArray[np.float64], positive: int, negative: int
+) -> NDArray[np.float64]:
+    """A joint's own parameters (armature, friction, PDTV: the columns of ``block``, (m, c))
+    refitted by least squares to ``target`` (m,) [N m, motor side] with its two Coulomb levels
+    (columns ``positive`` and ``negative``) summing to :data:`ZERO_BAND`: no band, an offset."""
+    from scipy.linalg import null_space
+
+    a = np.zeros(block.shape[1])
+    a[[positive, negative]] = 1.0
+    v0 = a * ZERO_BAND / 2.0
+    basis = null_space(a[None, :])
+    z = np.linalg.lstsq(block @ basis, target - block @ v0, rcond=None)[0]
+    out: NDArray[np.float64] = v0 + basis @ z
     return out
 
 
@@ -648,12 +708,15 @@ def identify_arm(
         noise: NDArray[np.float64],
         rows: NDArray[np.bool_] | None = None,
         given: list[NDArray[np.float64]] | None = None,
+        target: NDArray[np.float64] | None = None,
     ) -> tuple[
         NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], list[NDArray[np.float64]]
     ]:
         """Fit on ``rows`` (default all); the residual is returned for every row. ``given``:
-        the joints' columns, when already computed for these orders and laws."""
+        the joints' columns, when already computed for these orders and laws; ``target``:
+        motor torques to fit instead of the logs' (:func:`torquemap.arm_lag.current_lag`)."""
         model = current
+        tau_fit = tau if target is None else target
         blocks = given if given is not None else _joint_blocks(model, signals, picks, orders)
         slices = _slices(P, blocks)
         n_all = P + sum(b.shape[1] for b in blocks)
@@ -666,10 +729,12 @@ def identify_arm(
             for i, name in zip(range(slices[k].start, slices[k].stop), names, strict=True):
                 sd[i] = PRIOR_JOINT.get(name.split(".")[1], 1.0)
         if rows is None:
-            x, cov = _solve(Y, tau, blocks, 1.0 / (noise**2 * inflation), mean, sd)
+            x, cov = _solve(Y, tau_fit, blocks, 1.0 / (noise**2 * inflation), mean, sd)
         else:
-            x, cov = _solve(Y[rows], tau[rows], [b[rows] for b in blocks], 1.0 / noise**2, mean, sd)
-        return x, cov, tau - _predict(Y, blocks, x), blocks
+            x, cov = _solve(
+                Y[rows], tau_fit[rows], [b[rows] for b in blocks], 1.0 / noise**2, mean, sd
+            )
+        return x, cov, tau_fit - _predict(Y, blocks, x), blocks
 
     # The smoothed torques' noise is correlated over the window: a parabolic kernel of width w
     # passes white noise as 1.2 D / w independent samples over a duration D. Rows closer than
@@ -763,6 +828,20 @@ def identify_arm(
         [joint.name for joint in robot.joints], Y, tau, blocks, slices, x, residual, pi0
     )
     warnings += [text for _, text in scale]
+    # the currents read late against the angles (a current loop's filter, a bus polling late):
+    # silent before, or refused blaming the robot file (new-user QA, stop 37)
+    lag, lag_gain, lag_removed = current_lag(
+        signals, picks, lambda target: fit(orders, noise, given=blocks, target=target)[2], weight
+    )
+    lagged = (
+        None
+        if scale
+        else lag_message(
+            lag, lag_gain, lag_removed, max(float(np.median(np.diff(s.t))) for s in signals)
+        )
+    )
+    if lagged is not None:
+        warnings.append(lagged)
 
     if body_consistency(x[:P], arm.body_names):
         # project onto physically consistent bodies, and move the joint terms with them
@@ -803,6 +882,30 @@ def identify_arm(
             getattr(friction, "coulomb_positive", 0.0),
             getattr(friction, "coulomb_negative", 0.0),
         )
+        share = _friction_share(friction, signals, picks, k, tau[:, k])
+        if not coulomb_levels_valid(*coulomb) and share <= FRICTION_SHARE:
+            # friction too small a share of the joint's torque to be resolved (a direct drive:
+            # refused before as a robot file at odds with the log; new-user QA, stop 37)
+            warnings.append(
+                f"joint {joint.name}: its identified friction is {share:.1%} of its torque, too "
+                f"small to resolve (Coulomb {coulomb[0]:.3g}, {coulomb[1]:.3g} N m, negative "
+                "in both directions; a direct drive, a low gear ratio): refitted with no "
+                "Coulomb band"
+            )
+            names_k = list(jm.friction.linear_parameter_names)
+            v = _refit_without_band(
+                blocks[k],
+                residual[:, k] + blocks[k] @ v,
+                1 + names_k.index("coulomb_positive"),
+                1 + names_k.index("coulomb_negative"),
+            )
+            armature = float(v[0])
+            friction = jm.friction.with_linear_parameters(v[1 : 1 + nf])
+            levels = friction.static_levels()
+            coulomb = (friction.coulomb_positive, friction.coulomb_negative)
+            x = x.copy()
+            x[slices[k]] = v
+            theta = T @ x  # the parameters kept are the law's
         if not coulomb_levels_valid(*coulomb):
             flagged = [name for name, _ in scale]
             raise InputError(
@@ -815,6 +918,7 @@ def identify_arm(
                     if flagged
                     else ""
                 )
+                + (f"; {lagged}" if lagged is not None else "")
             )
         if min(levels) < 0:
             warnings.append(
@@ -872,6 +976,9 @@ def identify_arm(
             [arm_noise_levels(robot, joints, sig) for sig in signals],
             [float(sig.t.size) for sig in signals],
         ),
+        "current_lag": float(f"{lag:.4g}"),
+        "current_lag_gain": float(f"{lag_gain:.4g}"),
+        "current_lag_removed": float(f"{lag_removed:.4g}"),
         "motor_torque_p99": [
             float(f"{v:.4g}")
             for v in np.percentile(
