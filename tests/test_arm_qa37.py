@@ -194,3 +194,19 @@ def test_a_heavier_tool_is_named_as_a_possible_cause() -> None:
     said = [w for w in result.warnings if "times the URDF's" in w]
     assert said, result.warnings
     assert all("or a load the URDF lacks" in w for w in said), said
+
+
+def test_a_limit_without_velocity_is_named(tmp_path: Path) -> None:
+    """A <limit> without velocity (or effort): before, urdfdom's C++ lines on stderr and
+    "Pinocchio cannot read the URDF (The XML stream does not contain a valid URDF model.)"."""
+    from torquemap.robots.urdf import check_urdf
+
+    path = tmp_path / "arm.urdf"
+    path.write_text(
+        "<robot name='x'><link name='a'/><link name='b'/>"
+        "<joint name='j1' type='revolute'><parent link='a'/><child link='b'/>"
+        "<limit lower='-1' upper='1' effort='10'/></joint></robot>"
+    )
+    with pytest.raises(InputError, match="'j1' has a <limit> without velocity") as info:
+        check_urdf(path)
+    assert info.value.path is not None and info.value.path.endswith("arm.urdf")
