@@ -210,3 +210,86 @@ def test_a_limit_without_velocity_is_named(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="'j1' has a <limit> without velocity") as info:
         check_urdf(path)
     assert info.value.path is not None and info.value.path.endswith("arm.urdf")
+
+
+def test_null_space_share_of_a_wrench_and_of_swapped_columns() -> None:
+    """Torques of end-effector wrenches plus noise at their sigmas: 0.27 % beyond 3 sigmas
+    (the chi-square's tail); the same with two joints' columns swapped: most samples."""
+    from torquemap.arm_null import null_space_share
+
+    rng = np.random.default_rng(0)
+    n = 4000
+    J = rng.standard_normal((n, 6, 7))
+    w = rng.standard_normal((n, 6)) * 10.0
+    sigma = np.full((n, 7), 0.1)
+    tau = np.einsum("nij,ni->nj", J, w) + sigma * rng.standard_normal((n, 7))
+    keep = np.ones(n, dtype=bool)
+    share = null_space_share(J, tau, sigma, keep)
+    assert share is not None and share < 0.01
+    swapped = tau[:, [0, 2, 1, 3, 4, 5, 6]]
+    share = null_space_share(J, swapped, sigma, keep)
+    assert share is not None and share > 0.9
+    assert null_space_share(J[:, :, :6], tau[:, :6], sigma[:, :6], keep) is None  # no null space
+
+
+@pytest.fixture(scope="module")
+def panda() -> dict[str, object]:
+    """A Panda (example-robot-data) simulated by inverse dynamics with its URDF's own bodies,
+    identified from 12 s, and a task log of a varying force on its hand."""
+    from torquemap.sim.arm import PANDA, panda_urdf
+
+    arm = urdf_arm(panda_urdf(), list(PANDA.joints), end_effector=PANDA.end_effector)
+    gear = tuple(float(g) for g in PANDA.gear)
+
+    def log(seed: int, force: bool, duration: float) -> Log:
+        traj = exciting_trajectory(arm, duration=duration, rate=500.0, iterations=2, rng=seed)
+        t, q, qd, qdd = traj.t, traj.q, traj.qd, traj.qdd
+        rng = np.random.default_rng(seed)
+        F = np.zeros((t.size, 6))
+        if force:
+            F[:, 0] = 4.0 + 2.0 * np.sin(0.5 * t)
+            F[:, 2] = -10.0 + 3.0 * np.cos(0.3 * t)
+        tau_ext = np.einsum("nij,ni->nj", arm.jacobian(q), F)
+        g = np.asarray(gear)
+        tau_m = (
+            (arm.inverse_dynamics(q, qd, qdd) - tau_ext) / g
+            + 3e-5 * g * qdd
+            + 0.01 * np.tanh(g * qd / 1.5)
+            + KT * NOISE * rng.standard_normal(q.shape)
+        )
+        return Log(t=t, q=q, motor_torque=tau_m, joint_names=arm.joint_names, path="sim.csv")
+
+    joints = tuple(
+        Joint(name=n, gear_ratio=gr, torque_constant=KT)
+        for n, gr in zip(arm.joint_names, gear, strict=True)
+    )
+    robot = Robot(name="panda", kinematics="urdf", link_lengths=(), joints=joints, arm=arm)
+    start = Model(
+        robot=robot,
+        joints={n: JointModel(inertia=InertiaModel(constant=0.0), friction=_law(0.0), pdtv=())
+                for n in arm.joint_names},
+    )  # fmt: skip
+    free = log(1, False, 12.0)
+    result = identify_arm(
+        start, [free], max_samples=2000, pdtv_max_order=0, fit_friction_shape=False
+    )
+    return {"model": result.model, "task": log(2, True, 8.0)}
+
+
+def test_swapped_columns_of_a_seven_axis_arm_are_warned(panda: dict[str, object]) -> None:
+    """A 7-axis arm's task log with joints 2 and 3 swapped (angle and current): on the Panda
+    bench a 104 N median force against the true 13 N, with no warning; now warned. The log as
+    recorded is not."""
+    model, task = panda["model"], panda["task"]
+    assert isinstance(model, Model) and isinstance(task, Log)
+    said = "hold a part no wrench on the end effector gives"
+    assert not any(said in w for w in estimate_arm(model, task).warnings)
+    order = [0, 2, 1, 3, 4, 5, 6]
+    swapped = Log(
+        t=task.t,
+        q=task.q[:, order],
+        motor_torque=task.motor_torque[:, order],
+        joint_names=task.joint_names,
+        path="sim.csv",
+    )
+    assert any(said in w for w in estimate_arm(model, swapped).warnings)
