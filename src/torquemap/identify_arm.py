@@ -902,7 +902,10 @@ def identify_arm(
             armature = float(v[0])
             friction = jm.friction.with_linear_parameters(v[1 : 1 + nf])
             levels = friction.static_levels()
-            coulomb = (friction.coulomb_positive, friction.coulomb_negative)
+            coulomb = (
+                getattr(friction, "coulomb_positive", 0.0),
+                getattr(friction, "coulomb_negative", 0.0),
+            )
             x = x.copy()
             x[slices[k]] = v
             theta = T @ x  # the parameters kept are the law's
