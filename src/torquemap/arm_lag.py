@@ -35,13 +35,17 @@ LAG_MIN = 0.002
 
 
 def shifted_torques(
-    signals: Sequence[ArmSignals], picks: Sequence[NDArray[np.intp]], shift: float
+    signals: Sequence[ArmSignals],
+    picks: Sequence[NDArray[np.intp]],
+    shift: float,
+    smoothed: Sequence[NDArray[np.float64]] | None = None,
 ) -> NDArray[np.float64]:
     """The smoothed motor torques (m, nj) read ``shift`` [s] after each picked sample's time
-    (linear interpolation; held at the ends of each log)."""
+    (linear interpolation; held at the ends of each log). ``smoothed``: each log's smoothed
+    motor torques, when already computed."""
     out = []
-    for sig, idx in zip(signals, picks, strict=True):
-        smooth = sig.smooth(sig.motor_torque)
+    for i, (sig, idx) in enumerate(zip(signals, picks, strict=True)):
+        smooth = sig.smooth(sig.motor_torque) if smoothed is None else smoothed[i]
         at = sig.t[idx] + shift
         out.append(
             np.column_stack([np.interp(at, sig.t, smooth[:, k]) for k in range(smooth.shape[1])])
@@ -74,9 +78,10 @@ def current_lag(
     refined by a parabola through the best and its neighbours.
     """
     shifts = sorted({s * sign for s in LAG_GRID for sign in (1.0, -1.0)})
+    smoothed = [sig.smooth(sig.motor_torque) for sig in signals]
 
     def cost(shift: float) -> float:
-        r = residual_for(shifted_torques(signals, picks, shift))
+        r = residual_for(shifted_torques(signals, picks, shift, smoothed))
         return float(np.sum(weight * np.sum(r**2, axis=0)))
 
     costs = [cost(s) for s in shifts]

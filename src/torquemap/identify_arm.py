@@ -366,6 +366,24 @@ def _predict(
     return out
 
 
+def _refit_shift(
+    Y: NDArray[np.float64],
+    blocks: Sequence[NDArray[np.float64]],
+    weight: NDArray[np.float64],
+    cov: NDArray[np.float64],
+    change: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """How :func:`_solve`'s estimate moves when the motor torques change by ``change`` (m, nj)
+    [N m]: ``cov @ A^T W change``, the design ``A`` and weights ``W`` as there."""
+    P = Y.shape[2]
+    g = np.zeros(cov.shape[0])
+    for k, (b, sl) in enumerate(zip(blocks, _slices(P, blocks), strict=True)):
+        g[:P] += weight[k] * (Y[:, k, :].T @ change[:, k])
+        g[sl] += weight[k] * (b.T @ change[:, k])
+    out: NDArray[np.float64] = cov @ g
+    return out
+
+
 def _solve(
     Y: NDArray[np.float64],
     tau: NDArray[np.float64],
@@ -708,15 +726,12 @@ def identify_arm(
         noise: NDArray[np.float64],
         rows: NDArray[np.bool_] | None = None,
         given: list[NDArray[np.float64]] | None = None,
-        target: NDArray[np.float64] | None = None,
     ) -> tuple[
         NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], list[NDArray[np.float64]]
     ]:
         """Fit on ``rows`` (default all); the residual is returned for every row. ``given``:
-        the joints' columns, when already computed for these orders and laws; ``target``:
-        motor torques to fit instead of the logs' (:func:`torquemap.arm_lag.current_lag`)."""
+        the joints' columns, when already computed for these orders and laws."""
         model = current
-        tau_fit = tau if target is None else target
         blocks = given if given is not None else _joint_blocks(model, signals, picks, orders)
         slices = _slices(P, blocks)
         n_all = P + sum(b.shape[1] for b in blocks)
@@ -729,12 +744,10 @@ def identify_arm(
             for i, name in zip(range(slices[k].start, slices[k].stop), names, strict=True):
                 sd[i] = PRIOR_JOINT.get(name.split(".")[1], 1.0)
         if rows is None:
-            x, cov = _solve(Y, tau_fit, blocks, 1.0 / (noise**2 * inflation), mean, sd)
+            x, cov = _solve(Y, tau, blocks, 1.0 / (noise**2 * inflation), mean, sd)
         else:
-            x, cov = _solve(
-                Y[rows], tau_fit[rows], [b[rows] for b in blocks], 1.0 / noise**2, mean, sd
-            )
-        return x, cov, tau_fit - _predict(Y, blocks, x), blocks
+            x, cov = _solve(Y[rows], tau[rows], [b[rows] for b in blocks], 1.0 / noise**2, mean, sd)
+        return x, cov, tau - _predict(Y, blocks, x), blocks
 
     # The smoothed torques' noise is correlated over the window: a parabolic kernel of width w
     # passes white noise as 1.2 D / w independent samples over a duration D. Rows closer than
@@ -828,11 +841,16 @@ def identify_arm(
         [joint.name for joint in robot.joints], Y, tau, blocks, slices, x, residual, pi0
     )
     warnings += [text for _, text in scale]
+
     # the currents read late against the angles (a current loop's filter, a bus polling late):
     # silent before, or refused blaming the robot file (new-user QA, stop 37)
-    lag, lag_gain, lag_removed = current_lag(
-        signals, picks, lambda target: fit(orders, noise, given=blocks, target=target)[2], weight
-    )
+    def residual_for(target: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The final fit's residual had the logs' motor torques been ``target`` (the fit is
+        linear in them: the same normal matrix, the right-hand side moved)."""
+        moved = x + _refit_shift(Y, blocks, weight, cov, target - tau)
+        return target - _predict(Y, blocks, moved)
+
+    lag, lag_gain, lag_removed = current_lag(signals, picks, residual_for, weight)
     lagged = (
         None
         if scale
