@@ -42,6 +42,7 @@ from torquemap.arm_model import (
     joint_parameters,
 )
 from torquemap.arm_noise import noise_excess_variance
+from torquemap.arm_null import null_space_message, null_space_share
 from torquemap.arm_units import angles_beyond_limits
 from torquemap.errors import InputError
 from torquemap.estimate import torque_scale_warnings
@@ -225,23 +226,44 @@ def fit_warnings(info: Mapping[str, Any] | None) -> str | None:
     said = info.get("warnings") if isinstance(info, Mapping) else None
     if not isinstance(said, list):
         return None
-    found = []
+    found, lags = [], []
+    heavier = False  # a gain above 1 may be a load the URDF lacks, which identification takes in
     for w in said:
         if not isinstance(w, str):
             continue
         share = re.match(r"joint (\S+): the identified model explains only (\S+)", w)
         gain = re.match(r"joint (\S+): its rigid-body torque is (\S+) times the URDF's", w)
+        lag = re.match(
+            r"the logs' motor currents \(or torques\) (lag|lead) their joint angles by about (\S+ ms)",
+            w,
+        )
         if share:
             found.append(f"{share[1]} explains {share[2]} of its torque")
         elif gain:
             found.append(f"{gain[1]}'s rigid-body torque {gain[2]}x the URDF's")
-    if not found:
+            heavier = heavier or float(gain[2]) > 1.0
+        elif lag:  # (torquemap.arm_lag; new-user QA, stop 37)
+            lags.append(f"its logs' currents {lag[1]} their angles by about {lag[2]}")
+    if not found and not lags:
         return None
+    checks = []
+    if found:
+        checks.append(
+            "check the robot file's gravity, gear ratios and torque constants"
+            + (
+                " (or a load the URDF lacks, which identification takes in: the forces are then right)"
+                if heavier
+                else ""
+            )
+        )
+    if lags:
+        checks.append("align the log's current and angle columns in time")
     return (
         "the model's identification found it at odds with its logs ("
-        + "; ".join(found)
-        + "): check the robot file's gravity, gear ratios and torque constants; the forces "
-        "carry that error"
+        + "; ".join(found + lags)
+        + "): "
+        + "; ".join(checks)
+        + "; the forces carry that error"
     )
 
 
@@ -630,6 +652,16 @@ def estimate_arm(
     wrench[singular] = np.nan
     flag = np.where(singular, FLAG_SINGULAR, 0).astype(np.int64)
     near_gap = _near_gaps(signals.t, max_gap_for(window), 1.0 / cutoff)
+    # torques no end-effector wrench gives: contact elsewhere, or swapped columns (QA, stop 37)
+    inner = (signals.t > signals.t[0] + 1.0 / cutoff) & (signals.t < signals.t[-1] - 1.0 / cutoff)
+    identified = isinstance(info, Mapping) and "covariance" in info  # else no sigmas to judge by
+    if identified and len(robot.joints) > len(arm.wrench_axes):
+        share = null_space_share(
+            arm.jacobian(signals.q), tau_ext, sigma, inner & ~singular & ~near_gap
+        )
+        swapped = None if share is None else null_space_message(share)
+        if swapped is not None:
+            warnings.append(swapped)
     if near_gap.any():
         flag[near_gap] |= FLAG_GAP
         warnings.append(

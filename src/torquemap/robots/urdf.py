@@ -122,6 +122,17 @@ def check_urdf(path: Path) -> ET.Element:
             raise _urdf_error(f"URDF joint {name!r} has unknown type {kind!r}", path)
         if kind in ("revolute", "prismatic") and joint.find("limit") is None:
             unlimited.append((name, kind))
+        limit = joint.find("limit")
+        if kind in ("revolute", "prismatic") and limit is not None:
+            # urdfdom refuses it with C++ lines on stderr, then Pinocchio with "The XML stream
+            # does not contain a valid URDF model" (new-user QA, stop 37)
+            missing = [key for key in ("effort", "velocity") if limit.get(key) is None]
+            if missing:
+                raise _urdf_error(
+                    f"URDF joint {name!r} has a <limit> without {' or '.join(missing)} "
+                    "(both are required for a revolute or prismatic joint)",
+                    path,
+                )
         if c in parent_of:
             raise _urdf_error(
                 f"closed chain: link {c!r} has two parent joints ({parent_of[c]!r} and "
