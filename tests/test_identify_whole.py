@@ -837,3 +837,41 @@ def test_the_refined_delay_search_finds_a_known_delay(monkeypatch) -> None:  # t
     full = identify_model(robot(), [log], max_order=20, friction="whole")
     assert int(np.sum(~np.isnan(profiles[-1].cost))) == profiles[-1].grid.size
     assert model_to_dict(refined.model) == model_to_dict(full.model)
+
+
+def test_slow_ramps_measure_friction_below_the_slowest_pass(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    # a Stribeck rise of 60-75 % of the Coulomb level below 0.3 rad/s, passes at 1, 2 and 4
+    # rad/s reached by raised-cosine ramps of 0.4 s: below half the slowest pass only the
+    # ramps see the law. With their slow, steady rows in the fit the table follows the closed
+    # form there; with the prior alone it stays near the passes' level (33 % low at 0.2 rad/s)
+    law = StribeckFriction(
+        coulomb_positive=0.04,
+        coulomb_negative=0.05,
+        viscous=0.003,
+        stribeck_positive=0.03,
+        stribeck_negative=0.025,
+        stribeck_velocity=0.3,
+        zero_velocity=0.02,
+        transition="smooth",
+    )
+    import torquemap.identify_whole as iw
+
+    log = simulate(law=law, speeds=(1.0, 2.0, 4.0), ramp=0.4)
+    v = np.array([0.15, 0.2, 0.3, 0.5])  # 0.15-0.5 times the slowest pass
+
+    def errors(on: bool) -> np.ndarray:
+        monkeypatch.setattr(iw, "LOW_SPEED_ROWS", on)
+        res = identify_model(robot(), [log], max_order=20, friction="whole")
+        f = res.model.joints["m"].friction
+        # the observed speed (where estimation starts to bridge) is half the slowest pass
+        # either way
+        seen = res.model.notes["joints"]["m"]["friction_observed_speed"]
+        assert seen == pytest.approx(0.5, rel=1e-3)
+        up = f.torque(v) / law.torque(v) - 1.0
+        down = f.torque(-v) / law.torque(-v) - 1.0
+        return np.r_[up, down]  # type: ignore[no-any-return]
+
+    with_ramps, prior_alone = errors(True), errors(False)
+    assert np.max(np.abs(with_ramps)) < 0.05
+    assert np.max(np.abs(prior_alone)) > 0.25
+    assert np.sqrt(np.mean(with_ramps**2)) < 0.2 * np.sqrt(np.mean(prior_alone**2))
