@@ -875,3 +875,21 @@ def test_slow_ramps_measure_friction_below_the_slowest_pass(monkeypatch) -> None
     assert np.max(np.abs(with_ramps)) < 0.05
     assert np.max(np.abs(prior_alone)) > 0.25
     assert np.sqrt(np.mean(with_ramps**2)) < 0.2 * np.sqrt(np.mean(prior_alone**2))
+
+
+def test_the_whole_fit_fits_inertia_where_the_pass_method_finds_no_ramp(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    # slow ramps whose acceleration does not stand out of the passes' speed ripple give the
+    # pass method no ramp (random robot 70 of the family with ramps of 0.4 s to its slowest
+    # pass: "no accelerating segment: inertia set to 0", the force 20.8x the oracle's error
+    # against 13.4x with the inertia): the whole fit still fits the inertia from every row
+    import torquemap.identify as ident
+    from torquemap.friction import fit_inertia
+
+    def no_ramp(acceleration, torque, *, joint="", **kwargs):  # type: ignore[no-untyped-def]
+        return fit_inertia(np.zeros(0), np.zeros(0), joint=joint)
+
+    monkeypatch.setattr(ident, "fit_inertia", no_ramp)
+    res = identify_model(robot(), [simulate(ramp=1.0)], max_order=20, friction="whole")
+    assert res.model.joints["m"].inertia.constant == pytest.approx(J, rel=0.1)
+    # the pass method's "no accelerating segment: inertia set to 0" no longer describes it
+    assert not any("no accelerating segment" in w for w in res.warnings)
