@@ -135,9 +135,12 @@ REDRAWN_WEIGHT = 0.5
 #: Stribeck drop).
 MEASURED_SHARE = 0.1
 #: Whether rows slower than half the slowest pass enter the fit where the motion is slow but
-#: steady (:func:`_low_speed_rows`: slow ramps, slow stretches); False: every row whose window
-#: reaches below half the slowest pass is left out (the table there is its prior's). The
-#: observed speed (where estimation starts to bridge) stays half the slowest pass either way.
+#: steady (:func:`_low_speed_rows`: slow ramps, slow stretches), and the observed speed (where
+#: estimation starts to bridge) comes down to the slowest knot they determine
+#: (:func:`determined_speed`). False (default; neutral on the family's sweeps, whose ramps
+#: cross those speeds within half a window, docs/identification.md): every row whose window
+#: reaches below half the slowest pass is left out, the table there is its prior's, and the
+#: observed speed is half the slowest pass.
 LOW_SPEED_ROWS = False
 #: Blend half widths above which the smooth transition through zero has settled (``tanh(4)
 #: = 0.9993``; :data:`torquemap.estimate.TRANSITION_SPAN`): below, friction is not the table's.
@@ -1332,10 +1335,55 @@ def fit_joint_whole(
         gravity_significant=grav_sig,
         delay_interval=(float(delay_interval[0]), float(delay_interval[1])),
         residual=table,
-        observed_speed=float(observed),
+        observed_speed=(
+            determined_speed(
+                a,
+                fit.weights * keep,
+                prior,
+                m,
+                speeds,
+                observed,
+                max(low_speed_floor(resolution, w0), speeds[0]),
+            )
+            if LOW_SPEED_ROWS and not flat
+            else float(observed)
+        ),
         warnings=tuple(name + w for w in warnings),
         interpolation=interpolation,
     )
+
+
+def determined_speed(
+    a: NDArray[np.float64],
+    w: NDArray[np.float64],
+    prior: NDArray[np.float64],
+    m: int,
+    speeds: Sequence[float],
+    observed: float,
+    floor: float,
+) -> float:
+    """The slowest speed [rad/s] the logs determine the table at (:data:`LOW_SPEED_ROWS`):
+    going down the knots ``speeds`` [rad/s] from ``observed`` [rad/s] (half the slowest pass),
+    the last of the run of knots on which the rows (design ``a``, weights ``w``, the friction
+    columns from ``m`` on) hold at least as much information (the weighted sum of squares of
+    the knot's column) as the smoothness ``prior`` in both directions, not below ``floor``
+    [rad/s]; ``observed`` when the first knot below it is the prior's."""
+    if floor >= observed:
+        return float(observed)
+    k = len(speeds)
+    enough = np.ones(k, dtype=bool)
+    for start in (m, m + k):
+        cols = a[:, start : start + k]
+        info = np.einsum("i,ij,ij->j", w, cols, cols)
+        enough &= info >= np.diag(prior)[start : start + k]
+    lowest = float(observed)
+    for j in range(k - 1, -1, -1):
+        if speeds[j] > observed:
+            continue
+        if not enough[j] or speeds[j] < floor:
+            break
+        lowest = float(speeds[j])
+    return lowest
 
 
 def _prior_held_knots(
