@@ -1244,7 +1244,7 @@ def _identify_whole(
             reference_delay=res.channel_delay if channel_delay == "auto" else None,
             joint=name,
             gravity_check=k if joint.gear_ratio > 1.0 else None,
-            inertia=res.inertia is not None and res.inertia.samples >= 3,
+            inertia=True,
             directional=both_ways,
             max_order=float(res.max_order),
             planar=planar,
@@ -1258,6 +1258,16 @@ def _identify_whole(
         # not use, a Coulomb level it clipped) no longer describe the model
         if res.friction is not None:
             dropped = set(res.friction.warnings)
+            warnings = [w for w in warnings if w not in dropped]
+        # nor its inertia's "no accelerating segment" when the whole fit found one (slow ramps
+        # give the pass method no ramp that stands out of the passes' speed ripple; the whole
+        # fit reads every row)
+        if (
+            res.inertia is not None
+            and res.inertia.samples < 3
+            and fit.value("inertia.constant") > 0
+        ):
+            dropped = set(res.inertia.warnings)
             warnings = [w for w in warnings if w not in dropped]
         warnings.extend(fit.warnings)
         coulomb = 0.5 * float(np.sum(fit.law.levels(np.array([fit.observed_speed]))))

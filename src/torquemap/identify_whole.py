@@ -21,6 +21,12 @@ speeds only on ramps whose window reaches rest) are redrawn through the passes' 
 monotone cubic in log speed (:mod:`torquemap.between_passes`), and the difference from the
 fit's knots enters the covariance as a model-form variance.
 
+The table is fitted on rows whose window stays above half the slowest pass, and on slower
+rows where the motion is slow but steady (:data:`LOW_SPEED_ROWS`: a run of one direction above
+the transition and the velocity's quantisation, the speed within the window spread by at most
+two knot steps, a small inertial torque): slow ramps and slow stretches measure the law below
+the slowest pass; a sweep's ramps from rest, which cross those speeds within a window, do not.
+
 Both sides of the regression are seen through the same filter: the differentiated acceleration
 is the true one smoothed by the differentiator's kernel ``K``, so the torque and every other
 column are smoothed by ``K`` too. Neighbouring smoothed samples carry nearly the same
@@ -128,6 +134,30 @@ REDRAWN_WEIGHT = 0.5
 #: 1e-24 to 0.13; slow ramps of 0.4 s: 0.24 under a quadratic drag, 4-8 under a steep
 #: Stribeck drop).
 MEASURED_SHARE = 0.1
+#: Whether rows slower than half the slowest pass enter the fit where the motion is slow but
+#: steady (:func:`_low_speed_rows`: slow ramps, slow stretches), and the observed speed (where
+#: estimation starts to bridge) comes down to the slowest knot they determine
+#: (:func:`determined_speed`). False (default; neutral on the family's sweeps, whose ramps
+#: cross those speeds within half a window, docs/identification.md): every row whose window
+#: reaches below half the slowest pass is left out, the table there is its prior's, and the
+#: observed speed is half the slowest pass.
+LOW_SPEED_ROWS = False
+#: Blend half widths above which the smooth transition through zero has settled (``tanh(4)
+#: = 0.9993``; :data:`torquemap.estimate.TRANSITION_SPAN`): below, friction is not the table's.
+TRANSITION_WIDTHS = 4.0
+#: Largest standard deviation of the friction velocity's quantisation error, relative to the
+#: speed, that a low-speed row may carry, in steps of the table's knots (``log KNOT_RATIO``):
+#: a third of a step, 20 %.
+LOW_SPEED_ERROR = 1.0 / 3.0
+#: Largest ratio of the fastest to the slowest friction speed within a low-speed row's window:
+#: two knot steps (a ramp that crosses a decade of speed within a window, as a sweep's ramps
+#: from rest do, tells the table's knots apart no better than the prior).
+LOW_SPEED_SPREAD = KNOT_RATIO**2
+#: Largest inertial torque (the fitted inertia times the row's acceleration) of a low-speed row,
+#: in units of the joint's torque level: a 10 % inertia error then moves it by 1 % of the level
+#: (random robot 6 of the family: rows inside a stick-slip pass at 100 rad/s^2 pulled the
+#: table; random robot 1: ramp rows pulled the inertia by 2 standard errors).
+LOW_SPEED_INERTIAL = 0.1
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -399,6 +429,66 @@ def _unsteady(
         if sign[a] == 0 or t[b - 1] - t[a] < RUN_WINDOWS * window:
             short[a:b] = True
     return dilate(t, short, window)
+
+
+def low_speed_floor(resolution: float, zero_velocity: float) -> float:
+    """Slowest speed [rad/s] a low-speed row may see anywhere in its window
+    (:data:`LOW_SPEED_ROWS`): above the transition through zero (``TRANSITION_WIDTHS`` half
+    widths ``zero_velocity`` [rad/s]), and where the friction velocity's quantisation error is
+    at most ``LOW_SPEED_ERROR`` knot steps of the speed.
+
+    The friction velocity (:func:`friction_velocity`) differences the angle over a quarter of
+    the differentiator's window; each end is rounded to an encoder count, ``resolution`` times
+    the window (``resolution``: one count per window [rad/s]), so its error has the standard
+    deviation ``4 resolution / sqrt(6)``.
+
+    Examples
+    --------
+    >>> round(low_speed_floor(0.01, 0.001), 4)
+    0.0833
+    >>> low_speed_floor(0.01, 0.1)
+    0.4
+    """
+    sigma = 4.0 * max(resolution, 0.0) / math.sqrt(6.0)
+    quantised = sigma / (LOW_SPEED_ERROR * math.log(KNOT_RATIO))
+    return max(TRANSITION_WIDTHS * zero_velocity, quantised)
+
+
+def _window_spread(p: Piece, r: NDArray[np.intp], window: float) -> NDArray[np.float64]:
+    """Per row ``r`` of piece ``p``, the ratio of the fastest to the slowest friction speed in
+    the row's differentiator window (``+-window / 2`` [s]); inf where it reaches 0."""
+    if r.size == 0:
+        return np.zeros(0)
+    s = np.abs(_friction_speed(p))
+    lo = np.searchsorted(p.t, p.t[r] - 0.5 * window, side="left")
+    hi = np.maximum(np.searchsorted(p.t, p.t[r] + 0.5 * window, side="right"), lo + 1)
+    pairs = np.column_stack((lo, hi)).ravel()
+    padded = np.r_[s, 0.0]  # reduceat reads one past the last window's end
+    top = np.maximum.reduceat(padded, pairs)[::2]
+    bottom = np.minimum.reduceat(padded, pairs)[::2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(bottom > 0, top / np.where(bottom > 0, bottom, 1.0), np.inf)
+
+
+def _friction_speed(p: Piece) -> NDArray[np.float64]:
+    """The velocity [rad/s] friction is evaluated at on piece ``p``."""
+    return p.friction_velocity if p.friction_velocity is not None else p.velocity
+
+
+def _low_speed_rows(
+    rows: _Rows, floor: float, window: float, inertial: NDArray[np.float64], limit: float
+) -> NDArray[np.bool_]:
+    """The rows that see friction below the slowest pass in slow, steady motion: in a run of
+    one direction above ``floor`` [rad/s] lasting ``RUN_WINDOWS`` windows (of ``window`` [s];
+    no sample within a window slower than ``floor``, by the differentiated or the friction
+    velocity), the friction speed within the row's window spread by at most
+    ``LOW_SPEED_SPREAD``, and the row's ``inertial`` torque [N m] at most ``limit`` [N m]."""
+    out = []
+    for p, r in zip(rows.pieces, rows.rows, strict=True):
+        slow = _unsteady(p.t, p.velocity, floor, window)
+        slow |= dilate(p.t, np.abs(_friction_speed(p)) < floor, 0.5 * window)
+        out.append(~slow[r] & (_window_spread(p, r, window) <= LOW_SPEED_SPREAD))
+    return np.concatenate(out) & (inertial <= limit) if out else np.zeros(0, dtype=bool)
 
 
 def _delay_rows(rows: _Rows, max_rows: int) -> NDArray[np.intp] | None:
@@ -1059,6 +1149,20 @@ def fit_joint_whole(
         fric = with_width(w0)
         a = np.hstack((fixed, fric))
         fit = _irls(a, y, fit.weights, prior, keep=keep, clusters=rows.clusters)
+    if LOW_SPEED_ROWS and not flat:
+        # rows below half the slowest pass where the motion is slow but steady (a slow ramp,
+        # a slow stretch) see the law there; a window that reaches rest, the transition or
+        # the quantisation's noise, a ramp that crosses those speeds within a window, or a
+        # row whose torque is mostly inertial stays out (docs/identification.md)
+        floor = max(low_speed_floor(resolution, w0), speeds[0])
+        if floor < observed:
+            inertial = np.zeros(keep.size)
+            if inertia and fit.coef[0] > 0:
+                inertial = fit.coef[0] * np.abs(rows.at(lambda p: p.acceleration))
+            low = _low_speed_rows(rows, floor, window, inertial, LOW_SPEED_INERTIAL * level)
+            if np.any(low & (keep == 0)):
+                keep = ((keep > 0) | low).astype(np.float64)
+                fit = _irls(a, y, keep, prior, keep=keep, clusters=rows.clusters)
 
     def refit(
         orders: Sequence[tuple[float, bool]],
@@ -1231,10 +1335,55 @@ def fit_joint_whole(
         gravity_significant=grav_sig,
         delay_interval=(float(delay_interval[0]), float(delay_interval[1])),
         residual=table,
-        observed_speed=float(observed),
+        observed_speed=(
+            determined_speed(
+                a,
+                fit.weights * keep,
+                prior,
+                m,
+                speeds,
+                observed,
+                max(low_speed_floor(resolution, w0), speeds[0]),
+            )
+            if LOW_SPEED_ROWS and not flat
+            else float(observed)
+        ),
         warnings=tuple(name + w for w in warnings),
         interpolation=interpolation,
     )
+
+
+def determined_speed(
+    a: NDArray[np.float64],
+    w: NDArray[np.float64],
+    prior: NDArray[np.float64],
+    m: int,
+    speeds: Sequence[float],
+    observed: float,
+    floor: float,
+) -> float:
+    """The slowest speed [rad/s] the logs determine the table at (:data:`LOW_SPEED_ROWS`):
+    going down the knots ``speeds`` [rad/s] from ``observed`` [rad/s] (half the slowest pass),
+    the last of the run of knots on which the rows (design ``a``, weights ``w``, the friction
+    columns from ``m`` on) hold at least as much information (the weighted sum of squares of
+    the knot's column) as the smoothness ``prior`` in both directions, not below ``floor``
+    [rad/s]; ``observed`` when the first knot below it is the prior's."""
+    if floor >= observed:
+        return float(observed)
+    k = len(speeds)
+    enough = np.ones(k, dtype=bool)
+    for start in (m, m + k):
+        cols = a[:, start : start + k]
+        info = np.einsum("i,ij,ij->j", w, cols, cols)
+        enough &= info >= np.diag(prior)[start : start + k]
+    lowest = float(observed)
+    for j in range(k - 1, -1, -1):
+        if speeds[j] > observed:
+            continue
+        if not enough[j] or speeds[j] < floor:
+            break
+        lowest = float(speeds[j])
+    return lowest
 
 
 def _prior_held_knots(
