@@ -897,3 +897,36 @@ def test_the_whole_fit_fits_inertia_where_the_pass_method_finds_no_ramp(monkeypa
     assert res.model.joints["m"].inertia.constant == pytest.approx(J, rel=0.1)
     # the pass method's "no accelerating segment: inertia set to 0" no longer describes it
     assert not any("no accelerating segment" in w for w in res.warnings)
+
+
+def test_identify_low_speed_rows_option_reaches_the_fit(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    # `identify --low-speed-rows` is the keyword low_speed_rows=True: on slow ramps the model
+    # file's observed speed comes down from half the slowest pass (0.5 rad/s), as with the flag
+    from torquemap.cli.main import main
+    from torquemap.io import write_table, write_toml
+    from torquemap.model import load_model
+
+    law = StribeckFriction(
+        coulomb_positive=0.04,
+        coulomb_negative=0.05,
+        viscous=0.003,
+        stribeck_positive=0.03,
+        stribeck_negative=0.025,
+        stribeck_velocity=0.3,
+        zero_velocity=0.02,
+        transition="smooth",
+    )
+    log = simulate(law=law, speeds=(1.0, 2.0, 4.0), ramp=0.4)
+    columns = {"t": log.t, "q_m": log.q[:, 0], "tau_m": log.motor_torque[:, 0]}
+    write_table(tmp_path / "sweep.csv", columns)
+    joint = {"gear_ratio": 1.0, "torque_constant": 0.1, "encoder_counts_per_rev": 8000}
+    robot_file = {"robot": {"name": "motor", "kinematics": "none"}, "joints": {"m": joint}}
+    write_toml(tmp_path / "robot.toml", robot_file)
+    seen = {}
+    for extra in ([], ["--low-speed-rows"]):
+        out = tmp_path / f"m{len(extra)}.toml"
+        argv = [str(tmp_path / "robot.toml"), str(tmp_path / "sweep.csv"), "-o", str(out)]
+        assert main(["--quiet", "identify", *argv, "--max-order", "20", *extra]) == 0
+        seen[len(extra)] = load_model(out).notes["joints"]["m"]["friction_observed_speed"]
+    assert seen[0] == pytest.approx(0.5, rel=1e-3)
+    assert 0.15 < seen[1] < 0.25

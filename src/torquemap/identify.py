@@ -1013,6 +1013,7 @@ def identify_model(
     channel_delay: float | Literal["auto"] = "auto",
     friction: FrictionMethod = "whole",
     vertical: Literal["refuse", "warn"] = "refuse",
+    low_speed_rows: bool | None = None,
 ) -> Identification:
     """Identify inertia, friction and PDTV of a robot's joints from no-load logs.
 
@@ -1053,11 +1054,15 @@ def identify_model(
         ``"auto"`` (default) estimates it (whole: searched in the whole-log fit, kept when
         significant; passes: :func:`torquemap.delay.estimate_delay`).
     friction
-        ``"passes"`` (default) or ``"whole"``.
+        ``"whole"`` (default) or ``"passes"``.
     vertical
         What to do when a joint's no-load torque holds a large component that depends on the
         joint angles (gravity: a vertical arm, which the model cannot represent): ``"refuse"``
         (InputError) or ``"warn"``.
+    low_speed_rows
+        ``friction="whole"``: fit the friction table also on the slow, steady rows below half
+        the slowest pass (slow ramps; :func:`torquemap.identify_whole.fit_joint_whole`). None:
+        :data:`torquemap.identify_whole.LOW_SPEED_ROWS` (off).
 
     Returns
     -------
@@ -1143,6 +1148,7 @@ def identify_model(
             cleaning=cleaning,
             vertical=vertical,
             derivatives=derivs,
+            low_speed_rows=low_speed_rows,
         )
     # a vertical arm (gravity), for every friction method: torquemap.vertical
     from torquemap.vertical import checked_identification
@@ -1173,6 +1179,7 @@ def _identify_whole(
     cleaning: Sequence[str],
     vertical: Literal["refuse", "warn"],
     derivatives: Sequence[Sequence[Derivatives]],
+    low_speed_rows: bool | None = None,
 ) -> tuple[Identification, dict[str, list[ResidualPiece]]]:
     """The whole-log fit of every joint the pass method identified, and the model's no-load
     residuals on ``pieces`` (:func:`torquemap.vertical.no_load_residuals`, every piece), which
@@ -1253,6 +1260,7 @@ def _identify_whole(
             steady_speeds=[abs(p.speed) for _, p in res.passes],
             held_inertia=_determined_inertia(res),
             pass_speeds=[p.speed for _, p in res.passes],
+            low_speed_rows=low_speed_rows,
         )
         # the pass method's friction law is replaced: its warnings (a Stribeck term it could
         # not use, a Coulomb level it clipped) no longer describe the model

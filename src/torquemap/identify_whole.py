@@ -957,6 +957,7 @@ def fit_joint_whole(
     steady_speeds: Sequence[float] = (),
     held_inertia: tuple[float, float] | None = None,
     pass_speeds: Sequence[float] = (),
+    low_speed_rows: bool | None = None,
 ) -> WholeFit:
     """Fit one joint's friction table, inertia, PDTV and torque delay to whole logs.
 
@@ -1021,6 +1022,11 @@ def fit_joint_whole(
     pass_speeds
         Signed motor speeds [rad/s] of the steady passes, for the leave-one-pass-out error of
         the table between passes (:func:`pass_interpolation_error`); empty: not measured.
+    low_speed_rows
+        Fit the table also on the rows below half the slowest pass where the motion is slow
+        but steady (slow ramps, slow stretches; docs/identification.md, "Friction below the
+        slowest pass from slow, steady rows"), and let estimation bridge only below the
+        slowest speed they determine. None: :data:`LOW_SPEED_ROWS` (off).
 
     Returns
     -------
@@ -1032,6 +1038,8 @@ def fit_joint_whole(
         When no piece holds a row to fit.
     """
     name = f"joint {joint}: " if joint else ""
+    if low_speed_rows is None:
+        low_speed_rows = LOW_SPEED_ROWS
     warnings: list[str] = []
     block = max(1.0, 20.0 * window)
     pieces = [
@@ -1149,7 +1157,7 @@ def fit_joint_whole(
         fric = with_width(w0)
         a = np.hstack((fixed, fric))
         fit = _irls(a, y, fit.weights, prior, keep=keep, clusters=rows.clusters)
-    if LOW_SPEED_ROWS and not flat:
+    if low_speed_rows and not flat:
         # rows below half the slowest pass where the motion is slow but steady (a slow ramp,
         # a slow stretch) see the law there; a window that reaches rest, the transition or
         # the quantisation's noise, a ramp that crosses those speeds within a window, or a
@@ -1345,7 +1353,7 @@ def fit_joint_whole(
                 observed,
                 max(low_speed_floor(resolution, w0), speeds[0]),
             )
-            if LOW_SPEED_ROWS and not flat
+            if low_speed_rows and not flat
             else float(observed)
         ),
         warnings=tuple(name + w for w in warnings),

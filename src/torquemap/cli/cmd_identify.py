@@ -95,6 +95,14 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         "every sample; passes: friction from the constant-speed pass means, the paper's Eq 5 "
         "(docs/identification.md)",
     )
+    p.add_argument(
+        "--low-speed-rows",
+        action="store_true",
+        help="--friction whole: fit friction also on the slow, steady rows below half the "
+        "slowest pass (record slow ramps to and from each pass, about 0.4 s to the slowest: "
+        "friction is then measured below the slowest pass, not held by the prior; "
+        "docs/identification.md)",
+    )
     add_window_argument(p, default=0.05)
     p.set_defaults(handler=_identify)
 
@@ -225,6 +233,7 @@ def _identify_logs(args: argparse.Namespace) -> int:
                 max_order=args.max_order,
                 window=args.window,
                 friction=args.friction,
+                low_speed_rows=args.low_speed_rows or None,
             ),
         )
     except InputError as exc:
