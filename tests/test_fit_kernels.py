@@ -185,6 +185,46 @@ def test_both_ways_columns_smooth_as_the_numpy_columns(uniform: bool) -> None:
             np.testing.assert_allclose(got, ref, rtol=0, atol=1e-8)
 
 
+def test_both_ways_cached_cosines_are_those_of_every_sample() -> None:
+    # the kernel's kept cosines and sines (slots by the encoder count) against math.cos and
+    # math.sin of every sample (the C library's, as the kernel's), through the smoother, bit
+    # for bit: a quantised sweep back and forth over the same counts (slots reused), a range
+    # wider than the slots (slots overwritten), zeros of both signs, a NaN, and slot widths
+    # from one slot (0) to one per bit pattern (1e30)
+    from torquemap._fit_kernels import TRIG_SLOTS, smooth_both_ways_at_rows
+    from torquemap.smooth_rows import slots_per_radian
+
+    rng = np.random.default_rng(41)
+    n = 40001
+    t = np.arange(n) * 5e-4
+    count = 2.0 * np.pi / 8000.0 * 80.0  # an 8000-count encoder behind an 80:1 gear
+    turns = 40.0 * np.sin(2.0 * np.pi * t / 4.0) + rng.standard_normal(n) * 0.3
+    theta = np.round(turns / count) * count
+    theta[15000:20000] += 1.5 * TRIG_SLOTS * count  # beyond the slots: the same slots again
+    theta[700:720] = 0.0
+    theta[720:730] = -0.0
+    theta[33333] = np.nan
+    velocity = np.gradient(theta, t)
+    velocity[100:130] = 0.0
+    rows = np.arange(0, n, 7).astype(np.intp)
+    smoother = RowSmoother.build(t, rows, 0.05)
+    op = smoother.operator
+    assert slots_per_radian(theta) == pytest.approx(1.0 / count, rel=1e-9)
+    for order in (1.0, 21.0, 41.9091):
+        x = order * theta
+        c = np.array([math.cos(v) for v in x])
+        s = np.array([math.sin(v) for v in x])
+        up = (velocity > 0).astype(np.float64)
+        down = (velocity < 0).astype(np.float64)
+        ref = smoother(np.column_stack((c, s, c * up, s * up, c * down, s * down)))
+        for per_slot in (0.0, slots_per_radian(theta), 0.37 / count, 1e30):
+            got = smooth_both_ways_at_rows(
+                t, theta, velocity, order, per_slot, op.indptr, op.indices, op.data, smoother.starts
+            )
+            np.testing.assert_array_equal(got, ref)
+        np.testing.assert_array_equal(smoother.both_ways(theta, velocity, order), ref)
+
+
 @pytest.mark.parametrize("uniform", [True, False])
 def test_speed_table_columns_smooth_as_the_block(uniform: bool) -> None:
     # the friction table's columns formed inside the smoother against speed_table_block's

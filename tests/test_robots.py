@@ -98,6 +98,40 @@ def test_unknown_kind_and_keys_of_other_kinds() -> None:
         robot_from_dict({"robot": {"link_lengths": [1, 1]}, **base}, path="r.toml")
 
 
+def test_light_kinds_do_not_load_the_urdf_engine() -> None:
+    # a planar or plain robot file does not import Pinocchio (a fifth of a second of every
+    # command); an unknown kind still lists the URDF kind, and a URDF key on a planar robot
+    # still names its kind (every kind loaded for the messages)
+    import subprocess
+    import sys
+
+    code = """
+import sys
+from torquemap.errors import InputError
+from torquemap.robot import robot_from_dict
+base = {"joints": {"a": {"gear_ratio": 1, "torque_constant": 1},
+                   "b": {"gear_ratio": 1, "torque_constant": 1}}}
+robot_from_dict({"robot": {"kinematics": "planar2r", "link_lengths": [0.3, 0.2]}, **base})
+robot_from_dict({"robot": {"kinematics": "none"}, **base})
+print("loaded" if "pinocchio" in sys.modules else "light")
+for head in ({"kinematics": "delta"}, {"kinematics": "none", "urdf": "arm.urdf"}):
+    try:
+        robot_from_dict({"robot": head, **base})
+    except InputError as exc:
+        print(exc)
+"""
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout.splitlines()
+    assert out[0] == "light"
+    try:
+        import pinocchio  # noqa: F401
+    except ImportError:
+        return
+    assert "'urdf'" in out[1] and "kinematics must be one of" in out[1]
+    assert "urdf is only for kinematics = 'urdf'" in out[2]
+
+
 @pytest.mark.parametrize(
     ("joint", "message"),
     [

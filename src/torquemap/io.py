@@ -296,7 +296,10 @@ def read_table(path: str | os.PathLike[str]) -> Columns:
         if kind == ".csv":
             table = pacsv.read_csv(p)
         else:
-            table = pq.read_table(p)
+            # the file's own reader, not ``pq.read_table``: the same table without the
+            # dataset layer (its import alone costs a fifth of a second of CPU)
+            with pq.ParquetFile(p) as handle:
+                table = handle.read()
         names = list(table.column_names)
     except UnicodeDecodeError as exc:
         raise InputError(

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 from typing import Any, Literal
 
 from torquemap.errors import InputError
-from torquemap.robots import ARM_KINDS, Arm, arm_from_kind, arm_from_table, arm_head_keys
+from torquemap.robots import Arm, arm_from_kind, arm_from_table, arm_head_keys, known_kinds
 from torquemap.tomlfile import read_toml
 
 Kinematics = str
@@ -216,8 +216,11 @@ def robot_from_dict(
     kinematics = head.get("kinematics", "none")
     own = _ROBOT_KEYS | arm_head_keys_or_error(kinematics, p)
     for key in head:
-        owners = [k for k in sorted(ARM_KINDS) if key in ARM_KINDS[k].head_keys]
-        if key not in own and owners:
+        if key in own:
+            continue
+        kinds_known = known_kinds()  # every kind's keys, the optional engines' too
+        owners = [k for k in sorted(kinds_known) if key in kinds_known[k].head_keys]
+        if owners:
             kinds = " or ".join(repr(k) for k in owners)
             raise InputError(f"[robot] {key} is only for kinematics = {kinds}", path=p)
     _check_keys(head, own, "[robot]", p)

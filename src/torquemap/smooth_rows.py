@@ -100,12 +100,14 @@ class RowSmoother:
         from torquemap._fit_kernels import smooth_both_ways_at_rows
 
         op = self.operator
+        theta = np.ascontiguousarray(theta, dtype=np.float64)
         return np.asarray(
             smooth_both_ways_at_rows(
                 self.t,
-                np.ascontiguousarray(theta, dtype=np.float64),
+                theta,
                 np.ascontiguousarray(velocity, dtype=np.float64),
                 float(order),
+                slots_per_radian(theta),
                 op.indptr,
                 op.indices,
                 op.data,
@@ -170,3 +172,17 @@ class RowSmoother:
             ),
             dtype=np.float64,
         )
+
+
+def slots_per_radian(theta: NDArray[np.float64]) -> float:
+    """The inverse of the smallest nonzero step of the angle ``theta`` [rad] over its first
+    65 536 samples (an encoder's count, at the motor), 0 when it does not move or the step is
+    not finite: the cosine cache's slots per radian of
+    :func:`torquemap._fit_kernels.smooth_both_ways_at_rows` (any value gives the same
+    numbers; this one puts neighbouring counts in neighbouring slots)."""
+    steps = np.abs(np.diff(theta[: 1 << 16]))
+    steps = steps[steps > 0]
+    if not steps.size:
+        return 0.0
+    inverse = 1.0 / float(np.min(steps))
+    return inverse if math.isfinite(inverse) else 0.0

@@ -133,7 +133,7 @@ def arm_head_keys(kind: str) -> frozenset[str]:
 
 
 def _kind(kind: Any, path: str | None) -> Any:
-    _load_builtin_kinds()
+    _load_builtin_kinds(kind if isinstance(kind, str) else None)
     cls = ARM_KINDS.get(kind) if isinstance(kind, str) else None
     if cls is None:
         known = ", ".join(repr(k) for k in sorted(ARM_KINDS))
@@ -186,11 +186,22 @@ def arm_from_kind(
     return arm_from_table(head, joint_names)
 
 
-def _load_builtin_kinds() -> None:
+def known_kinds() -> dict[str, Any]:
+    """Every kind of robot readable from robot files (:data:`ARM_KINDS`, the optional
+    engines' kinds loaded first)."""
+    _load_builtin_kinds()
+    return ARM_KINDS
+
+
+def _load_builtin_kinds(kind: str | None = None) -> None:
     # Imported here, not at module import, so that the optional heavy engines of some kinds
-    # (Pinocchio) load only when a robot file asks for them.
+    # (Pinocchio) load only when a robot file asks for them: ``kind``, when given, is the one
+    # asked for, and the URDF kind (Pinocchio's import costs a fifth of a second) loads only
+    # when it is not a built-in light kind.
     from torquemap.robots import none, planar2r  # noqa: F401
 
+    if kind is not None and kind in ARM_KINDS:
+        return
     if "urdf" not in ARM_KINDS:
         import importlib.util
 
@@ -205,5 +216,6 @@ __all__ = [
     "arm_from_kind",
     "arm_from_table",
     "arm_head_keys",
+    "known_kinds",
     "register_arm",
 ]
