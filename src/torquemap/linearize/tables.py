@@ -48,6 +48,7 @@ from torquemap.linearize.count import check_grid_fits, within_count_advice
 from torquemap.linearize.denoise import denoise_blocks, restore_misfit
 from torquemap.linearize.detent import detent_correction, fit_detent
 from torquemap.linearize.handover import check_handover, fill_handover
+from torquemap.linearize.held import held_rows
 from torquemap.linearize.knee import check_uncensored, knee_levels, pool_onset, uncensored_residual
 from torquemap.linearize.knee_track import cut_below_knee, knee_at, knee_between
 from torquemap.linearize.motor import MotorSpec
@@ -1083,6 +1084,7 @@ def build_tables(
     track: bool = False,
     nyquist: bool = True,
     coupling: bool | Literal["checked"] = True,
+    held: bool = True,
     bias: ArrayLike | None = None,
     restore_bias: bool = True,
     bias_open: bool = False,
@@ -1288,6 +1290,12 @@ def build_tables(
         if rank:
             # where the low-rank fit misses the torque beyond the noise, the readings back
             tau = restore_misfit(pw, raw_tau, tau, bias_weight=bias_weight).torque
+    if held and method == "interp":
+        # rows the friction held at the top of its band after the rig moved into a falling
+        # ramp (torquemap.linearize.held): not readings of the rising curve
+        keep = ~held_rows(pos, pw, spec.ramp)
+        if not keep.all():
+            pos, pw, tau, raw_tau = pos[keep], pw[keep], tau[keep], raw_tau[keep]
     forward, levels, voids, averaged, handover_cells, harmonics = _forward_model(
         spec,
         pos,

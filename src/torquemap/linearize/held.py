@@ -1,0 +1,76 @@
+"""Rows the friction held at the top of its band: read after the rig moved into a falling ramp.
+
+The collection measures a block of rising pulse widths at one target of the secondary joint.
+Under load the rig's compliance lets the motor move, and each level's actuation is looked up
+again at the position the encoder then reads (:func:`torquemap.linearize.collect.measure_block`).
+Where the ramp lowers a phase's share at that new position (a phase switching off), the
+re-applied actuation gives less torque than the one the contact force rose under. The static
+friction then holds the force: the contact unloads only until the motor's torque plus the
+friction balances it, so the row reads up to ``t + F`` (``t`` the motor's torque, ``F`` the
+friction) instead of the ``t - F`` every rising row reads. The force stays held at the next
+levels until the torque has risen by up to ``2 F``, and the motor may rock between the two
+positions while the actuation is looked up again, the row being stored under the last one
+consulted.
+
+Such a row is not a reading of the rising curve the tables invert: at a hand-over it lies up to
+twice the friction above it. Rows are marked from the data alone: in collection order, a block
+is a run of rising pulse widths; a row is marked when its block moved into its position from one
+where some phase's share of the ramp was higher, and so is every later row of the block stored
+at a position it entered that way. Rows in other orders (a file sorted by hand) mark nothing
+they cannot place in a block.
+
+This module never imports the simulator.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+#: Tolerance on the ramp's shares.
+SHARE_TOL = 1e-9
+
+
+def held_rows(position: ArrayLike, pulse_width: ArrayLike, ramp: ArrayLike) -> NDArray[np.bool_]:
+    """Rows read after the block moved into a position where the ramp lowers a phase's share.
+
+    Parameters
+    ----------
+    position
+        Table position of each row, in collection order, ``0 .. P - 1``, shape (n,).
+    pulse_width
+        Base pulse width of each row, shape (n,); a block is a run of rising pulse widths.
+    ramp
+        The ramping function (each phase's share of the base pulse width), shape (P, m).
+
+    Returns
+    -------
+    NDArray[np.bool_]
+        True for each row whose reading the friction may have held above the rising curve,
+        shape (n,).
+
+    Examples
+    --------
+    >>> ramp = np.array([[1.0, 1.0], [1.0, 0.5], [1.0, 0.0], [1.0, 0.0]])
+    >>> held_rows([0, 0, 1, 1, 2, 0, 0], [0, 4, 8, 12, 16, 0, 4], ramp).tolist()
+    [False, False, True, True, True, False, False]
+    """
+    pos = np.asarray(position, dtype=np.int64)
+    pw = np.asarray(pulse_width, dtype=np.float64)
+    r = np.asarray(ramp, dtype=np.float64)
+    mark = np.zeros(pos.size, dtype=bool)
+    if pos.size < 2:
+        return mark
+    same_block = np.r_[False, pw[1:] > pw[:-1]]
+    moved = same_block & np.r_[False, pos[1:] != pos[:-1]]
+    prev = np.r_[pos[0], pos[:-1]]
+    fell = moved & np.any(r[pos] < r[prev] - SHARE_TOL, axis=1)
+    entered: set[int] = set()
+    for i in range(pos.size):
+        if not same_block[i]:
+            entered = set()
+            continue
+        if fell[i]:
+            entered.add(int(pos[i]))
+        mark[i] = int(pos[i]) in entered
+    return mark
