@@ -64,7 +64,7 @@ def held_rows(position: ArrayLike, pulse_width: ArrayLike, ramp: ArrayLike) -> N
     same_block = np.r_[False, pw[1:] > pw[:-1]]
     moved = same_block & np.r_[False, pos[1:] != pos[:-1]]
     prev = np.r_[pos[0], pos[:-1]]
-    fell = moved & np.any(r[pos] < r[prev] - SHARE_TOL, axis=1)
+    fell = moved & (r[pos].sum(axis=1) < r[prev].sum(axis=1) - SHARE_TOL)
     entered: set[int] = set()
     for i in range(pos.size):
         if not same_block[i]:
