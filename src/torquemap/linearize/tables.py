@@ -778,6 +778,19 @@ def _forward_model(
     return forward, levels, voids, int((count > 1).sum()), cells, harmonics
 
 
+def _reach(forward: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The largest torque of each position's forward model [N m] (-inf where it has none)."""
+    out: NDArray[np.float64] = np.nanmax(np.where(np.isnan(forward), -np.inf, forward), axis=1)
+    return out
+
+
+#: The rows the friction held (:mod:`torquemap.linearize.held`) are dropped only while the
+#: position-independent torque keeps this fraction of what it is with them: they over-read by at
+#: most twice the friction (a few per cent of the torque), so a larger fall means a position
+#: lost the levels only those rows reached.
+HELD_REACH = 0.9
+
+
 def _fine(
     forward: NDArray[np.float64], levels: NDArray[np.float64], top: int
 ) -> NDArray[np.float64]:
@@ -1290,22 +1303,26 @@ def build_tables(
         if rank:
             # where the low-rank fit misses the torque beyond the noise, the readings back
             tau = restore_misfit(pw, raw_tau, tau, bias_weight=bias_weight).torque
+    model = functools.partial(
+        _forward_model,
+        spec,
+        max_gap=gap,
+        handover=handover and method == "interp",
+        detent=detent and method == "interp",
+    )
+    forward, levels, voids, averaged, handover_cells, harmonics = model(pos, pw, tau)
     if held and method == "interp":
         # rows the friction held at the top of its band after the rig moved into a falling
         # ramp (torquemap.linearize.held): not readings of the rising curve
         keep = ~held_rows(pos, pw, spec.ramp)
         if not keep.all():
-            pos, pw, tau, raw_tau = pos[keep], pw[keep], tau[keep], raw_tau[keep]
-    forward, levels, voids, averaged, handover_cells, harmonics = _forward_model(
-        spec,
-        pos,
-        pw,
-        tau,
-        gap,
-        handover=handover and method == "interp",
-        detent=detent and method == "interp",
-    )
-    reach = np.nanmax(np.where(np.isnan(forward), -np.inf, forward), axis=1)
+            without = model(pos[keep], pw[keep], tau[keep])
+            # unless a position loses the levels only those rows reached (the position-
+            # independent torque would fall): then the rows as read
+            if _reach(without[0]).min() >= HELD_REACH * _reach(forward).min():
+                forward, levels, voids, averaged, handover_cells, harmonics = without
+                pos, pw, tau, raw_tau = pos[keep], pw[keep], tau[keep], raw_tau[keep]
+    reach = _reach(forward)
     unreachable = unreachable_message(reach, floor, phases=m)
     if unreachable:
         raise InputError(unreachable, path=src)
