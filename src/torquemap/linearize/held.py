@@ -29,10 +29,30 @@ from numpy.typing import ArrayLike, NDArray
 
 #: Tolerance on the ramp's shares.
 SHARE_TOL = 1e-9
+#: With a model of the torque: a move counts where the model's torque falls by more than this
+#: many rows' noise (a smaller fall cannot be told from the rows' noise).
+FALL_NOISE = 3.0
 
 
-def held_rows(position: ArrayLike, pulse_width: ArrayLike, ramp: ArrayLike) -> NDArray[np.bool_]:
-    """Rows read after the block moved into a position where the ramp lowers a phase's share.
+def held_rows(
+    position: ArrayLike,
+    pulse_width: ArrayLike,
+    ramp: ArrayLike,
+    *,
+    change: ArrayLike | None = None,
+    torque: ArrayLike | None = None,
+    noise: float = 0.0,
+) -> NDArray[np.bool_]:
+    """Rows read after the block moved into a position where the re-looked-up actuation gives
+    less torque.
+
+    Without a model (``change`` None) a move counts where the ramp's total share falls (a
+    phase switching off while the others hold); such a row and every later row of its block at
+    that position are marked. With a model of the torque (``change``, ``torque``), a move also
+    counts where the model's torque falls by more than :data:`FALL_NOISE` rows' noise (a
+    cross-fade, one phase rising as another falls, can lower the torque or raise it), and its
+    block's later rows at that position are marked until the model's torque there has risen
+    past the fall (the friction holds the force by at most the fall).
 
     Parameters
     ----------
@@ -42,6 +62,13 @@ def held_rows(position: ArrayLike, pulse_width: ArrayLike, ramp: ArrayLike) -> N
         Base pulse width of each row, shape (n,); a block is a run of rising pulse widths.
     ramp
         The ramping function (each phase's share of the base pulse width), shape (P, m).
+    change
+        The model's torque at each row's position and pulse width under the row's shares less
+        under the previous row's [N m], shape (n,).
+    torque
+        The model's torque at each row's position, pulse width and shares [N m], shape (n,).
+    noise
+        One row's noise [N m].
 
     Returns
     -------
@@ -73,4 +100,23 @@ def held_rows(position: ArrayLike, pulse_width: ArrayLike, ramp: ArrayLike) -> N
         if fell[i]:
             entered.add(int(pos[i]))
         mark[i] = int(pos[i]) in entered
+    if change is None or torque is None:
+        return mark
+    drop = -np.asarray(change, dtype=np.float64)
+    model = np.asarray(torque, dtype=np.float64)
+    falls = moved & ~fell & (drop > FALL_NOISE * noise)
+    held: dict[int, tuple[float, float]] = {}  # position: (model torque at entry, the fall)
+    for i in range(pos.size):
+        if not same_block[i]:
+            held = {}
+            continue
+        q = int(pos[i])
+        if falls[i]:
+            held[q] = (float(model[i]), float(drop[i]))
+        if q in held:
+            start, fall = held[q]
+            if model[i] - start < fall:
+                mark[i] = True
+            else:
+                del held[q]
     return mark

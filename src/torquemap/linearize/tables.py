@@ -89,6 +89,19 @@ class LinearizeData:
         ``"characterisation"`` or ``"verification"``.
     path
         The file, or None.
+    held
+        ``"interp"`` only: drop the rows the friction held at the top of its band
+        (:func:`torquemap.linearize.held.held_rows`): in collection order, the rows a block
+        read after the rig's compliance moved it into a position where the ramp's total share
+        falls (a phase switching off while the others hold), where the re-looked-up actuation
+        gives less torque than the contact force rose under and the friction holds the force up
+        to twice itself above the rising curve. Kept while the position-independent torque keeps
+        :data:`HELD_REACH` of itself. ``"model"``: where the structured surface is used, also
+        the moves its torque says lowered the torque by more than three rows' noise (a
+        cross-fade), each block's rows there until the surface's torque has risen past the
+        fall; the tables are then built again without them.
+    held_mask
+        The rows to drop as held, shape (n,), instead of the rule's (``held`` on).
     bias
         The bias the collection subtracted from each row [N m], shape (n,); None for a file
         without the ``bias`` column (an older collection, or data from elsewhere).
@@ -784,6 +797,26 @@ def _reach(forward: NDArray[np.float64]) -> NDArray[np.float64]:
     return out
 
 
+def _relookup_change(
+    fit: SurfaceFit, ramp: NDArray[np.float64], pos: NDArray[np.int64], pw: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The surface's torque at each row (its position, pulse width and shares) [N m], and
+    that less the torque under the previous row's shares (the actuation the block's force
+    rose under before the rig moved), both shape (n,)."""
+    prev = np.r_[pos[:1], pos[:-1]]
+
+    def drive(shares: NDArray[np.float64]) -> NDArray[np.float64]:
+        a = np.clip(np.rint(shares * pw[:, None]).astype(np.int64), 0, fit.phi.size - 1)
+        f = fit.phi[a]
+        if fit.coupling:
+            f = f * (1.0 - fit.coupling * (f.sum(axis=-1, keepdims=True) - f))
+        out: NDArray[np.float64] = fit.rest[pos] + np.sum(fit.gain[pos] * f, axis=1)
+        return out
+
+    here = drive(ramp[pos])
+    return here - drive(ramp[prev]), here
+
+
 #: The rows the friction held (:mod:`torquemap.linearize.held`) are dropped only while the
 #: position-independent torque keeps this fraction of what it is with them: they over-read by at
 #: most twice the friction (a few per cent of the torque), so a larger fall means a position
@@ -1097,7 +1130,8 @@ def build_tables(
     track: bool = False,
     nyquist: bool = True,
     coupling: bool | Literal["checked"] = True,
-    held: bool = True,
+    held: bool | Literal["model"] = True,
+    held_mask: ArrayLike | None = None,
     bias: ArrayLike | None = None,
     restore_bias: bool = True,
     bias_open: bool = False,
@@ -1255,6 +1289,7 @@ def build_tables(
     >>> round(tab.torque_max, 3), tab.phases.shape
     (0.5, (1, 8, 16))
     """
+    arguments = dict(locals())  # before any other name: held="model" builds again with them
     src = None if path is None else os.fspath(path)
     if command_scaling not in ("linear", "log"):
         raise ValueError(f"command_scaling must be 'linear' or 'log', got {command_scaling!r}")
@@ -1311,10 +1346,18 @@ def build_tables(
         detent=detent and method == "interp",
     )
     forward, levels, voids, averaged, handover_cells, harmonics = model(pos, pw, tau)
+    rows_pos, rows_pw = pos, pw
+    dropped = np.zeros(pos.size, dtype=bool)
     if held and method == "interp":
         # rows the friction held at the top of its band after the rig moved into a falling
         # ramp (torquemap.linearize.held): not readings of the rising curve
-        keep = ~held_rows(pos, pw, spec.ramp)
+        if held_mask is None:
+            marks = held_rows(pos, pw, spec.ramp)
+        else:
+            marks = np.asarray(held_mask, dtype=bool)
+            if marks.shape != pos.shape:
+                raise ValueError(f"held_mask must have shape {pos.shape}, got {marks.shape}")
+        keep = ~marks
         if not keep.all():
             without = model(pos[keep], pw[keep], tau[keep])
             # unless a position loses the levels only those rows reached (the position-
@@ -1322,6 +1365,7 @@ def build_tables(
             if _reach(without[0]).min() >= HELD_REACH * _reach(forward).min():
                 forward, levels, voids, averaged, handover_cells, harmonics = without
                 pos, pw, tau, raw_tau = pos[keep], pw[keep], tau[keep], raw_tau[keep]
+                dropped = marks
     reach = _reach(forward)
     unreachable = unreachable_message(reach, floor, phases=m)
     if unreachable:
@@ -1384,6 +1428,14 @@ def build_tables(
                     coupling=coupling,
                 )
                 modelled, fitted = surface_forward()
+                if held == "model" and held_mask is None:
+                    # the moves the fitted surface says lowered the torque (cross-fades too)
+                    change, model_torque = _relookup_change(fitted, ramp, rows_pos, rows_pw)
+                    marks = held_rows(
+                        rows_pos, rows_pw, ramp, change=change, torque=model_torque, noise=sigma
+                    )
+                    if (marks != dropped).any():
+                        return build_tables(**{**arguments, "held_mask": marks})
                 fine = np.where(np.isnan(fine), np.nan, modelled)
                 check = check_position_sampling(
                     fitted.rest, anchors, n, torque_per_count=torque_max / cmax
