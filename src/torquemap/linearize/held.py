@@ -15,9 +15,14 @@ consulted.
 Such a row is not a reading of the rising curve the tables invert: at a hand-over it lies up to
 twice the friction above it. Rows are marked from the data alone: in collection order, a block
 is a run of rising pulse widths; a row is marked when its block moved into its position from one
-where some phase's share of the ramp was higher, and so is every later row of the block stored
-at a position it entered that way. Rows in other orders (a file sorted by hand) mark nothing
-they cannot place in a block.
+where the ramp's total share was higher (a phase switching off while the others hold: the
+torque falls whatever the phases' gains), and so is every later row of the block stored at a
+position it entered that way. In a cross-fade (one phase's share rising as another's falls,
+the total unchanged) the torque may fall or rise with the phases' gains at that position: given
+a model of the torque (the structured surface, :mod:`torquemap.linearize.surface`), a move
+counts where the model's torque falls by more than three rows' noise, and the block's rows at
+that position are marked until the model's torque there has risen past the fall. Rows in other
+orders (a file sorted by hand) mark nothing they cannot place in a block.
 
 This module never imports the simulator.
 """
