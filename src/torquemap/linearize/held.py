@@ -109,7 +109,17 @@ def held_rows(
         return mark
     drop = -np.asarray(change, dtype=np.float64)
     model = np.asarray(torque, dtype=np.float64)
-    falls = moved & ~fell & (drop > FALL_NOISE * noise)
+    falls = moved & (drop > FALL_NOISE * noise)
+    mark[:] = False
+    entered = set()
+    for i in range(pos.size):
+        if not same_block[i]:
+            entered = set()
+            continue
+        if fell[i] and falls[i]:
+            entered.add(int(pos[i]))
+        mark[i] = int(pos[i]) in entered
+    falls &= ~fell
     held: dict[int, tuple[float, float]] = {}  # position: (model torque at entry, the fall)
     for i in range(pos.size):
         if not same_block[i]:
