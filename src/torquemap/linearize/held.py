@@ -22,7 +22,9 @@ the total unchanged) the torque may fall or rise with the phases' gains at that 
 a model of the torque (the structured surface, :mod:`torquemap.linearize.surface`), a move
 counts where the model's torque falls by more than three rows' noise, and the block's rows at
 that position are marked until the model's torque there has risen past the fall. Rows in other
-orders (a file sorted by hand) mark nothing they cannot place in a block.
+orders (a file sorted by hand) mark nothing they cannot place in a block. With the model, a fall
+of the total share counts too only where the model's torque falls (a phase switching off where
+its torque is small holds nothing).
 
 This module never imports the simulator.
 """
@@ -53,11 +55,13 @@ def held_rows(
 
     Without a model (``change`` None) a move counts where the ramp's total share falls (a
     phase switching off while the others hold); such a row and every later row of its block at
-    that position are marked. With a model of the torque (``change``, ``torque``), a move also
-    counts where the model's torque falls by more than :data:`FALL_NOISE` rows' noise (a
-    cross-fade, one phase rising as another falls, can lower the torque or raise it), and its
-    block's later rows at that position are marked until the model's torque there has risen
-    past the fall (the friction holds the force by at most the fall).
+    that position are marked. With a model of the torque (``change``, ``torque``), a move counts
+    only where the model's torque falls by more than :data:`FALL_NOISE` rows' noise: where the
+    total share falls, the row and every later row of its block at that position are marked
+    (the motor rocks between the two positions at each level while the actuation is looked up
+    again); in a cross-fade (one phase rising as another falls: the torque may fall or rise),
+    the block's rows at that position until the model's torque there has risen past the fall
+    (the friction holds the force by at most the fall).
 
     Parameters
     ----------

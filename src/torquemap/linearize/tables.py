@@ -96,10 +96,11 @@ class LinearizeData:
         falls (a phase switching off while the others hold), where the re-looked-up actuation
         gives less torque than the contact force rose under and the friction holds the force up
         to twice itself above the rising curve. Kept while the position-independent torque keeps
-        :data:`HELD_REACH` of itself. ``"model"``: where the structured surface is used, also
-        the moves its torque says lowered the torque by more than three rows' noise (a
-        cross-fade), each block's rows there until the surface's torque has risen past the
-        fall; the tables are then built again without them.
+        :data:`HELD_REACH` of itself. ``"model"``: where the structured surface is used, the
+        moves are judged by its torque instead: those that lower it by more than three rows'
+        noise (a cross-fade too, each block's rows there until the surface's torque has risen
+        past the fall; a falling total share only where the surface's torque falls), and the
+        tables are built again without them.
     held_mask
         The rows to drop as held, shape (n,), instead of the rule's (``held`` on).
     bias
