@@ -48,6 +48,29 @@ def test_rule_marks_a_falling_ramp_and_leaves_a_cross_fade() -> None:
     assert not held_rows([0, 1, 2, 3], [8, 8, 8, 8], wide).any()
 
 
+def test_model_judges_each_move_by_its_fall() -> None:
+    fade = np.array([[1.0, 0.0], [0.75, 0.25], [0.5, 0.5], [0.25, 0.75]])
+    pos = [0, 0, 1, 1, 1, 1, 2]
+    pw = [0, 4, 8, 12, 16, 20, 24]
+    torque = np.array([0.0, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5])
+    # the move 0 -> 1 lowers the model's torque by 0.8 (eight rows' noise): the block's rows at
+    # 1 are marked until the model's torque there has risen past the fall (1.5 -> 2.5 >= 0.8);
+    # the move 1 -> 2 raises it: nothing
+    change = np.array([0.0, 0.0, -0.8, 0.0, 0.0, 0.0, 0.3])
+    marked = held_rows(pos, pw, fade, change=change, torque=torque, noise=0.1)
+    assert marked.tolist() == [False, False, True, True, False, False, False]
+    # a fall within three rows' noise is not told from the noise
+    small = held_rows(pos, pw, fade, change=0.25 * change, torque=torque, noise=0.1)
+    assert not small.any()
+    # a falling total share counts only where the model's torque falls, and then holds the
+    # rest of the block at that position (the motor rocks between the two positions)
+    wide = np.array([[1.0, 1.0], [1.0, 0.5], [1.0, 0.0], [1.0, 0.0]])
+    flat = held_rows(pos, pw, wide, change=np.zeros(7), torque=torque, noise=0.1)
+    assert not flat.any()
+    fell = held_rows(pos, pw, wide, change=change, torque=torque, noise=0.1)
+    assert fell.tolist() == [False, False, True, True, True, True, False]
+
+
 def _instrumented(rig: SimRig, monkeypatch: pytest.MonkeyPatch) -> list[tuple[float, float]]:
     """Per row as written: (contact force, motor torque at the actual position minus friction)."""
     log: list[tuple[float, float]] = []
@@ -109,7 +132,7 @@ def test_every_row_the_simulated_friction_held_is_marked_and_dropping_them_helps
     marked = held_rows(data.position, data.level, spec.ramp)
     assert marked[truly].all()
     assert marked.sum() < 0.2 * marked.size  # the rest of the collection stays
-    kept = build_tables(spec, data.position, data.level, data.torque, bias=data.bias)
+    kept = build_tables(spec, data.position, data.level, data.torque, bias=data.bias, held=True)
     plain = build_tables(spec, data.position, data.level, data.torque, bias=data.bias, held=False)
     # measured: 0.0193 without the rule, 0.0146 with it (the best table of these widths 0.0064)
     assert _sensed_apmd(rig, kept) < 0.85 * _sensed_apmd(rig, plain)
@@ -125,7 +148,7 @@ def test_narrow_ramp_collection_is_untouched(tmp_path: Path) -> None:
     )
     data = read_data(out, spec, kind="characterisation")
     assert not held_rows(data.position, data.level, spec.ramp).any()
-    a = build_tables(spec, data.position, data.level, data.torque, bias=data.bias)
+    a = build_tables(spec, data.position, data.level, data.torque, bias=data.bias, held=True)
     b = build_tables(spec, data.position, data.level, data.torque, bias=data.bias, held=False)
     assert np.array_equal(a.phases, b.phases)
 
@@ -160,7 +183,7 @@ def test_model_marks_the_cross_fades_held_rows(
 
     monkeypatch.setattr(tables, "build_tables", spy)
     model = build(spec, data.position, data.level, data.torque, bias=data.bias, held="model")
-    rule = build(spec, data.position, data.level, data.torque, bias=data.bias)
+    rule = build(spec, data.position, data.level, data.torque, bias=data.bias, held=True)
     assert len(masks) == 1
     marked = masks[0]
     # measured: 130 of the 136 held rows marked, 138 marked
