@@ -49,6 +49,7 @@ def held_rows(
     change: ArrayLike | None = None,
     torque: ArrayLike | None = None,
     noise: float = 0.0,
+    compliance: float = 0.0,
 ) -> NDArray[np.bool_]:
     """Rows read after the block moved into a position where the re-looked-up actuation gives
     less torque.
@@ -56,12 +57,13 @@ def held_rows(
     Without a model (``change`` None) a move counts where the ramp's total share falls (a
     phase switching off while the others hold); such a row and every later row of its block at
     that position are marked. With a model of the torque (``change``, ``torque``), a move counts
-    only where the model's torque falls by more than :data:`FALL_NOISE` rows' noise: where the
-    total share falls, the row and every later row of its block at that position are marked
-    (the motor rocks between the two positions at each level while the actuation is looked up
-    again); in a cross-fade (one phase rising as another falls: the torque may fall or rise),
-    the block's rows at that position until the model's torque there has risen past the fall
-    (the friction holds the force by at most the fall).
+    only where the model's torque falls by more than :data:`FALL_NOISE` rows' noise (also in a
+    cross-fade, one phase rising as another falls: the torque may fall or rise). Where the fall
+    times ``compliance`` is half a position or more, the unloading moves the motor back across
+    the position's edge and it rocks between the two positions at every later level (each
+    looks the actuation up again): the row and every later row of its block at that position
+    are marked. Otherwise the block's rows there are marked until the model's torque has risen
+    past the fall (the friction holds the force by at most the fall).
 
     Parameters
     ----------
@@ -78,6 +80,9 @@ def held_rows(
         The model's torque at each row's position, pulse width and shares [N m], shape (n,).
     noise
         One row's noise [N m].
+    compliance
+        How far the motor moves per unit of contact torque [table positions per N m]
+        (:func:`compliance_from_blocks`).
 
     Returns
     -------
@@ -114,28 +119,73 @@ def held_rows(
     drop = -np.asarray(change, dtype=np.float64)
     model = np.asarray(torque, dtype=np.float64)
     falls = moved & (drop > FALL_NOISE * noise)
+    # the fall unloads the contact by about itself: where that moves the motor back by half a
+    # position or more, it rocks between the two positions at every later level
+    rocks = falls & (drop * compliance >= 0.5)
     mark[:] = False
-    entered = set()
-    for i in range(pos.size):
-        if not same_block[i]:
-            entered = set()
-            continue
-        if fell[i] and falls[i]:
-            entered.add(int(pos[i]))
-        mark[i] = int(pos[i]) in entered
-    falls &= ~fell
+    rocking: set[int] = set()
     held: dict[int, tuple[float, float]] = {}  # position: (model torque at entry, the fall)
     for i in range(pos.size):
         if not same_block[i]:
-            held = {}
+            rocking, held = set(), {}
             continue
         q = int(pos[i])
-        if falls[i]:
+        if rocks[i]:
+            rocking.add(q)
+        elif falls[i]:
             held[q] = (float(model[i]), float(drop[i]))
-        if q in held:
-            start, fall = held[q]
-            if model[i] - start < fall:
+        if q in rocking:
+            mark[i] = True
+        elif q in held:
+            begin, fall = held[q]
+            if model[i] - begin < fall:
                 mark[i] = True
             else:
                 del held[q]
     return mark
+
+
+def compliance_from_blocks(
+    position: ArrayLike, pulse_width: ArrayLike, torque: ArrayLike, positions_per_cycle: int
+) -> float:
+    """How far the rig's compliance moves the motor per unit of contact torque [table
+    positions per N m], read from the collection's blocks.
+
+    Each block (a run of rising pulse widths, in collection order) starts at its target; its
+    rows are stored at the positions the encoder read as the load moved the motor. The least
+    squares slope through the origin of each row's offset from its block's first row against
+    its torque (the rows that read torque).
+
+    Parameters
+    ----------
+    position
+        Table position of each row, in collection order, shape (n,).
+    pulse_width
+        Base pulse width of each row, shape (n,).
+    torque
+        Each row's torque [N m], shape (n,).
+    positions_per_cycle
+        ``P`` (offsets are taken the short way round the cycle).
+
+    Returns
+    -------
+    float
+        The slope; 0 when no row reads torque.
+
+    Examples
+    --------
+    >>> round(compliance_from_blocks([4, 4, 5, 6, 8], [0, 4, 8, 12, 0], [0, 1, 2, 4, 0], 16), 3)
+    0.476
+    """
+    pos = np.asarray(position, dtype=np.int64)
+    pw = np.asarray(pulse_width, dtype=np.float64)
+    tau = np.asarray(torque, dtype=np.float64)
+    n = int(positions_per_cycle)
+    if pos.size == 0:
+        return 0.0
+    start = np.r_[True, pw[1:] <= pw[:-1]]
+    target = pos[np.flatnonzero(start)][np.cumsum(start) - 1]
+    offset = (pos - target + n // 2) % n - n // 2
+    use = tau > 0
+    weight = float(tau[use] @ tau[use])
+    return float(offset[use] @ tau[use]) / weight if weight > 0 else 0.0

@@ -48,7 +48,7 @@ from torquemap.linearize.count import check_grid_fits, within_count_advice
 from torquemap.linearize.denoise import denoise_blocks, restore_misfit
 from torquemap.linearize.detent import detent_correction, fit_detent
 from torquemap.linearize.handover import check_handover, fill_handover
-from torquemap.linearize.held import held_rows
+from torquemap.linearize.held import compliance_from_blocks, held_rows
 from torquemap.linearize.knee import check_uncensored, knee_levels, pool_onset, uncensored_residual
 from torquemap.linearize.knee_track import cut_below_knee, knee_at, knee_between
 from torquemap.linearize.motor import MotorSpec
@@ -98,9 +98,10 @@ class LinearizeData:
         to twice itself above the rising curve. Kept while the position-independent torque keeps
         :data:`HELD_REACH` of itself. ``"model"``: where the structured surface is used, the
         moves are judged by its torque instead: those that lower it by more than three rows'
-        noise (a cross-fade too, each block's rows there until the surface's torque has risen
-        past the fall; a falling total share only where the surface's torque falls), and the
-        tables are built again without them.
+        noise (a cross-fade too); the rest of the block at that position where the fall moves
+        the motor back by half a position or more (the compliance read from the blocks' rows:
+        it rocks between the two positions), else its rows there until the surface's torque has
+        risen past the fall; the tables are then built again without them.
     held_mask
         The rows to drop as held, shape (n,), instead of the rule's (``held`` on).
     bias
@@ -1347,7 +1348,7 @@ def build_tables(
         detent=detent and method == "interp",
     )
     forward, levels, voids, averaged, handover_cells, harmonics = model(pos, pw, tau)
-    rows_pos, rows_pw = pos, pw
+    rows_pos, rows_pw, rows_tau = pos, pw, raw_tau
     dropped = np.zeros(pos.size, dtype=bool)
     if held and method == "interp":
         # rows the friction held at the top of its band after the rig moved into a falling
@@ -1433,7 +1434,13 @@ def build_tables(
                     # the moves the fitted surface says lowered the torque (cross-fades too)
                     change, model_torque = _relookup_change(fitted, ramp, rows_pos, rows_pw)
                     marks = held_rows(
-                        rows_pos, rows_pw, ramp, change=change, torque=model_torque, noise=sigma
+                        rows_pos,
+                        rows_pw,
+                        ramp,
+                        change=change,
+                        torque=model_torque,
+                        noise=sigma,
+                        compliance=compliance_from_blocks(rows_pos, rows_pw, rows_tau, n),
                     )
                     if (marks != dropped).any():
                         return build_tables(**{**arguments, "held_mask": marks})
