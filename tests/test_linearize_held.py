@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 import torquemap.linearize.collect as collect
 from torquemap.linearize import tables
-from torquemap.linearize.held import held_rows
+from torquemap.linearize.held import compliance_from_blocks, held_rows
 from torquemap.linearize.metrics import apmd_report
 from torquemap.linearize.tables import TableSet, build_tables, read_data
 from torquemap.sim.family import paper_bench
@@ -62,13 +62,32 @@ def test_model_judges_each_move_by_its_fall() -> None:
     # a fall within three rows' noise is not told from the noise
     small = held_rows(pos, pw, fade, change=0.25 * change, torque=torque, noise=0.1)
     assert not small.any()
-    # a falling total share counts only where the model's torque falls, and then holds the
-    # rest of the block at that position (the motor rocks between the two positions)
+    # a falling total share counts only where the model's torque falls
     wide = np.array([[1.0, 1.0], [1.0, 0.5], [1.0, 0.0], [1.0, 0.0]])
     flat = held_rows(pos, pw, wide, change=np.zeros(7), torque=torque, noise=0.1)
     assert not flat.any()
-    fell = held_rows(pos, pw, wide, change=change, torque=torque, noise=0.1)
-    assert fell.tolist() == [False, False, True, True, True, True, False]
+    # where the fall unloads the contact enough to move the motor back half a position (0.8 N m
+    # at 1 position per N m) it rocks between the two positions: the rest of the block there
+    rocks = held_rows(pos, pw, fade, change=change, torque=torque, noise=0.1, compliance=1.0)
+    assert rocks.tolist() == [False, False, True, True, True, True, False]
+    stiff = held_rows(pos, pw, fade, change=change, torque=torque, noise=0.1, compliance=0.5)
+    assert stiff.tolist() == marked.tolist()
+
+
+def test_compliance_read_from_the_blocks_is_the_rigs() -> None:
+    # blocks of rising pulse widths from targets 0, 4, 8, ... of a 32-position cycle; each row
+    # stored where a compliance of 0.4 positions per N m puts it (rounded), on both sides of the
+    # cycle's end
+    rng = np.random.default_rng(3)
+    pos, pw, tau = [], [], []
+    for target in range(0, 32, 4):
+        base = target + rng.uniform(-0.4, 0.4)
+        for level, torque in enumerate(np.linspace(0.0, 12.0, 13)):
+            pos.append(int(np.floor(base + 0.4 * torque + 0.5)) % 32)
+            pw.append(4 * level)
+            tau.append(torque)
+    assert abs(compliance_from_blocks(pos, pw, tau, 32) - 0.4) < 0.03
+    assert compliance_from_blocks([0, 0], [0, 4], [0.0, 0.0], 32) == 0.0
 
 
 def _instrumented(rig: SimRig, monkeypatch: pytest.MonkeyPatch) -> list[tuple[float, float]]:
