@@ -22,7 +22,8 @@ the total unchanged) the torque may fall or rise with the phases' gains at that 
 a model of the torque (the structured surface, :mod:`torquemap.linearize.surface`), a move
 counts where the model's torque falls by more than three rows' noise, and the block's rows at
 that position are marked until the model's torque there has risen past the fall. Rows in other
-orders (a file sorted by hand) mark nothing they cannot place in a block. With the model, a fall
+orders (a file shuffled or sorted by hand: not blocks of rising pulse widths each starting at
+0, :func:`in_blocks`) mark nothing. With the model, a fall
 of the total share counts too only where the model's torque falls (a phase switching off where
 its torque is small holds nothing).
 
@@ -39,6 +40,23 @@ SHARE_TOL = 1e-9
 #: With a model of the torque: a move counts where the model's torque falls by more than this
 #: many rows' noise (a smaller fall cannot be told from the rows' noise).
 FALL_NOISE = 3.0
+
+
+def in_blocks(pulse_width: ArrayLike) -> bool:
+    """Whether the rows are in the collection's order: blocks of rising pulse widths, each
+    starting at 0.
+
+    Examples
+    --------
+    >>> in_blocks([0, 4, 8, 0, 4]), in_blocks([0, 8, 4, 0]), in_blocks([4, 8])
+    (True, False, False)
+    """
+    pw = np.asarray(pulse_width, dtype=np.float64)
+    if pw.size == 0 or pw[0] != 0:
+        return False
+    block = np.cumsum(pw == 0)
+    same = block[1:] == block[:-1]
+    return not bool(np.any(same & (np.diff(pw) <= 0)))
 
 
 def held_rows(
@@ -100,7 +118,7 @@ def held_rows(
     pw = np.asarray(pulse_width, dtype=np.float64)
     r = np.asarray(ramp, dtype=np.float64)
     mark = np.zeros(pos.size, dtype=bool)
-    if pos.size < 2:
+    if pos.size < 2 or not in_blocks(pw):
         return mark
     same_block = np.r_[False, pw[1:] > pw[:-1]]
     moved = same_block & np.r_[False, pos[1:] != pos[:-1]]

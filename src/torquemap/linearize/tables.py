@@ -1367,8 +1367,12 @@ def build_tables(
         if not keep.all():
             without = model(pos[keep], pw[keep], tau[keep])
             # unless a position loses the levels only those rows reached (the position-
-            # independent torque would fall): then the rows as read
-            if _reach(without[0]).min() >= HELD_REACH * _reach(forward).min():
+            # independent torque would fall) or every row it had: then the rows as read
+            before, after = _reach(forward), _reach(without[0])
+            if (
+                np.all(np.isfinite(after) >= np.isfinite(before))
+                and after.min() >= HELD_REACH * before.min()
+            ):
                 forward, levels, voids, averaged, handover_cells, harmonics = without
                 pos, pw, tau, raw_tau = pos[keep], pw[keep], tau[keep], raw_tau[keep]
                 dropped = marks
