@@ -90,7 +90,8 @@ class LinearizeData:
     path
         The file, or None.
     held
-        ``"interp"`` only: drop the rows the friction held at the top of its band
+        ``"interp"`` only, where the structured surface is used: drop the rows the friction
+        held at the top of its band
         (:func:`torquemap.linearize.held.held_rows`): in collection order, the rows a block
         read after the rig's compliance moved it into a position where the ramp's total share
         falls (a phase switching off while the others hold), where the re-looked-up actuation
@@ -1354,7 +1355,11 @@ def build_tables(
     forward, levels, voids, averaged, handover_cells, harmonics = model(pos, pw, tau)
     rows_pos, rows_pw, rows_tau = pos, pw, raw_tau
     dropped = np.zeros(pos.size, dtype=bool)
-    if held and method == "interp":
+    # the structured surface bridges the measured positions (below): only there do the held
+    # rows reach the tables between them (a collection that measures every position where the
+    # ramp changes reads each hand-over in its own block)
+    bridged = ramp_share_step(np.asarray(spec.ramp, dtype=np.float64), np.unique(pos[pw == 0]))
+    if held and method == "interp" and onset and surface and bridged > SURFACE_SHARE_STEP:
         # rows the friction held at the top of its band after the rig moved into a falling
         # ramp (torquemap.linearize.held): not readings of the rising curve
         if held_mask is None:
