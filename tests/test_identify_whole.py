@@ -839,22 +839,26 @@ def test_the_refined_delay_search_finds_a_known_delay(monkeypatch) -> None:  # t
     assert model_to_dict(refined.model) == model_to_dict(full.model)
 
 
+#: A Stribeck rise of 60-75 % of the Coulomb level below 0.3 rad/s (the slow-ramp tests).
+SLOW_STRIBECK = StribeckFriction(
+    coulomb_positive=0.04,
+    coulomb_negative=0.05,
+    viscous=0.003,
+    stribeck_positive=0.03,
+    stribeck_negative=0.025,
+    stribeck_velocity=0.3,
+    zero_velocity=0.02,
+    transition="smooth",
+)
+
+
 def test_slow_ramps_measure_friction_below_the_slowest_pass(monkeypatch) -> None:  # type: ignore[no-untyped-def]
     # a Stribeck rise of 60-75 % of the Coulomb level below 0.3 rad/s, passes at 1, 2 and 4
     # rad/s reached by raised-cosine ramps of 0.4 s: below half the slowest pass only the
     # ramps see the law. With their slow, steady rows in the fit the table follows the closed
     # form there, and estimation reads it down to 0.19 rad/s; with the prior alone it stays
     # near the passes' level (33 % low at 0.2 rad/s) and estimation bridges below 0.5 rad/s
-    law = StribeckFriction(
-        coulomb_positive=0.04,
-        coulomb_negative=0.05,
-        viscous=0.003,
-        stribeck_positive=0.03,
-        stribeck_negative=0.025,
-        stribeck_velocity=0.3,
-        zero_velocity=0.02,
-        transition="smooth",
-    )
+    law = SLOW_STRIBECK
     import torquemap.identify_whole as iw
 
     log = simulate(law=law, speeds=(1.0, 2.0, 4.0), ramp=0.4)
@@ -906,17 +910,7 @@ def test_identify_low_speed_rows_option_reaches_the_fit(tmp_path) -> None:  # ty
     from torquemap.io import write_table, write_toml
     from torquemap.model import load_model
 
-    law = StribeckFriction(
-        coulomb_positive=0.04,
-        coulomb_negative=0.05,
-        viscous=0.003,
-        stribeck_positive=0.03,
-        stribeck_negative=0.025,
-        stribeck_velocity=0.3,
-        zero_velocity=0.02,
-        transition="smooth",
-    )
-    log = simulate(law=law, speeds=(1.0, 2.0, 4.0), ramp=0.4)
+    log = simulate(law=SLOW_STRIBECK, speeds=(1.0, 2.0, 4.0), ramp=0.4)
     columns = {"t": log.t, "q_m": log.q[:, 0], "tau_m": log.motor_torque[:, 0]}
     write_table(tmp_path / "sweep.csv", columns)
     joint = {"gear_ratio": 1.0, "torque_constant": 0.1, "encoder_counts_per_rev": 8000}
