@@ -263,7 +263,7 @@ def fit_warnings(info: Mapping[str, Any] | None) -> str | None:
         + "; ".join(found + lags)
         + "): "
         + "; ".join(checks)
-        + "; the forces carry that error"
+        + ("; else the forces carry that error" if heavier else "; the forces carry that error")
     )
 
 
