@@ -89,26 +89,6 @@ class LinearizeData:
         ``"characterisation"`` or ``"verification"``.
     path
         The file, or None.
-    held
-        ``"interp"`` only, where the structured surface is used: drop the rows the friction
-        held at the top of its band
-        (:func:`torquemap.linearize.held.held_rows`): in collection order, the rows a block
-        read after the rig's compliance moved it into a position where the ramp's total share
-        falls (a phase switching off while the others hold), where the re-looked-up actuation
-        gives less torque than the contact force rose under and the friction holds the force up
-        to twice itself above the rising curve. Kept while the position-independent torque keeps
-        :data:`HELD_REACH` of itself. ``"model"``: where the structured surface is used, the
-        moves are judged by its torque instead: those that lower it by more than three rows'
-        noise (a cross-fade too); the rest of the block at that position where the fall moves
-        the motor back by half a position or more (the compliance read from the blocks' rows:
-        it rocks between the two positions), else its rows there until the surface's torque has
-        risen past the fall; the tables are then built again without them. ``"model"`` by
-        default: on the family's seeds 0 to 19 the measured median went from 1.17x to 1.15x
-        the floor and the worst from 1.37x to 1.27x, on the held-out 160 to 179 from 1.21x /
-        2.57x to 1.19x / 2.07x, on 180 to 199 from 1.18x / 1.62x to 1.18x / 1.49x
-        (docs/linearize.md, "stop 37 (L41)"). ``False``: the rows as read.
-    held_mask
-        The rows to drop as held, shape (n,), instead of the rule's (``held`` on).
     bias
         The bias the collection subtracted from each row [N m], shape (n,); None for a file
         without the ``bias`` column (an older collection, or data from elsewhere).
@@ -1251,6 +1231,26 @@ def build_tables(
         more than the fit's own spread (``fit_surface(coupling="checked")``); not the default
         (docs/linearize.md, "stop 36 (L40)": 197 1.16x -> 1.02x the floor, the median of
         seeds 0 to 19 1.174x -> 1.179x).
+    held
+        ``"interp"`` only, where the structured surface is used: drop the rows the friction
+        held at the top of its band
+        (:func:`torquemap.linearize.held.held_rows`): in collection order, the rows a block
+        read after the rig's compliance moved it into a position where the ramp's total share
+        falls (a phase switching off while the others hold), where the re-looked-up actuation
+        gives less torque than the contact force rose under and the friction holds the force up
+        to twice itself above the rising curve. Kept while the position-independent torque keeps
+        :data:`HELD_REACH` of itself. ``"model"``: where the structured surface is used, the
+        moves are judged by its torque instead: those that lower it by more than three rows'
+        noise (a cross-fade too); the rest of the block at that position where the fall moves
+        the motor back by half a position or more (the compliance read from the blocks' rows:
+        it rocks between the two positions), else its rows there until the surface's torque has
+        risen past the fall; the tables are then built again without them. ``"model"`` by
+        default: on the family's seeds 0 to 19 the measured median went from 1.17x to 1.15x
+        the floor and the worst from 1.37x to 1.27x, on the held-out 160 to 179 from 1.21x /
+        2.57x to 1.19x / 2.07x, on 180 to 199 from 1.18x / 1.62x to 1.18x / 1.49x
+        (docs/linearize.md, "stop 37 (L41)"). ``False``: the rows as read.
+    held_mask
+        The rows to drop as held, shape (n,), instead of the rule's (``held`` on).
     bias
         The bias the collection subtracted from each row (DATA.csv's ``bias`` column) [N m],
         shape (n,); None when the file has none. Split into the sensor's smooth drift and what
