@@ -131,10 +131,13 @@ def _sensed_apmd(rig: SimRig, tables: TableSet) -> float:
     ).apmd
 
 
-def test_every_row_the_simulated_friction_held_is_marked_and_dropping_them_helps(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    bench = paper_bench(SEED)
+def _noise_free_held(
+    seed: int, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> tuple[Any, Any, Any, NDArray[np.bool_], NDArray[np.float64]]:
+    """Random bench ``seed`` without sensor noise, collected as the paper does with every
+    row's contact force and rising curve logged: the rig, its motor file, the data and the rows
+    the simulated friction truly held, and each row's force above the rising curve [N m]."""
+    bench = paper_bench(seed)
     rig = bench.rig
     rig.settings = dataclasses.replace(rig.settings, noise=0.0)
     spec = rig.motor_spec(ramping=bench.ramping)
@@ -146,8 +149,15 @@ def test_every_row_the_simulated_friction_held_is_marked_and_dropping_them_helps
     data = read_data(out, spec, kind="characterisation")
     force, rising = np.array(log).T
     truly = force - np.maximum(rising, 0.0) > 0.1 * rig.settings.friction
+    return rig, spec, data, truly, force - rising
+
+
+def test_every_row_the_simulated_friction_held_is_marked_and_dropping_them_helps(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    rig, spec, data, truly, above = _noise_free_held(SEED, tmp_path, monkeypatch)
     assert truly.sum() >= 50  # the case exists on this motor: about 2F above the rising curve
-    assert np.median((force - rising)[truly]) > 1.5 * rig.settings.friction
+    assert np.median(above[truly]) > 1.5 * rig.settings.friction
     marked = held_rows(data.position, data.level, spec.ramp)
     assert marked[truly].all()
     assert marked.sum() < 0.2 * marked.size  # the rest of the collection stays
@@ -178,18 +188,7 @@ def test_model_marks_the_cross_fades_held_rows(
     """held="model" on a narrow ramp (cross-fades only: the total share never falls, the sum
     rule marks nothing): the fitted surface's fall at each move finds the simulator's held
     rows, and the tables built without them are closer to the sensed truth."""
-    bench = paper_bench(189)  # VR 4 x 192, narrow ramp
-    rig = bench.rig
-    rig.settings = dataclasses.replace(rig.settings, noise=0.0)
-    spec = rig.motor_spec(ramping=bench.ramping)
-    log = _instrumented(rig, monkeypatch)
-    out = tmp_path / "DATA.csv"
-    collect.collect_characterisation(
-        rig, spec, out, dataclasses.replace(bench.settings, bias_open=True)
-    )
-    data = read_data(out, spec, kind="characterisation")
-    force, rising = np.array(log).T
-    truly = force - np.maximum(rising, 0.0) > 0.1 * rig.settings.friction
+    rig, spec, data, truly, _ = _noise_free_held(189, tmp_path, monkeypatch)  # VR 4 x 192
     assert truly.sum() >= 50
     assert not held_rows(data.position, data.level, spec.ramp).any()
     masks: list[NDArray[np.bool_]] = []
