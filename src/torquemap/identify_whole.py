@@ -614,7 +614,7 @@ def _friction_columns(
 
     def columns(p: Piece, sm: RowSmoother) -> NDArray[np.float64]:
         """Piece ``p``'s columns at its rows, from what every column is made of."""
-        v = p.friction_velocity if p.friction_velocity is not None else p.velocity
+        v = _friction_speed(p)
         s = np.abs(v)
         b = 0.5 * (1.0 + np.tanh(v / w0))
         x = np.log(np.maximum(s, 1e-300))
@@ -1157,17 +1157,18 @@ def fit_joint_whole(
         fric = with_width(w0)
         a = np.hstack((fixed, fric))
         fit = _irls(a, y, fit.weights, prior, keep=keep, clusters=rows.clusters)
-    if low_speed_rows and not flat:
+    low_speed_rows = low_speed_rows and not flat
+    low_floor = max(low_speed_floor(resolution, w0), speeds[0]) if low_speed_rows else observed
+    if low_speed_rows:
         # rows below half the slowest pass where the motion is slow but steady (a slow ramp,
         # a slow stretch) see the law there; a window that reaches rest, the transition or
         # the quantisation's noise, a ramp that crosses those speeds within a window, or a
         # row whose torque is mostly inertial stays out (docs/identification.md)
-        floor = max(low_speed_floor(resolution, w0), speeds[0])
-        if floor < observed:
+        if low_floor < observed:
             inertial = np.zeros(keep.size)
             if inertia and fit.coef[0] > 0:
                 inertial = fit.coef[0] * np.abs(rows.at(lambda p: p.acceleration))
-            low = _low_speed_rows(rows, floor, window, inertial, LOW_SPEED_INERTIAL * level)
+            low = _low_speed_rows(rows, low_floor, window, inertial, LOW_SPEED_INERTIAL * level)
             if np.any(low & (keep == 0)):
                 keep = ((keep > 0) | low).astype(np.float64)
                 fit = _irls(a, y, keep, prior, keep=keep, clusters=rows.clusters)
@@ -1351,9 +1352,9 @@ def fit_joint_whole(
                 m,
                 speeds,
                 observed,
-                max(low_speed_floor(resolution, w0), speeds[0]),
+                low_floor,
             )
-            if low_speed_rows and not flat
+            if low_speed_rows
             else float(observed)
         ),
         warnings=tuple(name + w for w in warnings),
@@ -1497,7 +1498,7 @@ def pass_interpolation_error(
     signed = [float(s) for s in pass_speeds if math.isfinite(s) and s != 0.0]
     if len(signed) < 2:
         return None
-    v = rows.at(lambda p: p.friction_velocity if p.friction_velocity is not None else p.velocity)
+    v = rows.at(_friction_speed)
     k = len(speeds)
     logs = np.log(np.asarray(speeds, dtype=np.float64))
     base = fit.weights * keep
