@@ -1014,6 +1014,7 @@ def identify_model(
     friction: FrictionMethod = "whole",
     vertical: Literal["refuse", "warn"] = "refuse",
     low_speed_rows: bool | None = None,
+    stribeck_prior: bool | None = None,
 ) -> Identification:
     """Identify inertia, friction and PDTV of a robot's joints from no-load logs.
 
@@ -1063,6 +1064,10 @@ def identify_model(
         ``friction="whole"``: fit the friction table also on the slow, steady rows below half
         the slowest pass (slow ramps; :func:`torquemap.identify_whole.fit_joint_whole`). None:
         :data:`torquemap.identify_whole.LOW_SPEED_ROWS` (off).
+    stribeck_prior
+        ``friction="whole"``: centre the friction table's smoothness prior on a generalized
+        Stribeck curve per direction (:mod:`torquemap.friction_prior`). None:
+        :data:`torquemap.identify_whole.STRIBECK_PRIOR`.
 
     Returns
     -------
@@ -1149,6 +1154,7 @@ def identify_model(
             vertical=vertical,
             derivatives=derivs,
             low_speed_rows=low_speed_rows,
+            stribeck_prior=stribeck_prior,
         )
     # a vertical arm (gravity), for every friction method: torquemap.vertical
     from torquemap.vertical import checked_identification
@@ -1180,6 +1186,7 @@ def _identify_whole(
     vertical: Literal["refuse", "warn"],
     derivatives: Sequence[Sequence[Derivatives]],
     low_speed_rows: bool | None = None,
+    stribeck_prior: bool | None = None,
 ) -> tuple[Identification, dict[str, list[ResidualPiece]]]:
     """The whole-log fit of every joint the pass method identified, and the model's no-load
     residuals on ``pieces`` (:func:`torquemap.vertical.no_load_residuals`, every piece), which
@@ -1261,6 +1268,7 @@ def _identify_whole(
             held_inertia=_determined_inertia(res),
             pass_speeds=[p.speed for _, p in res.passes],
             low_speed_rows=low_speed_rows,
+            stribeck_prior=stribeck_prior,
         )
         # the pass method's friction law is replaced: its warnings (a Stribeck term it could
         # not use, a Coulomb level it clipped) no longer describe the model
@@ -1401,6 +1409,16 @@ def _whole_notes(fit: Any, resolution: float) -> dict[str, Any]:
             **({"residual": fit.residual} if fit.residual else {}),
             **({"interpolation": fit.interpolation} if fit.interpolation else {}),
         },
+        **(
+            {
+                "friction_prior": {
+                    "stribeck_velocity": [float(x) for x in fit.prior_curve.velocity],
+                    "stribeck_exponent": [float(x) for x in fit.prior_curve.exponent],
+                }
+            }
+            if fit.prior_curve is not None
+            else {}
+        ),
     }
 
 

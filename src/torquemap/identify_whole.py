@@ -54,6 +54,7 @@ from torquemap.between_passes import redraw_law
 from torquemap.errors import InputError
 from torquemap.filters import dilate, lowpass
 from torquemap.friction_law import SpeedTableFriction
+from torquemap.friction_prior import StribeckPrior, search_curve
 from torquemap.robust import (
     cluster_covariance,
     cluster_medians,
@@ -158,6 +159,12 @@ LOW_SPEED_SPREAD = KNOT_RATIO**2
 #: (random robot 6 of the family: rows inside a stick-slip pass at 100 rad/s^2 pulled the
 #: table; random robot 1: ramp rows pulled the inertia by 2 standard errors).
 LOW_SPEED_INERTIAL = 0.1
+#: Whether the table's smoothness prior is centred on a generalized Stribeck curve per
+#: direction (:mod:`torquemap.friction_prior`) rather than on ``a + b log s``.
+STRIBECK_PRIOR = False
+#: Smallest drop of the fit's penalised objective, in noise variances, that a direction's
+#: Stribeck curve must bring to centre the prior on it (0: any).
+CURVE_GAIN = 0.0
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -246,6 +253,10 @@ class WholeFit:
     interpolation
         The table's leave-one-pass-out interpolation error (:func:`pass_interpolation_error`),
         or None when not measured.
+    prior_curve
+        The generalized Stribeck curve per direction the table's prior was centred on
+        (:mod:`torquemap.friction_prior`), or None (:data:`STRIBECK_PRIOR` off, a flat table,
+        fewer than two steady speeds).
     """
 
     names: tuple[str, ...]
@@ -265,6 +276,7 @@ class WholeFit:
     observed_speed: float = 0.0
     warnings: tuple[str, ...] = field(default_factory=tuple)
     interpolation: dict[str, object] | None = None
+    prior_curve: StribeckPrior | None = None
 
     @property
     def zero_velocity(self) -> float:
@@ -958,6 +970,7 @@ def fit_joint_whole(
     held_inertia: tuple[float, float] | None = None,
     pass_speeds: Sequence[float] = (),
     low_speed_rows: bool | None = None,
+    stribeck_prior: bool | None = None,
 ) -> WholeFit:
     """Fit one joint's friction table, inertia, PDTV and torque delay to whole logs.
 
@@ -1027,6 +1040,11 @@ def fit_joint_whole(
         but steady (slow ramps, slow stretches; docs/identification.md, "Friction below the
         slowest pass from slow, steady rows"), and let estimation bridge only below the
         slowest speed they determine. None: :data:`LOW_SPEED_ROWS` (off).
+    stribeck_prior
+        Centre the table's smoothness prior on a generalized Stribeck curve per direction
+        (:mod:`torquemap.friction_prior`; needs two steady speeds at least ``ANCHOR_GAP``
+        apart); between two passes far apart the knots then follow it and are not redrawn.
+        None: :data:`STRIBECK_PRIOR`.
 
     Returns
     -------
@@ -1040,6 +1058,8 @@ def fit_joint_whole(
     name = f"joint {joint}: " if joint else ""
     if low_speed_rows is None:
         low_speed_rows = LOW_SPEED_ROWS
+    if stribeck_prior is None:
+        stribeck_prior = STRIBECK_PRIOR
     warnings: list[str] = []
     block = max(1.0, 20.0 * window)
     pieces = [
@@ -1173,6 +1193,41 @@ def fit_joint_whole(
                 keep = ((keep > 0) | low).astype(np.float64)
                 fit = _irls(a, y, keep, prior, keep=keep, clusters=rows.clusters)
 
+    curve = None
+    steady = sorted(abs(float(x)) for x in steady_speeds if x)
+    if stribeck_prior and not flat and len(steady) >= 2 and steady[-1] > steady[0] * ANCHOR_GAP:
+        # the table's prior centred on a generalized Stribeck curve per direction, its
+        # velocity and exponent searched on a grid by the fit's penalised objective with the
+        # weights held (torquemap.friction_prior)
+        m0 = fixed.shape[1]
+        normal = a.T @ (a * fit.weights[:, None])
+        rhs = a.T @ (fit.weights * y)
+        total = float(y @ (fit.weights * y))
+
+        def penalised(
+            table_precision: NDArray[np.float64],
+        ) -> tuple[float, NDArray[np.float64]]:
+            # min_c |y - A c|_W^2 + c^T P c = y^T W y - b^T (N + P)^-1 b
+            full = normal.copy()
+            full[m0:, m0:] += noise * table_precision
+            d = np.sqrt(np.maximum(np.diag(full), 1e-300))
+            scaled = full / np.outer(d, d)
+            scaled[np.diag_indices_from(scaled)] += 1e-12
+            coef = np.linalg.solve(scaled, rhs / d) / d
+            return (total - float(rhs @ coef)) / noise, coef[m0:]
+
+        curve, precision = search_curve(
+            penalised,
+            precision,
+            0,
+            speeds,
+            level,
+            velocities=(steady[0], steady[-1]),
+            min_gain=CURVE_GAIN,
+        )
+        prior = embed(m0, noise)
+        fit = _irls(a, y, fit.weights, prior, keep=keep, clusters=rows.clusters)
+
     def refit(
         orders: Sequence[tuple[float, bool]],
         *,
@@ -1290,7 +1345,13 @@ def fit_joint_whole(
     law, copy_note = _law(fit.coef[m:], speeds, w0, rows)
     if copy_note:
         warnings.append(copy_note)
-    if not flat and BETWEEN_PASSES != "fit":
+    # a direction whose prior is centred on a Stribeck curve has its knots between passes far
+    # apart drawn by the curve's shape: it is not redrawn (the redraw on top of the curve:
+    # dev median 1.724x against 1.670x without, docs/identification.md)
+    curved: tuple[bool, ...] = (
+        (False, False) if curve is None else tuple(v > 0 for v in curve.velocity)
+    )
+    if not flat and BETWEEN_PASSES != "fit" and not all(curved):
         # between two passes far apart the sweep crosses the speeds only on ramps: the knots
         # there are drawn through the passes' own knots (docs/identification.md)
         by_prior = _prior_held_knots(rows, a, fit.weights * keep, prior, m, speeds, steady_speeds)
@@ -1302,6 +1363,12 @@ def fit_joint_whole(
             (1.0 - REDRAWN_WEIGHT) * law.linear_parameters()
             + REDRAWN_WEIGHT * redrawn.linear_parameters()
         )
+        if any(curved):
+            mean = dataclasses.replace(
+                mean,
+                positive=law.positive if curved[0] else mean.positive,
+                negative=law.negative if curved[1] else mean.negative,
+            )
         for fitted, drawn, start in (
             (law.positive, mean.positive, m),
             (law.negative, mean.negative, m + k),
@@ -1359,6 +1426,7 @@ def fit_joint_whole(
         ),
         warnings=tuple(name + w for w in warnings),
         interpolation=interpolation,
+        prior_curve=curve,
     )
 
 

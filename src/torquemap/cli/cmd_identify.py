@@ -103,6 +103,14 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         "friction is then measured below the slowest pass, not held by the prior; "
         "docs/identification.md)",
     )
+    p.add_argument(
+        "--stribeck-prior",
+        action="store_true",
+        help="--friction whole: centre the friction table's prior on a generalized Stribeck "
+        "curve per direction (velocity and exponent searched), so that between and below the "
+        "passes the table follows a Stribeck shape rather than a line in log speed "
+        "(docs/identification.md)",
+    )
     add_window_argument(p, default=0.05)
     p.set_defaults(handler=_identify)
 
@@ -234,6 +242,7 @@ def _identify_logs(args: argparse.Namespace) -> int:
                 window=args.window,
                 friction=args.friction,
                 low_speed_rows=args.low_speed_rows or None,
+                stribeck_prior=args.stribeck_prior or None,
             ),
         )
     except InputError as exc:
