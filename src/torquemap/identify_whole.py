@@ -162,9 +162,9 @@ LOW_SPEED_INERTIAL = 0.1
 #: Whether the table's smoothness prior is centred on a generalized Stribeck curve per
 #: direction (:mod:`torquemap.friction_prior`) rather than on ``a + b log s``.
 STRIBECK_PRIOR = False
-#: Smallest drop of the fit's penalised objective, in noise variances, that a direction's
-#: Stribeck curve must bring to centre the prior on it (0: any).
-CURVE_GAIN = 0.0
+#: Whether a direction whose prior is centred on a Stribeck curve is still redrawn between
+#: passes far apart (:data:`BETWEEN_PASSES`); False: the curve draws it.
+REDRAW_CURVED = False
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -794,6 +794,40 @@ def _prior(
     return out
 
 
+def _scaled_solve(matrix: NDArray[np.float64], vector: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``matrix^-1 vector`` of a symmetric positive (semi)definite ``matrix``, its rows and
+    columns scaled to unit diagonal first (a tiny ridge keeps unexcited columns at 0)."""
+    d = np.sqrt(np.maximum(np.diag(matrix), 1e-300))
+    scaled = matrix / np.outer(d, d)
+    scaled[np.diag_indices_from(scaled)] += 1e-12
+    return np.asarray(np.linalg.solve(scaled, vector / d) / d)
+
+
+def _curve_objective(
+    a: NDArray[np.float64],
+    y: NDArray[np.float64],
+    weights: NDArray[np.float64],
+    m: int,
+    noise: float,
+) -> Callable[[NDArray[np.float64]], tuple[float, NDArray[np.float64]]]:
+    """The fit's penalised objective for a table precision (friction columns from ``m`` on),
+    the design ``a``, torque ``y`` and ``weights`` held, in noise variances (``noise``
+    [N^2 m^2]), and the fit's friction coefficients: what
+    :func:`torquemap.friction_prior.search_curve` chooses the curve by."""
+    normal = a.T @ (a * weights[:, None])
+    rhs = a.T @ (weights * y)
+    total = float(y @ (weights * y))
+
+    def objective(table: NDArray[np.float64]) -> tuple[float, NDArray[np.float64]]:
+        full = normal.copy()
+        full[m:, m:] += noise * table
+        coef = _scaled_solve(full, rhs)
+        # min_c |y - A c|_W^2 + c^T P c = y^T W y - b^T (N + P)^-1 b
+        return (total - float(rhs @ coef)) / noise, coef[m:]
+
+    return objective
+
+
 @dataclass(slots=True)
 class _Trial:
     coef: NDArray[np.float64]
@@ -1200,22 +1234,7 @@ def fit_joint_whole(
         # velocity and exponent searched on a grid by the fit's penalised objective with the
         # weights held (torquemap.friction_prior)
         m0 = fixed.shape[1]
-        normal = a.T @ (a * fit.weights[:, None])
-        rhs = a.T @ (fit.weights * y)
-        total = float(y @ (fit.weights * y))
-
-        def penalised(
-            table_precision: NDArray[np.float64],
-        ) -> tuple[float, NDArray[np.float64]]:
-            # min_c |y - A c|_W^2 + c^T P c = y^T W y - b^T (N + P)^-1 b
-            full = normal.copy()
-            full[m0:, m0:] += noise * table_precision
-            d = np.sqrt(np.maximum(np.diag(full), 1e-300))
-            scaled = full / np.outer(d, d)
-            scaled[np.diag_indices_from(scaled)] += 1e-12
-            coef = np.linalg.solve(scaled, rhs / d) / d
-            return (total - float(rhs @ coef)) / noise, coef[m0:]
-
+        penalised = _curve_objective(a, y, fit.weights, m0, noise)
         curve, precision = search_curve(
             penalised,
             precision,
@@ -1223,7 +1242,6 @@ def fit_joint_whole(
             speeds,
             level,
             velocities=(steady[0], steady[-1]),
-            min_gain=CURVE_GAIN,
         )
         prior = embed(m0, noise)
         fit = _irls(a, y, fit.weights, prior, keep=keep, clusters=rows.clusters)
@@ -1349,7 +1367,7 @@ def fit_joint_whole(
     # apart drawn by the curve's shape: it is not redrawn (the redraw on top of the curve:
     # dev median 1.724x against 1.670x without, docs/identification.md)
     curved: tuple[bool, ...] = (
-        (False, False) if curve is None else tuple(v > 0 for v in curve.velocity)
+        (False, False) if curve is None or REDRAW_CURVED else tuple(v > 0 for v in curve.velocity)
     )
     if not flat and BETWEEN_PASSES != "fit" and not all(curved):
         # between two passes far apart the sweep crosses the speeds only on ramps: the knots
