@@ -112,3 +112,25 @@ def test_the_curve_survives_the_model_file(tmp_path) -> None:  # type: ignore[no
     assert read == written
     assert set(read) == {"stribeck_velocity", "stribeck_exponent"}
     assert all(len(x) == 2 for x in read.values())
+
+
+def test_identify_stribeck_prior_option_reaches_the_fit(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    # `identify --stribeck-prior` is the keyword stribeck_prior=True: the model file records
+    # the curve only with the flag
+    from torquemap.cli.main import main
+    from torquemap.io import write_table, write_toml
+
+    log = simulate(law=LAW, ramp=0.02, speeds=(0.5, 1.5, 5.0, 15.0), noise=3e-4, seed=4)
+    columns = {"t": log.t, "q_m": log.q[:, 0], "tau_m": log.motor_torque[:, 0]}
+    write_table(tmp_path / "sweep.csv", columns)
+    joint = {"gear_ratio": 1.0, "torque_constant": 0.1, "encoder_counts_per_rev": 8000}
+    robot_file = {"robot": {"name": "motor", "kinematics": "none"}, "joints": {"m": joint}}
+    write_toml(tmp_path / "robot.toml", robot_file)
+    seen = {}
+    for extra in ([], ["--stribeck-prior"]):
+        out = tmp_path / f"m{len(extra)}.toml"
+        argv = [str(tmp_path / "robot.toml"), str(tmp_path / "sweep.csv"), "-o", str(out)]
+        assert main(["--quiet", "identify", *argv, "--max-order", "20", *extra]) == 0
+        seen[len(extra)] = load_model(out).notes["joints"]["m"].get("friction_prior")
+    assert seen[0] is None
+    assert seen[1] is not None and all(v > 0 for v in seen[1]["stribeck_velocity"])
