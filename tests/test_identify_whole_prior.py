@@ -39,13 +39,16 @@ def _between_error(model: object, law: StribeckFriction) -> float:
     return float(np.sqrt(np.mean(e**2)))
 
 
-def test_the_curve_is_found_and_draws_the_table_between_passes() -> None:
+def test_the_curve_is_found_and_draws_the_table_between_passes(monkeypatch) -> None:  # type: ignore[no-untyped-def]
     # the curve's velocity within a grid step (1.25x) of the truth's in both directions, and
-    # between the passes the table 0.95 % RMS off the truth against 3.8 % with the smoothness
-    # prior and the passes' redraw (measured; seeds 3 and 5: 2.0 % / 0.9 % against 3.0 % /
-    # 3.0 % with the redraw, 3.9 % / 3.8 % with neither). The exponent is the grid's nearest
-    # that the passes prefer (1.5 here), not recovered: between passes 3x apart a drop of
-    # exponent 1.5 or 2 pass through the same passes
+    # between the passes the table closer to the truth than without the curve (the smoothness
+    # prior and the passes' redraw: 3.0 % RMS, seed 4): with the curve and the redraw
+    # (REDRAW_CURVED, the flag's default) 1.6 %, with the curve alone 0.95 % (measured; seeds
+    # 3 and 5: 2.1 % / 1.6 % and 2.0 % / 0.9 % against 3.0 % / 3.0 %). The exponent is the
+    # grid's that the passes prefer (1.5 here), not recovered: between passes 3x apart drops
+    # of exponent 1.5 and 2 pass through the same passes
+    import torquemap.identify_whole as iw
+
     log = simulate(law=LAW, ramp=0.02, speeds=(0.5, 1.5, 5.0, 15.0), noise=3e-4, seed=4)
     plain = identify_model(robot(), [log], max_order=20, friction="whole").model
     curved = identify_model(
@@ -55,13 +58,19 @@ def test_the_curve_is_found_and_draws_the_table_between_passes() -> None:
     prior = curved.notes["joints"]["m"]["friction_prior"]
     for v in prior["stribeck_velocity"]:
         assert 2.0 / 1.25 <= v <= 2.0 * 1.25
-    on, off = _between_error(curved, LAW), _between_error(plain, LAW)
-    assert on < 0.02 and on < 0.5 * off
+    off = _between_error(plain, LAW)
+    assert _between_error(curved, LAW) < min(0.02, off)
+    monkeypatch.setattr(iw, "REDRAW_CURVED", False)
+    alone = identify_model(
+        robot(), [log], max_order=20, friction="whole", stribeck_prior=True
+    ).model
+    assert _between_error(alone, LAW) < 0.5 * off
 
 
 def test_another_exponent_is_drawn_closer_than_by_the_smoothness_prior() -> None:
     # exponent 2.7 (the family draws 0.6-3.0): 4.2 % RMS off between the passes against 5.2 %
-    # with the smoothness prior and the redraw (measured, seed 4)
+    # with the smoothness prior and the redraw (measured, seed 4; the same with the curve
+    # alone)
     law = dataclasses.replace(LAW, stribeck_exponent=2.7)
     log = simulate(law=law, ramp=0.02, speeds=(0.5, 1.5, 5.0, 15.0), noise=3e-4, seed=4)
     plain = identify_model(robot(), [log], max_order=20, friction="whole").model
@@ -83,9 +92,10 @@ class Hump:
 
 def test_a_law_of_another_form_is_still_fitted_at_its_passes() -> None:
     # the curve cannot follow a hump; the deviation from it, held by the smoothness prior,
-    # takes it: at the passes within 1 % (measured 0.4 %, the same as without the curve), and
-    # between them (ramps of 0.4 s measure those speeds) within 2.5 % (measured 1.7 %; 1.6 %
-    # without the curve)
+    # takes it: at the passes within 1 % (measured 0.37 %, the same as without the curve), and
+    # between them (ramps of 0.4 s measure those speeds) within 2.5 % (measured 1.73 %, at
+    # -5.6 rad/s; 0.80 % without the curve: on a law of another form the curve costs a little
+    # between the passes)
     passes = np.array([0.5, 1.0, 2.0, 4.0, 8.0])
     between = np.array([0.7, 1.4, 2.8, 5.6])
     log = simulate(law=Hump(), speeds=tuple(passes), seed=3)

@@ -163,8 +163,11 @@ LOW_SPEED_INERTIAL = 0.1
 #: direction (:mod:`torquemap.friction_prior`) rather than on ``a + b log s``.
 STRIBECK_PRIOR = False
 #: Whether a direction whose prior is centred on a Stribeck curve is still redrawn between
-#: passes far apart (:data:`BETWEEN_PASSES`); False: the curve draws it.
-REDRAW_CURVED = False
+#: passes far apart (:data:`BETWEEN_PASSES`). True: the table is the mean of the fit's knots,
+#: which follow the curve, and the redrawn ones (the paper's bench, a dip between passes at 1.5
+#: and 5 rad/s: 2.80 % of 3.5 N; 3.52 % with the curve alone). False: the curve alone draws it
+#: (the family's dev robots: median 1.670x the oracle against 1.724x with the redraw).
+REDRAW_CURVED = True
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -1077,8 +1080,8 @@ def fit_joint_whole(
     stribeck_prior
         Centre the table's smoothness prior on a generalized Stribeck curve per direction
         (:mod:`torquemap.friction_prior`; needs two steady speeds at least ``ANCHOR_GAP``
-        apart); between two passes far apart the knots then follow it and are not redrawn.
-        None: :data:`STRIBECK_PRIOR`.
+        apart); between two passes far apart the fit's knots then follow it (and are redrawn
+        as before unless :data:`REDRAW_CURVED` is off). None: :data:`STRIBECK_PRIOR` (off).
 
     Returns
     -------
@@ -1363,9 +1366,8 @@ def fit_joint_whole(
     law, copy_note = _law(fit.coef[m:], speeds, w0, rows)
     if copy_note:
         warnings.append(copy_note)
-    # a direction whose prior is centred on a Stribeck curve has its knots between passes far
-    # apart drawn by the curve's shape: it is not redrawn (the redraw on top of the curve:
-    # dev median 1.724x against 1.670x without, docs/identification.md)
+    # with REDRAW_CURVED off, a direction whose prior is centred on a Stribeck curve has its
+    # knots between passes far apart drawn by the curve's shape alone: it is not redrawn
     curved: tuple[bool, ...] = (
         (False, False) if curve is None or REDRAW_CURVED else tuple(v > 0 for v in curve.velocity)
     )
