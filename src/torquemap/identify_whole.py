@@ -19,7 +19,9 @@ the logs say little, so estimation's sigmas grow there. Between two steady passe
 the knots that prior holds more than any row away from the passes (the sweep crosses those
 speeds only on ramps whose window reaches rest) are redrawn through the passes' own knots by a
 monotone cubic in log speed (:mod:`torquemap.between_passes`), and the difference from the
-fit's knots enters the covariance as a model-form variance.
+fit's knots enters the covariance as a model-form variance. Opt-in (:data:`STRIBECK_PRIOR`),
+the smoothness prior is centred on a generalized Stribeck curve per direction, its velocity and
+exponent searched outside the linear fit (:mod:`torquemap.friction_prior`).
 
 The table is fitted on rows whose window stays above half the slowest pass, and on slower
 rows where the motion is slow but steady (:data:`LOW_SPEED_ROWS`: a run of one direction above
