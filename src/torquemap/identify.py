@@ -1062,7 +1062,7 @@ def identify_model(
     low_speed_rows
         ``friction="whole"``: fit the friction table also on the slow, steady rows below half
         the slowest pass (slow ramps; :func:`torquemap.identify_whole.fit_joint_whole`). None:
-        :data:`torquemap.identify_whole.LOW_SPEED_ROWS` (off).
+        :data:`torquemap.identify_whole.LOW_SPEED_ROWS` (on).
 
     Returns
     -------
