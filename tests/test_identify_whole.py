@@ -904,8 +904,9 @@ def test_the_whole_fit_fits_inertia_where_the_pass_method_finds_no_ramp(monkeypa
 
 
 def test_identify_low_speed_rows_option_reaches_the_fit(tmp_path) -> None:  # type: ignore[no-untyped-def]
-    # `identify --low-speed-rows` is the keyword low_speed_rows=True: on slow ramps the model
-    # file's observed speed comes down from half the slowest pass (0.5 rad/s), as with the flag
+    # `identify --low-speed-rows` (the default) is the keyword low_speed_rows=True: on slow
+    # ramps the model file's observed speed comes down from half the slowest pass (0.5 rad/s);
+    # `--no-low-speed-rows` keeps it there
     from torquemap.cli.main import main
     from torquemap.io import write_table, write_toml
     from torquemap.model import load_model
@@ -917,10 +918,11 @@ def test_identify_low_speed_rows_option_reaches_the_fit(tmp_path) -> None:  # ty
     robot_file = {"robot": {"name": "motor", "kinematics": "none"}, "joints": {"m": joint}}
     write_toml(tmp_path / "robot.toml", robot_file)
     seen = {}
-    for extra in ([], ["--low-speed-rows"]):
-        out = tmp_path / f"m{len(extra)}.toml"
+    for key, extra in enumerate(([], ["--low-speed-rows"], ["--no-low-speed-rows"])):
+        out = tmp_path / f"m{key}.toml"
         argv = [str(tmp_path / "robot.toml"), str(tmp_path / "sweep.csv"), "-o", str(out)]
         assert main(["--quiet", "identify", *argv, "--max-order", "20", *extra]) == 0
-        seen[len(extra)] = load_model(out).notes["joints"]["m"]["friction_observed_speed"]
-    assert seen[0] == pytest.approx(0.5, rel=1e-3)
+        seen[key] = load_model(out).notes["joints"]["m"]["friction_observed_speed"]
+    assert seen[2] == pytest.approx(0.5, rel=1e-3)
     assert 0.15 < seen[1] < 0.25
+    assert seen[0] == seen[1]

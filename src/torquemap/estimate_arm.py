@@ -18,7 +18,8 @@ The wrench on the end effector comes from the damped pseudo-inverse of ``J^T``
 (:meth:`torquemap.robots.urdf.UrdfArm.wrench_from_joint_torque`). Sigmas combine the
 identification's parameter covariance (the external torque is linear in every identified
 parameter) and its residual noise, plus, near zero motor speed, the friction at rest that the
-velocity does not determine.
+velocity does not determine, and where the force changes faster than the final filter follows,
+what the filter removed (:mod:`torquemap.arm_fast`).
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from torquemap.arm_fast import band_noise_floor, fast_torque_message, fast_torque_variance
 from torquemap.arm_model import (
     ArmSignals,
     arm_signals,
@@ -41,7 +43,7 @@ from torquemap.arm_model import (
     joint_columns,
     joint_parameters,
 )
-from torquemap.arm_noise import noise_excess_variance
+from torquemap.arm_noise import arm_noise_levels, noise_excess_variance
 from torquemap.arm_null import null_space_message, null_space_share
 from torquemap.arm_units import angles_beyond_limits
 from torquemap.errors import InputError
@@ -544,6 +546,31 @@ def _near_gaps(t: NDArray[np.float64], limit: float, reach: float) -> NDArray[np
     return out
 
 
+def _louder(
+    info: Mapping[str, Any] | None, robot: Any, joints: Mapping[str, Any], signals: ArmSignals
+) -> NDArray[np.float64]:
+    """Per joint, the log's noise level above 20 Hz over the identification's
+    (``noise_high_psd``), NaN where either is not known."""
+    nj = len(robot.joints)
+    own = info.get("noise_high_psd") if isinstance(info, Mapping) else None
+    if not isinstance(own, list) or len(own) != nj:
+        return np.full(nj, math.nan)
+    ref = np.array([float(v) for v in own])
+    level = arm_noise_levels(robot, joints, signals)
+    out: NDArray[np.float64] = np.where(ref > 0, level / np.where(ref > 0, ref, 1.0), math.nan)
+    return out
+
+
+def _unfiltered(
+    arm: Any, robot: Any, joints: Mapping[str, Any], signals: ArmSignals
+) -> NDArray[np.float64]:
+    """The external torque before any final filter [N m], shape (n, nj): the rigid-body
+    torques less the drives', both seen through the differentiator's kernel."""
+    drive = drive_torque(robot, dict(joints), signals, smooth=True)
+    out: NDArray[np.float64] = arm.inverse_dynamics(signals.q, signals.qd, signals.qdd) - drive
+    return out
+
+
 def estimate_arm(
     model: Model,
     log: Log,
@@ -639,8 +666,16 @@ def estimate_arm(
     sigma, warnings = _sigma(model, arm, signals, tau_ext.shape, bandwidth, reach, edge)
     louder, note = noise_excess_variance(info, robot, joints, signals, bandwidth)
     sigma = np.sqrt(sigma**2 + louder)
+    # what the final filter removed from a force that changes faster than it (stop 38, Q45)
+    unfiltered = raw if method == "acceleration" else _unfiltered(arm, robot, joints, signals)
+    floor = band_noise_floor(info, signals.gear, cutoff, _louder(info, robot, joints, signals))
+    fast = fast_torque_variance(signals.t, unfiltered, tau_ext, cutoff, floor)
+    fast_note = fast_torque_message(fast, sigma**2, cutoff, robot.joint_names)
+    sigma = np.sqrt(sigma**2 + fast)
     if note is not None:
         warnings.append(note)
+    if fast_note is not None:
+        warnings.append(fast_note)
     warnings += outside
     odds = fit_warnings(info)
     if odds is not None:

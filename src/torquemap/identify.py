@@ -1063,11 +1063,11 @@ def identify_model(
     low_speed_rows
         ``friction="whole"``: fit the friction table also on the slow, steady rows below half
         the slowest pass (slow ramps; :func:`torquemap.identify_whole.fit_joint_whole`). None:
-        :data:`torquemap.identify_whole.LOW_SPEED_ROWS` (off).
+        :data:`torquemap.identify_whole.LOW_SPEED_ROWS` (on).
     stribeck_prior
         ``friction="whole"``: centre the friction table's smoothness prior on a generalized
         Stribeck curve per direction (:mod:`torquemap.friction_prior`). None:
-        :data:`torquemap.identify_whole.STRIBECK_PRIOR`.
+        :data:`torquemap.identify_whole.STRIBECK_PRIOR` (off).
 
     Returns
     -------

@@ -29,6 +29,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from torquemap.arm_lag import current_lag, lag_message
+from torquemap.arm_misfit import (
+    explained_share,
+    misfit_is_noise,
+    net_noise_levels,
+    noise_misfit_message,
+    upper_split,
+)
 from torquemap.arm_model import (
     ArmSignals,
     arm_signals,
@@ -42,6 +49,7 @@ from torquemap.errors import InputError
 from torquemap.friction_law import StribeckFriction, coulomb_levels_valid
 from torquemap.io import Log
 from torquemap.model import InertiaModel, JointModel, Model
+from torquemap.robot import Robot
 from torquemap.sanitize import max_gap_for, no_stretch_message
 
 PRIOR_MASS_FRACTION = 0.3
@@ -956,6 +964,12 @@ def identify_arm(
             pdtv=pdtv_lines(orders[k], v[1 + nf :]),
         )
 
+    weights = [float(sig.t.size) for sig in signals]
+    noise_levels = pooled_levels([arm_noise_levels(robot, joints, sig) for sig in signals], weights)
+    warnings = _noise_misfits(
+        warnings, scale, robot, joints, signals, weights, noise_levels, residual_sigma, window
+    )
+
     problems = body_consistency(full, arm.body_names)
     for p in problems:
         warnings.append(f"not physically consistent: {p}")
@@ -994,10 +1008,7 @@ def identify_arm(
             for bm in masses
         },
         **visited_region(signals, picks),
-        "noise_high_psd": pooled_levels(
-            [arm_noise_levels(robot, joints, sig) for sig in signals],
-            [float(sig.t.size) for sig in signals],
-        ),
+        "noise_high_psd": noise_levels,
         "current_lag": float(f"{lag:.4g}"),
         "current_lag_gain": float(f"{lag_gain:.4g}"),
         "current_lag_removed": float(f"{lag_removed:.4g}"),
@@ -1025,6 +1036,38 @@ def identify_arm(
         warnings=tuple(warnings),
         excluded=excluded,
     )
+
+
+def _noise_misfits(
+    warnings: list[str],
+    scale: Sequence[tuple[str, str]],
+    robot: Robot,
+    joints: Mapping[str, JointModel],
+    signals: Sequence[ArmSignals],
+    weights: Sequence[float],
+    levels: Sequence[float],
+    residual_sigma: NDArray[np.float64],
+    window: float,
+) -> list[str]:
+    """``warnings`` with each "explains only" warning of a joint whose misfit is its logs'
+    white torque noise reworded to say so (:mod:`torquemap.arm_misfit`; it blamed the robot
+    file: new-user QA, stop 38)."""
+    if not any(explained_share(text) is not None for _, text in scale):
+        return warnings
+    upper = pooled_levels(
+        [net_noise_levels(robot, joints, sig, upper_split(sig)) for sig in signals], weights
+    )
+    out = list(warnings)
+    names = [joint.name for joint in robot.joints]
+    for name, text in scale:
+        share = explained_share(text)
+        if share is None or text not in out:
+            continue
+        k = names.index(name)
+        sigma = float(residual_sigma[k])
+        if misfit_is_noise(sigma, levels[k], upper[k], window):
+            out[out.index(text)] = noise_misfit_message(name, share, sigma)
+    return out
 
 
 SPEED_LEVELS = (0.0, 0.01, 0.02, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.99, 1.0)

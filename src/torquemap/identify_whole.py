@@ -140,11 +140,12 @@ MEASURED_SHARE = 0.1
 #: Whether rows slower than half the slowest pass enter the fit where the motion is slow but
 #: steady (:func:`_low_speed_rows`: slow ramps, slow stretches), and the observed speed (where
 #: estimation starts to bridge) comes down to the slowest knot they determine
-#: (:func:`determined_speed`). False (default; neutral on the family's sweeps, whose ramps
-#: cross those speeds within half a window, docs/identification.md): every row whose window
-#: reaches below half the slowest pass is left out, the table there is its prior's, and the
-#: observed speed is half the slowest pass.
-LOW_SPEED_ROWS = False
+#: (:func:`determined_speed`). True (the default since stop 38: neutral on the family's
+#: sweeps, whose ramps cross those speeds within half a window, and 1.8-27x better on the same
+#: robots swept with slow ramps, docs/identification.md). False: every row whose window reaches
+#: below half the slowest pass is left out, the table there is its prior's, and the observed
+#: speed is half the slowest pass.
+LOW_SPEED_ROWS = True
 #: Blend half widths above which the smooth transition through zero has settled (``tanh(4)
 #: = 0.9993``; :data:`torquemap.estimate.TRANSITION_SPAN`): below, friction is not the table's.
 TRANSITION_WIDTHS = 4.0
@@ -1078,7 +1079,7 @@ def fit_joint_whole(
         Fit the table also on the rows below half the slowest pass where the motion is slow
         but steady (slow ramps, slow stretches; docs/identification.md, "Friction below the
         slowest pass from slow, steady rows"), and let estimation bridge only below the
-        slowest speed they determine. None: :data:`LOW_SPEED_ROWS` (off).
+        slowest speed they determine. None: :data:`LOW_SPEED_ROWS` (on).
     stribeck_prior
         Centre the table's smoothness prior on a generalized Stribeck curve per direction
         (:mod:`torquemap.friction_prior`; needs two steady speeds at least ``ANCHOR_GAP``

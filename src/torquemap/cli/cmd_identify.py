@@ -97,11 +97,13 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     )
     p.add_argument(
         "--low-speed-rows",
-        action="store_true",
+        action=argparse.BooleanOptionalAction,
+        default=None,
         help="--friction whole: fit friction also on the slow, steady rows below half the "
-        "slowest pass (record slow ramps to and from each pass, about 0.4 s to the slowest: "
-        "friction is then measured below the slowest pass, not held by the prior; "
-        "docs/identification.md)",
+        "slowest pass (the default; record slow ramps to and from each pass, about 0.4 s to "
+        "the slowest: friction is then measured below the slowest pass, not held by the "
+        "prior); --no-low-speed-rows leaves them out, as before stop 38 "
+        "(docs/identification.md)",
     )
     p.add_argument(
         "--stribeck-prior",
@@ -241,7 +243,7 @@ def _identify_logs(args: argparse.Namespace) -> int:
                 max_order=args.max_order,
                 window=args.window,
                 friction=args.friction,
-                low_speed_rows=args.low_speed_rows or None,
+                low_speed_rows=args.low_speed_rows,
                 stribeck_prior=args.stribeck_prior or None,
             ),
         )
