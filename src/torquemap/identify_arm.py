@@ -44,6 +44,7 @@ from torquemap.arm_model import (
     pdtv_lines,
 )
 from torquemap.arm_noise import arm_noise_levels, pooled_levels
+from torquemap.arm_stribeck import BAND_SIGMAS, STRIBECK_LEVELS, refit_without_stribeck
 from torquemap.arm_units import angles_beyond_limits
 from torquemap.errors import InputError
 from torquemap.friction_law import StribeckFriction, coulomb_levels_valid
@@ -936,6 +937,53 @@ def identify_arm(
             x = x.copy()
             x[slices[k]] = v
             theta = T @ x  # the parameters kept are the law's
+        if not coulomb_levels_valid(*coulomb):
+            # a Coulomb level beyond the speeds the logs reach (new-user QA, stop 38, Q46)
+            speeds = np.concatenate(
+                [sig.gear[k] * sig.qd[idx, k] for sig, idx in zip(signals, picks, strict=True)]
+            )
+            target = residual[:, k] + blocks[k] @ v
+            refit = refit_without_stribeck(
+                friction, blocks[k], target, speeds, 1.0 / float(weight[k])
+            )
+            if refit is not None and refit.band >= -BAND_SIGMAS * refit.band_sigma:
+                old = coulomb
+                v = refit.parameters
+                note = ""
+                if refit.band <= 0:
+                    names_k = list(jm.friction.linear_parameter_names)
+                    mask = np.ones(blocks[k].shape[1])
+                    mask[[1 + names_k.index(s) for s in STRIBECK_LEVELS]] = 0.0
+                    v = _refit_without_band(
+                        blocks[k] * mask,
+                        target,
+                        1 + names_k.index("coulomb_positive"),
+                        1 + names_k.index("coulomb_negative"),
+                    )
+                    note = (
+                        f"its band ({refit.band:.3g} +- {refit.band_sigma:.2g} N m) within its "
+                        "uncertainty of zero, kept at zero"
+                    )
+                armature = float(v[0])
+                friction = jm.friction.with_linear_parameters(v[1 : 1 + nf])
+                levels = friction.static_levels()
+                coulomb = (
+                    getattr(friction, "coulomb_positive", 0.0),
+                    getattr(friction, "coulomb_negative", 0.0),
+                )
+                if refit.band > 0:
+                    note = f"Coulomb {coulomb[0]:.3g}, {coulomb[1]:.3g} N m"
+                warnings.append(
+                    f"joint {joint.name}: its identified Coulomb friction ({old[0]:.3g}, "
+                    f"{old[1]:.3g} N m, negative in both directions) lies beyond the speeds "
+                    f"the logs reach (its Stribeck term keeps {refit.remaining:.0%} of its "
+                    f"level at {refit.speed:.3g} rad/s, the motor's 99th-percentile speed): "
+                    f"refitted with no Stribeck term ({note}); record faster motions "
+                    "(torquemap excite) to resolve it"
+                )
+                x = x.copy()
+                x[slices[k]] = v
+                theta = T @ x
         if not coulomb_levels_valid(*coulomb):
             flagged = [name for name, _ in scale]
             raise InputError(
