@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from torquemap.arm_coarse import coarse_angle_note
 from torquemap.errors import InputError
 from torquemap.excite import exciting_trajectory
 from torquemap.friction_law import StribeckFriction, coulomb_levels_valid
@@ -136,3 +137,66 @@ def test_a_friction_that_injects_energy_is_still_refused() -> None:
     free, _ = _free(arm, (1.0, 1.0), truth, 0.02, seed=2)
     with pytest.raises(InputError, match="negative in both directions"):
         _identified(arm, (1.0, 1.0), free)
+
+
+# --- the cause named when the angles are too coarse or read too small (torquemap.arm_coarse) ---
+
+
+def _robot(arm: UrdfArm, gear: tuple[float, float], unit: str = "rad") -> Robot:
+    joints = tuple(
+        Joint(
+            name=n,
+            gear_ratio=g,
+            torque_constant=KT,
+            encoder_counts_per_rev=4096 if unit == "counts" else None,
+            position_unit=unit,  # type: ignore[arg-type]
+        )
+        for n, g in zip(arm.joint_names, gear, strict=True)
+    )
+    return Robot(name="two-link", kinematics="urdf", link_lengths=(), joints=joints, arm=arm)
+
+
+def test_an_output_encoders_step_is_named_at_the_motor() -> None:
+    """Angles from a servo's output encoder (4096 counts per joint turn) at gear 345 step by
+    345 x 2 pi / 4096 = 0.529 rad at the motor, which the clause names; the same motion from a
+    16384-count motor encoder is not named."""
+    arm = urdf_arm(TWO_LINK, ["shoulder", "elbow"], end_effector="tool", gravity=(0, -9.81, 0))
+    gear = (345.0, 345.0)
+    traj = exciting_trajectory(arm, duration=20.0, period=10.0, rate=1000.0, iterations=6, rng=1)
+    speeds = [gear[k] * traj.qd[:, k] for k in range(2)]
+    robot = _robot(arm, gear)
+    for counts, at_motor, named in ((4096, False, True), (16384, True, False)):
+        step = 2 * np.pi / counts / (gear[0] if at_motor else 1.0)
+        q = np.floor(traj.q / step) * step
+        log = Log(t=traj.t, q=q, motor_torque=np.zeros_like(q), joint_names=arm.joint_names)
+        note = coarse_angle_note(robot, [log], speeds, 0.05)
+        assert (note is not None) == named, note
+        if note is not None:
+            assert "0.529 rad at the motor" in note and "2 pi / 4096 of the joint" in note
+            assert "log the motor's encoder" in note
+
+
+def test_output_counts_read_as_motor_counts_are_named() -> None:
+    """A servo's output counts read as motor counts: every joint spans 1/400 of its motion (a harmonic drive's servo) and
+    the refusal "only jitters about a held pose" now names the likely cause; one joint held
+    still (a brake) is refused as before, without it."""
+    arm = urdf_arm(TWO_LINK, ["shoulder", "elbow"], end_effector="tool", gravity=(0, -9.81, 0))
+    gear = (400.0, 400.0)
+    traj = exciting_trajectory(arm, duration=20.0, period=10.0, rate=1000.0, iterations=6, rng=1)
+    start = Model(
+        robot=_robot(arm, gear, "counts"),
+        joints={n: JointModel(inertia=InertiaModel(constant=0.0), friction=_stribeck_law(0.0),
+                              pdtv=()) for n in arm.joint_names},
+    )  # fmt: skip
+    torque = np.ones_like(traj.q)
+    read_small = Log(t=traj.t, q=traj.q / 400.0, motor_torque=torque, joint_names=arm.joint_names)
+    with pytest.raises(InputError, match="only jitters") as err:
+        identify_arm(start, [read_small], max_samples=3000, pdtv_max_order=0)
+    assert "encoder on the joint's output" in str(err.value), err.value
+    assert "400 times too small" in str(err.value)
+    held = traj.q.copy()
+    held[:, 1] = 0.3 + 0.002 * np.sin(traj.t)
+    one_held = Log(t=traj.t, q=held, motor_torque=torque, joint_names=arm.joint_names)
+    with pytest.raises(InputError, match="only jitters") as err:
+        identify_arm(start, [one_held], max_samples=3000, pdtv_max_order=0)
+    assert "encoder on the joint's output" not in str(err.value), err.value
