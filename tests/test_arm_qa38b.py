@@ -11,12 +11,14 @@ laws, which the estimators never read.
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from torquemap.arm_coarse import coarse_angle_note
+from torquemap.arm_stribeck import refit_without_stribeck
 from torquemap.errors import InputError
 from torquemap.excite import exciting_trajectory
 from torquemap.friction_law import StribeckFriction, coulomb_levels_valid
@@ -200,3 +202,28 @@ def test_output_counts_read_as_motor_counts_are_named() -> None:
     with pytest.raises(InputError, match="only jitters") as err:
         identify_arm(start, [one_held], max_samples=3000, pdtv_max_order=0)
     assert "encoder on the joint's output" not in str(err.value), err.value
+
+
+def test_the_refits_band_sigma_is_its_spread_over_noise_draws() -> None:
+    """The refit with no Stribeck term on a law whose Stribeck velocity (50 rad/s) lies above
+    the speeds (up to 10 rad/s): the Coulomb levels come back (0.02, 0.03 N m), and the band's
+    sigma is the spread of the band over 200 draws of the noise (a second method)."""
+    law = dataclasses.replace(_stribeck_law(0.0), stribeck_velocity=50.0)
+    rng = np.random.default_rng(3)
+    w = 10.0 * np.sin(np.linspace(0.0, 20.0 * np.pi, 2000))
+    block = np.column_stack([rng.standard_normal(w.size), law.basis(w)])
+    exact = (
+        law.with_linear_parameters(np.array([0.02, 0.03, 1e-3, 0.0, 0.0])).torque(w)
+        + 1e-4 * block[:, 0]
+    )
+    noise = 0.005
+    bands = []
+    for _ in range(200):
+        refit = refit_without_stribeck(
+            law, block, exact + noise * rng.standard_normal(w.size), w, noise**2
+        )
+        assert refit is not None and refit.remaining > 0.9
+        bands.append(refit.band)
+    assert abs(np.mean(bands) - 0.05) < 3 * refit.band_sigma / np.sqrt(200)
+    assert 0.85 < np.std(bands) / refit.band_sigma < 1.15  # 0.99 measured
+    assert refit.parameters[4] == 0.0 and refit.parameters[5] == 0.0  # no Stribeck term

@@ -29,7 +29,7 @@ from torquemap.robot import Robot
 #: the differentiator window, exceeds this share of the joint's 90th-percentile motor speed
 #: (an SO-101 from its output encoders: 0.02-0.04, refused; a UR3 at gear 1 with 16384-count
 #: encoders: 0.02, refused; UR3 benches that identify: 1000-count encoders at gear 100 0.003-0.004,
-#: 16384 counts 0.001).
+#: 16384 counts and a gear-1 UR3 at 2^20 counts under 0.0005).
 COARSE_SHARE = 0.01
 
 

@@ -4,10 +4,10 @@ A friction law's Coulomb level is its friction at speeds where the Stribeck term
 When the fitted Stribeck velocity lies above the speeds a joint reaches in the logs, the
 Coulomb and Stribeck columns are nearly collinear over the data, and the fit may split the
 friction between them as a large negative Coulomb level and a Stribeck level of the opposite
-sign, whose sum (the friction at rest) and curve over the speeds reached are right. A direct
+sign, whose curve over the speeds reached is right. A direct
 drive (a simulated UR3 at gear 1, wrist_3_joint: Coulomb -0.02 to -0.048 N m, Stribeck +0.02 to
-+0.041 N m at a Stribeck velocity of 2.5-3.4 rad/s, against motor speeds under 1.1 rad/s at the
-99th percentile) and white current noise on a geared joint (the two-link test arm with 1 A:
++0.041 N m, the Stribeck term keeping 74-78 % of its level at the 99th-percentile motor
+speed, 1.1-1.7 rad/s) and white current noise on a geared joint (the two-link test arm with 1 A:
 elbow Coulomb -0.27 N m, Stribeck +0.30 N m at 166 rad/s) were refused as "friction negative in
 both directions: check the robot file's gravity, gear ratios and torque constants" (new-user
 QA, stop 38, Q46). Such a joint is refitted with no Stribeck term (the data cannot tell it from
@@ -27,8 +27,8 @@ from numpy.typing import NDArray
 
 #: The Stribeck term is unresolved when, at the 99th percentile of the joint's motor speeds in
 #: the logs, it keeps more than this share of its level at rest: the data then hold too little
-#: of the friction beyond it to fix the Coulomb level (UR3 gear 1 wrist_3: 0.90-0.97; the
-#: refused two-link elbow under 1 A noise: 0.6; the sound joints of the benches: below 0.01).
+#: of the friction beyond it to fix the Coulomb level (the refused joints of a UR3 at gear 1:
+#: 0.74-0.78; the refused two-link elbow under 1 A of noise: 0.61).
 STRIBECK_UNRESOLVED = 0.5
 #: A Coulomb band (the sum of the two levels) negative by at most this many of its standard
 #: deviations is within its uncertainty of zero: kept at zero band, with a warning.
