@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from torquemap.arm_coarse import coarse_angle_note, output_counts_note
 from torquemap.arm_lag import current_lag, lag_message
 from torquemap.arm_misfit import (
     explained_share,
@@ -44,6 +45,7 @@ from torquemap.arm_model import (
     pdtv_lines,
 )
 from torquemap.arm_noise import arm_noise_levels, pooled_levels
+from torquemap.arm_stribeck import BAND_SIGMAS, STRIBECK_LEVELS, refit_without_stribeck
 from torquemap.arm_units import angles_beyond_limits
 from torquemap.errors import InputError
 from torquemap.friction_law import StribeckFriction, coulomb_levels_valid
@@ -694,8 +696,9 @@ def identify_arm(
     # a joint held still throughout (a brake, a disabled drive) was refused as "friction is
     # negative in both directions: check the robot file's gravity, gear ratios..." or kept with
     # "the model explains 0% of its torque", by the rounding of a friction it cannot show
+    travels = [max(float(np.ptp(log.q[:, k])) for log in logs) for k in range(nj)]
     for k, joint in enumerate(robot.joints):
-        travel = max(float(np.ptp(log.q[:, k])) for log in logs)
+        travel = travels[k]
         span = joint.gear_ratio * travel
         if span < STILL_MOTOR_SPAN or travel < STILL_JOINT_SPAN:
             paths = ", ".join(dict.fromkeys(str(log.path) for log in logs if log.path))
@@ -706,10 +709,16 @@ def identify_arm(
                 f"{'m' if np.isinf(arm.angle_period[k]) else 'rad'}, under "
                 f"{STILL_JOINT_SPAN:g})"
             )
+            counts = (
+                output_counts_note(robot, travels, STILL_JOINT_SPAN)
+                if span >= STILL_MOTOR_SPAN
+                else None
+            )
             raise InputError(
                 f"joint {joint.name} {moves}: its friction and rotor inertia cannot be "
                 "identified; excite it (torquemap excite), or, if it is locked, leave it out of "
-                "the robot file (locked at zero) or make it fixed in the URDF at its angle",
+                "the robot file (locked at zero) or make it fixed in the URDF at its angle"
+                + (f"; {counts}" if counts is not None else ""),
                 path=paths or None,
             )
     inner = []
@@ -937,11 +946,80 @@ def identify_arm(
             x[slices[k]] = v
             theta = T @ x  # the parameters kept are the law's
         if not coulomb_levels_valid(*coulomb):
+            # a Coulomb level beyond the speeds the logs reach (new-user QA, stop 38, Q46)
+            speeds = np.concatenate(
+                [sig.gear[k] * sig.qd[idx, k] for sig, idx in zip(signals, picks, strict=True)]
+            )
+            target = residual[:, k] + blocks[k] @ v
+            refit = refit_without_stribeck(
+                friction, blocks[k], target, speeds, 1.0 / float(weight[k])
+            )
+            # only for a model that otherwise fits: not where a torque is unexplained or the
+            # currents lag (a 30 ms lag and a UR3 at gear 1 with 16384-count encoders, whose
+            # refusals name their cause, were kept with forces 10x off)
+            sound = lagged is None and _misfits_are_noise(
+                scale, robot, model.joints, signals, residual_sigma, window
+            )
+            if sound and refit is not None and refit.band >= -BAND_SIGMAS * refit.band_sigma:
+                old = coulomb
+                v = refit.parameters
+                note = ""
+                if refit.band <= 0:
+                    names_k = list(jm.friction.linear_parameter_names)
+                    mask = np.ones(blocks[k].shape[1])
+                    mask[[1 + names_k.index(s) for s in STRIBECK_LEVELS]] = 0.0
+                    v = _refit_without_band(
+                        blocks[k] * mask,
+                        target,
+                        1 + names_k.index("coulomb_positive"),
+                        1 + names_k.index("coulomb_negative"),
+                    )
+                    note = (
+                        f"its band ({refit.band:.3g} +- {refit.band_sigma:.2g} N m) within its "
+                        "uncertainty of zero, kept at zero"
+                    )
+                armature = float(v[0])
+                friction = jm.friction.with_linear_parameters(v[1 : 1 + nf])
+                levels = friction.static_levels()
+                coulomb = (
+                    getattr(friction, "coulomb_positive", 0.0),
+                    getattr(friction, "coulomb_negative", 0.0),
+                )
+                if refit.band > 0:
+                    note = f"Coulomb {coulomb[0]:.3g}, {coulomb[1]:.3g} N m"
+                warnings.append(
+                    f"joint {joint.name}: its identified Coulomb friction ({old[0]:.3g}, "
+                    f"{old[1]:.3g} N m, negative in both directions) lies beyond the speeds "
+                    f"the logs reach (its Stribeck term keeps {refit.remaining:.0%} of its "
+                    f"level at {refit.speed:.3g} rad/s, the motor's 99th-percentile speed): "
+                    f"refitted with no Stribeck term ({note}); record faster motions "
+                    "(torquemap excite) to resolve it"
+                )
+                x = x.copy()
+                x[slices[k]] = v
+                theta = T @ x
+        if not coulomb_levels_valid(*coulomb):
             flagged = [name for name, _ in scale]
+            coarse = coarse_angle_note(
+                robot,
+                logs,
+                [
+                    np.concatenate(
+                        [
+                            sig.gear[i] * sig.qd[idx, i]
+                            for sig, idx in zip(signals, picks, strict=True)
+                        ]
+                    )
+                    for i in range(nj)
+                ],
+                window,
+            )
             raise InputError(
                 f"joint {joint.name}: the identified friction is negative in both directions "
                 f"(Coulomb {coulomb[0]:.3g}, {coulomb[1]:.3g} N m): the model does not fit the "
-                "log; check the robot file's gravity, gear ratios and torque constants, and that "
+                "log; "
+                + (f"{coarse}; else " if coarse is not None else "")
+                + "check the robot file's gravity, gear ratios and torque constants, and that "
                 "the log is of this robot"
                 + (
                     f" (a torque that the URDF does not explain: {', '.join(flagged)})"
@@ -1035,6 +1113,38 @@ def identify_arm(
         consistent=not problems,
         warnings=tuple(warnings),
         excluded=excluded,
+    )
+
+
+def _misfits_are_noise(
+    scale: Sequence[tuple[str, str]],
+    robot: Robot,
+    joints: Mapping[str, JointModel],
+    signals: Sequence[ArmSignals],
+    residual_sigma: NDArray[np.float64],
+    window: float,
+) -> bool:
+    """Whether every warning of :func:`scale_warnings` is an "explains only" warning of a
+    joint whose misfit is its logs' white torque noise (as :func:`_noise_misfits` tells, on
+    the joint models ``joints``): none says the URDF or the robot file is at odds."""
+    if not scale:
+        return True
+    if any(explained_share(text) is None for _, text in scale):
+        return False
+    weights = [float(sig.t.size) for sig in signals]
+    levels = pooled_levels([arm_noise_levels(robot, joints, sig) for sig in signals], weights)
+    upper = pooled_levels(
+        [net_noise_levels(robot, joints, sig, upper_split(sig)) for sig in signals], weights
+    )
+    names = [joint.name for joint in robot.joints]
+    return all(
+        misfit_is_noise(
+            float(residual_sigma[names.index(name)]),
+            levels[names.index(name)],
+            upper[names.index(name)],
+            window,
+        )
+        for name, _ in scale
     )
 
 
