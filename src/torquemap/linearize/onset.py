@@ -40,8 +40,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 #: Exponents tried for ``psi`` (1: torque ~ current, 2: ~ current squared; between and beyond:
-#: the amplifier's curve and the iron's saturation near the onset).
-EXPONENTS = np.linspace(0.8, 3.2, 13)
+#: the amplifier's curve and the iron's saturation near the onset). None below 1: ``n < 1``
+#: rises with an infinite slope at the dead zone, which no amplifier and motor do; on a
+#: concave amplifier it traded with the dead zone (docs/linearize.md, "stop 38 (L42)").
+EXPONENTS = np.linspace(1.0, 3.2, 12)
 #: Dead zones tried, as fractions of the full-scale pulse width.
 DEAD_ZONES = np.linspace(0.0, 0.3, 31)
 #: The amplifier's curve tried by the ``"amplifier"`` form: ``c`` of ``expm1(c x) / expm1(c)``
