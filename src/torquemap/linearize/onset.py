@@ -40,10 +40,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 #: Exponents tried for ``psi`` (1: torque ~ current, 2: ~ current squared; between and beyond:
-#: the amplifier's curve and the iron's saturation near the onset). None below 1: ``n < 1``
-#: rises with an infinite slope at the dead zone, which no amplifier and motor do; on a
-#: concave amplifier it traded with the dead zone (docs/linearize.md, "stop 38 (L42)").
-EXPONENTS = np.linspace(1.0, 3.2, 12)
+#: the amplifier's curve and the iron's saturation near the onset).
+EXPONENTS = np.linspace(0.8, 3.2, 13)
 #: Dead zones tried, as fractions of the full-scale pulse width.
 DEAD_ZONES = np.linspace(0.0, 0.3, 31)
 #: The amplifier's curve tried by the ``"amplifier"`` form: ``c`` of ``expm1(c x) / expm1(c)``
@@ -189,6 +187,7 @@ def fit_onset(
     actuation_max: int,
     form: OnsetForm = "power",
     censored: CensoredUse = "none",
+    search: NDArray[np.bool_] | None = None,
 ) -> OnsetFit:
     """Fit the onset law to each position's curve between ``readable`` and ``upper`` [N m].
 
@@ -225,6 +224,11 @@ def fit_onset(
         ``sum_window (law - y)^2 + excess``; ``"ties"``: among the laws whose window residual
         is within :data:`TIE_TOLERANCE` of the least, the least ``excess`` (instead of the
         smallest dead zone). ``"none"`` by default (docs/linearize.md, "stop 35 (L38)").
+    search
+        Positions whose cells the search over the laws reads, shape (P,) (None: every
+        position): the measured positions, where ``forward`` between them is an interpolation
+        of their curves, not readings at those positions' shares. Each position's gains and
+        friction are then solved under the chosen law wherever it has cells.
 
     Returns
     -------
@@ -252,13 +256,19 @@ def fit_onset(
     reliable = np.isfinite(forward) & (forward >= readable)
     first = np.where(reliable.any(axis=1), np.argmax(reliable, axis=1), forward.shape[1])
     below = (np.arange(forward.shape[1])[None, :] < first[:, None]) & np.isfinite(forward)
-    qp, qj = np.nonzero(below & enough[:, None]) if censored != "none" else (cp[:0], cj[:0])
+    searched = enough if search is None else enough & np.asarray(search, dtype=bool)
+    if not searched.any():
+        searched = enough
+    qp, qj = np.nonzero(below & searched[:, None]) if censored != "none" else (cp[:0], cj[:0])
     qu, qr, qy = levels[qj], ramp[qp], np.maximum(forward[qp, qj], 0.0)
     tried: list[tuple[float, float, float, float]] = []
     excess: list[float] = []
-    if cp.size:
-        # the search on at most SEARCH_CELLS cells spread evenly over the positions
-        pick = np.unique(np.linspace(0, cp.size - 1, min(cp.size, SEARCH_CELLS)).astype(int))
+    among = np.flatnonzero(searched[cp])
+    if among.size:
+        # the search on at most SEARCH_CELLS cells spread evenly over the positions searched
+        pick = among[
+            np.unique(np.linspace(0, among.size - 1, min(among.size, SEARCH_CELLS)).astype(int))
+        ]
         sp, su, sr, sy = cp[pick], u[pick], r[pick], y[pick]
         # every combination: the residual has several minima
         for dz in DEAD_ZONES:
