@@ -1,5 +1,6 @@
 """The onset law searched on the measured positions (torquemap.linearize.onset.fit_onset's
-``search``, passed by build_tables): between measured positions the forward model interpolates
+``search``; not passed by build_tables, docs/linearize.md "stop 38 (L42)"): between measured
+positions the forward model interpolates
 the measured curves, which at a narrow ramp's cross-fades are not the law at the shares there.
 Checked by recovery of a known dead zone and exponent from surfaces written here in closed
 form (the law itself: a linear amplifier past its dead zone, torque ~ current or ~ current

@@ -188,6 +188,7 @@ def fit_onset(
     form: OnsetForm = "power",
     censored: CensoredUse = "none",
     search: NDArray[np.bool_] | None = None,
+    exponents: NDArray[np.float64] | None = None,
 ) -> OnsetFit:
     """Fit the onset law to each position's curve between ``readable`` and ``upper`` [N m].
 
@@ -228,7 +229,12 @@ def fit_onset(
         Positions whose cells the search over the laws reads, shape (P,) (None: every
         position): the measured positions, where ``forward`` between them is an interpolation
         of their curves, not readings at those positions' shares. Each position's gains and
-        friction are then solved under the chosen law wherever it has cells.
+        friction are then solved under the chosen law wherever it has cells. Not passed by
+        :func:`~torquemap.linearize.tables.build_tables` (docs/linearize.md, "stop 38 (L42)").
+    exponents
+        The ``"power"`` form's exponents searched (None: :data:`EXPONENTS`). From 1 (no
+        infinite slope at the dead zone) it reads a concave amplifier's dead zone where the
+        default grid puts it near 0 (tests/test_onset_exponent.py); not the default (stop 38).
 
     Returns
     -------
@@ -251,7 +257,7 @@ def fit_onset(
     if form == "amplifier":
         exponents, curves = CURRENT_EXPONENTS, CURVES
     else:
-        exponents, curves = EXPONENTS, np.zeros(1)
+        exponents, curves = EXPONENTS if exponents is None else exponents, np.zeros(1)
     # censored cells: below each fitted position's first reading of at least ``readable``
     reliable = np.isfinite(forward) & (forward >= readable)
     first = np.where(reliable.any(axis=1), np.argmax(reliable, axis=1), forward.shape[1])

@@ -1413,9 +1413,6 @@ def build_tables(
                 actuation_max=spec.actuation_max,
                 form=onset_form,
                 censored=onset_censored,
-                # the law searched on the measured positions' curves: between them the forward
-                # model interpolates those curves, not readings at the shares there
-                search=np.isin(np.arange(n), pos[pw == 0]),
             )
             fine, _ = extend_below(
                 fine,
