@@ -187,6 +187,8 @@ def fit_onset(
     actuation_max: int,
     form: OnsetForm = "power",
     censored: CensoredUse = "none",
+    search: NDArray[np.bool_] | None = None,
+    exponents: NDArray[np.float64] | None = None,
 ) -> OnsetFit:
     """Fit the onset law to each position's curve between ``readable`` and ``upper`` [N m].
 
@@ -223,6 +225,16 @@ def fit_onset(
         ``sum_window (law - y)^2 + excess``; ``"ties"``: among the laws whose window residual
         is within :data:`TIE_TOLERANCE` of the least, the least ``excess`` (instead of the
         smallest dead zone). ``"none"`` by default (docs/linearize.md, "stop 35 (L38)").
+    search
+        Positions whose cells the search over the laws reads, shape (P,) (None: every
+        position): the measured positions, where ``forward`` between them is an interpolation
+        of their curves, not readings at those positions' shares. Each position's gains and
+        friction are then solved under the chosen law wherever it has cells. Not passed by
+        :func:`~torquemap.linearize.tables.build_tables` (docs/linearize.md, "stop 38 (L42)").
+    exponents
+        The ``"power"`` form's exponents searched (None: :data:`EXPONENTS`). From 1 (no
+        infinite slope at the dead zone) it reads a concave amplifier's dead zone where the
+        default grid puts it near 0 (tests/test_onset_exponent.py); not the default (stop 38).
 
     Returns
     -------
@@ -245,18 +257,24 @@ def fit_onset(
     if form == "amplifier":
         exponents, curves = CURRENT_EXPONENTS, CURVES
     else:
-        exponents, curves = EXPONENTS, np.zeros(1)
+        exponents, curves = EXPONENTS if exponents is None else exponents, np.zeros(1)
     # censored cells: below each fitted position's first reading of at least ``readable``
     reliable = np.isfinite(forward) & (forward >= readable)
     first = np.where(reliable.any(axis=1), np.argmax(reliable, axis=1), forward.shape[1])
     below = (np.arange(forward.shape[1])[None, :] < first[:, None]) & np.isfinite(forward)
-    qp, qj = np.nonzero(below & enough[:, None]) if censored != "none" else (cp[:0], cj[:0])
+    searched = enough if search is None else enough & np.asarray(search, dtype=bool)
+    if not searched.any():
+        searched = enough
+    qp, qj = np.nonzero(below & searched[:, None]) if censored != "none" else (cp[:0], cj[:0])
     qu, qr, qy = levels[qj], ramp[qp], np.maximum(forward[qp, qj], 0.0)
     tried: list[tuple[float, float, float, float]] = []
     excess: list[float] = []
-    if cp.size:
-        # the search on at most SEARCH_CELLS cells spread evenly over the positions
-        pick = np.unique(np.linspace(0, cp.size - 1, min(cp.size, SEARCH_CELLS)).astype(int))
+    among = np.flatnonzero(searched[cp])
+    if among.size:
+        # the search on at most SEARCH_CELLS cells spread evenly over the positions searched
+        pick = among[
+            np.unique(np.linspace(0, among.size - 1, min(among.size, SEARCH_CELLS)).astype(int))
+        ]
         sp, su, sr, sy = cp[pick], u[pick], r[pick], y[pick]
         # every combination: the residual has several minima
         for dz in DEAD_ZONES:
