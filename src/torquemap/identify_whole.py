@@ -1541,16 +1541,17 @@ def _curve_form_variance(
     inside = (knots > steady[0] * ANCHOR_GAP) & (knots < steady[-1] / ANCHOR_GAP)
     for x in steady:
         inside &= np.abs(np.log(knots / x)) >= math.log(ANCHOR_GAP)
-    for table, drawn, mask, start, used in (
-        (law.positive, other.positive, held[0], m, alt.velocity[0] > 0),
-        (law.negative, other.negative, held[1], m + k, alt.velocity[1] > 0),
+    # the two tables compared as friction (level plus viscous torque) at the knots: the
+    # second fit may trade its viscous slope against its levels
+    for sign, mask, start, used in (
+        (1.0, held[0], m, alt.velocity[0] > 0),
+        (-1.0, held[1], m + k, alt.velocity[1] > 0),
     ):
         if not used:
             continue
+        gap = np.asarray(law.torque(sign * knots)) - np.asarray(other.torque(sign * knots))
         form = np.zeros(size)
-        form[start : start + k] = np.where(
-            inside & mask, np.asarray(table) - np.asarray(drawn), 0.0
-        )
+        form[start : start + k] = np.where(inside & mask, sign * gap, 0.0)
         out += np.outer(form, form)
     return out
 
