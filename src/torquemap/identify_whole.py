@@ -171,6 +171,14 @@ STRIBECK_PRIOR = False
 #: and 5 rad/s: 2.80 % of 3.5 N; 3.52 % with the curve alone). False: the curve alone draws it
 #: (the family's dev robots: median 1.670x the oracle against 1.724x with the redraw).
 REDRAW_CURVED = True
+#: Whether, with :data:`STRIBECK_PRIOR` off, the table's knots that the prior holds between
+#: passes far apart carry a model-form variance from a second estimate: the same fit with its
+#: prior centred on a generalized Stribeck curve (:mod:`torquemap.friction_prior`), whose
+#: distance from the table is one standard deviation, fully correlated along each direction.
+#: The table itself is unchanged (random robot 242 of the family: a Stribeck drop between
+#: passes 4.35x apart that the table and its redraw both miss, 56 % of the errors within 2
+#: sigma; docs/estimation.md).
+CURVE_FORM = True
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -1400,6 +1408,10 @@ def fit_joint_whole(
             form[start : start + k] = np.asarray(fitted) - np.asarray(drawn)
             cov = cov + np.outer(form, form)
         law = mean
+    if CURVE_FORM and curve is None and not flat and BETWEEN_PASSES != "fit":
+        cov = cov + _curve_form_variance(
+            a, y, fit, prior, precision, m, speeds, level, w0, rows, law, steady_speeds, noise
+        )
     names = [*fixed_names, *(f"friction.{x}" for x in law.linear_parameter_names)]
     coef = np.r_[fit.coef[:m], law.linear_parameters()]
     if pass_inertia is not None:
@@ -1484,6 +1496,64 @@ def determined_speed(
             break
         lowest = float(speeds[j])
     return lowest
+
+
+def _curve_form_variance(
+    a: NDArray[np.float64],
+    y: NDArray[np.float64],
+    fit: _Trial,
+    prior: NDArray[np.float64],
+    precision: NDArray[np.float64],
+    m: int,
+    speeds: tuple[float, ...],
+    level: float,
+    w0: float,
+    rows: _Rows,
+    law: SpeedTableFriction,
+    steady_speeds: Sequence[float],
+    noise: float,
+) -> NDArray[np.float64]:
+    """Model-form covariance [N^2 m^2] of the table's prior-held knots between passes far
+    apart (:data:`CURVE_FORM`): ``f f^T`` per direction, ``f`` the difference between the
+    table (``law``) and the same fit's table with its prior centred on a generalized Stribeck
+    curve (:func:`torquemap.friction_prior.search_curve`, the design ``a``, torque ``y`` and
+    weights of ``fit`` held, ``precision`` the smoothness prior's), at the knots strictly
+    between the direction's slowest and fastest steady speeds that the prior holds
+    (:func:`_prior_held_knots`); zero elsewhere, and zero when no curve is taken. The
+    covariance's shape is that of the fit's ``m`` fixed columns and the table's columns."""
+    size = a.shape[1]
+    out = np.zeros((size, size))
+    steady = sorted(abs(float(x)) for x in steady_speeds if x)
+    if len(steady) < 2 or not steady[-1] > steady[0] * ANCHOR_GAP:
+        return out
+    penalised = _curve_objective(a, y, fit.weights, m, noise)
+    alt, alt_precision = search_curve(
+        penalised, precision, 0, speeds, level, velocities=(steady[0], steady[-1])
+    )
+    if not any(v > 0 for v in alt.velocity):
+        return out
+    _, coef = penalised(alt_precision)
+    other, _ = _law(coef, speeds, w0, rows)
+    held = _prior_held_knots(rows, a, fit.weights, prior, m, speeds, steady_speeds)
+    k = len(speeds)
+    knots = np.asarray(speeds, dtype=np.float64)
+    # between the slowest and the fastest steady speed, away from every steady speed
+    inside = (knots > steady[0] * ANCHOR_GAP) & (knots < steady[-1] / ANCHOR_GAP)
+    for x in steady:
+        inside &= np.abs(np.log(knots / x)) >= math.log(ANCHOR_GAP)
+    # the two tables compared as friction (level plus viscous torque) at the knots: the
+    # second fit may trade its viscous slope against its levels
+    for sign, mask, start, used in (
+        (1.0, held[0], m, alt.velocity[0] > 0),
+        (-1.0, held[1], m + k, alt.velocity[1] > 0),
+    ):
+        if not used:
+            continue
+        gap = np.asarray(law.torque(sign * knots)) - np.asarray(other.torque(sign * knots))
+        form = np.zeros(size)
+        form[start : start + k] = np.where(inside & mask, sign * gap, 0.0)
+        out += np.outer(form, form)
+    return out
 
 
 def _prior_held_knots(
