@@ -29,8 +29,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from torquemap.arm_model import ArmSignals
-from torquemap.model import JointModel, pdtv_torque
-from torquemap.noise_level import HIGH_BAND_SPLIT, high_band_psd
+from torquemap.arm_noise import arm_noise_levels
+from torquemap.model import JointModel
+from torquemap.noise_level import HIGH_BAND_SPLIT
 from torquemap.robot import Robot
 
 #: The noise is white when its level above 20 Hz is at most this many times its level above
@@ -49,19 +50,7 @@ def net_noise_levels(
     torque net of friction and PDTV, on the samples where the joint slides (as
     :func:`torquemap.arm_noise.arm_noise_levels`, at another split), shape (nj,); NaN where it
     cannot be measured."""
-    out = np.full(len(robot.joints), math.nan)
-    for k, joint in enumerate(robot.joints):
-        jm = joints[joint.name]
-        n = signals.gear[k]
-        w = n * signals.qd[:, k]
-        net = (
-            signals.motor_torque[:, k]
-            - jm.friction.torque(w)
-            - pdtv_torque(n * signals.q_measured[:, k], jm.pdtv, velocity=signals.qd[:, k])
-        )
-        width = max(float(getattr(jm.friction, "zero_velocity", 0.0)), 1e-9)
-        out[k] = high_band_psd(signals.t, net, np.abs(w) > 4.0 * width, split=split)
-    return out
+    return arm_noise_levels(robot, joints, signals, split)
 
 
 def upper_split(signals: ArmSignals) -> float:

@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 
 from torquemap.arm_model import ArmSignals
 from torquemap.model import JointModel, pdtv_torque
-from torquemap.noise_level import high_band_psd
+from torquemap.noise_level import HIGH_BAND_SPLIT, high_band_psd
 from torquemap.robot import Robot
 
 #: A log's level must exceed the model's by this factor before the excess counts: the level of
@@ -37,11 +37,14 @@ EXCESS_FACTOR = 1.5
 
 
 def arm_noise_levels(
-    robot: Robot, joints: Mapping[str, JointModel], signals: ArmSignals
+    robot: Robot,
+    joints: Mapping[str, JointModel],
+    signals: ArmSignals,
+    split: float = HIGH_BAND_SPLIT,
 ) -> NDArray[np.float64]:
-    """Per joint, the one-sided PSD [N^2 m^2/Hz, motor side] above 20 Hz of the motor torque
-    net of friction and PDTV, shape (nj,); NaN where it cannot be measured (a log slower than
-    80 Hz, too few sliding samples).
+    """Per joint, the one-sided PSD [N^2 m^2/Hz, motor side] above ``split`` (20 Hz) of the
+    motor torque net of friction and PDTV, shape (nj,); NaN where it cannot be measured (a log
+    slower than 4 ``split``, too few sliding samples).
 
     A sample counts where the joint's motor speed exceeds 4 widths of its friction law's
     transition (the step at a reversal is no noise).
@@ -57,7 +60,7 @@ def arm_noise_levels(
             - pdtv_torque(n * signals.q_measured[:, k], jm.pdtv, velocity=signals.qd[:, k])
         )
         width = max(float(getattr(jm.friction, "zero_velocity", 0.0)), 1e-9)
-        out[k] = high_band_psd(signals.t, net, np.abs(w) > 4.0 * width)
+        out[k] = high_band_psd(signals.t, net, np.abs(w) > 4.0 * width, split=split)
     return out
 
 

@@ -48,7 +48,7 @@ from torquemap.arm_noise import arm_noise_levels, pooled_levels
 from torquemap.arm_stribeck import BAND_SIGMAS, STRIBECK_LEVELS, refit_without_stribeck
 from torquemap.arm_units import angles_beyond_limits
 from torquemap.errors import InputError
-from torquemap.friction_law import StribeckFriction, coulomb_levels_valid
+from torquemap.friction_law import FrictionLaw, StribeckFriction, coulomb_levels_valid
 from torquemap.io import Log
 from torquemap.model import InertiaModel, JointModel, Model
 from torquemap.robot import Robot
@@ -546,6 +546,19 @@ ZERO_BAND = 1e-9
 FRICTION_SHARE = 0.01
 
 
+def _law_of(
+    law: FrictionLaw, parameters: NDArray[np.float64]
+) -> tuple[FrictionLaw, tuple[float, float], tuple[float, float]]:
+    """``law`` with the linear ``parameters``, its static levels and its Coulomb levels [N m]
+    (positive, negative; 0 for a law without them)."""
+    friction = law.with_linear_parameters(parameters)
+    coulomb = (
+        float(getattr(friction, "coulomb_positive", 0.0)),
+        float(getattr(friction, "coulomb_negative", 0.0)),
+    )
+    return friction, friction.static_levels(), coulomb
+
+
 def _friction_share(
     friction: Any,
     signals: Sequence[ArmSignals],
@@ -912,12 +925,7 @@ def identify_arm(
                 f"joint {joint.name}: identified rotor inertia {armature:.3g} kg m^2 < 0 "
                 "(not excited enough); kept as identified"
             )
-        friction = jm.friction.with_linear_parameters(v[1 : 1 + nf])
-        levels = friction.static_levels()
-        coulomb = (
-            getattr(friction, "coulomb_positive", 0.0),
-            getattr(friction, "coulomb_negative", 0.0),
-        )
+        friction, levels, coulomb = _law_of(jm.friction, v[1 : 1 + nf])
         share = _friction_share(friction, signals, picks, k, tau[:, k])
         if not coulomb_levels_valid(*coulomb) and share <= FRICTION_SHARE:
             # friction too small a share of the joint's torque to be resolved (a direct drive:
@@ -936,12 +944,7 @@ def identify_arm(
                 1 + names_k.index("coulomb_negative"),
             )
             armature = float(v[0])
-            friction = jm.friction.with_linear_parameters(v[1 : 1 + nf])
-            levels = friction.static_levels()
-            coulomb = (
-                getattr(friction, "coulomb_positive", 0.0),
-                getattr(friction, "coulomb_negative", 0.0),
-            )
+            friction, levels, coulomb = _law_of(jm.friction, v[1 : 1 + nf])
             x = x.copy()
             x[slices[k]] = v
             theta = T @ x  # the parameters kept are the law's
@@ -979,12 +982,7 @@ def identify_arm(
                         "uncertainty of zero, kept at zero"
                     )
                 armature = float(v[0])
-                friction = jm.friction.with_linear_parameters(v[1 : 1 + nf])
-                levels = friction.static_levels()
-                coulomb = (
-                    getattr(friction, "coulomb_positive", 0.0),
-                    getattr(friction, "coulomb_negative", 0.0),
-                )
+                friction, levels, coulomb = _law_of(jm.friction, v[1 : 1 + nf])
                 if refit.band > 0:
                     note = f"Coulomb {coulomb[0]:.3g}, {coulomb[1]:.3g} N m"
                 warnings.append(
