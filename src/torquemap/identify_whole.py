@@ -1242,21 +1242,17 @@ def fit_joint_whole(
                 fit = _irls(a, y, keep, prior, keep=keep, clusters=rows.clusters)
 
     curve = None
-    steady = sorted(abs(float(x)) for x in steady_speeds if x)
-    if stribeck_prior and not flat and len(steady) >= 2 and steady[-1] > steady[0] * ANCHOR_GAP:
+    m0 = fixed.shape[1]
+    searched = None
+    if stribeck_prior and not flat:
         # the table's prior centred on a generalized Stribeck curve per direction, its
         # velocity and exponent searched on a grid by the fit's penalised objective with the
         # weights held (torquemap.friction_prior)
-        m0 = fixed.shape[1]
-        penalised = _curve_objective(a, y, fit.weights, m0, noise)
-        curve, precision = search_curve(
-            penalised,
-            precision,
-            0,
-            speeds,
-            level,
-            velocities=(steady[0], steady[-1]),
+        searched = _search_prior_curve(
+            a, y, fit.weights, m0, noise, precision, speeds, level, steady_speeds
         )
+    if searched is not None:
+        _, curve, precision = searched
         prior = embed(m0, noise)
         fit = _irls(a, y, fit.weights, prior, keep=keep, clusters=rows.clusters)
 
@@ -1498,6 +1494,39 @@ def determined_speed(
     return lowest
 
 
+def _search_prior_curve(
+    a: NDArray[np.float64],
+    y: NDArray[np.float64],
+    weights: NDArray[np.float64],
+    m: int,
+    noise: float,
+    precision: NDArray[np.float64],
+    speeds: tuple[float, ...],
+    level: float,
+    steady_speeds: Sequence[float],
+) -> (
+    tuple[
+        Callable[[NDArray[np.float64]], tuple[float, NDArray[np.float64]]],
+        StribeckPrior,
+        NDArray[np.float64],
+    ]
+    | None
+):
+    """The generalized Stribeck curve the table's prior is centred on
+    (:func:`torquemap.friction_prior.search_curve` by :func:`_curve_objective`, the design
+    ``a``, torque ``y`` and ``weights`` held, ``precision`` the smoothness prior's): the
+    objective, the curve and the prior precision centred on it; None without two steady speeds
+    at least ``ANCHOR_GAP`` apart."""
+    steady = sorted(abs(float(x)) for x in steady_speeds if x)
+    if len(steady) < 2 or not steady[-1] > steady[0] * ANCHOR_GAP:
+        return None
+    penalised = _curve_objective(a, y, weights, m, noise)
+    curve, centred = search_curve(
+        penalised, precision, 0, speeds, level, velocities=(steady[0], steady[-1])
+    )
+    return penalised, curve, centred
+
+
 def _curve_form_variance(
     a: NDArray[np.float64],
     y: NDArray[np.float64],
@@ -1523,13 +1552,13 @@ def _curve_form_variance(
     covariance's shape is that of the fit's ``m`` fixed columns and the table's columns."""
     size = a.shape[1]
     out = np.zeros((size, size))
-    steady = sorted(abs(float(x)) for x in steady_speeds if x)
-    if len(steady) < 2 or not steady[-1] > steady[0] * ANCHOR_GAP:
-        return out
-    penalised = _curve_objective(a, y, fit.weights, m, noise)
-    alt, alt_precision = search_curve(
-        penalised, precision, 0, speeds, level, velocities=(steady[0], steady[-1])
+    searched = _search_prior_curve(
+        a, y, fit.weights, m, noise, precision, speeds, level, steady_speeds
     )
+    if searched is None:
+        return out
+    penalised, alt, alt_precision = searched
+    steady = sorted(abs(float(x)) for x in steady_speeds if x)
     if not any(v > 0 for v in alt.velocity):
         return out
     _, coef = penalised(alt_precision)
