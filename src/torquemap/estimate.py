@@ -1153,8 +1153,8 @@ def _estimate_piece(
         median_step = float(np.median(np.diff(log.t))) if n > 1 else None
         for k, joint in enumerate(robot.joints):
             # white noise this log holds beyond the identification logs' (a slower logger);
-            # by default only its white part (the same level above 20 Hz and an eighth of
-            # the rate): content between them stays above the estimate's band
+            # with WHITE_EXCESS only its white part (the same level above 20 Hz and an eighth
+            # of the rate; measured, off)
             excess = white_noise_excess if uncertainty.WHITE_EXCESS else noise_excess
             extra = excess(
                 model,
