@@ -1131,7 +1131,12 @@ def _estimate_piece(
         from torquemap import uncertainty
         from torquemap._estimate_kernels import hypot_into
         from torquemap.tones import nominal_step
-        from torquemap.uncertainty import bridge_departure, joint_sigma, noise_excess
+        from torquemap.uncertainty import (
+            bridge_departure,
+            joint_sigma,
+            noise_excess,
+            white_noise_excess,
+        )
 
         rate = 1.0 / nominal_step(log.t) if n > 1 else math.nan
         coupling = None
@@ -1147,8 +1152,11 @@ def _estimate_piece(
         # the median step, once for every joint's noise level
         median_step = float(np.median(np.diff(log.t))) if n > 1 else None
         for k, joint in enumerate(robot.joints):
-            # white noise this log holds beyond the identification logs' (a slower logger)
-            extra = noise_excess(
+            # white noise this log holds beyond the identification logs' (a slower logger);
+            # with WHITE_EXCESS only its white part (the same level above 20 Hz and an eighth
+            # of the rate; measured, off)
+            excess = white_noise_excess if uncertainty.WHITE_EXCESS else noise_excess
+            extra = excess(
                 model,
                 joint.name,
                 t=log.t,
