@@ -192,6 +192,12 @@ CURVE_FORM = True
 #: passes down to it); ``"unfitted"``, the rows the fit leaves out (ramps and reversals below
 #: half the slowest pass, :func:`_choose_prior`).
 PRIOR_CHOICE_ROWS = "slowest"
+#: With the slowest pass left out (:func:`_choose_prior_slowest`), where the smoothness prior
+#: turns flat: ``"half"``, below half the next steady speed (as the whole fit does below half
+#: the slowest pass); ``"cut"``, below the geometric mean of the two (measured on the
+#: family's robots 261-280: robot 278 5.96x the oracle against 12.2x, but 89.6 % of its
+#: errors within 2 sigma; docs/identification.md).
+LEFT_OUT_OBSERVED = "half"
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -1589,7 +1595,8 @@ def _choose_prior_slowest(
             ]
         )
         pass_rows = np.abs(np.log(np.maximum(np.abs(fv), 1e-300) / slowest)) < math.log(ANCHOR_GAP)
-        table = _prior(speeds, level, max(0.5 * rest[0], speeds[0]), flat=False)
+        seen = cut if LEFT_OUT_OBSERVED == "cut" else 0.5 * rest[0]
+        table = _prior(speeds, level, max(seen, speeds[0]), flat=False)
         size = a.shape[1]
 
         def embedded(t: NDArray[np.float64]) -> NDArray[np.float64]:
