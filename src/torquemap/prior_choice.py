@@ -67,7 +67,7 @@ def huber_loss(residual: NDArray[np.float64], scale: float) -> NDArray[np.float6
     Examples
     --------
     >>> huber_loss(np.array([0.0, 1.0, 10.0]), 1.0).round(4).tolist()
-    [0.0, 0.5, 12.5955]
+    [0.0, 0.5, 12.5455]
     """
     u = np.abs(np.asarray(residual, dtype=np.float64)) / max(scale, 1e-300)
     return np.asarray(np.where(u <= HUBER_K, 0.5 * u * u, HUBER_K * u - 0.5 * HUBER_K**2))
