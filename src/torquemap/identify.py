@@ -1014,7 +1014,7 @@ def identify_model(
     friction: FrictionMethod = "whole",
     vertical: Literal["refuse", "warn"] = "refuse",
     low_speed_rows: bool | None = None,
-    stribeck_prior: bool | None = None,
+    stribeck_prior: bool | Literal["select"] | None = None,
 ) -> Identification:
     """Identify inertia, friction and PDTV of a robot's joints from no-load logs.
 
@@ -1066,8 +1066,10 @@ def identify_model(
         :data:`torquemap.identify_whole.LOW_SPEED_ROWS` (on).
     stribeck_prior
         ``friction="whole"``: centre the friction table's smoothness prior on a generalized
-        Stribeck curve per direction (:mod:`torquemap.friction_prior`). None:
-        :data:`torquemap.identify_whole.STRIBECK_PRIOR` (off).
+        Stribeck curve per direction (:mod:`torquemap.friction_prior`). ``"select"``: per
+        direction, only where that fit predicts the rows neither fit saw better
+        (:mod:`torquemap.prior_choice`). None: :data:`torquemap.identify_whole.STRIBECK_PRIOR`
+        (off).
 
     Returns
     -------
@@ -1186,7 +1188,7 @@ def _identify_whole(
     vertical: Literal["refuse", "warn"],
     derivatives: Sequence[Sequence[Derivatives]],
     low_speed_rows: bool | None = None,
-    stribeck_prior: bool | None = None,
+    stribeck_prior: bool | Literal["select"] | None = None,
 ) -> tuple[Identification, dict[str, list[ResidualPiece]]]:
     """The whole-log fit of every joint the pass method identified, and the model's no-load
     residuals on ``pieces`` (:func:`torquemap.vertical.no_load_residuals`, every piece), which
@@ -1417,6 +1419,19 @@ def _whole_notes(fit: Any, resolution: float) -> dict[str, Any]:
                 }
             }
             if fit.prior_curve is not None
+            else {}
+        ),
+        **(
+            {
+                "prior_choice": {
+                    "curved": [bool(x) for x in fit.prior_choice.curved],
+                    "held_out_gain": [float(x) for x in fit.prior_choice.gain],
+                    "held_out_z": [float(x) for x in fit.prior_choice.z],
+                    "held_out_rows": [int(x) for x in fit.prior_choice.rows],
+                    "stribeck_velocity": [float(x) for x in fit.prior_choice.velocity],
+                }
+            }
+            if fit.prior_choice is not None
             else {}
         ),
     }

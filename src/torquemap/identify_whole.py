@@ -56,7 +56,14 @@ from torquemap.between_passes import redraw_law
 from torquemap.errors import InputError
 from torquemap.filters import dilate, lowpass
 from torquemap.friction_law import SpeedTableFriction
-from torquemap.friction_prior import StribeckPrior, search_curve
+from torquemap.friction_prior import (
+    SPREAD,
+    StribeckPrior,
+    curve_precision,
+    search_curve,
+    stribeck_shape,
+)
+from torquemap.prior_choice import HELD_OUT_Z, PriorChoice, held_out_gain
 from torquemap.robust import (
     cluster_covariance,
     cluster_medians,
@@ -179,6 +186,18 @@ REDRAW_CURVED = True
 #: passes 4.35x apart that the table and its redraw both miss, 56 % of the errors within 2
 #: sigma; docs/estimation.md).
 CURVE_FORM = True
+#: The rows ``stribeck_prior="select"`` chooses the table's prior by
+#: (:mod:`torquemap.prior_choice`): ``"slowest"``, each direction's slowest steady pass left
+#: out of both fits (:func:`_choose_prior_slowest`: which prior extrapolates from the faster
+#: passes down to it); ``"unfitted"``, the rows the fit leaves out (ramps and reversals below
+#: half the slowest pass, :func:`_choose_prior`).
+PRIOR_CHOICE_ROWS = "slowest"
+#: With the slowest pass left out (:func:`_choose_prior_slowest`), where the smoothness prior
+#: turns flat: ``"half"``, below half the next steady speed (as the whole fit does below half
+#: the slowest pass); ``"cut"``, below the geometric mean of the two (measured on the
+#: family's robots 261-280: robot 278 5.96x the oracle against 12.2x, but 89.6 % of its
+#: errors within 2 sigma; docs/identification.md).
+LEFT_OUT_OBSERVED = "half"
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -271,6 +290,10 @@ class WholeFit:
         The generalized Stribeck curve per direction the table's prior was centred on
         (:mod:`torquemap.friction_prior`), or None (:data:`STRIBECK_PRIOR` off, a flat table,
         fewer than two steady speeds).
+    prior_choice
+        With ``stribeck_prior="select"``, the choice between the plain and the curve-centred
+        prior per direction and its held-out gains (:class:`torquemap.prior_choice.PriorChoice`),
+        or None (not asked, or no curve found).
     """
 
     names: tuple[str, ...]
@@ -291,6 +314,7 @@ class WholeFit:
     warnings: tuple[str, ...] = field(default_factory=tuple)
     interpolation: dict[str, object] | None = None
     prior_curve: StribeckPrior | None = None
+    prior_choice: PriorChoice | None = None
 
     @property
     def zero_velocity(self) -> float:
@@ -1018,7 +1042,7 @@ def fit_joint_whole(
     held_inertia: tuple[float, float] | None = None,
     pass_speeds: Sequence[float] = (),
     low_speed_rows: bool | None = None,
-    stribeck_prior: bool | None = None,
+    stribeck_prior: bool | Literal["select"] | None = None,
 ) -> WholeFit:
     """Fit one joint's friction table, inertia, PDTV and torque delay to whole logs.
 
@@ -1092,7 +1116,10 @@ def fit_joint_whole(
         Centre the table's smoothness prior on a generalized Stribeck curve per direction
         (:mod:`torquemap.friction_prior`; needs two steady speeds at least ``ANCHOR_GAP``
         apart); between two passes far apart the fit's knots then follow it (and are redrawn
-        as before unless :data:`REDRAW_CURVED` is off). None: :data:`STRIBECK_PRIOR` (off).
+        as before unless :data:`REDRAW_CURVED` is off). ``"select"``: per direction, the
+        curve-centred prior only where, with the slowest pass left out, its fit predicts that
+        pass better (:mod:`torquemap.prior_choice`, :func:`_choose_prior_slowest`). None:
+        :data:`STRIBECK_PRIOR` (off).
 
     Returns
     -------
@@ -1251,10 +1278,39 @@ def fit_joint_whole(
         searched = _search_prior_curve(
             a, y, fit.weights, m0, noise, precision, speeds, level, steady_speeds
         )
+    choice = None
     if searched is not None:
+        plain_fit, plain_precision = fit, precision
         _, curve, precision = searched
         prior = embed(m0, noise)
         fit = _irls(a, y, fit.weights, prior, keep=keep, clusters=rows.clusters)
+        if stribeck_prior == "select" and any(v > 0 for v in curve.velocity):
+            # per direction, the prior whose fit better predicts the rows it did not see
+            floor = max(low_speed_floor(resolution, w0), speeds[0])
+            if PRIOR_CHOICE_ROWS == "slowest":
+                choice = _choose_prior_slowest(
+                    a,
+                    y,
+                    rows,
+                    keep,
+                    plain_fit,
+                    m0,
+                    noise,
+                    speeds,
+                    level,
+                    steady_speeds,
+                    curve,
+                )
+            else:
+                choice = _choose_prior(a, y, rows, keep, plain_fit, fit, curve, floor)
+            if not any(choice.curved):
+                curve, precision, fit = None, plain_precision, plain_fit
+            elif not all(choice.curved):
+                curve = _curve_on(curve, choice.curved)
+                precision = _centred_precision(plain_precision, speeds, level, curve)
+            prior = embed(m0, noise)
+            if curve is not None and not all(choice.curved):
+                fit = _irls(a, y, plain_fit.weights, prior, keep=keep, clusters=rows.clusters)
 
     def refit(
         orders: Sequence[tuple[float, bool]],
@@ -1458,7 +1514,149 @@ def fit_joint_whole(
         warnings=tuple(name + w for w in warnings),
         interpolation=interpolation,
         prior_curve=curve,
+        prior_choice=choice,
     )
+
+
+def _choose_prior(
+    a: NDArray[np.float64],
+    y: NDArray[np.float64],
+    rows: _Rows,
+    keep: NDArray[np.float64],
+    plain: _Trial,
+    curved: _Trial,
+    curve: StribeckPrior,
+    floor: float,
+) -> PriorChoice:
+    """Per direction, whether the fit with the table's prior centred on ``curve`` (``curved``)
+    predicts the rows neither fit saw better than the fit with the smoothness prior alone
+    (``plain``): the rows with ``keep`` 0 (their window reaches below half the slowest pass:
+    ramps, reversals) whose friction speed is at least ``floor`` [rad/s], by sign of their
+    friction velocity; Huber's loss of the residuals at their robust scale under the plain fit,
+    the gain's z score over the rows' clusters at least :data:`HELD_OUT_Z`
+    (:func:`torquemap.prior_choice.held_out_gain`). A direction without a curve keeps the
+    plain prior."""
+    fv = rows.at(_friction_speed)
+    held = (keep == 0) & (np.abs(fv) >= floor)
+    r0 = y - a @ plain.coef
+    r1 = y - a @ curved.coef
+    scale = mad_scale(r0[held]) if held.any() else 0.0
+    out: list[tuple[bool, float, float, int]] = []
+    for side, mask in enumerate((held & (fv > 0), held & (fv < 0))):
+        gain, z = held_out_gain(r0[mask], r1[mask], rows.clusters[mask], scale or None)
+        take = curve.velocity[side] > 0 and z >= HELD_OUT_Z
+        out.append((bool(take), gain, z, int(mask.sum())))
+    return PriorChoice(
+        curved=(out[0][0], out[1][0]),
+        gain=(out[0][1], out[1][1]),
+        z=(out[0][2], out[1][2]),
+        rows=(out[0][3], out[1][3]),
+        velocity=(float(curve.velocity[0]), float(curve.velocity[1])),
+    )
+
+
+def _choose_prior_slowest(
+    a: NDArray[np.float64],
+    y: NDArray[np.float64],
+    rows: _Rows,
+    keep: NDArray[np.float64],
+    plain: _Trial,
+    m: int,
+    noise: float,
+    speeds: tuple[float, ...],
+    level: float,
+    steady_speeds: Sequence[float],
+    curve: StribeckPrior,
+) -> PriorChoice:
+    """Per direction, whether the table's prior centred on a Stribeck curve extrapolates
+    below the passes better than the smoothness prior alone, by the slowest steady pass left
+    out: each direction's rows whose differentiator window reaches below the geometric mean
+    of the slowest and the next steady speed are left out of both fits (the prior's observed
+    speed raised to half the next steady speed, the curve searched again on the remaining
+    rows), and the left-out rows of the slowest pass (friction speed within ``ANCHOR_GAP`` of
+    it) predicted by each; Huber's loss at the plain fit's residual scale, the gain's z score
+    over the rows' clusters at least :data:`HELD_OUT_Z`
+    (:func:`torquemap.prior_choice.held_out_gain`). A direction without a curve (in the
+    whole fit's search or the one without the slowest pass) keeps the plain prior."""
+    k = len(speeds)
+    steady = sorted({abs(float(x)) for x in steady_speeds if x})
+    slowest = steady[0] if steady else 0.0
+    rest = [x for x in steady if x > slowest * ANCHOR_GAP]
+    fv = rows.at(_friction_speed)
+    scale = mad_scale(plain.residual[keep > 0])
+    zero = (False, 0.0, 0.0, 0)
+    out: list[tuple[bool, float, float, int]] = [zero, zero]
+    if len(rest) >= 2 and rest[-1] > rest[0] * ANCHOR_GAP:
+        cut = math.sqrt(slowest * rest[0])
+        reach = np.concatenate(
+            [
+                dilate(p.t, np.abs(p.velocity) < cut, rows.window)[r]
+                for p, r in zip(rows.pieces, rows.rows, strict=True)
+            ]
+        )
+        pass_rows = np.abs(np.log(np.maximum(np.abs(fv), 1e-300) / slowest)) < math.log(ANCHOR_GAP)
+        seen = cut if LEFT_OUT_OBSERVED == "cut" else 0.5 * rest[0]
+        table = _prior(speeds, level, max(seen, speeds[0]), flat=False)
+        size = a.shape[1]
+
+        def embedded(t: NDArray[np.float64]) -> NDArray[np.float64]:
+            full = np.zeros((size, size))
+            full[m:, m:] = noise * t
+            return full
+
+        for side, sign in enumerate((1.0, -1.0)):
+            if not curve.velocity[side] > 0:
+                continue
+            mine = sign * fv > 0
+            held = (keep > 0) & mine & pass_rows & reach
+            if not held.any():
+                continue
+            kept = keep * ~(mine & reach)
+            w = plain.weights * kept
+            searched = _search_prior_curve(a, y, w, m, noise, table, speeds, level, rest)
+            if searched is None or not searched[1].velocity[side] > 0:
+                out[side] = (False, 0.0, 0.0, int(held.sum()))
+                continue
+            alt = searched[1]
+            phi = stribeck_shape(np.asarray(speeds), alt.velocity[side], alt.exponent[side])
+            shapes = (phi, np.zeros(k)) if side == 0 else (np.zeros(k), phi)
+            centred = curve_precision(table, 0, k, shapes, SPREAD * max(level, 1e-12))
+            fits = [
+                _irls(a, y, plain.weights, embedded(t), keep=kept, clusters=rows.clusters)
+                for t in (table, centred)
+            ]
+            r0, r1 = (y[held] - a[held] @ f.coef for f in fits)
+            gain, z = held_out_gain(r0, r1, rows.clusters[held], scale or None)
+            out[side] = (z >= HELD_OUT_Z, gain, z, int(held.sum()))
+    return PriorChoice(
+        curved=(out[0][0], out[1][0]),
+        gain=(out[0][1], out[1][1]),
+        z=(out[0][2], out[1][2]),
+        rows=(out[0][3], out[1][3]),
+        velocity=(float(curve.velocity[0]), float(curve.velocity[1])),
+    )
+
+
+def _curve_on(curve: StribeckPrior, on: tuple[bool, bool]) -> StribeckPrior:
+    """``curve`` with the directions not ``on`` set to no curve (velocity 0)."""
+    return dataclasses.replace(
+        curve,
+        velocity=tuple(v if o else 0.0 for v, o in zip(curve.velocity, on, strict=True)),  # type: ignore[arg-type]
+        exponent=tuple(e if o else 2.0 for e, o in zip(curve.exponent, on, strict=True)),  # type: ignore[arg-type]
+    )
+
+
+def _centred_precision(
+    precision: NDArray[np.float64], speeds: Sequence[float], level: float, curve: StribeckPrior
+) -> NDArray[np.float64]:
+    """The smoothness prior's ``precision`` centred on ``curve``
+    (:func:`torquemap.friction_prior.curve_precision`, as :func:`search_curve` builds it)."""
+    x = np.asarray(speeds, dtype=np.float64)
+    shapes = (
+        stribeck_shape(x, curve.velocity[0], curve.exponent[0]),
+        stribeck_shape(x, curve.velocity[1], curve.exponent[1]),
+    )
+    return curve_precision(precision, 0, len(speeds), shapes, SPREAD * max(level, 1e-12))
 
 
 def determined_speed(

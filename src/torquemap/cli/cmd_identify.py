@@ -113,6 +113,14 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         "passes the table follows a Stribeck shape rather than a line in log speed "
         "(docs/identification.md)",
     )
+    p.add_argument(
+        "--choose-prior",
+        action="store_true",
+        help="--friction whole: per direction, take the friction table's prior centred on a "
+        "Stribeck curve (--stribeck-prior) only where its fit predicts the log's rows that "
+        "neither fit saw (ramps and reversals below half the slowest pass) better than the "
+        "smoothness prior's (docs/identification.md)",
+    )
     add_window_argument(p, default=0.05)
     p.set_defaults(handler=_identify)
 
@@ -244,7 +252,7 @@ def _identify_logs(args: argparse.Namespace) -> int:
                 window=args.window,
                 friction=args.friction,
                 low_speed_rows=args.low_speed_rows,
-                stribeck_prior=args.stribeck_prior or None,
+                stribeck_prior="select" if args.choose_prior else args.stribeck_prior or None,
             ),
         )
     except InputError as exc:
