@@ -67,7 +67,9 @@ def test_a_stribeck_drop_below_the_slowest_pass_takes_the_curve() -> None:
     # (within 3.4 %). With the slowest pass left out, the curve predicts it better in both
     # directions, so the choice takes it
     log = simulate(law=DROP, ramp=0.03, speeds=(0.75, 1.25, 2.1, 3.5, 6.0), noise=0.002)
-    plain = identify_model(robot(), [log], max_order=20, friction="whole").model
+    plain = identify_model(
+        robot(), [log], max_order=20, friction="whole", stribeck_prior=False
+    ).model
     chosen = identify_model(
         robot(), [log], max_order=20, friction="whole", stribeck_prior="select"
     ).model
@@ -88,7 +90,9 @@ def test_a_law_rising_towards_rest_keeps_the_smoothness_prior() -> None:
     # model is the default one, number for number
     law = RisingToRest()
     log = simulate(law=law, ramp=0.03, speeds=(1.0, 2.0, 4.0, 8.0))
-    plain = identify_model(robot(), [log], max_order=20, friction="whole").model
+    plain = identify_model(
+        robot(), [log], max_order=20, friction="whole", stribeck_prior=False
+    ).model
     forced = identify_model(
         robot(), [log], max_order=20, friction="whole", stribeck_prior=True
     ).model
@@ -106,8 +110,8 @@ def test_a_law_rising_towards_rest_keeps_the_smoothness_prior() -> None:
 
 
 def test_identify_choose_prior_option_reaches_the_fit(tmp_path) -> None:  # type: ignore[no-untyped-def]
-    # `identify --choose-prior` is the keyword stribeck_prior="select": the model file records
-    # the choice only with the flag
+    # `identify` chooses by default (stribeck_prior="select", as `--choose-prior`): the model
+    # file records the choice; `--no-choose-prior` keeps the smoothness prior and records none
     from torquemap.cli.main import main
     from torquemap.io import write_table, write_toml
     from torquemap.model import load_model
@@ -119,10 +123,11 @@ def test_identify_choose_prior_option_reaches_the_fit(tmp_path) -> None:  # type
     robot_file = {"robot": {"name": "motor", "kinematics": "none"}, "joints": {"m": joint}}
     write_toml(tmp_path / "robot.toml", robot_file)
     seen = {}
-    for key, extra in enumerate(([], ["--choose-prior"])):
+    for key, extra in enumerate((["--no-choose-prior"], ["--choose-prior"], [])):
         out = tmp_path / f"m{key}.toml"
         argv = [str(tmp_path / "robot.toml"), str(tmp_path / "sweep.csv"), "-o", str(out)]
         assert main(["--quiet", "identify", *argv, "--max-order", "20", *extra]) == 0
         seen[key] = load_model(out).notes["joints"]["m"]
     assert "prior_choice" not in seen[0]
     assert seen[1]["prior_choice"]["curved"] == [True, True]
+    assert seen[2] == seen[1]

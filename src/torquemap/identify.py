@@ -1067,9 +1067,9 @@ def identify_model(
     stribeck_prior
         ``friction="whole"``: centre the friction table's smoothness prior on a generalized
         Stribeck curve per direction (:mod:`torquemap.friction_prior`). ``"select"``: per
-        direction, only where that fit predicts the rows neither fit saw better
-        (:mod:`torquemap.prior_choice`). None: :data:`torquemap.identify_whole.STRIBECK_PRIOR`
-        (off).
+        direction, only where, with the slowest steady pass left out, that fit predicts the
+        pass better (:mod:`torquemap.prior_choice`). None:
+        :data:`torquemap.identify_whole.STRIBECK_PRIOR` (``"select"``).
 
     Returns
     -------

@@ -170,8 +170,12 @@ LOW_SPEED_SPREAD = KNOT_RATIO**2
 #: table; random robot 1: ramp rows pulled the inertia by 2 standard errors).
 LOW_SPEED_INERTIAL = 0.1
 #: Whether the table's smoothness prior is centred on a generalized Stribeck curve per
-#: direction (:mod:`torquemap.friction_prior`) rather than on ``a + b log s``.
-STRIBECK_PRIOR = False
+#: direction (:mod:`torquemap.friction_prior`) rather than on ``a + b log s``: True, False, or
+#: ``"select"`` (the default since stop 39): per direction, the curve only where, with the
+#: slowest steady pass left out, its fit predicts that pass better (:mod:`torquemap.prior_choice`;
+#: the family's held-out robots 281-300 median 1.789x -> 1.484x the oracle, dev 261-280 worst
+#: 16.03x -> 12.22x, the paper's bench 2.79 -> 2.80 % of 3.5 N; docs/identification.md).
+STRIBECK_PRIOR: bool | Literal["select"] = "select"
 #: Whether a direction whose prior is centred on a Stribeck curve is still redrawn between
 #: passes far apart (:data:`BETWEEN_PASSES`). True: the table is the mean of the fit's knots,
 #: which follow the curve, and the redrawn ones (the paper's bench, a dip between passes at 1.5
@@ -1119,7 +1123,7 @@ def fit_joint_whole(
         as before unless :data:`REDRAW_CURVED` is off). ``"select"``: per direction, the
         curve-centred prior only where, with the slowest pass left out, its fit predicts that
         pass better (:mod:`torquemap.prior_choice`, :func:`_choose_prior_slowest`). None:
-        :data:`STRIBECK_PRIOR` (off).
+        :data:`STRIBECK_PRIOR` (``"select"``).
 
     Returns
     -------

@@ -115,11 +115,13 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
     )
     p.add_argument(
         "--choose-prior",
-        action="store_true",
+        action=argparse.BooleanOptionalAction,
+        default=None,
         help="--friction whole: per direction, take the friction table's prior centred on a "
-        "Stribeck curve (--stribeck-prior) only where its fit predicts the log's rows that "
-        "neither fit saw (ramps and reversals below half the slowest pass) better than the "
-        "smoothness prior's (docs/identification.md)",
+        "Stribeck curve (--stribeck-prior) only where, with the slowest steady pass left out, "
+        "its fit predicts that pass better than the smoothness prior's (the default since "
+        "stop 39); --no-choose-prior keeps the smoothness prior everywhere, as before "
+        "(docs/identification.md)",
     )
     add_window_argument(p, default=0.05)
     p.set_defaults(handler=_identify)
@@ -252,7 +254,7 @@ def _identify_logs(args: argparse.Namespace) -> int:
                 window=args.window,
                 friction=args.friction,
                 low_speed_rows=args.low_speed_rows,
-                stribeck_prior="select" if args.choose_prior else args.stribeck_prior or None,
+                stribeck_prior=_prior_choice(args.stribeck_prior, args.choose_prior),
             ),
         )
     except InputError as exc:
@@ -288,6 +290,20 @@ def _identify_logs(args: argparse.Namespace) -> int:
         )
     print(f"wrote {args.output}")
     return 0
+
+
+def _prior_choice(curve: bool, choose: bool | None) -> bool | Literal["select"] | None:
+    """The whole fit's ``stribeck_prior`` from ``--stribeck-prior`` and ``--[no-]choose-prior``.
+
+    ``--stribeck-prior`` centres every direction's prior on the curve (True); otherwise
+    ``--choose-prior`` chooses per direction (``"select"``), ``--no-choose-prior`` keeps the
+    smoothness prior (False), and neither leaves the module's default (None).
+    """
+    if curve:
+        return True
+    if choose is None:
+        return None
+    return "select" if choose else False
 
 
 def _holds_only(model: Any, logs: list[Any]) -> bool:
