@@ -24,6 +24,7 @@ from torquemap.log_quirks import (
     backwards_time_hint,
     cell_hint,
     decimal_comma_rows,
+    epoch_time_hint,
     register_overflow,
 )
 from torquemap.robot import Robot
@@ -496,9 +497,10 @@ def numeric_column(
     if bad.any():
         row = int(np.argmax(bad))
         suffix = f" {unit}" if unit else ""
+        hint = epoch_time_hint(float(values[row])) if unit == "s" else ""
         raise InputError(
             f"column {name!r} value {values[row]:.6g}{suffix} at data row {first_row + row + 1} is "
-            f"beyond +-{limit:g}{suffix}",
+            f"beyond +-{limit:g}{suffix}{hint}",
             path=path,
         )
     return values

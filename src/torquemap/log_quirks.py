@@ -389,6 +389,40 @@ def cell_hint(cell: object, data_row: int) -> str:
     return ""
 
 
+#: Ticks [s] in which loggers write Unix time stamps as integers, with their names.
+EPOCH_TICKS = ((1e-3, "milliseconds"), (1e-6, "microseconds"), (1e-9, "nanoseconds"))
+#: Unix time [s] a stamp read in one of :data:`EPOCH_TICKS` must land in to be taken for one:
+#: 2001-09-09 to 2286-11-20.
+EPOCH_SECONDS = (1e9, 1e10)
+
+
+def epoch_time_hint(value: float) -> str:
+    """What a time stamp ``value`` beyond the log's time limit is, as ``": ..."``, or "".
+
+    A stamp that, read as milliseconds, microseconds or nanoseconds, falls in Unix time
+    (:data:`EPOCH_SECONDS`) is one: ROS and most loggers write ``t`` as integer nanoseconds
+    since 1970. Before (new-user QA, stop 39): "column 't' value 1.7643e+18 s at data row 1
+    is beyond +-1e+10 s" alone.
+
+    Examples
+    --------
+    >>> epoch_time_hint(1.7643e18)
+    ': Unix time in nanoseconds? write t in seconds (divide it by 1e+09), or from the first stamp'
+    >>> epoch_time_hint(1.7643e12)[:34]
+    ': Unix time in milliseconds? write'
+    >>> epoch_time_hint(1e29)
+    ''
+    """
+    lo, hi = EPOCH_SECONDS
+    for tick, name in EPOCH_TICKS:
+        if lo <= abs(value) * tick <= hi:
+            return (
+                f": Unix time in {name}? write t in seconds (divide it by {1 / tick:g}), or "
+                "from the first stamp"
+            )
+    return ""
+
+
 def decimal_comma_rows(line: str, header: str) -> bool:
     """Whether a CSV data ``line`` holds more commas than its comma-separated ``header``
     because its numbers have decimal commas (``0,0025,-0,168`` under ``t,q_a``).
