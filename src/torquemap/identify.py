@@ -40,7 +40,7 @@ from torquemap.friction import (
     segment_motion,
 )
 from torquemap.io import Log
-from torquemap.log_quirks import check_angle_units
+from torquemap.log_quirks import check_angle_units, check_pass_torques
 from torquemap.model import (
     InertiaModel,
     JointModel,
@@ -1125,6 +1125,11 @@ def identify_model(
         derivatives=derivs,
         check=friction == "passes",
     )
+    one = logs[0].path if len(logs) == 1 else None
+    signs = check_pass_torques(
+        [(name, [p for _, p in j.passes]) for name, j in base.joints.items()], rb, path=one
+    )
+    cleaning += [f"{one}: {w}" if one else w for w in signs]
     quanta = {j.name: _motor_quantum(pieces, j.gear_ratio, k) for k, j in enumerate(rb.joints)}
     joint_notes = base.model.notes.get("joints", {})
     for name, entry in joint_notes.items():

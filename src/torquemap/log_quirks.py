@@ -24,6 +24,7 @@ from torquemap.errors import InputError
 from torquemap.robot import Robot
 
 if TYPE_CHECKING:
+    from torquemap.friction import Pass
     from torquemap.io import Log
 
 #: Widths [bits] of the count registers drives and encoder interfaces keep: 16-bit timers in
@@ -223,6 +224,102 @@ def check_angle_units(logs: Sequence[Log], robot: Robot) -> None:
                     f"{hint}",
                     path=log.path,
                 )
+
+
+#: Current [A] a joint's steady no-load passes may need (median over the passes) before
+#: identification asks whether the log is in mA: a motor's no-load friction current is a few
+#: per cent of its rating, and 50 A is that of a motor of kiloamperes.
+NO_LOAD_CURRENT = 50.0
+#: How many standard errors of the passes' mean below zero the torque that passes dissipate
+#: must be before it is taken to oppose the motion.
+OPPOSING_T = 3.0
+
+
+def check_pass_torques(
+    passes: Sequence[tuple[str, Sequence[Pass]]], robot: Robot, *, path: str | None = None
+) -> list[str]:
+    """Refuse no-load sweeps whose motor torque drives the motion instead of holding it back,
+    and warn where the passes' current is that of no motor at no load.
+
+    ``passes`` holds, per joint name, its steady passes (:class:`torquemap.friction.Pass`,
+    motor side). On each pass friction dissipates: ``mean_torque * sign(speed) > 0``. A
+    constant load (a spring, a weight) shifts both directions' torque alike, so it can make
+    one direction's negative, never both: where every pass of both directions has the torque
+    with the motion against it, significantly (the mean of ``mean_torque * sign(speed)`` at
+    least :data:`OPPOSING_T` standard errors below 0), the current's sign is flipped against
+    the angle (a motor wired or geared against its encoder): refused. Swept one way only, the
+    same is a warning (a load driving the joint looks alike). Before (new-user QA, stop 39):
+    the real ODrive sweep with its current negated gave exit 0, friction clipped to 0 (pass
+    method) or held at 0 with a warning about loads (whole fit), and an anti-cogging map
+    correlating -0.976 with the measured one: a table that doubles the cogging.
+
+    A median pass torque beyond :data:`NO_LOAD_CURRENT` times the torque constant is warned
+    (the current in mA: exit 0, 13 N m of friction on a 0.04 N m/A hobby motor, before).
+
+    Parameters
+    ----------
+    passes
+        ``(joint name, passes)`` per joint.
+    robot
+        The robot file (torque constants).
+    path
+        The log, for messages (None: several logs).
+
+    Returns
+    -------
+    list of str
+        Warnings, one line each.
+
+    Raises
+    ------
+    InputError
+        Where both directions' passes have the torque opposing the motion.
+    """
+    constants = {j.name: j.torque_constant for j in robot.joints}
+    out: list[str] = []
+    for name, joint_passes in passes:
+        if not joint_passes:
+            continue
+        speed = np.array([p.speed for p in joint_passes], dtype=np.float64)
+        torque = np.array([p.mean_torque for p in joint_passes], dtype=np.float64)
+        held = torque * np.sign(speed)  # what friction dissipates: > 0 at no load
+        n = held.size
+        spread = float(np.std(held, ddof=1)) if n > 1 else 0.0
+        significant = n == 1 or float(np.mean(held)) < -OPPOSING_T * spread / math.sqrt(n)
+        directions = {bool(v > 0) for v in speed}
+        level = float(np.median(np.abs(torque)))
+        if bool(np.all(held < 0)) and significant:
+            where = ", ".join(
+                f"{float(np.median(torque[(speed > 0) == up])):+.4g} N m at "
+                f"{'+' if up else '-'}{float(np.median(np.abs(speed[(speed > 0) == up]))):.3g} rad/s"
+                for up in (True, False)
+                if up in directions
+            )
+            if len(directions) == 2:
+                raise InputError(
+                    f"joint {name}: in every steady pass of the no-load sweeps the motor torque "
+                    f"has the sign of the motion's opposite ({where} in the median): friction "
+                    f"would be negative, which no load explains; the current's sign is flipped "
+                    f"against q_{name} (a motor wired or geared against its encoder): negate "
+                    f"i_{name} (or tau_{name}) in the logs (docs/formats.md)",
+                    path=path,
+                )
+            out.append(
+                f"joint {name}: in every steady pass the motor torque opposes the motion "
+                f"({where} in the median; swept in one direction only): a load driving the "
+                f"joint, or the current's sign flipped against q_{name}? With no load on it, "
+                f"negate i_{name} (or tau_{name}): read as it is, its friction, inertia and "
+                "PDTV come out inverted"
+            )
+        kt = constants.get(name)
+        if kt and level > NO_LOAD_CURRENT * kt:
+            out.append(
+                f"joint {name}: its steady no-load passes need {level / kt:.3g} A in the median "
+                f"({level:.3g} N m over the torque constant {kt:g} N m/A), more than any motor "
+                f"draws with no load: is i_{name} in mA (or tau_{name} in N mm)? torquemap "
+                "reads A and N m; friction and PDTV are as much too large"
+            )
+    return out
 
 
 #: Time stamp counters: (bits, tick [s], name). A counter of ``bits`` bits that counts ticks

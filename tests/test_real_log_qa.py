@@ -1,0 +1,94 @@
+"""A new user's loop on real logs, broken as loggers break them (new-user QA, stop 39;
+docs/safety.md, "Real-log QA").
+
+Each test builds its log here, small and seeded, and asserts one independent fact: the exact
+refusal or warning, or that a clean log draws none.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from torquemap.errors import InputError
+from torquemap.identify import identify_model
+from torquemap.io import log_from_columns
+from torquemap.robot import Joint, Robot
+
+#: One motor, no gear, 0.1 N m/A.
+ONE = Robot(name="m", kinematics="none", link_lengths=(), joints=(Joint("m", 1.0, 0.1),))
+
+
+def _sweep(
+    speeds: tuple[float, ...] = (2.0, -2.0, 5.0, -5.0), seed: int = 0
+) -> dict[str, np.ndarray]:
+    """No-load sweeps at 1 kHz, two motor turns a pass: friction 20 mN m + 1 mN m s/rad, a
+    3 CPR line of 5 mN m, inertia 2e-4 kg m^2, noise 0.5 mN m; current in A."""
+    rate = 1000.0
+    rng = np.random.default_rng(seed)
+    v = [np.zeros(200)]
+    for s in speeds:
+        ramp = np.linspace(0.0, s, 200)
+        v += [ramp, np.full(int(4 * math.pi / abs(s) * rate), s), ramp[::-1], np.zeros(200)]
+    w = np.concatenate(v)
+    t = np.arange(w.size) / rate
+    angle = np.cumsum(w) / rate
+    tau = 2e-4 * np.gradient(w, t) + np.tanh(w / 0.05) * (0.02 + 0.001 * np.abs(w))
+    tau += 0.005 * np.sin(3 * angle) + 0.0005 * rng.standard_normal(w.size)
+    return {"t": t, "q_m": angle, "i_m": tau / 0.1}
+
+
+def _identify(cols: dict[str, np.ndarray]) -> tuple[str, ...]:
+    return identify_model(ONE, [log_from_columns(cols, ONE, path="sweep.csv")]).warnings
+
+
+def test_a_clean_sweep_draws_no_sign_or_unit_warning() -> None:
+    assert not [w for w in _identify(_sweep()) if "opposes" in w or " A in the median" in w]
+
+
+def test_a_current_of_the_wrong_sign_is_refused() -> None:
+    # Before (stop 39): exit 0, friction held at 0 and a warning blaming a load; the paper
+    # bench's sweep with i_a negated gave forces of 68 N median on the 3.5 N circle, and the
+    # real ODrive sweep negated an anti-cogging map correlating -0.976 with the measured one.
+    cols = _sweep()
+    cols["i_m"] = -cols["i_m"]
+    with pytest.raises(
+        InputError,
+        match=(
+            r"^sweep.csv: joint m: in every steady pass of the no-load sweeps the motor torque "
+            r"has the sign of the motion's opposite \(-0.02\d+ N m at \+3.5 rad/s, \+0.02\d+ N "
+            r"m at -3.5 rad/s in the median\): .* negate i_m"
+        ),
+    ):
+        _identify(cols)
+
+
+def test_a_constant_load_larger_than_friction_is_not_taken_for_a_wrong_sign() -> None:
+    # 30 mN m pulling positive: the negative passes' torque has the motion's sign (+10 mN m
+    # against -5 rad/s), the positive passes' does not; a load cannot flip both directions.
+    cols = _sweep()
+    cols["i_m"] = cols["i_m"] + 0.03 / 0.1
+    assert not [w for w in _identify(cols) if "opposes" in w]
+
+
+def test_a_one_way_sweep_of_the_wrong_sign_is_warned() -> None:
+    # One direction only: a load driving the joint looks alike, so a warning, not a refusal.
+    cols = _sweep((2.0, 5.0))
+    cols["i_m"] = -cols["i_m"]
+    said = [w for w in _identify(cols) if "opposes the motion" in w]
+    assert len(said) == 1
+    assert said[0].startswith("sweep.csv: joint m: in every steady pass the motor torque opposes")
+    assert "negate i_m" in said[0]
+
+
+def test_a_current_in_milliamperes_is_warned() -> None:
+    # Before (stop 39): the real ODrive sweep in mA identified 13 N m of friction on a
+    # 0.04 N m/A hobby motor, no word; its median pass needs 0.2 A here, 200 in mA.
+    cols = _sweep()
+    assert not [w for w in _identify(cols) if " A in the median" in w]
+    cols["i_m"] = cols["i_m"] * 1000.0
+    said = [w for w in _identify(cols) if " A in the median" in w]
+    assert len(said) == 1
+    assert "is i_m in mA (or tau_m in N mm)?" in said[0]
