@@ -92,3 +92,41 @@ def test_a_current_in_milliamperes_is_warned() -> None:
     said = [w for w in _identify(cols) if " A in the median" in w]
     assert len(said) == 1
     assert "is i_m in mA (or tau_m in N mm)?" in said[0]
+
+
+def _model_document(**joint: object) -> dict[str, object]:
+    spec = {"gear_ratio": 1.0, "torque_constant": 0.04, **joint}
+    return {
+        "robot": {"kinematics": "none"},
+        "joints": {"a": spec},
+        "identification": {"joints": {"a": {"passes": 1, "friction_fit": "whole"}}},
+    }
+
+
+@pytest.mark.parametrize("table", ["friction", "inertia"])
+def test_a_model_missing_an_identified_table_is_refused(table: str) -> None:
+    # Before (stop 39): the real ODrive sweep's model with [joints.a.friction] deleted gave
+    # exit 0, every sample sound, tau_ext_a off by the friction (RMS 13.4 mN m, 1.7 clean).
+    from torquemap.model import model_from_dict
+
+    tables = {
+        "friction": {"coulomb_positive": 0.013, "coulomb_negative": 0.013},
+        "inertia": {"constant": 1e-5},
+    }
+    model_from_dict(_model_document(**tables), path="model.toml")  # whole: fine
+    del tables[table]
+    with pytest.raises(
+        InputError,
+        match=(
+            rf"^model.toml: \[joints.a.{table}\] missing, though \[identification.joints.a\] "
+            r"says the joint was identified: deleted or renamed by hand\?"
+        ),
+    ):
+        model_from_dict(_model_document(**tables), path="model.toml")
+    # a robot file as a model, or a joint identification never moved, reads as no friction
+    document = _model_document()
+    del document["identification"]
+    assert model_from_dict(document).joints["a"].friction.torque(1.0) == 0.0
+    document = _model_document()
+    document["identification"] = {"joints": {"a": {"passes": 0, "friction_fit": "passes"}}}
+    assert model_from_dict(document).joints["a"].friction.torque(1.0) == 0.0
