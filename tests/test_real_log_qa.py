@@ -130,3 +130,23 @@ def test_a_model_missing_an_identified_table_is_refused(table: str) -> None:
     document = _model_document()
     document["identification"] = {"joints": {"a": {"passes": 0, "friction_fit": "passes"}}}
     assert model_from_dict(document).joints["a"].friction.torque(1.0) == 0.0
+
+
+@pytest.mark.parametrize(
+    ("names", "says"),
+    [
+        # before: "the log's joints (a_deg) are not the robot's (a): a log from another robot?"
+        (("t", "q_m_deg", "i_m"), r"missing column 'q_m' \(the file has 'q_m_deg': .*; its values in deg must be in rad too\)"),
+        # before: "... (the file has t, q_m, i_m_mA)"
+        (("t", "q_m", "i_m_mA"), r"missing column 'i_m' or 'tau_m' .*'i_m_mA': .*; its values in mA must be in A too\)"),
+        (("t_ms", "q_m", "i_m"), r"missing column 't' \(the file has 't_ms': .*; its values in ms must be in s too\)"),
+        # before: "(the file has 't [ms]': names are exact, lower case, no unit)" alone
+        (("t [ms]", "q_m", "i_m"), r"'t \[ms\]': names are exact, lower case, no unit; its values in ms must be in s too\)"),
+        (("t", "q_m [rad]", "i_m"), r"'q_m \[rad\]': names are exact, lower case, no unit\)$"),
+    ],
+)  # fmt: skip
+def test_a_unit_in_a_column_name_is_named(names: tuple[str, ...], says: str) -> None:
+    cols = _sweep()
+    renamed = dict(zip(names, (cols["t"], cols["q_m"], cols["i_m"]), strict=True))
+    with pytest.raises(InputError, match=says):
+        log_from_columns(renamed, ONE, path="sweep.csv")

@@ -361,12 +361,64 @@ def _is_number_text(value: object) -> bool:
     return True
 
 
+#: Units a logger may append to a column name (``q_a_deg``, ``i_a_mA``, ``t_ms``), lower case,
+#: and what torquemap reads instead where it is another (SI units: nothing to convert).
+NAME_UNITS = {
+    "s": "",
+    "sec": "",
+    "ms": "s",
+    "us": "s",
+    "ns": "s",
+    "rad": "",
+    "deg": "rad",
+    "degrees": "rad",
+    "counts": "rad (or position_unit = 'counts' in the robot file)",
+    "cnt": "rad (or position_unit = 'counts' in the robot file)",
+    "turns": "rad (or position_unit = 'turns' in the robot file)",
+    "rev": "rad (or position_unit = 'turns' in the robot file)",
+    "a": "",
+    "amps": "",
+    "ma": "A",
+    "nm": "",
+    "n_m": "",
+    "nmm": "N m",
+}
+_NAME_UNIT = re.compile(r"[_ ](" + "|".join(sorted(NAME_UNITS, key=len, reverse=True)) + r")$")
+_BRACKETED = re.compile(r"\s*[\[(](.*?)[\])]\s*")
+
+
 def near_miss(name: str, present: Sequence[str]) -> str | None:
-    """The column of ``present`` that is ``name`` but for case, spaces or a unit, else None."""
+    """The column of ``present`` that is ``name`` but for case, spaces or a unit (in brackets,
+    or appended: ``q_a_deg``, ``i_a_mA``), else None."""
     for c in present:
-        if re.sub(r"\s*[\[(].*?[\])]\s*", "", str(c)).strip().lower() == name.lower():
+        bare = _BRACKETED.sub("", str(c)).strip().lower()
+        if bare == name.lower() or _NAME_UNIT.sub("", bare) == name.lower():
             return str(c)
     return None
+
+
+def _unit_note(column: str) -> str:
+    """``"; its values in deg must be in rad too"`` for a column name carrying a unit that is
+    not the one torquemap reads, else "".
+
+    Examples
+    --------
+    >>> _unit_note("i_a_mA")
+    '; its values in mA must be in A too'
+    >>> _unit_note("t [ms]")
+    '; its values in ms must be in s too'
+    >>> _unit_note("q_a [rad]")
+    ''
+    """
+    text = str(column).strip()
+    found = _BRACKETED.search(text)
+    unit = found.group(1).strip() if found else ""
+    if not unit:
+        bare = _BRACKETED.sub("", text)
+        suffix = _NAME_UNIT.search(bare.lower())
+        unit = bare[suffix.start(1) :] if suffix else ""
+    target = NAME_UNITS.get(unit.lower().replace(" ", "_"), "")
+    return f"; its values in {unit} must be in {target} too" if target else ""
 
 
 def missing_column_message(name: str, present: Sequence[str]) -> str:
@@ -387,7 +439,10 @@ def missing_column_message(name: str, present: Sequence[str]) -> str:
 
     near = near_miss(name, cols)
     if near is not None:
-        return f"{text} (the file has {near!r}: names are exact, lower case, no unit)"
+        return (
+            f"{text} (the file has {near!r}: names are exact, lower case, no unit"
+            f"{_unit_note(near)})"
+        )
     shown = ", ".join(cols[:8]) + (f", ... ({len(cols)} in all)" if len(cols) > 8 else "")
     return f"{text} (the file has {shown})"
 
@@ -406,7 +461,10 @@ def missing_channel_message(joint: str, present: Sequence[str]) -> str:
     cols = [str(c) for c in present]
     near = near_miss(f"i_{joint}", cols) or near_miss(f"tau_{joint}", cols)
     if near is not None:
-        return f"{text} (the file has {near!r}: names are exact, lower case, no unit)"
+        return (
+            f"{text} (the file has {near!r}: names are exact, lower case, no unit"
+            f"{_unit_note(near)})"
+        )
     shown = ", ".join(cols[:8]) + (f", ... ({len(cols)} in all)" if len(cols) > 8 else "")
     return f"{text} (the file has {shown})"
 
