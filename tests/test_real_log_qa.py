@@ -150,3 +150,25 @@ def test_a_unit_in_a_column_name_is_named(names: tuple[str, ...], says: str) -> 
     renamed = dict(zip(names, (cols["t"], cols["q_m"], cols["i_m"]), strict=True))
     with pytest.raises(InputError, match=says):
         log_from_columns(renamed, ONE, path="sweep.csv")
+
+
+def test_a_torque_constant_edited_after_identification_is_refused() -> None:
+    # Before (stop 39): the ODrive model with torque_constant 0.04 -> 0.4 by hand gave exit 0,
+    # tau_ext_a RMS 0.28 N m on its own sweep (1.7 mN m as identified), no word.
+    from torquemap.model import model_from_dict, model_to_dict
+
+    model = identify_model(ONE, [log_from_columns(_sweep(), ONE, path="sweep.csv")]).model
+    document = model_to_dict(model)
+    assert document["identification"]["joints"]["m"]["torque_constant"] == 0.1
+    model_from_dict(document, path="model.toml")  # as written: fine
+    document["joints"]["m"]["torque_constant"] = 0.4
+    with pytest.raises(
+        InputError,
+        match=(
+            r"^model.toml: \[joints.m\] torque_constant 0.4 N m/A is not the 0.1 N m/A "
+            r"identification read the currents with .* read 4 times as large; identify again"
+        ),
+    ):
+        model_from_dict(document, path="model.toml")
+    del document["identification"]["joints"]["m"]["torque_constant"]  # a model of before
+    assert model_from_dict(document).robot.joints[0].torque_constant == 0.4

@@ -1132,9 +1132,14 @@ def identify_model(
     cleaning += [f"{one}: {w}" if one else w for w in signs]
     quanta = {j.name: _motor_quantum(pieces, j.gear_ratio, k) for k, j in enumerate(rb.joints)}
     joint_notes = base.model.notes.get("joints", {})
+    constants = {j.name: j.torque_constant for j in rb.joints}
     for name, entry in joint_notes.items():
         if isinstance(entry, dict) and quanta.get(name):
             entry["motor_angle_quantum"] = quanta[name]
+        if isinstance(entry, dict) and name in constants:
+            # the N m/A the logs' currents were read with: a model whose constant is edited
+            # later is refused (torquemap.model), its N m being those of this one
+            entry["torque_constant"] = constants[name]
     signals = None
     if friction == "passes":
         warnings = (*cleaning, *base.warnings)
