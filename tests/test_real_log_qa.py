@@ -8,6 +8,7 @@ refusal or warning, or that a clean log draws none.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -172,3 +173,23 @@ def test_a_torque_constant_edited_after_identification_is_refused() -> None:
         model_from_dict(document, path="model.toml")
     del document["identification"]["joints"]["m"]["torque_constant"]  # a model of before
     assert model_from_dict(document).robot.joints[0].torque_constant == 0.4
+
+
+def test_two_logs_joined_in_one_file_are_named(tmp_path: Path) -> None:
+    # Before (stop 39): "time 't' goes backwards (at data row 14733)" alone for the ODrive sweep
+    # appended to itself.
+    from torquemap.io import read_log, write_table
+
+    cols = _sweep()
+    n = cols["t"].size
+    joined = {k: np.concatenate([v, v]) for k, v in cols.items()}
+    p = tmp_path / "joined.csv"
+    write_table(p, joined)
+    with pytest.raises(
+        InputError,
+        match=(
+            rf"goes backwards \(at data row {n + 1}\): t falls by [\d.]+ s \(from [\d.]+ to 0\) "
+            rf"once and runs on: two logs joined .* split it before data row {n + 1} into two logs"
+        ),
+    ):
+        read_log(p, ONE)

@@ -341,9 +341,10 @@ def backwards_time_hint(t: NDArray[np.float64], at: int, *, first_row: int = 0) 
     Recognised: a time stamp counter that wrapped (:data:`TIME_COUNTERS`: ``t`` falls by its
     period less about one step); time stamps of two clocks interleaved, or rows not in time
     order (``t`` goes back on more than one step in a hundred); two rows out of order (swapping
-    them puts ``t`` in order). ``first_row`` is the data row (0-based) of ``t[0]`` in its file.
-    Before (new-user QA, stop 36), each of these was refused as "time 't' goes backwards (at
-    data row 2789)" alone.
+    them puts ``t`` in order); one fall of more than 100 steps (two logs joined, or a logger
+    restarted into the same file: stop 39, before which it was refused with no hint).
+    ``first_row`` is the data row (0-based) of ``t[0]`` in its file. Before (new-user QA, stop
+    36), each of these was refused as "time 't' goes backwards (at data row 2789)" alone.
 
     Examples
     --------
@@ -379,6 +380,13 @@ def backwards_time_hint(t: NDArray[np.float64], at: int, *, first_row: int = 0) 
         return (
             f": data rows {first_row + at + 1} and {first_row + at + 2} are out of order (t "
             f"{t[at]:.10g} then {t[at + 1]:.10g}); sort the rows by t"
+        )
+    if back == 1 and drop > 100.0 * typical:
+        # one fall of many steps, forward before and after: a logger restarted in one file
+        return (
+            f": t falls by {drop:.6g} s (from {t[at]:.10g} to {t[at + 1]:.10g}) once and runs "
+            "on: two logs joined (files appended, or a logger restarted into the same file)? "
+            f"split it before data row {first_row + at + 2} into two logs"
         )
     return ""
 
