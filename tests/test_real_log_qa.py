@@ -193,3 +193,31 @@ def test_two_logs_joined_in_one_file_are_named(tmp_path: Path) -> None:
         ),
     ):
         read_log(p, ONE)
+
+
+@pytest.mark.parametrize(
+    ("table", "listed"),
+    [
+        # before (stop 39): "(allowed: viscous, viscous_negative, zero_velocity)"
+        (
+            {
+                "kind": "speed-table",
+                "speeds": [1.0, 2.0],
+                "positive": [0.01, 0.01],
+                "negative": [0.01, 0.01],
+            },
+            "kind, negative, positive, speeds, viscous, viscous_negative, zero_velocity",
+        ),
+        ({"coulomb_positive": 0.01}, "coulomb_negative, coulomb_positive, kind,"),
+    ],
+)
+def test_an_unknown_friction_key_lists_every_key_the_table_may_hold(
+    table: dict[str, object], listed: str
+) -> None:
+    from torquemap.friction_law import friction_law_from_dict
+
+    friction_law_from_dict(table)  # as written: fine
+    with pytest.raises(
+        InputError, match=rf"^m.toml: unknown key 'foo' in \[f\] \(allowed: {listed}"
+    ):
+        friction_law_from_dict({**table, "foo": 1.0}, where="[f]", path="m.toml")
