@@ -221,3 +221,24 @@ def test_an_unknown_friction_key_lists_every_key_the_table_may_hold(
         InputError, match=rf"^m.toml: unknown key 'foo' in \[f\] \(allowed: {listed}"
     ):
         friction_law_from_dict({**table, "foo": 1.0}, where="[f]", path="m.toml")
+
+
+def test_raw_counts_in_a_robot_file_that_says_rad_are_named() -> None:
+    # Before (stop 39): the real ODrive sweep in whole counts under position_unit = "rad"
+    # was identified at 2130 rad/s with its cogging at 0.0054 CPR (7 / 1304), exit 0.
+    rad = Robot(
+        name="m", kinematics="none", link_lengths=(), joints=(Joint("m", 1.0, 0.1, 8192, "rad"),)
+    )
+    cols = _sweep()
+    cols["q_m"] = np.round(cols["q_m"] * 8192 / (2 * math.pi))
+    with pytest.raises(
+        InputError,
+        match=(
+            r"^sweep.csv: joint m: the log's angle moves in steps of 1304 encoder counts of the "
+            r"robot file \(8192 per motor turn, 1:1\): q_m holds encoder counts, not rad: set "
+            r"position_unit = 'counts' in the robot file$"
+        ),
+    ):
+        identify_model(rad, [log_from_columns(cols, rad, path="sweep.csv")])
+    cols["q_m"] = cols["q_m"] * (2 * math.pi / 8192)  # the same counts in rad: identified
+    identify_model(rad, [log_from_columns(cols, rad, path="sweep.csv")])

@@ -100,7 +100,9 @@ def register_overflow(raw: NDArray[np.float64], cpr: float) -> tuple[int, int] |
 UNIT_MATCH = 0.02
 
 
-def angle_unit_hint(ratio: float, *, gear_ratio: float, column: str) -> str | None:
+def angle_unit_hint(
+    ratio: float, *, gear_ratio: float, column: str, counts_per_rev: float = 0.0
+) -> str | None:
     """What a log's angle holds when its encoder count is ``ratio`` times the robot's, else None.
 
     ``ratio`` is the motor-angle step of one encoder count as the log reads (its angle times
@@ -109,7 +111,10 @@ def angle_unit_hint(ratio: float, *, gear_ratio: float, column: str) -> str | No
     gear_ratio`` for the gear applied twice, ``gear_ratio / 2 pi`` for motor turns (ODrive's
     ``pos_estimate``), ``1 / 2 pi`` for joint turns, ``180 / pi`` for degrees, each within
     :data:`UNIT_MATCH`. Such a log, identified and estimated alike, gave exit 0 and forces 35 to
-    39 N off (random SCARA 7, 1.2 N clean; new-user QA, stop 36).
+    39 N off (random SCARA 7, 1.2 N clean; new-user QA, stop 36). With ``counts_per_rev``
+    (the robot file's ``encoder_counts_per_rev``), also ``gear_ratio * counts_per_rev / 2 pi``:
+    raw encoder counts in a robot file that says rad (before, stop 39: the real ODrive sweep in
+    whole counts was identified at 2130 rad/s, its cogging at 0.0054 CPR, exit 0).
 
     Examples
     --------
@@ -117,6 +122,8 @@ def angle_unit_hint(ratio: float, *, gear_ratio: float, column: str) -> str | No
     'q_a holds the motor angle, not the joint angle'
     >>> angle_unit_hint(1.0, gear_ratio=46.2, column="q_a") is None
     True
+    >>> angle_unit_hint(8192 / (2 * np.pi), gear_ratio=1.0, column="q_a", counts_per_rev=8192)
+    "q_a holds encoder counts, not rad: set position_unit = 'counts' in the robot file"
     """
     n = float(gear_ratio)
     deg = 180.0 / np.pi
@@ -128,9 +135,10 @@ def angle_unit_hint(ratio: float, *, gear_ratio: float, column: str) -> str | No
         (1.0 / turn, f"{column} holds joint turns, not rad: multiply it by 2 pi"),
         (deg, f"{column} holds degrees, not rad: convert it to rad"),
         (n * deg, f"{column} holds the motor angle in degrees, not the joint angle in rad"),
+        (n * counts_per_rev / turn, f"{column} holds encoder counts, not rad: set position_unit = 'counts' in the robot file"),
     )  # fmt: skip
     for value, text in candidates:
-        if value != 1.0 and abs(ratio / value - 1.0) < UNIT_MATCH:
+        if value > 0 and value != 1.0 and abs(ratio / value - 1.0) < UNIT_MATCH:
             return text
     return None
 
@@ -216,7 +224,9 @@ def check_angle_units(logs: Sequence[Log], robot: Robot) -> None:
             if not quantum:
                 continue
             ratio = quantum / (2.0 * math.pi / cpr)
-            hint = angle_unit_hint(ratio, gear_ratio=joint.gear_ratio, column=f"q_{joint.name}")
+            hint = angle_unit_hint(
+                ratio, gear_ratio=joint.gear_ratio, column=f"q_{joint.name}", counts_per_rev=cpr
+            )
             if hint is not None:
                 raise InputError(
                     f"joint {joint.name}: the log's angle moves in steps of {ratio:.4g} encoder "
