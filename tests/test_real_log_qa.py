@@ -242,3 +242,19 @@ def test_raw_counts_in_a_robot_file_that_says_rad_are_named() -> None:
         identify_model(rad, [log_from_columns(cols, rad, path="sweep.csv")])
     cols["q_m"] = cols["q_m"] * (2 * math.pi / 8192)  # the same counts in rad: identified
     identify_model(rad, [log_from_columns(cols, rad, path="sweep.csv")])
+
+
+def test_unix_seconds_written_with_too_few_digits_are_named() -> None:
+    # Before (stop 39): Unix seconds through "%.10g" (whole seconds) were refused with "no
+    # stretch of the log between gaps ... record without gaps longer than 0.125 s" alone.
+    cols = _sweep()
+    cols["t"] = np.array([float(f"{1_764_300_000.0 + x:.10g}") for x in cols["t"]])
+    with pytest.raises(
+        InputError,
+        match=(
+            r"^sweep.csv: no stretch of the log .* \(t repeats the previous stamp on 9\d.\d% of "
+            r"its steps and advances in steps of 1 s: 't' was written with too few digits; "
+            r"write t with all its digits"
+        ),
+    ):
+        _identify(cols)
