@@ -258,3 +258,31 @@ def test_unix_seconds_written_with_too_few_digits_are_named() -> None:
         ),
     ):
         _identify(cols)
+
+
+def test_a_burst_of_missed_reads_says_what_to_do(tmp_path: Path) -> None:
+    # Before (stop 39): "column 'q_m' holds NaN or inf (first at data row 1001)" alone; the
+    # rows deleted, the gap they leave is cut and flagged (checked here too).
+    from torquemap.io import iter_log_chunks, read_log, write_table
+
+    cols = _sweep()
+    cols["q_m"] = cols["q_m"].copy()
+    cols["q_m"][1000:1200] = np.nan
+    said = (
+        r"column 'q_m' holds NaN or inf \(first at data row 1001, 200 rows in all\): empty "
+        r"cells or a logger's missed reads\? delete those rows \(a gap in time is cut and "
+        r"flagged, not refused\)$"
+    )
+    p = tmp_path / "log.csv"
+    write_table(p, cols)
+    with pytest.raises(InputError, match=said):
+        read_log(p, ONE)
+    q = tmp_path / "log.parquet"  # estimate's block reader: the same words
+    write_table(q, cols)
+    with pytest.raises(InputError, match=said):
+        list(iter_log_chunks(q, ONE, rows=700))
+    keep = np.isfinite(cols["q_m"])
+    log = log_from_columns({k: v[keep] for k, v in cols.items()}, ONE)
+    from torquemap.sanitize import sanitize_log
+
+    assert len(sanitize_log(log, window=0.05).pieces) == 2  # cut at the 0.2 s gap

@@ -477,6 +477,7 @@ def numeric_column(
     max_abs: float | None = None,
     unit: str = "",
     first_row: int = 0,
+    nan_hint: str = "",
 ) -> NDArray[np.float64]:
     """Column ``name`` as finite float64; InputError naming the column and the first bad row.
 
@@ -496,6 +497,8 @@ def numeric_column(
     first_row
         Data row (0-based) of the column's first value in its file, for the messages of a
         file read in chunks.
+    nan_hint
+        Added to the message on NaN or inf (a log's: what to do with a logger's missed reads).
 
     Raises
     ------
@@ -547,8 +550,12 @@ def numeric_column(
     bad = ~np.isfinite(values)
     if bad.any():
         row = int(np.argmax(bad))
+        count = int(np.count_nonzero(bad))
+        more = f", {count} rows in all" if count > 1 else ""
         raise InputError(
-            f"column {name!r} holds NaN or inf (first at data row {first_row + row + 1})", path=path
+            f"column {name!r} holds NaN or inf (first at data row {first_row + row + 1}{more})"
+            f"{nan_hint}",
+            path=path,
         )
     limit = MAX_MAGNITUDE if max_abs is None else max_abs
     bad = np.abs(values) > limit
@@ -904,6 +911,14 @@ def single_turn_wrap(raw: NDArray[np.float64], cpr: float) -> int | None:
     return int(jumps[0]) + 1 if jumps.size else None
 
 
+#: What a log's NaN refusal adds: a logger's missed reads are rows to delete, and the gap they
+#: leave is cut and flagged, not refused (before, stop 39: the refusal named the row alone).
+LOG_NAN_HINT = (
+    ": empty cells or a logger's missed reads? delete those rows (a gap in time is cut and "
+    "flagged, not refused)"
+)
+
+
 def _log_arrays(
     cols: Columns,
     robot: Robot,
@@ -922,7 +937,9 @@ def _log_arrays(
     whole file. ``whole``: the columns are the whole log (its time is checked here; a chunk's
     is checked by its reader, across chunks).
     """
-    t = numeric_column(cols, "t", p, max_abs=MAX_TIME, unit="s", first_row=first_row)
+    t = numeric_column(
+        cols, "t", p, max_abs=MAX_TIME, unit="s", first_row=first_row, nan_hint=LOG_NAN_HINT
+    )
     if whole:
         check_time(t, p)
     missing = [j.name for j in robot.joints if f"q_{j.name}" not in cols]
@@ -941,7 +958,9 @@ def _log_arrays(
     tau = np.empty_like(q)
 
     def column(name: str, *, max_abs: float = MAX_MAGNITUDE, unit: str = "") -> NDArray[np.float64]:
-        values = numeric_column(cols, name, p, max_abs=max_abs, unit=unit, first_row=first_row)
+        values = numeric_column(
+            cols, name, p, max_abs=max_abs, unit=unit, first_row=first_row, nan_hint=LOG_NAN_HINT
+        )
         if values.shape != t.shape:
             raise InputError(
                 f"column {name!r} has shape {values.shape}, 't' has ({t.size},)", path=p
