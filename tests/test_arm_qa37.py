@@ -293,3 +293,17 @@ def test_swapped_columns_of_a_seven_axis_arm_are_warned(panda: dict[str, object]
         path="sim.csv",
     )
     assert any(said in w for w in estimate_arm(model, swapped).warnings)
+
+
+def test_a_flipped_current_on_an_arm_is_refused_naming_the_log() -> None:
+    """The elbow's current logged with its sign flipped: refused, naming the log (before, stop
+    39: no file named) and the flipped sign as a cause."""
+    import dataclasses
+
+    arm = _arm()
+    free, _ = _simulate(arm, 1, gear=GEAR, coulomb=COULOMB)
+    flipped = dataclasses.replace(free, motor_torque=free.motor_torque * np.array([1.0, -1.0]))
+    with pytest.raises(InputError, match="negative in both directions") as caught:
+        _identified(arm, GEAR, flipped)
+    assert str(caught.value).startswith("sim.csv: joint ")
+    assert "a current logged with its sign flipped against the joint's angle" in str(caught.value)
