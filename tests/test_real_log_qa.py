@@ -286,3 +286,17 @@ def test_a_burst_of_missed_reads_says_what_to_do(tmp_path: Path) -> None:
     from torquemap.sanitize import sanitize_log
 
     assert len(sanitize_log(log, window=0.05).pieces) == 2  # cut at the 0.2 s gap
+
+
+def test_a_log_too_short_without_a_gap_is_not_told_to_avoid_gaps() -> None:
+    # Before (stop 39): a 0.149 s free-motion log of a two-link arm (identification asks 4
+    # windows) was told "record without gaps longer than 0.125 s"; it holds no gap.
+    from torquemap.sanitize import no_stretch_message
+
+    said = no_stretch_message(np.arange(150) * 1e-3, 0.05)
+    assert said == (
+        "no stretch of the log between gaps in time lasts the 0.05 s differentiator window: "
+        "the log lasts 0.149 s in all, without a gap; record a longer motion"
+    )
+    gapped = np.r_[np.arange(40) * 1e-3, 1.0 + np.arange(40) * 1e-3]  # 1 s gap: as before
+    assert no_stretch_message(gapped, 0.05).endswith("record without gaps longer than 0.125 s")

@@ -342,11 +342,17 @@ def no_stretch_message(t: NDArray[np.float64], window: float) -> str:
     refusal said only "record without gaps").
     """
     limit = max_gap_for(window)
-    text = (
-        f"no stretch of the log between gaps in time lasts the {window:.3g} s differentiator "
-        f"window; record without gaps longer than {limit:.3g} s"
+    head = (
+        f"no stretch of the log between gaps in time lasts the {window:.3g} s differentiator window"
     )
+    text = f"{head}; record without gaps longer than {limit:.3g} s"
     steps = np.diff(t)
+    if steps.size and float(np.max(steps)) <= limit:
+        # no gap at all: the log itself is short (an arm's identification asks 4 windows)
+        return (
+            f"{head}: the log lasts {float(t[-1] - t[0]):.3g} s in all, without a gap; record "
+            "a longer motion"
+        )
     repeats = float(np.mean(steps <= 0)) if steps.size else 0.0
     advances = steps[steps > 0]
     if repeats >= 0.2 and advances.size:
