@@ -300,3 +300,16 @@ def test_a_log_too_short_without_a_gap_is_not_told_to_avoid_gaps() -> None:
     )
     gapped = np.r_[np.arange(40) * 1e-3, 1.0 + np.arange(40) * 1e-3]  # 1 s gap: as before
     assert no_stretch_message(gapped, 0.05).endswith("record without gaps longer than 0.125 s")
+
+
+def test_degrees_under_a_robot_file_in_rad_show_a_sub_revolution_line() -> None:
+    # Before (stop 39): the real ODrive sweep in degrees (fractional counts: no whole-count
+    # test applies) under position_unit = "rad" gave exit 0, its 7 CPR cogging at 0.123 CPR.
+    said = "its strongest PDTV line sits at"
+    cols = _sweep()
+    assert not [w for w in _identify(cols) if said in w]
+    cols["q_m"] = np.degrees(cols["q_m"])
+    found = [w for w in _identify(cols) if said in w]
+    assert len(found) == 1
+    assert found[0].startswith("joint m: its strongest PDTV line sits at 0.052")  # 3 pi / 180
+    assert "is q_m in the unit the robot file says (rad; degrees read as rad" in found[0]

@@ -40,7 +40,11 @@ from torquemap.friction import (
     segment_motion,
 )
 from torquemap.io import Log
-from torquemap.log_quirks import check_angle_units, check_pass_torques
+from torquemap.log_quirks import (
+    check_angle_units,
+    check_pass_torques,
+    sub_revolution_line_warnings,
+)
 from torquemap.model import (
     InertiaModel,
     JointModel,
@@ -1170,7 +1174,7 @@ def identify_model(
     from torquemap.vertical import checked_identification
 
     path = logs[0].path if len(logs) == 1 else None
-    return checked_identification(
+    checked = checked_identification(
         ident,
         pieces,
         window=window,
@@ -1179,6 +1183,13 @@ def identify_model(
         derivatives=derivs,
         residuals=signals,
     )
+    unit = sub_revolution_line_warnings(checked.model)
+    if not unit:
+        return checked
+    warnings = (*checked.warnings, *unit)
+    notes = {**checked.model.notes, "warnings": list(warnings)}
+    model = dataclasses.replace(checked.model, notes=notes)
+    return dataclasses.replace(checked, model=model, warnings=warnings)
 
 
 def _identify_whole(

@@ -26,6 +26,7 @@ from torquemap.robot import Robot
 if TYPE_CHECKING:
     from torquemap.friction import Pass
     from torquemap.io import Log
+    from torquemap.model import Model
 
 #: Widths [bits] of the count registers drives and encoder interfaces keep: 16-bit timers in
 #: encoder mode, 32-bit shadow counts (ODrive's ``shadow_count``, CiA 402's position actual
@@ -328,6 +329,45 @@ def check_pass_torques(
                 f"({level:.3g} N m over the torque constant {kt:g} N m/A), more than any motor "
                 f"draws with no load: is i_{name} in mA (or tau_{name} in N mm)? torquemap "
                 "reads A and N m; friction and PDTV are as much too large"
+            )
+    return out
+
+
+#: Order [CPR] below which the strongest PDTV line of a joint without a gear is warned of.
+SUB_REVOLUTION_ORDER = 0.9
+
+
+def sub_revolution_line_warnings(model: Model) -> list[str]:
+    """One line per joint without a gear (``gear_ratio`` 1) whose strongest PDTV line has an
+    order below :data:`SUB_REVOLUTION_ORDER` CPR: a period longer than a motor revolution,
+    which nothing on a motor without a gear has, but an angle in another unit than the robot
+    file's does (degrees read as rad put the ODrive motor's 7 CPR cogging at 7 pi / 180 =
+    0.122 CPR), or a gear missing from the robot file. Before (new-user QA, stop 39): exit 0
+    and lines at 0.12, 0.25 and 0.49 CPR, an anti-cogging table of zeros (warned by
+    ``pdtv-map`` alone, as non-integer orders).
+
+    Examples
+    --------
+    >>> from torquemap.model import JointModel, Model, PdtvLine
+    >>> from torquemap.robot import robot_from_dict
+    >>> rb = robot_from_dict({"robot": {"kinematics": "none"}, "joints": {"a": {
+    ...     "gear_ratio": 1.0, "torque_constant": 0.04}}})
+    >>> line = PdtvLine(order=7 * np.pi / 180, amplitude=0.035, phase=0.0)
+    >>> sub_revolution_line_warnings(Model(robot=rb, joints={"a": JointModel(pdtv=(line,))}))[0][:56]
+    'joint a: its strongest PDTV line sits at 0.122 CPR, less'
+    """
+    out: list[str] = []
+    for joint in model.robot.joints:
+        jm = model.joints.get(joint.name)
+        if joint.gear_ratio != 1.0 or jm is None or not jm.pdtv:
+            continue
+        top = max(jm.pdtv, key=lambda line: abs(line.amplitude))
+        if top.order < SUB_REVOLUTION_ORDER:
+            out.append(
+                f"joint {joint.name}: its strongest PDTV line sits at {top.order:.3g} CPR, less "
+                f"than once a motor revolution, on a joint without a gear (gear_ratio 1): is "
+                f"q_{joint.name} in the unit the robot file says ({joint.position_unit}; "
+                f"degrees read as rad put a 7 CPR line at 0.122 CPR), or a gear missing from it?"
             )
     return out
 
