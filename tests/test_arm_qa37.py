@@ -293,3 +293,36 @@ def test_swapped_columns_of_a_seven_axis_arm_are_warned(panda: dict[str, object]
         path="sim.csv",
     )
     assert any(said in w for w in estimate_arm(model, swapped).warnings)
+
+
+def test_a_flipped_current_on_an_arm_is_refused_naming_the_log() -> None:
+    """The elbow's current logged with its sign flipped: refused, naming the log (before, stop
+    39: no file named) and the flipped sign as a cause."""
+    import dataclasses
+
+    arm = _arm()
+    free, _ = _simulate(arm, 1, gear=GEAR, coulomb=COULOMB)
+    flipped = dataclasses.replace(free, motor_torque=free.motor_torque * np.array([1.0, -1.0]))
+    with pytest.raises(InputError, match="negative in both directions") as caught:
+        _identified(arm, GEAR, flipped)
+    assert str(caught.value).startswith("sim.csv: joint ")
+    assert "a current logged with its sign flipped against the joint's angle" in str(caught.value)
+
+
+def test_a_flipped_current_in_a_task_log_is_warned_as_such(panda: dict[str, object]) -> None:
+    """The Panda bench's task log with joint 4's current negated: |F| median 164 N against
+    the true 12 N (CLI, `simulate arm`), warned as columns swapped or another robot; now the
+    warning names a flipped sign too (before, stop 39: it did not)."""
+    model, task = panda["model"], panda["task"]
+    assert isinstance(model, Model) and isinstance(task, Log)
+    flip = np.ones(task.motor_torque.shape[1])
+    flip[3] = -1.0
+    flipped = Log(
+        t=task.t,
+        q=task.q,
+        motor_torque=task.motor_torque * flip,
+        joint_names=task.joint_names,
+        path="sim.csv",
+    )
+    said = "a joint's current logged with its sign flipped"
+    assert any(said in w for w in estimate_arm(model, flipped).warnings)

@@ -354,3 +354,29 @@ def test_angles_computed_from_an_overflowing_register_are_refused() -> None:
     }  # fmt: skip
     with pytest.raises(InputError, match=says):
         check_log_angle_units(model_from_dict(document), log)
+
+
+@pytest.mark.parametrize(
+    ("tick", "name"), [(1e-3, "milliseconds"), (1e-6, "microseconds"), (1e-9, "nanoseconds")]
+)
+def test_unix_time_in_integer_ticks_is_named(tmp_path: Path, tick: float, name: str) -> None:
+    # Before (stop 39): "column 't' value 1.7643e+18 s at data row 1 is beyond +-1e+10 s", no
+    # word of what the number is; ROS and most loggers stamp in integer nanoseconds since 1970.
+    cols = _counts()
+    cols["t"] = np.round((1_764_300_000.0 + cols["t"]) / tick)
+    message = rf"column 't' value .* beyond \+-1e\+10 s: Unix time in {name}\? write t in seconds"
+    p = tmp_path / "log.csv"
+    write_table(p, cols)
+    with pytest.raises(InputError, match=message):
+        read_log(p, COUNTS)
+    q = tmp_path / "log.parquet"  # estimate's block reader: the same words
+    write_table(q, cols)
+    with pytest.raises(InputError, match=message):
+        list(iter_log_chunks(q, COUNTS, rows=700))
+    cols["t"] = cols["t"] * tick  # the same stamps in seconds read fine
+    assert read_log(_written(tmp_path / "s.csv", cols), COUNTS).t[0] == pytest.approx(1.7643e9)
+
+
+def _written(path: Path, cols: dict[str, np.ndarray]) -> Path:
+    write_table(path, cols)
+    return path

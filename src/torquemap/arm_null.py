@@ -69,5 +69,6 @@ def null_space_message(share: float) -> str | None:
     return (
         f"at {share:.0%} of the samples the external joint torques hold a part no wrench on the "
         "end effector gives (beyond 3 sigmas): contact elsewhere on the arm, or are the log's "
-        "joint columns swapped or of another robot? The wrench is then wrong"
+        "joint columns swapped, a joint's current logged with its sign flipped, or of another "
+        "robot? The wrench is then wrong"
     )

@@ -93,14 +93,22 @@ def register_friction_law(cls: _L) -> _L:
 
 
 def _finite_floats(
-    table: Mapping[str, Any], allowed: set[str], where: str, path: str | None
+    table: Mapping[str, Any],
+    allowed: set[str],
+    where: str,
+    path: str | None,
+    *,
+    other_keys: tuple[str, ...] = (),
 ) -> dict[str, float]:
+    """The numbers of ``table``, each a key of ``allowed``; an unknown key's message lists
+    ``allowed``, ``kind`` and ``other_keys`` (the law's keys read before: a speed table's
+    lists), so that it names every key the table may hold (before, stop 39: a speed table's
+    unknown key was told "allowed: viscous, viscous_negative, zero_velocity")."""
     out: dict[str, float] = {}
     for key, value in table.items():
         if key not in allowed:
-            raise InputError(
-                f"unknown key {key!r} in {where} (allowed: {', '.join(sorted(allowed))})", path=path
-            )
+            listed = ", ".join(sorted(allowed | {"kind", *other_keys}))
+            raise InputError(f"unknown key {key!r} in {where} (allowed: {listed})", path=path)
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise InputError(f"{where} {key} must be a finite number, got {value!r}", path=path)
         x = float(value)
@@ -265,7 +273,7 @@ class StribeckFriction(_LinearLaw):
                 f"{where} transition must be 'linear' or 'smooth', got {transition!r}", path=path
             )
         allowed = {f.name for f in dataclasses.fields(cls)} - {"transition"}
-        nums = _finite_floats(body, allowed, where, path)
+        nums = _finite_floats(body, allowed, where, path, other_keys=("transition",))
         # One side may be negative (an offset: identification writes one where a constant
         # load, such as gravity on a vertical prismatic joint, looks like friction), not the band
         cp, cn = nums.get("coulomb_positive", 0.0), nums.get("coulomb_negative", 0.0)
@@ -611,7 +619,13 @@ class SpeedTableFriction:
             if name not in body:
                 raise InputError(f"{where} needs {name} (a list of numbers)", path=path)
             lists[name] = _float_tuple(body.pop(name), f"{where} {name}", path)
-        nums = _finite_floats(body, {"viscous", "viscous_negative", "zero_velocity"}, where, path)
+        nums = _finite_floats(
+            body,
+            {"viscous", "viscous_negative", "zero_velocity"},
+            where,
+            path,
+            other_keys=("speeds", "positive", "negative"),
+        )
         try:
             return cls(**lists, **nums)  # type: ignore[arg-type]
         except InputError as exc:

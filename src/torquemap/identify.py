@@ -40,7 +40,11 @@ from torquemap.friction import (
     segment_motion,
 )
 from torquemap.io import Log
-from torquemap.log_quirks import check_angle_units
+from torquemap.log_quirks import (
+    check_angle_units,
+    check_pass_torques,
+    sub_revolution_line_warnings,
+)
 from torquemap.model import (
     InertiaModel,
     JointModel,
@@ -1127,11 +1131,21 @@ def identify_model(
         derivatives=derivs,
         check=friction == "passes",
     )
+    one = logs[0].path if len(logs) == 1 else None
+    signs = check_pass_torques(
+        [(name, [p for _, p in j.passes]) for name, j in base.joints.items()], rb, path=one
+    )
+    cleaning += [f"{one}: {w}" if one else w for w in signs]
     quanta = {j.name: _motor_quantum(pieces, j.gear_ratio, k) for k, j in enumerate(rb.joints)}
     joint_notes = base.model.notes.get("joints", {})
+    constants = {j.name: j.torque_constant for j in rb.joints}
     for name, entry in joint_notes.items():
         if isinstance(entry, dict) and quanta.get(name):
             entry["motor_angle_quantum"] = quanta[name]
+        if isinstance(entry, dict) and name in constants:
+            # the N m/A the logs' currents were read with: a model whose constant is edited
+            # later is refused (torquemap.model), its N m being those of this one
+            entry["torque_constant"] = constants[name]
     signals = None
     if friction == "passes":
         warnings = (*cleaning, *base.warnings)
@@ -1162,7 +1176,7 @@ def identify_model(
     from torquemap.vertical import checked_identification
 
     path = logs[0].path if len(logs) == 1 else None
-    return checked_identification(
+    checked = checked_identification(
         ident,
         pieces,
         window=window,
@@ -1171,6 +1185,13 @@ def identify_model(
         derivatives=derivs,
         residuals=signals,
     )
+    unit = sub_revolution_line_warnings(checked.model)
+    if not unit:
+        return checked
+    warnings = (*checked.warnings, *unit)
+    notes = {**checked.model.notes, "warnings": list(warnings)}
+    model = dataclasses.replace(checked.model, notes=notes)
+    return dataclasses.replace(checked, model=model, warnings=warnings)
 
 
 def _identify_whole(

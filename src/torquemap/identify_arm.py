@@ -1020,11 +1020,14 @@ def identify_arm(
                 + "check the robot file's gravity, gear ratios and torque constants, and that "
                 "the log is of this robot"
                 + (
-                    f" (a torque that the URDF does not explain: {', '.join(flagged)})"
+                    f" (a torque that the URDF does not explain: {', '.join(flagged)}; a "
+                    "current logged with its sign flipped against the joint's angle reads so)"
                     if flagged
                     else ""
                 )
-                + (f"; {lagged}" if lagged is not None else "")
+                + (f"; {lagged}" if lagged is not None else ""),
+                # the log, named as every refusal names its file (before, stop 39: none)
+                path=logs[0].path if len(logs) == 1 else None,
             )
         if min(levels) < 0:
             warnings.append(

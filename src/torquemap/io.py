@@ -24,6 +24,7 @@ from torquemap.log_quirks import (
     backwards_time_hint,
     cell_hint,
     decimal_comma_rows,
+    epoch_time_hint,
     register_overflow,
 )
 from torquemap.robot import Robot
@@ -360,12 +361,64 @@ def _is_number_text(value: object) -> bool:
     return True
 
 
+#: Units a logger may append to a column name (``q_a_deg``, ``i_a_mA``, ``t_ms``), lower case,
+#: and what torquemap reads instead where it is another (SI units: nothing to convert).
+NAME_UNITS = {
+    "s": "",
+    "sec": "",
+    "ms": "s",
+    "us": "s",
+    "ns": "s",
+    "rad": "",
+    "deg": "rad",
+    "degrees": "rad",
+    "counts": "rad (or position_unit = 'counts' in the robot file)",
+    "cnt": "rad (or position_unit = 'counts' in the robot file)",
+    "turns": "rad (or position_unit = 'turns' in the robot file)",
+    "rev": "rad (or position_unit = 'turns' in the robot file)",
+    "a": "",
+    "amps": "",
+    "ma": "A",
+    "nm": "",
+    "n_m": "",
+    "nmm": "N m",
+}
+_NAME_UNIT = re.compile(r"[_ ](" + "|".join(sorted(NAME_UNITS, key=len, reverse=True)) + r")$")
+_BRACKETED = re.compile(r"\s*[\[(](.*?)[\])]\s*")
+
+
 def near_miss(name: str, present: Sequence[str]) -> str | None:
-    """The column of ``present`` that is ``name`` but for case, spaces or a unit, else None."""
+    """The column of ``present`` that is ``name`` but for case, spaces or a unit (in brackets,
+    or appended: ``q_a_deg``, ``i_a_mA``), else None."""
     for c in present:
-        if re.sub(r"\s*[\[(].*?[\])]\s*", "", str(c)).strip().lower() == name.lower():
+        bare = _BRACKETED.sub("", str(c)).strip().lower()
+        if bare == name.lower() or _NAME_UNIT.sub("", bare) == name.lower():
             return str(c)
     return None
+
+
+def _unit_note(column: str) -> str:
+    """``"; its values in deg must be in rad too"`` for a column name carrying a unit that is
+    not the one torquemap reads, else "".
+
+    Examples
+    --------
+    >>> _unit_note("i_a_mA")
+    '; its values in mA must be in A too'
+    >>> _unit_note("t [ms]")
+    '; its values in ms must be in s too'
+    >>> _unit_note("q_a [rad]")
+    ''
+    """
+    text = str(column).strip()
+    found = _BRACKETED.search(text)
+    unit = found.group(1).strip() if found else ""
+    if not unit:
+        bare = _BRACKETED.sub("", text)
+        suffix = _NAME_UNIT.search(bare.lower())
+        unit = bare[suffix.start(1) :] if suffix else ""
+    target = NAME_UNITS.get(unit.lower().replace(" ", "_"), "")
+    return f"; its values in {unit} must be in {target} too" if target else ""
 
 
 def missing_column_message(name: str, present: Sequence[str]) -> str:
@@ -386,7 +439,10 @@ def missing_column_message(name: str, present: Sequence[str]) -> str:
 
     near = near_miss(name, cols)
     if near is not None:
-        return f"{text} (the file has {near!r}: names are exact, lower case, no unit)"
+        return (
+            f"{text} (the file has {near!r}: names are exact, lower case, no unit"
+            f"{_unit_note(near)})"
+        )
     shown = ", ".join(cols[:8]) + (f", ... ({len(cols)} in all)" if len(cols) > 8 else "")
     return f"{text} (the file has {shown})"
 
@@ -405,7 +461,10 @@ def missing_channel_message(joint: str, present: Sequence[str]) -> str:
     cols = [str(c) for c in present]
     near = near_miss(f"i_{joint}", cols) or near_miss(f"tau_{joint}", cols)
     if near is not None:
-        return f"{text} (the file has {near!r}: names are exact, lower case, no unit)"
+        return (
+            f"{text} (the file has {near!r}: names are exact, lower case, no unit"
+            f"{_unit_note(near)})"
+        )
     shown = ", ".join(cols[:8]) + (f", ... ({len(cols)} in all)" if len(cols) > 8 else "")
     return f"{text} (the file has {shown})"
 
@@ -418,6 +477,7 @@ def numeric_column(
     max_abs: float | None = None,
     unit: str = "",
     first_row: int = 0,
+    nan_hint: str = "",
 ) -> NDArray[np.float64]:
     """Column ``name`` as finite float64; InputError naming the column and the first bad row.
 
@@ -437,6 +497,8 @@ def numeric_column(
     first_row
         Data row (0-based) of the column's first value in its file, for the messages of a
         file read in chunks.
+    nan_hint
+        Added to the message on NaN or inf (a log's: what to do with a logger's missed reads).
 
     Raises
     ------
@@ -488,17 +550,22 @@ def numeric_column(
     bad = ~np.isfinite(values)
     if bad.any():
         row = int(np.argmax(bad))
+        count = int(np.count_nonzero(bad))
+        more = f", {count} rows in all" if count > 1 else ""
         raise InputError(
-            f"column {name!r} holds NaN or inf (first at data row {first_row + row + 1})", path=path
+            f"column {name!r} holds NaN or inf (first at data row {first_row + row + 1}{more})"
+            f"{nan_hint}",
+            path=path,
         )
     limit = MAX_MAGNITUDE if max_abs is None else max_abs
     bad = np.abs(values) > limit
     if bad.any():
         row = int(np.argmax(bad))
         suffix = f" {unit}" if unit else ""
+        hint = epoch_time_hint(float(values[row])) if unit == "s" else ""
         raise InputError(
             f"column {name!r} value {values[row]:.6g}{suffix} at data row {first_row + row + 1} is "
-            f"beyond +-{limit:g}{suffix}",
+            f"beyond +-{limit:g}{suffix}{hint}",
             path=path,
         )
     return values
@@ -844,6 +911,14 @@ def single_turn_wrap(raw: NDArray[np.float64], cpr: float) -> int | None:
     return int(jumps[0]) + 1 if jumps.size else None
 
 
+#: What a log's NaN refusal adds: a logger's missed reads are rows to delete, and the gap they
+#: leave is cut and flagged, not refused (before, stop 39: the refusal named the row alone).
+LOG_NAN_HINT = (
+    ": empty cells or a logger's missed reads? delete those rows (a gap in time is cut and "
+    "flagged, not refused)"
+)
+
+
 def _log_arrays(
     cols: Columns,
     robot: Robot,
@@ -862,7 +937,9 @@ def _log_arrays(
     whole file. ``whole``: the columns are the whole log (its time is checked here; a chunk's
     is checked by its reader, across chunks).
     """
-    t = numeric_column(cols, "t", p, max_abs=MAX_TIME, unit="s", first_row=first_row)
+    t = numeric_column(
+        cols, "t", p, max_abs=MAX_TIME, unit="s", first_row=first_row, nan_hint=LOG_NAN_HINT
+    )
     if whole:
         check_time(t, p)
     missing = [j.name for j in robot.joints if f"q_{j.name}" not in cols]
@@ -881,7 +958,9 @@ def _log_arrays(
     tau = np.empty_like(q)
 
     def column(name: str, *, max_abs: float = MAX_MAGNITUDE, unit: str = "") -> NDArray[np.float64]:
-        values = numeric_column(cols, name, p, max_abs=max_abs, unit=unit, first_row=first_row)
+        values = numeric_column(
+            cols, name, p, max_abs=max_abs, unit=unit, first_row=first_row, nan_hint=LOG_NAN_HINT
+        )
         if values.shape != t.shape:
             raise InputError(
                 f"column {name!r} has shape {values.shape}, 't' has ({t.size},)", path=p

@@ -24,7 +24,9 @@ from torquemap.errors import InputError
 from torquemap.robot import Robot
 
 if TYPE_CHECKING:
+    from torquemap.friction import Pass
     from torquemap.io import Log
+    from torquemap.model import Model
 
 #: Widths [bits] of the count registers drives and encoder interfaces keep: 16-bit timers in
 #: encoder mode, 32-bit shadow counts (ODrive's ``shadow_count``, CiA 402's position actual
@@ -99,7 +101,9 @@ def register_overflow(raw: NDArray[np.float64], cpr: float) -> tuple[int, int] |
 UNIT_MATCH = 0.02
 
 
-def angle_unit_hint(ratio: float, *, gear_ratio: float, column: str) -> str | None:
+def angle_unit_hint(
+    ratio: float, *, gear_ratio: float, column: str, counts_per_rev: float = 0.0
+) -> str | None:
     """What a log's angle holds when its encoder count is ``ratio`` times the robot's, else None.
 
     ``ratio`` is the motor-angle step of one encoder count as the log reads (its angle times
@@ -108,7 +112,10 @@ def angle_unit_hint(ratio: float, *, gear_ratio: float, column: str) -> str | No
     gear_ratio`` for the gear applied twice, ``gear_ratio / 2 pi`` for motor turns (ODrive's
     ``pos_estimate``), ``1 / 2 pi`` for joint turns, ``180 / pi`` for degrees, each within
     :data:`UNIT_MATCH`. Such a log, identified and estimated alike, gave exit 0 and forces 35 to
-    39 N off (random SCARA 7, 1.2 N clean; new-user QA, stop 36).
+    39 N off (random SCARA 7, 1.2 N clean; new-user QA, stop 36). With ``counts_per_rev``
+    (the robot file's ``encoder_counts_per_rev``), also ``gear_ratio * counts_per_rev / 2 pi``:
+    raw encoder counts in a robot file that says rad (before, stop 39: the real ODrive sweep in
+    whole counts was identified at 2130 rad/s, its cogging at 0.0054 CPR, exit 0).
 
     Examples
     --------
@@ -116,6 +123,8 @@ def angle_unit_hint(ratio: float, *, gear_ratio: float, column: str) -> str | No
     'q_a holds the motor angle, not the joint angle'
     >>> angle_unit_hint(1.0, gear_ratio=46.2, column="q_a") is None
     True
+    >>> angle_unit_hint(8192 / (2 * np.pi), gear_ratio=1.0, column="q_a", counts_per_rev=8192)
+    "q_a holds encoder counts, not rad: set position_unit = 'counts' in the robot file"
     """
     n = float(gear_ratio)
     deg = 180.0 / np.pi
@@ -127,9 +136,10 @@ def angle_unit_hint(ratio: float, *, gear_ratio: float, column: str) -> str | No
         (1.0 / turn, f"{column} holds joint turns, not rad: multiply it by 2 pi"),
         (deg, f"{column} holds degrees, not rad: convert it to rad"),
         (n * deg, f"{column} holds the motor angle in degrees, not the joint angle in rad"),
+        (n * counts_per_rev / turn, f"{column} holds encoder counts, not rad: set position_unit = 'counts' in the robot file"),
     )  # fmt: skip
     for value, text in candidates:
-        if value != 1.0 and abs(ratio / value - 1.0) < UNIT_MATCH:
+        if value > 0 and value != 1.0 and abs(ratio / value - 1.0) < UNIT_MATCH:
             return text
     return None
 
@@ -215,7 +225,9 @@ def check_angle_units(logs: Sequence[Log], robot: Robot) -> None:
             if not quantum:
                 continue
             ratio = quantum / (2.0 * math.pi / cpr)
-            hint = angle_unit_hint(ratio, gear_ratio=joint.gear_ratio, column=f"q_{joint.name}")
+            hint = angle_unit_hint(
+                ratio, gear_ratio=joint.gear_ratio, column=f"q_{joint.name}", counts_per_rev=cpr
+            )
             if hint is not None:
                 raise InputError(
                     f"joint {joint.name}: the log's angle moves in steps of {ratio:.4g} encoder "
@@ -223,6 +235,141 @@ def check_angle_units(logs: Sequence[Log], robot: Robot) -> None:
                     f"{hint}",
                     path=log.path,
                 )
+
+
+#: Current [A] a joint's steady no-load passes may need (median over the passes) before
+#: identification asks whether the log is in mA: a motor's no-load friction current is a few
+#: per cent of its rating, and 50 A is that of a motor of kiloamperes.
+NO_LOAD_CURRENT = 50.0
+#: How many standard errors of the passes' mean below zero the torque that passes dissipate
+#: must be before it is taken to oppose the motion.
+OPPOSING_T = 3.0
+
+
+def check_pass_torques(
+    passes: Sequence[tuple[str, Sequence[Pass]]], robot: Robot, *, path: str | None = None
+) -> list[str]:
+    """Refuse no-load sweeps whose motor torque drives the motion instead of holding it back,
+    and warn where the passes' current is that of no motor at no load.
+
+    ``passes`` holds, per joint name, its steady passes (:class:`torquemap.friction.Pass`,
+    motor side). On each pass friction dissipates: ``mean_torque * sign(speed) > 0``. A
+    constant load (a spring, a weight) shifts both directions' torque alike, so it can make
+    one direction's negative, never both: where every pass of both directions has the torque
+    with the motion against it, significantly (the mean of ``mean_torque * sign(speed)`` at
+    least :data:`OPPOSING_T` standard errors below 0), the current's sign is flipped against
+    the angle (a motor wired or geared against its encoder): refused. Swept one way only, the
+    same is a warning (a load driving the joint looks alike). Before (new-user QA, stop 39):
+    the real ODrive sweep with its current negated gave exit 0, friction clipped to 0 (pass
+    method) or held at 0 with a warning about loads (whole fit), and an anti-cogging map
+    correlating -0.976 with the measured one: a table that doubles the cogging.
+
+    A median pass torque beyond :data:`NO_LOAD_CURRENT` times the torque constant is warned
+    (the current in mA: exit 0, 13 N m of friction on a 0.04 N m/A hobby motor, before).
+
+    Parameters
+    ----------
+    passes
+        ``(joint name, passes)`` per joint.
+    robot
+        The robot file (torque constants).
+    path
+        The log, for messages (None: several logs).
+
+    Returns
+    -------
+    list of str
+        Warnings, one line each.
+
+    Raises
+    ------
+    InputError
+        Where both directions' passes have the torque opposing the motion.
+    """
+    constants = {j.name: j.torque_constant for j in robot.joints}
+    out: list[str] = []
+    for name, joint_passes in passes:
+        if not joint_passes:
+            continue
+        speed = np.array([p.speed for p in joint_passes], dtype=np.float64)
+        torque = np.array([p.mean_torque for p in joint_passes], dtype=np.float64)
+        held = torque * np.sign(speed)  # what friction dissipates: > 0 at no load
+        n = held.size
+        spread = float(np.std(held, ddof=1)) if n > 1 else 0.0
+        significant = n == 1 or float(np.mean(held)) < -OPPOSING_T * spread / math.sqrt(n)
+        directions = {bool(v > 0) for v in speed}
+        level = float(np.median(np.abs(torque)))
+        if bool(np.all(held < 0)) and significant:
+            where = ", ".join(
+                f"{float(np.median(torque[(speed > 0) == up])):+.4g} N m at "
+                f"{'+' if up else '-'}{float(np.median(np.abs(speed[(speed > 0) == up]))):.3g} rad/s"
+                for up in (True, False)
+                if up in directions
+            )
+            if len(directions) == 2:
+                raise InputError(
+                    f"joint {name}: in every steady pass of the no-load sweeps the motor torque "
+                    f"has the sign of the motion's opposite ({where} in the median): friction "
+                    f"would be negative, which no load explains; the current's sign is flipped "
+                    f"against q_{name} (a motor wired or geared against its encoder): negate "
+                    f"i_{name} (or tau_{name}) in the logs (docs/formats.md)",
+                    path=path,
+                )
+            out.append(
+                f"joint {name}: in every steady pass the motor torque opposes the motion "
+                f"({where} in the median; swept in one direction only): a load driving the "
+                f"joint, or the current's sign flipped against q_{name}? With no load on it, "
+                f"negate i_{name} (or tau_{name}): read as it is, its friction, inertia and "
+                "PDTV come out inverted"
+            )
+        kt = constants.get(name)
+        if kt and level > NO_LOAD_CURRENT * kt:
+            out.append(
+                f"joint {name}: its steady no-load passes need {level / kt:.3g} A in the median "
+                f"({level:.3g} N m over the torque constant {kt:g} N m/A), more than any motor "
+                f"draws with no load: is i_{name} in mA (or tau_{name} in N mm)? torquemap "
+                "reads A and N m; friction and PDTV are as much too large"
+            )
+    return out
+
+
+#: Order [CPR] below which the strongest PDTV line of a joint without a gear is warned of.
+SUB_REVOLUTION_ORDER = 0.9
+
+
+def sub_revolution_line_warnings(model: Model) -> list[str]:
+    """One line per joint without a gear (``gear_ratio`` 1) whose strongest PDTV line has an
+    order below :data:`SUB_REVOLUTION_ORDER` CPR: a period longer than a motor revolution,
+    which nothing on a motor without a gear has, but an angle in another unit than the robot
+    file's does (degrees read as rad put the ODrive motor's 7 CPR cogging at 7 pi / 180 =
+    0.122 CPR), or a gear missing from the robot file. Before (new-user QA, stop 39): exit 0
+    and lines at 0.12, 0.25 and 0.49 CPR, an anti-cogging table of zeros (warned by
+    ``pdtv-map`` alone, as non-integer orders).
+
+    Examples
+    --------
+    >>> from torquemap.model import JointModel, Model, PdtvLine
+    >>> from torquemap.robot import robot_from_dict
+    >>> rb = robot_from_dict({"robot": {"kinematics": "none"}, "joints": {"a": {
+    ...     "gear_ratio": 1.0, "torque_constant": 0.04}}})
+    >>> line = PdtvLine(order=7 * np.pi / 180, amplitude=0.035, phase=0.0)
+    >>> sub_revolution_line_warnings(Model(robot=rb, joints={"a": JointModel(pdtv=(line,))}))[0][:56]
+    'joint a: its strongest PDTV line sits at 0.122 CPR, less'
+    """
+    out: list[str] = []
+    for joint in model.robot.joints:
+        jm = model.joints.get(joint.name)
+        if joint.gear_ratio != 1.0 or jm is None or not jm.pdtv:
+            continue
+        top = max(jm.pdtv, key=lambda line: abs(line.amplitude))
+        if top.order < SUB_REVOLUTION_ORDER:
+            out.append(
+                f"joint {joint.name}: its strongest PDTV line sits at {top.order:.3g} CPR, less "
+                f"than once a motor revolution, on a joint without a gear (gear_ratio 1): is "
+                f"q_{joint.name} in the unit the robot file says ({joint.position_unit}; "
+                f"degrees read as rad put a 7 CPR line at 0.122 CPR), or a gear missing from it?"
+            )
+    return out
 
 
 #: Time stamp counters: (bits, tick [s], name). A counter of ``bits`` bits that counts ticks
@@ -244,9 +391,10 @@ def backwards_time_hint(t: NDArray[np.float64], at: int, *, first_row: int = 0) 
     Recognised: a time stamp counter that wrapped (:data:`TIME_COUNTERS`: ``t`` falls by its
     period less about one step); time stamps of two clocks interleaved, or rows not in time
     order (``t`` goes back on more than one step in a hundred); two rows out of order (swapping
-    them puts ``t`` in order). ``first_row`` is the data row (0-based) of ``t[0]`` in its file.
-    Before (new-user QA, stop 36), each of these was refused as "time 't' goes backwards (at
-    data row 2789)" alone.
+    them puts ``t`` in order); one fall of more than 100 steps (two logs joined, or a logger
+    restarted into the same file: stop 39, before which it was refused with no hint).
+    ``first_row`` is the data row (0-based) of ``t[0]`` in its file. Before (new-user QA, stop
+    36), each of these was refused as "time 't' goes backwards (at data row 2789)" alone.
 
     Examples
     --------
@@ -282,6 +430,13 @@ def backwards_time_hint(t: NDArray[np.float64], at: int, *, first_row: int = 0) 
         return (
             f": data rows {first_row + at + 1} and {first_row + at + 2} are out of order (t "
             f"{t[at]:.10g} then {t[at + 1]:.10g}); sort the rows by t"
+        )
+    if back == 1 and drop > 100.0 * typical:
+        # one fall of many steps, forward before and after: a logger restarted in one file
+        return (
+            f": t falls by {drop:.6g} s (from {t[at]:.10g} to {t[at + 1]:.10g}) once and runs "
+            "on: two logs joined (files appended, or a logger restarted into the same file)? "
+            f"split it before data row {first_row + at + 2} into two logs"
         )
     return ""
 
@@ -386,6 +541,40 @@ def cell_hint(cell: object, data_row: int) -> str:
             ": a units row under the header? delete it (the names carry no unit: t in s, q in "
             "rad, i in A)"
         )
+    return ""
+
+
+#: Ticks [s] in which loggers write Unix time stamps as integers, with their names.
+EPOCH_TICKS = ((1e-3, "milliseconds"), (1e-6, "microseconds"), (1e-9, "nanoseconds"))
+#: Unix time [s] a stamp read in one of :data:`EPOCH_TICKS` must land in to be taken for one:
+#: 2001-09-09 to 2286-11-20.
+EPOCH_SECONDS = (1e9, 1e10)
+
+
+def epoch_time_hint(value: float) -> str:
+    """What a time stamp ``value`` beyond the log's time limit is, as ``": ..."``, or "".
+
+    A stamp that, read as milliseconds, microseconds or nanoseconds, falls in Unix time
+    (:data:`EPOCH_SECONDS`) is one: ROS and most loggers write ``t`` as integer nanoseconds
+    since 1970. Before (new-user QA, stop 39): "column 't' value 1.7643e+18 s at data row 1
+    is beyond +-1e+10 s" alone.
+
+    Examples
+    --------
+    >>> epoch_time_hint(1.7643e18)
+    ': Unix time in nanoseconds? write t in seconds (divide it by 1e+09), or from the first stamp'
+    >>> epoch_time_hint(1.7643e12)[:34]
+    ': Unix time in milliseconds? write'
+    >>> epoch_time_hint(1e29)
+    ''
+    """
+    lo, hi = EPOCH_SECONDS
+    for tick, name in EPOCH_TICKS:
+        if lo <= abs(value) * tick <= hi:
+            return (
+                f": Unix time in {name}? write t in seconds (divide it by {1 / tick:g}), or "
+                "from the first stamp"
+            )
     return ""
 
 

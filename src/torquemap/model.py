@@ -315,7 +315,64 @@ def model_from_dict(
             f"[identification] differentiation_window must be a number in (0, 10] s, got {window!r}",
             path=p,
         )
+    _check_identified_tables(document["joints"], notes, p)
     return Model(robot=robot, joints=joints, notes=dict(notes))
+
+
+def _check_identified_tables(
+    specs: Mapping[str, Any], notes: Mapping[str, Any], path: str | None
+) -> None:
+    """Refuse a model whose ``[identification.joints.<j>]`` says the joint was identified
+    while its ``[joints.<j>.friction]`` or ``[joints.<j>.inertia]`` table is gone, or whose
+    ``torque_constant`` is not the one identification read the currents with.
+
+    Identification writes both tables for every joint it identified; a table missing is one
+    deleted or misnamed by hand, and would be read as no friction (or no inertia): before
+    (new-user QA, stop 39) the real ODrive sweep's model without its friction table gave
+    exit 0, every sample sound and ``tau_ext_a`` off by the friction (-13.2 mN m in the
+    mean, RMS 13.4 mN m against 1.7 mN m), no word. A robot file, or a model without
+    ``[identification]``, still reads as no friction. A torque constant edited after
+    identification (0.04 -> 0.4 N m/A on the ODrive model) gave exit 0 and ``tau_ext_a`` RMS
+    0.28 N m against 1.7 mN m: the model's N m are those of the old constant; models written
+    before 2026-11-28 do not record it.
+    """
+    joints = notes.get("joints")
+    if not isinstance(joints, Mapping):
+        return
+    for name, spec in specs.items():
+        entry = joints.get(name)
+        if not isinstance(entry, Mapping) or not isinstance(spec, Mapping):
+            continue
+        passes = entry.get("passes")
+        steady = isinstance(passes, int) and not isinstance(passes, bool) and passes > 0
+        if not (steady or entry.get("friction_fit") == "whole"):
+            continue  # never identified: the robot file's joint, no tables to lose
+        used = entry.get("torque_constant")
+        given = spec.get("torque_constant")
+        if (
+            isinstance(used, int | float)
+            and isinstance(given, int | float)
+            and not isinstance(used, bool)
+            and used > 0
+            and abs(given / used - 1.0) > 1e-9
+        ):
+            raise InputError(
+                f"[joints.{name}] torque_constant {given:g} N m/A is not the {used:g} N m/A "
+                f"identification read the currents with ([identification.joints.{name}] "
+                f"torque_constant): its friction, inertia and PDTV are N m of that constant, "
+                f"and the task logs' currents would be read {given / used:.4g} times as large; "
+                "identify again with the new constant",
+                path=path,
+            )
+        missing = [table for table in ("friction", "inertia") if table not in spec]
+        if missing:
+            tables = " and ".join(f"[joints.{name}.{table}]" for table in missing)
+            raise InputError(
+                f"{tables} missing, though [identification.joints.{name}] says the joint was "
+                f"identified: deleted or renamed by hand? It would be read as zero and stay in "
+                f"tau_ext_{name}; restore it from the identified model, or identify again",
+                path=path,
+            )
 
 
 def load_model(path: str | os.PathLike[str]) -> Model:

@@ -337,13 +337,32 @@ def no_stretch_message(t: NDArray[np.float64], window: float) -> str:
 
     When the median time step is itself a gap, the time is likely not in seconds (a log in
     milliseconds looks 1000 times sparser), or the window is shorter than the sampling period.
+    When a fifth of the steps or more repeat a stamp, ``t`` was written with too few digits
+    (Unix time in seconds through ``%.10g`` advances in whole seconds: before, stop 39, the
+    refusal said only "record without gaps").
     """
     limit = max_gap_for(window)
-    text = (
-        f"no stretch of the log between gaps in time lasts the {window:.3g} s differentiator "
-        f"window; record without gaps longer than {limit:.3g} s"
+    head = (
+        f"no stretch of the log between gaps in time lasts the {window:.3g} s differentiator window"
     )
-    step = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    text = f"{head}; record without gaps longer than {limit:.3g} s"
+    steps = np.diff(t)
+    if steps.size and float(np.max(steps)) <= limit:
+        # no gap at all: the log itself is short (an arm's identification asks 4 windows)
+        return (
+            f"{head}: the log lasts {float(t[-1] - t[0]):.3g} s in all, without a gap; record "
+            "a longer motion"
+        )
+    repeats = float(np.mean(steps <= 0)) if steps.size else 0.0
+    advances = steps[steps > 0]
+    if repeats >= 0.2 and advances.size:
+        # stamps written with too few digits (Unix time through %g): most rows repeat one
+        return text + (
+            f" (t repeats the previous stamp on {repeats:.1%} of its steps and advances in "
+            f"steps of {float(np.median(advances)):.3g} s: 't' was written with too few "
+            "digits; write t with all its digits, or in seconds from the log's start)"
+        )
+    step = float(np.median(steps)) if t.size > 1 else 0.0
     if step > limit:
         text += (
             f" (its median time step is {step:.3g} s: 't' must be in seconds, not ms, us or ns; "
