@@ -811,6 +811,15 @@ def estimate_forces(
     if method != "raw":
         warnings += edge_motion_warnings(log.t, out["velocity"], robot.joint_names, cutoff)
     warnings += slow_task_warnings(model, out["velocity"])
+    if bridge_reversals > 0:
+        warnings += held_end_warnings(
+            model,
+            log.t,
+            out["velocity"],
+            out["rest"],
+            pieces=[piece.rows for piece in clean.pieces],
+            sigma=out["sigma"] * np.array([j.gear_ratio for j in robot.joints]),
+        )
     warnings += gap_task_warnings(model, out["velocity"])
     warnings += fast_task_warnings(model, out["velocity"])
     warnings += one_direction_task_warnings(model, out["velocity"])
@@ -1846,6 +1855,85 @@ def slow_task_warnings(model: Model, velocity: NDArray[np.float64]) -> list[str]
             f"below the slowest steady sweep pass {top:.3g} rad/s (median {typical:.3g}, 10 % "
             f"below {low:.3g} rad/s), where friction is extrapolated from ramps and the "
             f"identification's prior; record sweep passes down to about {low:.2g} rad/s"
+        )
+    return out
+
+
+def held_end_warnings(
+    model: Model,
+    t: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    rest: NDArray[np.float64],
+    *,
+    pieces: Sequence[NDArray[np.int64]] | None = None,
+    sigma: NDArray[np.float64] | None = None,
+) -> list[str]:
+    """One line per whole-fit joint whose runs below its reversal band at the ends of the log
+    (or of a piece between gaps) hold, on at least ``SLOW_TASK_SHARE`` of the log's samples, a
+    joint sliding above its law's transition (``TRANSITION_SPAN`` widths). :func:`estimate_forces`
+    answers such a run with the answer next to it, held: a log that starts (or stops) with
+    seconds of slow motion below the table's fitted speeds (``friction_observed_speed``) gets a
+    constant there, whatever the load does (random robot 292: 5.3 s at the circle's start, 97 %
+    of its squared force error, 47x the oracle's; its sigma covered it, no line named it).
+
+    ``velocity``: motor velocity [rad/s] and ``rest``: the estimate's reversal mask (nonzero
+    inside a run; NaN where not answered), shape (n, n_joints); ``pieces``: the rows of each
+    piece (default one piece); ``sigma``: the joint-side sigma of ``tau_ext`` [N m], for the
+    line.
+
+    Examples
+    --------
+    >>> from torquemap.friction_law import StribeckFriction
+    >>> from torquemap.model import JointModel
+    >>> from torquemap.robot import robot_from_dict
+    >>> rb = robot_from_dict({"robot": {"name": "m", "kinematics": "none"}, "joints": {"a": {
+    ...     "gear_ratio": 1.0, "torque_constant": 0.1, "encoder_counts_per_rev": 4096}}})
+    >>> law = StribeckFriction(coulomb_positive=0.1, coulomb_negative=0.1, zero_velocity=0.01)
+    >>> notes = {"joints": {"a": {"friction_fit": "whole", "friction_observed_speed": 2.0}}}
+    >>> m = Model(robot=rb, joints={"a": JointModel(friction=law)}, notes=notes)
+    >>> t = np.arange(100) * 0.1
+    >>> v = np.where(t < 3, 1.0, 5.0)[:, None]
+    >>> held_end_warnings(m, t, v, (v < 2.0).astype(float))[0][:52]
+    'joint a: 30% of the samples slide at motor speeds of'
+    """
+    n = t.size
+    whole = whole_fit_joints(model)
+    observed = observed_speeds(model)
+    rows = [np.arange(n)] if pieces is None else list(pieces)
+    out: list[str] = []
+    for k, name in enumerate(model.robot.joint_names):
+        if name not in whole or name not in model.joints or n == 0:
+            continue
+        width = TRANSITION_SPAN * _law_width(model.joints[name].friction)
+        inside = np.nan_to_num(rest[:, k]) > 0
+        speed = np.abs(velocity[:, k])
+        moving = np.isfinite(speed) & (speed >= width)
+        sliding = np.zeros(n, dtype=bool)
+        spans: list[str] = []  # the held stretches with sliding samples
+        for piece in rows:
+            if piece.size == 0:
+                continue
+            for a, b in _gap_runs(inside[piece]):
+                at = piece[a:b]
+                if (a == 0 or b == piece.size) and moving[at].any():
+                    sliding[at] = moving[at]
+                    spans.append(f"{t[at[0]]:.3g}-{t[at[-1]]:.3g} s")
+        if sliding.sum() < SLOW_TASK_SHARE * n:
+            continue
+        low = float(np.percentile(speed[sliding], 10))
+        top = observed.get(name, float(np.max(speed[sliding])))
+        widest = ""
+        if sigma is not None and np.isfinite(sigma[sliding, k]).any():
+            widest = (
+                f" (sigma of tau_ext_{name} up to {float(np.nanmax(sigma[sliding, k])):.3g} N m)"
+            )
+        out.append(
+            f"joint {name}: {sliding.mean():.0%} of the samples slide at motor speeds of "
+            f"{width:.2g}-{top:.3g} rad/s, below the speeds its friction was fitted at, in the "
+            f"stretches at the log's ends ({', '.join(spans)}): there the answer is not "
+            f"computed but held from the samples next to each stretch{widest}, whatever the "
+            f"load does; record sweep passes down to about {low:.2g} rad/s, or read those "
+            "stretches as unsound"
         )
     return out
 
