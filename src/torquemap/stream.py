@@ -57,7 +57,8 @@ EXACT_TOLERANCE = 1e-12
 #: 1e-6 of their input, far below the noise of any estimate, at about half the latency.
 STREAM_TOLERANCE = 1e-6
 #: Most threads :func:`default_threads` gives: each thread holds a block's arrays (about
-#: 200 MB for 2^19 samples of two joints), and two were all that was measured (2 cores).
+#: 300 MB more peak memory per thread for 2^19 samples of two joints, measured), and two were
+#: all that was measured (a 2-core machine).
 MAX_DEFAULT_THREADS = 2
 
 

@@ -123,7 +123,8 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         metavar="N",
         help="a log estimated in blocks (more than 2^19 samples): estimate N blocks at once, "
         "in threads, while the log is read and the table written (the same table, byte for "
-        "byte; each thread holds a block, ~200 MB); default: the machine's cores, at most 2; "
+        "byte; each thread holds a block: ~300 MB more for two joints); default: the machine's "
+        "cores, at most 2; "
         "1 = one block after the other. A followed log (--follow) is estimated in one thread",
     )
     p.set_defaults(handler=_estimate)
