@@ -24,11 +24,13 @@ statistics).
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import math
 import os
 import re
 from collections.abc import Iterable, Iterator, Mapping
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -54,6 +56,26 @@ EXACT_TOLERANCE = 1e-12
 #: Default tolerance of :class:`ForceEstimator`: the filters' tail beyond the margin is below
 #: 1e-6 of their input, far below the noise of any estimate, at about half the latency.
 STREAM_TOLERANCE = 1e-6
+#: Most threads :func:`default_threads` gives: each thread holds a block's arrays (about
+#: 300 MB more peak memory per thread for 2^19 samples of two joints, measured), and two were
+#: all that was measured (a 2-core machine).
+MAX_DEFAULT_THREADS = 2
+
+
+def default_threads() -> int:
+    """Blocks to estimate at once by default: the cores this process may run on, at most
+    :data:`MAX_DEFAULT_THREADS`.
+
+    Examples
+    --------
+    >>> 1 <= default_threads() <= MAX_DEFAULT_THREADS
+    True
+    """
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # not on Linux
+        cores = os.cpu_count() or 1
+    return max(1, min(cores, MAX_DEFAULT_THREADS))
 
 
 def settling_time(
@@ -197,6 +219,27 @@ def _gap_estimate(model: Model, log: Log, template: ForceEstimate | None) -> For
 _NUMBER = re.compile(r"[-+]?\d[\d.,e+-]*%?")
 
 
+@dataclass(slots=True, eq=False)
+class _Job:
+    """A block of the buffer to estimate (:meth:`ForceEstimator._plan`).
+
+    ``log`` is the block (views of the buffer), ``a:b`` its rows answered, ``edges`` the
+    stretches ``(from, to, gap length)`` [s] next to gaps just outside it, flagged
+    ``FLAG_GAP``; ``whole``: the block is the whole log (its refusal is the batch's);
+    ``call``: the call of ``_drain_groups`` that planned it; ``result``: the pool's future,
+    when a pool computes it.
+    """
+
+    log: Log
+    a: int
+    b: int
+    edges: tuple[tuple[float, float, float], ...]
+    whole: bool
+    gap: float
+    call: int
+    result: Future[ForceEstimate | InputError] | None = None
+
+
 class ForceEstimator:
     """Estimate external torques and forces from a log that arrives in pieces.
 
@@ -227,6 +270,14 @@ class ForceEstimator:
         Most samples answered per block.
     path
         Name of the log, for messages.
+    threads
+        Blocks estimated at once, each in its own thread (1: one after the other, in the
+        caller's thread). The answers are the same bit for bit, in the same order; they come
+        back once every earlier block's have, so up to ``threads`` blocks more are held (and
+        the latency of a live log grows by as many blocks). The compiled kernels and numpy's
+        and scipy's work on whole arrays run without Python's lock, so two threads take
+        less wall time on two cores (docs/performance.md); :meth:`finish` (or :meth:`close`)
+        stops the threads.
 
     Attributes
     ----------
@@ -264,6 +315,7 @@ class ForceEstimator:
         hop: float = 0.25,
         max_rows: int = 1 << 18,
         path: str = "<stream>",
+        threads: int = 1,
     ) -> None:
         if method not in ("model", "lowpass", "raw"):
             raise InputError(
@@ -274,6 +326,8 @@ class ForceEstimator:
             raise InputError(f"cut-off must be a positive frequency, got {cutoff!r} Hz")
         if not (hop >= 0) or not (max_rows >= 1):
             raise InputError(f"hop must be >= 0 s and max_rows >= 1, got {hop!r}, {max_rows!r}")
+        if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
+            raise InputError(f"threads must be a whole number >= 1, got {threads!r}")
         self.model = model
         self.path = path
         self.window = model_window(model) if window is None else float(window)
@@ -317,6 +371,15 @@ class ForceEstimator:
         # answers are copied out of their block, so that one kept by the caller does not hold
         # the whole block in memory; a caller that writes and drops them turns this off
         self._copy_rows = True
+        self.threads = threads
+        self._planned = 0  # blocks planned (the first one may be the whole log)
+        self._pending: collections.deque[_Job] = collections.deque()
+        # answered rows not yet returned, with the call of _drain_groups that planned them
+        self._answered: collections.deque[tuple[int, ForceEstimate]] = collections.deque()
+        self._calls = 0
+        self._pool: ThreadPoolExecutor | None = None
+        if threads > 1:
+            self._pool = ThreadPoolExecutor(threads, thread_name_prefix="torquemap-block")
 
     @property
     def latency(self) -> float:
@@ -396,6 +459,15 @@ class ForceEstimator:
         """:meth:`update` with a chunk of a log file (:func:`torquemap.io.iter_log_chunks`)."""
         return self._push(chunk.t, chunk.q, chunk.motor_torque)
 
+    def _update_chunk_groups(self, chunk: LogChunk | Log) -> list[ForceEstimate]:
+        """:meth:`update_chunk`'s rows as :meth:`_drain_groups` gives them."""
+        return self._push_groups(chunk.t, chunk.q, chunk.motor_torque)
+
+    def _finish_groups(self) -> list[ForceEstimate]:
+        """:meth:`finish`'s rows as :meth:`_drain_groups` gives them."""
+        self._finished = True
+        return self._drain_groups(final=True)
+
     def finish(self) -> ForceEstimate:
         """Estimate every sample not yet answered (the end of the log); the estimator is done.
 
@@ -405,17 +477,22 @@ class ForceEstimator:
             As :func:`~torquemap.estimate.estimate_forces`, when the whole log is too short.
         """
         self._finished = True
-        return self._drain(final=True)
+        return self._combine(self._drain_groups(final=True))
 
     # -- internals ----------------------------------------------------------------------
 
     def _push(
         self, t: NDArray[np.float64], q: NDArray[np.float64], tau: NDArray[np.float64]
     ) -> ForceEstimate:
+        return self._combine(self._push_groups(t, q, tau))
+
+    def _push_groups(
+        self, t: NDArray[np.float64], q: NDArray[np.float64], tau: NDArray[np.float64]
+    ) -> list[ForceEstimate]:
         if self._finished:
             raise InputError("the estimator has finished: no more samples")
         if t.size == 0:
-            return self._drain(final=False)
+            return self._drain_groups(final=False)
         if not (np.all(np.isfinite(t)) and np.all(np.isfinite(q)) and np.all(np.isfinite(tau))):
             raise InputError("samples hold NaN or inf", path=self.path)
         if (self._t_last is not None and t[0] < self._t_last) or np.any(np.diff(t) < 0):
@@ -425,7 +502,7 @@ class ForceEstimator:
         if self._t_next is None:
             self._t_next = float(t[0])
         self._t_last = float(t[-1])
-        return self._drain(final=False)
+        return self._drain_groups(final=False)
 
     def _consolidate(self) -> None:
         if self._parts:
@@ -444,8 +521,18 @@ class ForceEstimator:
             return False
         return settled - self._t_next >= self.hop or self._rows - self._emitted >= self.max_rows
 
-    def _drain(self, *, final: bool) -> ForceEstimate:
-        out: list[ForceEstimate] = []
+    def _combine(self, groups: list[ForceEstimate]) -> ForceEstimate:
+        if not groups:
+            return self._empty()
+        if len(groups) == 1:
+            return groups[0]
+        return _concatenate(groups)
+
+    def _drain_groups(self, *, final: bool) -> list[ForceEstimate]:
+        """Answer the blocks now settled; the rows answered, one estimate per call of this
+        that planned blocks, in order (a pool's blocks come back in later calls, grouped as
+        one thread would have given them: a table written per group is the same file)."""
+        self._calls += 1
         while self._ready(final):
             self._consolidate()
             t = self._t
@@ -463,8 +550,14 @@ class ForceEstimator:
             hi = t.size if final else int(np.searchsorted(t, t[end - 1] + self.margin, "right"))
             if final and end < t.size:
                 hi = int(np.searchsorted(t, t[end - 1] + self.margin, side="right"))
-            part = self._block(lo, hi, e0, end)
-            out.append(self._flag_outer_gaps(part, lo, hi))
+            job = self._plan(lo, hi, e0, end)
+            if self._pool is None:
+                self._answered.append((job.call, self._answer(job, self._compute(job))))
+            else:
+                job.result = self._pool.submit(self._compute, job)
+                self._pending.append(job)
+                while len(self._pending) > self.threads:  # the oldest, once the pool is full
+                    self._collect()
             self._emitted = end
             self._t_next = float(t[end]) if end < t.size else None
             # keep what the next block's margin reaches back to
@@ -475,15 +568,25 @@ class ForceEstimator:
             self._emitted -= keep
             if final and self._emitted >= self._rows:
                 break
-        if not out:
-            return self._empty()
-        if len(out) == 1:
-            return out[0]
-        return _concatenate(out)
+        while self._pending and (final or self._done(self._pending[0])):
+            self._collect()  # in order: the blocks' answers, warnings and counts
+        if final:
+            self.close()
+        # the calls whose blocks are all answered
+        complete = self._pending[0].call if self._pending else self._calls + 1
+        groups: list[ForceEstimate] = []
+        while self._answered and self._answered[0][0] < complete:
+            call = self._answered[0][0]
+            parts = []
+            while self._answered and self._answered[0][0] == call:
+                parts.append(self._answered.popleft()[1])
+            groups.append(parts[0] if len(parts) == 1 else _concatenate(parts))
+        return groups
 
-    def _flag_outer_gaps(self, part: ForceEstimate, lo: int, hi: int) -> ForceEstimate:
-        """Flag the rows next to a gap just outside the block (longer than the margin, so the
-        block did not see it) as the batch flags the filters' support by a gap."""
+    def _plan(self, lo: int, hi: int, a: int, b: int) -> _Job:
+        """The block of buffer rows ``lo:hi`` that answers rows ``a:b``, with the gaps just
+        outside it (longer than the margin, so the block does not see them) whose rows next
+        to them are flagged as the batch flags the filters' support by a gap."""
         t = self._t
         gap = max_gap_for(self.window)
         edges = []
@@ -492,21 +595,6 @@ class ForceEstimator:
         if hi < t.size and t[hi] - t[hi - 1] > gap:
             last = float(t[hi - 1])
             edges.append((last - self._support, last, float(t[hi] - t[hi - 1])))
-        if not edges or part.t.size == 0:
-            return part
-        flag = part.flag.copy()
-        for a, b, length in edges:
-            flag[(part.t >= a) & (part.t <= b)] |= FLAG_GAP
-            key = "gap in time"
-            if key not in self._warnings:
-                self._warnings[key] = [
-                    f"gaps in time longer than {gap:.3g} s (the first {length:.3g} s): "
-                    "the log is processed in pieces between them",
-                    1,
-                ]
-        return dataclasses.replace(part, flag=flag)
-
-    def _block(self, lo: int, hi: int, a: int, b: int) -> ForceEstimate:
         log = Log(
             t=self._t[lo:hi],
             q=self._q[lo:hi],
@@ -514,15 +602,43 @@ class ForceEstimator:
             joint_names=self.model.robot.joint_names,
             path=self.path,
         )
-        first = self._template is None
+        whole = self._planned == 0 and lo == 0 and hi == self._rows
+        self._planned += 1
+        return _Job(
+            log=log, a=a - lo, b=b - lo, edges=tuple(edges), whole=whole, gap=gap, call=self._calls
+        )
+
+    def _compute(self, job: _Job) -> ForceEstimate | InputError:
+        """The batch estimate of a block (run in the pool's threads when there is one); an
+        ``InputError`` is returned, for :meth:`_answer` to judge in the blocks' order."""
         try:
-            est = estimate_forces(self.model, log, **self._options)
+            return estimate_forces(self.model, job.log, **self._options)
         except InputError as exc:
-            if first and lo == 0 and hi == self._rows:
-                raise  # the whole log: as the batch estimator says
-            if not exc.message.startswith(("no stretch of the log", "log lasts")):
-                raise
-            est = _gap_estimate(self.model, log, self._template)
+            return exc
+
+    @staticmethod
+    def _done(job: _Job) -> bool:
+        return job.result is not None and job.result.done()
+
+    def _collect(self) -> None:
+        """Answer the oldest pending block (waiting for it)."""
+        job = self._pending.popleft()
+        assert job.result is not None
+        try:
+            est = job.result.result()
+        except BaseException:
+            self.close()
+            raise
+        self._answered.append((job.call, self._answer(job, est)))
+
+    def _answer(self, job: _Job, est: ForceEstimate | InputError) -> ForceEstimate:
+        """A computed block's answered rows; its warnings counted (blocks in their order)."""
+        if isinstance(est, InputError):
+            if job.whole:
+                raise est  # the whole log: as the batch estimator says
+            if not est.message.startswith(("no stretch of the log", "log lasts")):
+                raise est
+            est = _gap_estimate(self.model, job.log, self._template)
         self._blocks += 1
         if self._template is None:
             self._template = _empty_like(est)
@@ -532,10 +648,30 @@ class ForceEstimator:
                 self._warnings[key][1] += 1
             else:
                 self._warnings[key] = [w, 1]
-        part = _slice(est, a - lo, b - lo)
+        part = _slice(est, job.a, job.b)
         if self._copy_rows:
             part = _compact(part)
-        return dataclasses.replace(part, warnings=())
+        part = dataclasses.replace(part, warnings=())
+        if not job.edges or part.t.size == 0:
+            return part
+        flag = part.flag.copy()
+        for a, b, length in job.edges:
+            flag[(part.t >= a) & (part.t <= b)] |= FLAG_GAP
+            key = "gap in time"
+            if key not in self._warnings:
+                self._warnings[key] = [
+                    f"gaps in time longer than {job.gap:.3g} s (the first {length:.3g} s): "
+                    "the log is processed in pieces between them",
+                    1,
+                ]
+        return dataclasses.replace(part, flag=flag)
+
+    def close(self) -> None:
+        """Stop the pool's threads (blocks not yet started are dropped); idempotent."""
+        pool, self._pool = self._pool, None
+        self._pending.clear()
+        if pool is not None:
+            pool.shutdown(wait=True, cancel_futures=True)
 
     def _empty(self) -> ForceEstimate:
         if self._template is not None:
@@ -600,6 +736,7 @@ def estimate_in_chunks(
     tolerance: float = EXACT_TOLERANCE,
     hold: float = 5.0,
     path: str = "<chunks>",
+    threads: int = 1,
 ) -> Iterator[ForceEstimate]:
     """Estimate forces over a log given in chunks, block by block (memory bounded by ``rows``).
 
@@ -623,6 +760,8 @@ def estimate_in_chunks(
         except within the low-pass's reach of holds longer than 5 s.
     path
         The log's name, for messages.
+    threads
+        Blocks estimated at once (:class:`ForceEstimator`): the same answers.
 
     Yields
     ------
@@ -642,12 +781,16 @@ def estimate_in_chunks(
         hop=math.inf,
         max_rows=rows,
         path=path,
+        threads=threads,
     )
-    for chunk in chunks:
-        part = est.update_chunk(chunk)
-        if part.t.size:
-            yield part
-    last = est.finish()
+    try:
+        for chunk in chunks:
+            part = est.update_chunk(chunk)
+            if part.t.size:
+                yield part
+        last = est.finish()
+    finally:
+        est.close()
     yield dataclasses.replace(last, warnings=est.warnings)
 
 
@@ -738,6 +881,7 @@ def estimate_to_file(
     rows: int = 1 << 19,
     follow: bool = False,
     path: str = "<chunks>",
+    threads: int = 1,
 ) -> StreamSummary:
     """Estimate forces over a log in chunks and write them as they are answered.
 
@@ -765,6 +909,9 @@ def estimate_to_file(
         and tolerance) instead of ``rows``.
     path
         The log's name, for messages.
+    threads
+        Blocks estimated at once (:class:`ForceEstimator`): the same table, byte for byte;
+        the file is read and written in the caller's thread while the blocks compute.
 
     Returns
     -------
@@ -784,6 +931,7 @@ def estimate_to_file(
         hop=0.25 if follow else math.inf,
         max_rows=rows,
         path=path,
+        threads=threads,
     )
     estimator._copy_rows = False  # each answer is written and dropped at once
     estimator._options["answers_only"] = True  # ``filtered`` is not in the table
@@ -805,14 +953,23 @@ def estimate_to_file(
             if part.force is not None and part.force.shape[1] >= 2:
                 magnitudes.add_hypot(part.force[ok, 0], part.force[ok, 1])
 
+        def write_groups(groups: list[ForceEstimate]) -> None:
+            # one table row group each, as one thread gives them; none kept past its writing
+            # (an answer holds its whole block's arrays)
+            while groups:
+                write(groups.pop(0))
+
         try:
-            for chunk in chunks:
-                write(estimator.update_chunk(chunk))
-        except KeyboardInterrupt:
-            if not follow:
-                raise
-            stopped = "interrupt"
-        write(estimator.finish())
+            try:
+                for chunk in chunks:
+                    write_groups(estimator._update_chunk_groups(chunk))
+            except KeyboardInterrupt:
+                if not follow:
+                    raise
+                stopped = "interrupt"
+            write_groups(estimator._finish_groups())
+        finally:
+            estimator.close()
     if follow and stopped == "end":
         stopped = "timeout"
     sound = counts["sound"]

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from torquemap.cli.argtypes import add_window_argument, float_in
+from torquemap.cli.argtypes import add_window_argument, float_in, int_in
 from torquemap.cli.helptext import described
 from torquemap.cli.outputs import (
     FIGURE,
@@ -115,6 +115,17 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         default=10.0,
         metavar="S",
         help="with --follow: stop when the log has not grown for S seconds (default 10)",
+    )
+    p.add_argument(
+        "--threads",
+        type=int_in(1, 64),
+        default=None,
+        metavar="N",
+        help="a log estimated in blocks (more than 2^19 samples): estimate N blocks at once, "
+        "in threads, while the log is read and the table written (the same table, byte for "
+        "byte; each thread holds a block: ~300 MB more for two joints); default: the machine's "
+        "cores, at most 2; "
+        "1 = one block after the other. A followed log (--follow) is estimated in one thread",
     )
     p.set_defaults(handler=_estimate)
 
@@ -230,7 +241,10 @@ def _estimate_in_blocks(args: argparse.Namespace, model: Any) -> int | None:
     import numpy as np
 
     from torquemap.io import follow_log_chunks, iter_log_chunks
-    from torquemap.stream import estimate_to_file
+    from torquemap.stream import default_threads, estimate_to_file
+
+    # a followed log answers a quarter-second block at a time: no gain, only latency
+    threads = 1 if args.follow else args.threads or default_threads()
 
     if args.follow:
         chunks = follow_log_chunks(args.log, model.robot, timeout=args.follow_timeout)
@@ -258,6 +272,7 @@ def _estimate_in_blocks(args: argparse.Namespace, model: Any) -> int | None:
             reversal_band=args.reversal_band,
             follow=args.follow,
             path=str(args.log),
+            threads=threads,
         ),
     )
     for w in summary.warnings:
