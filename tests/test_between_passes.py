@@ -114,3 +114,19 @@ def test_each_direction_is_drawn_between_its_own_passes() -> None:
     # the forward passes are every pass speed here: the forward table is drawn as before
     assert_allclose(out.positive, old.positive, rtol=0, atol=0)
     assert np.max(np.abs(old.levels(s[gap])[1] - g(s[gap]))) > 0.002
+
+
+def test_a_direction_with_one_pass_is_drawn_at_every_pass_speed() -> None:
+    # backward held steady at one speed only (its table the forward one's, say): nothing of its
+    # own to draw between, so it is drawn at every pass speed, as redraw_law draws it
+    law = SpeedTableFriction(
+        speeds=(1.0, 2.0, 4.0, 8.0),
+        positive=(1.0, 3.0, 6.0, 8.0),
+        negative=(1.0, 3.0, 6.0, 8.0),
+        zero_velocity=0.01,
+    )
+    out = redraw_law_by_direction(law, [1.0, 8.0, -8.0], method="linear")
+    old = redraw_law(law, [1.0, 8.0], method="linear")
+    assert_allclose(out.linear_parameters(), old.linear_parameters(), rtol=0, atol=0)
+    # a line in speed through the anchors (1, 1) and (8, 8)
+    assert_allclose(out.negative, [1.0, 2.0, 4.0, 8.0], rtol=0, atol=1e-12)

@@ -140,8 +140,9 @@ def redraw_law_by_direction(
 ) -> SpeedTableFriction:
     """:func:`redraw_law` with each direction anchored at its own passes only: the positive
     table at the knots of the positive ``steady_speeds`` [rad/s, signed], the negative table
-    at those of the negative ones (their magnitudes). :func:`redraw_law` anchors both at every
-    pass speed, so a speed that only the other direction held steady is kept as the fit's
+    at those of the negative ones (their magnitudes); a direction with fewer than two such
+    knots at every pass speed (one never swept takes the other's table). :func:`redraw_law`
+    anchors both directions at every pass speed, so a speed that only the other direction held steady is kept as the fit's
     free knot and the secant slope taken from it (random robot 332 joint b: passes at 11.7,
     50.4 and 64 rad/s forward but only 11.7 and 64 backward; the backward table, bowed by 3
     mN m between them, was held at 50.4 as if measured: 8.9x the oracle on the steady
@@ -162,8 +163,15 @@ def redraw_law_by_direction(
     [1.0, 3.25, 6.0, 8.0]
     """
     signed = [float(x) for x in steady_speeds if math.isfinite(x) and x]
-    forward = redraw_law(law, [x for x in signed if x > 0], method, held)
-    backward = redraw_law(law, [-x for x in signed if x < 0], method, held)
+    both = [abs(x) for x in signed]
+
+    def own(anchors: list[float]) -> list[float]:
+        # a direction held steady at fewer than two knots (one never swept, whose table is
+        # the other's) is drawn as redraw_law draws it
+        return anchors if anchor_knots(law.speeds, anchors).size >= 2 else both
+
+    forward = redraw_law(law, own([x for x in signed if x > 0]), method, held)
+    backward = redraw_law(law, own([-x for x in signed if x < 0]), method, held)
     return law.with_linear_parameters(
         np.r_[forward.positive, backward.negative, law.viscous, law.viscous_negative]
     )
