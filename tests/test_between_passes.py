@@ -5,7 +5,12 @@ from __future__ import annotations
 import numpy as np
 from numpy.testing import assert_allclose
 
-from torquemap.between_passes import anchor_knots, redraw_between_anchors, redraw_law
+from torquemap.between_passes import (
+    anchor_knots,
+    redraw_between_anchors,
+    redraw_law,
+    redraw_law_by_direction,
+)
 from torquemap.friction_law import SpeedTableFriction
 
 
@@ -81,3 +86,47 @@ def test_coulomb_and_viscous_above_a_stribeck_drop_are_drawn_exactly() -> None:
     # without the line taken out the same cubic is percents above the truth there
     plain = redraw_between_anchors(s, g(s), anchors, "pchip")
     assert np.max(plain[above] / g(s[above]) - 1.0) > 0.02
+
+
+def test_each_direction_is_drawn_between_its_own_passes() -> None:
+    # random robot 332 joint b: forward passes at 2, 12, 50 and 64 rad/s, backward at 2, 12
+    # and 64 only. g(s) = 0.06 + 0.02 exp(-(s / 3)^2) + 0.001 s in both directions; the fit
+    # left the backward knots between 12 and 64 rad/s (50 among them) bowed 3 mN m low. Each
+    # direction drawn between its own passes gives the line in speed back there, to the drop's
+    # remainder at 11.75 rad/s (0.02 exp(-15) = 6e-9 N m); anchoring the backward table at
+    # the forward 50 rad/s pass keeps the bow.
+    passes = [1.9, 11.75, 50.4, 64.0, -1.9, -11.75, -64.0]
+    s = np.geomspace(0.07, 72.0, 15)
+    anchors = anchor_knots(s, [abs(x) for x in passes])
+    s[anchors] = [1.9, 11.75, 50.4, 64.0]
+
+    def g(v: np.ndarray) -> np.ndarray:
+        return 0.06 + 0.02 * np.exp(-((v / 3.0) ** 2)) + 0.001 * v
+
+    gap = (s > 11.75) & (s < 64.0)
+    bowed = g(s) - np.where(gap, 0.003, 0.0)
+    law = SpeedTableFriction(
+        speeds=tuple(s), positive=tuple(g(s)), negative=tuple(bowed), zero_velocity=0.01
+    )
+    out = redraw_law_by_direction(law, passes)
+    assert_allclose(out.levels(s[gap])[1], g(s[gap]), rtol=0, atol=1e-8)
+    old = redraw_law(law, [abs(x) for x in passes])
+    # the forward passes are every pass speed here: the forward table is drawn as before
+    assert_allclose(out.positive, old.positive, rtol=0, atol=0)
+    assert np.max(np.abs(old.levels(s[gap])[1] - g(s[gap]))) > 0.002
+
+
+def test_a_direction_with_one_pass_is_drawn_at_every_pass_speed() -> None:
+    # backward held steady at one speed only (its table the forward one's, say): nothing of its
+    # own to draw between, so it is drawn at every pass speed, as redraw_law draws it
+    law = SpeedTableFriction(
+        speeds=(1.0, 2.0, 4.0, 8.0),
+        positive=(1.0, 3.0, 6.0, 8.0),
+        negative=(1.0, 3.0, 6.0, 8.0),
+        zero_velocity=0.01,
+    )
+    out = redraw_law_by_direction(law, [1.0, 8.0, -8.0], method="linear")
+    old = redraw_law(law, [1.0, 8.0], method="linear")
+    assert_allclose(out.linear_parameters(), old.linear_parameters(), rtol=0, atol=0)
+    # a line in speed through the anchors (1, 1) and (8, 8)
+    assert_allclose(out.negative, [1.0, 2.0, 4.0, 8.0], rtol=0, atol=1e-12)

@@ -46,13 +46,13 @@ import itertools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Literal, cast
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy import optimize, sparse, stats
 
-from torquemap.between_passes import redraw_law
+from torquemap.between_passes import Method, redraw_law, redraw_law_by_direction
 from torquemap.errors import InputError
 from torquemap.filters import dilate, lowpass
 from torquemap.friction_law import SpeedTableFriction
@@ -134,6 +134,11 @@ VISCOUS_PRIOR = 10.0
 #: (:func:`torquemap.between_passes.redraw_law`): ``"pchip"``, ``"linear"`` or ``"fit"`` (the
 #: fit's own knots, held there by the smoothness prior and the passes' speed ripple).
 BETWEEN_PASSES = "pchip"
+#: Whether each direction's table is redrawn between its own passes only
+#: (:func:`torquemap.between_passes.redraw_law_by_direction`) rather than anchored at every
+#: pass speed of either direction (random robot 332 joint b: no backward pass at 50 rad/s, the
+#: backward knot there was kept as fitted, 3 mN m off the line between -11.7 and -64 rad/s).
+REDRAW_BY_DIRECTION = True
 #: Weight of the redrawn knots against the fit's own between two passes far apart: the two are
 #: estimates with opposite failures (the fit's smooth curve misses a steep Stribeck drop, the
 #: monotone cubic through the passes a dip below them), so the table takes their mean and
@@ -1442,7 +1447,12 @@ def fit_joint_whole(
         # between two passes far apart the sweep crosses the speeds only on ramps: the knots
         # there are drawn through the passes' own knots (docs/identification.md)
         by_prior = _prior_held_knots(rows, a, fit.weights * keep, prior, m, speeds, steady_speeds)
-        redrawn = redraw_law(law, [abs(x) for x in steady_speeds], BETWEEN_PASSES, held=by_prior)  # type: ignore[arg-type]
+        method = cast(Method, BETWEEN_PASSES)
+        if REDRAW_BY_DIRECTION and pass_speeds:
+            # each direction between its own passes (pass_speeds is signed)
+            redrawn = redraw_law_by_direction(law, pass_speeds, method, held=by_prior)
+        else:
+            redrawn = redraw_law(law, [abs(x) for x in steady_speeds], method, held=by_prior)
         # the fit's own knots are a second estimate there: the table takes the weighted mean,
         # and the distance from it to either is a model-form variance, fully correlated along
         # each direction's table
