@@ -8,17 +8,15 @@ part the filter removed, against the true (unfiltered) force.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
+from test_arm_qa37 import KT, NOISE, TWO_LINK, _arm, _law  # the same two-link arm and law
 
 import torquemap.estimate_arm as estimate_arm_module
 from torquemap.arm_fast import fast_torque_variance
 from torquemap.estimate_arm import estimate_arm
 from torquemap.excite import exciting_trajectory
 from torquemap.filters import lowpass
-from torquemap.friction_law import StribeckFriction
 from torquemap.identify_arm import identify_arm
 from torquemap.io import Log
 from torquemap.model import InertiaModel, JointModel, Model
@@ -27,27 +25,7 @@ from torquemap.robots.urdf import UrdfArm, urdf_arm
 
 pytestmark = pytest.mark.xdist_group("arm_qa38")
 
-TWO_LINK = Path(__file__).parent / "data" / "arm" / "two_link.urdf"
-KT = 0.1
-NOISE = 0.02  # [A] current noise, white per sample
 GEAR = (1.0, 1.0)  # a direct drive
-
-
-def _law(coulomb: float) -> StribeckFriction:
-    return StribeckFriction(
-        coulomb_positive=coulomb,
-        coulomb_negative=coulomb,
-        viscous=2e-4 if coulomb else 0.0,
-        stribeck_positive=0.3 * coulomb,
-        stribeck_negative=0.3 * coulomb,
-        stribeck_velocity=5.0,
-        zero_velocity=0.5,
-        transition="smooth",
-    )
-
-
-def _arm() -> UrdfArm:
-    return urdf_arm(TWO_LINK, ["shoulder", "elbow"], end_effector="tool", gravity=(0, -9.81, 0))
 
 
 def _robot(arm: UrdfArm) -> Robot:

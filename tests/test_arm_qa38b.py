@@ -12,10 +12,11 @@ laws, which the estimators never read.
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 import pytest
+from test_arm_qa37 import KT, TWO_LINK  # the same two-link arm
+from test_arm_qa37 import _law as _stribeck_law
 
 from torquemap.arm_coarse import coarse_angle_note
 from torquemap.arm_stribeck import refit_without_stribeck
@@ -30,8 +31,6 @@ from torquemap.robots.urdf import UrdfArm, urdf_arm
 
 pytestmark = pytest.mark.xdist_group("arm_qa38b")
 
-TWO_LINK = Path(__file__).parent / "data" / "arm" / "two_link.urdf"
-KT = 0.1
 BEYOND = "lies beyond the speeds the logs reach"
 
 
@@ -40,19 +39,6 @@ def _bench_friction(w: np.ndarray, coulomb: float, stribeck: float) -> np.ndarra
     1.5 rad/s and a Stribeck term decaying over 3 rad/s [N m at motor speeds w, rad/s]."""
     out: np.ndarray = (coulomb + stribeck * np.exp(-np.abs(w) / 3.0)) * np.tanh(w / 1.5) + 4e-5 * w
     return out
-
-
-def _stribeck_law(coulomb: float) -> StribeckFriction:
-    return StribeckFriction(
-        coulomb_positive=coulomb,
-        coulomb_negative=coulomb,
-        viscous=2e-4 if coulomb else 0.0,
-        stribeck_positive=0.3 * coulomb,
-        stribeck_negative=0.3 * coulomb,
-        stribeck_velocity=5.0,
-        zero_velocity=0.5,
-        transition="smooth",
-    )
 
 
 def _free(

@@ -1560,13 +1560,7 @@ def _choose_prior(
         gain, z = held_out_gain(r0[mask], r1[mask], rows.clusters[mask], scale or None)
         take = curve.velocity[side] > 0 and z >= HELD_OUT_Z
         out.append((bool(take), gain, z, int(mask.sum())))
-    return PriorChoice(
-        curved=(out[0][0], out[1][0]),
-        gain=(out[0][1], out[1][1]),
-        z=(out[0][2], out[1][2]),
-        rows=(out[0][3], out[1][3]),
-        velocity=(float(curve.velocity[0]), float(curve.velocity[1])),
-    )
+    return _choice(out, curve)
 
 
 def _choose_prior_slowest(
@@ -1642,6 +1636,11 @@ def _choose_prior_slowest(
             r0, r1 = (y[held] - a[held] @ f.coef for f in fits)
             gain, z = held_out_gain(r0, r1, rows.clusters[held], scale or None)
             out[side] = (z >= HELD_OUT_Z, gain, z, int(held.sum()))
+    return _choice(out, curve)
+
+
+def _choice(out: Sequence[tuple[bool, float, float, int]], curve: StribeckPrior) -> PriorChoice:
+    """:class:`PriorChoice` from each direction's (curved, gain, z, rows), positive first."""
     return PriorChoice(
         curved=(out[0][0], out[1][0]),
         gain=(out[0][1], out[1][1]),

@@ -582,6 +582,12 @@ def noise_level(
     return high_band_psd(t, residual, use, step=step)
 
 
+def _recorded_noise(model: Model, joint: str) -> float:
+    """The joint's ``noise_high_psd`` [N^2 m^2/Hz] identification recorded; NaN if none."""
+    table = joint_uncertainty(model, joint)
+    return float(table.get("noise_high_psd", math.nan)) if table is not None else math.nan
+
+
 def noise_excess(
     model: Model,
     joint: str,
@@ -594,8 +600,7 @@ def noise_excess(
     """White-noise PSD [N^2 m^2/Hz] of ``residual`` above the model's own (:func:`noise_level`
     on this log less the recorded ``noise_high_psd``); 0 when the model records no level or
     this log's cannot be measured (too slow, too short), or when it is not higher."""
-    table = joint_uncertainty(model, joint)
-    own = float(table.get("noise_high_psd", math.nan)) if table is not None else math.nan
+    own = _recorded_noise(model, joint)
     if not math.isfinite(own):
         return 0.0
     level = noise_level(model, joint, t=t, residual=residual, velocity=velocity, step=step)
@@ -626,8 +631,7 @@ def white_noise_excess(
     :func:`noise_excess`)."""
     from torquemap.noise_level import HIGH_BAND_SPLIT, high_band_psd
 
-    table = joint_uncertainty(model, joint)
-    own = float(table.get("noise_high_psd", math.nan)) if table is not None else math.nan
+    own = _recorded_noise(model, joint)
     if not math.isfinite(own):
         return 0.0
     level = noise_level(model, joint, t=t, residual=residual, velocity=velocity, step=step)
