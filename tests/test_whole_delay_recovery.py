@@ -81,9 +81,9 @@ def test_a_known_delay_is_recovered_and_inside_its_interval(
 
 
 def test_a_slowest_pass_that_sticks_and_slips_does_not_pull_the_delay(monkeypatch) -> None:  # type: ignore[no-untyped-def]
-    # the slow pass's friction with memory repeats at 12 Hz: scored on every row (the old
-    # default) the delay's cost follows that misfit, off by 13 ms with the truth outside the
-    # interval; scored on the rows the table is fitted on, within 3 ms and inside
+    # the slow pass's friction with memory repeats at 12 Hz: scored on every row alone (the
+    # old default) the delay's cost follows that misfit, off by 13 ms with the truth outside
+    # the interval; checked on the rows the table is fitted on, within 3 ms and inside
     log = simulate(0.09, rate=300.0, jitter=0.3, slip=0.1)
     got, (low, high) = _delay(log)
     assert abs(got - 0.09) < 3e-3
