@@ -92,3 +92,18 @@ def test_a_slowest_pass_that_sticks_and_slips_does_not_pull_the_delay(monkeypatc
     old, (low, high) = _delay(log)
     assert abs(old - 0.09) > 0.01
     assert not low <= 0.09 <= high
+
+
+def test_where_the_check_agrees_the_model_is_the_every_row_fit(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    # the check changes the delay only when it disagrees: here both profiles find 45 ms and
+    # the model is the every-row fit's to the last bit, bar the interval (widened around the
+    # kept delay)
+    from torquemap.model import model_to_dict
+
+    log = simulate(0.045, rate=800.0, jitter=0.3, seed=4)
+    checked = model_to_dict(identify_model(robot(), [log], max_order=20, friction="whole").model)
+    monkeypatch.setattr(whole, "DELAY_WEIGHTS", "all")
+    every = model_to_dict(identify_model(robot(), [log], max_order=20, friction="whole").model)
+    for m in (checked, every):
+        m["identification"]["joints"]["m"].pop("channel_delay_interval")
+    assert checked == every
