@@ -3,7 +3,7 @@
 The expensive ones run the tutorial's own command lines (docs/tutorial.md), so that
 tests/test_tutorial.py checks what they printed instead of running them again. Under
 ``pytest -n 2`` each worker has its own session: test_demo and test_tutorial, which share the demo
-(24 s of CPU), carry ``xdist_group("demo")`` so that one worker runs it once (``--dist
+(21 s of CPU), carry ``xdist_group("demo")`` so that one worker runs it once (``--dist
 loadgroup``, in the Makefile); the bench (9 s), its two identifications and the VR rig are built
 once for the whole run, by the first worker that asks, in a folder both share (``_built_once``).
 """
