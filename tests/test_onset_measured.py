@@ -83,3 +83,12 @@ def test_a_reluctance_motor_s_exponent_and_dead_zone() -> None:
     assert fit.exponent == 2.0
     assert abs(fit.dead_zone - 20.0) <= STEP + 1e-9
     assert abs(fit.curve + 0.6) <= CURVE_STEP
+
+
+def test_build_tables_refuses_an_unknown_search() -> None:
+    from torquemap.linearize.motor import motor_spec
+    from torquemap.linearize.tables import build_tables
+
+    spec = motor_spec("m", phases=1, positions_per_cycle=8, equilibrium_positions=(0,))
+    with pytest.raises(ValueError, match="onset_search"):
+        build_tables(spec, [0], [0], [0.0], onset_search="every")  # type: ignore[arg-type]
