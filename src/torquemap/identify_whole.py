@@ -1351,6 +1351,10 @@ def fit_joint_whole(
                     clusters=rows.clusters,
                     gram=plain_fit.gram,
                 )
+        plain_fit.gram = None
+    # the Gram products were for the fits above: they hold this design, which later fits
+    # replace
+    fit.gram = None
 
     def refit(
         orders: Sequence[tuple[float, bool]],
