@@ -31,7 +31,8 @@ types: $(STAMP)
 # kernels' own tests compile most of them once here, on the core mypy leaves idle, and the two
 # test workers then load them instead of each compiling its own (a fresh clone: ~1 min each)
 kernels: $(STAMP)
-	$(BIN)/pytest -q tests/test_kernels.py tests/test_fit_kernels.py tests/test_multirate.py
+	$(BIN)/pytest -q tests/test_kernels.py tests/test_fit_kernels.py tests/test_multirate.py \
+		tests/test_estimate_kernels.py
 
 unit: $(STAMP)
 	$(BIN)/pytest -n 2 --dist loadgroup -q

@@ -5,7 +5,9 @@ Run: ``.venv/bin/python benchmarks/linearize.py`` (the four joints, then 20 rand
 ``--no-joints`` for the random motors alone, ``--quick`` for them noise-free only (no
 verification runs: for iterating), ``--motors N --first-seed S`` for other members of the family,
 ``--bias-rest`` to measure the CLI's default path beside them: the same collection with the bias
-read at rest, its tables built with DATA.csv's ``bias`` column and without it.
+read at rest, its tables built with DATA.csv's ``bias`` column and without it;
+``--onset-form`` / ``--onset-search`` to build the random motors' interp tables with another
+onset law (``build_tables``' keywords; docs/linearize.md, "stop 40 (L44)").
 
 Random motors (``torquemap.sim.family.paper_bench``): each collected at the paper's settings (10
 readings a row, every 4th table position and pulse width) with the bias read on an open contact
@@ -195,13 +197,21 @@ def verification_settings(spec: MotorSpec) -> CollectionSettings:
 
 
 def family_row(
-    seed: int, tmp: Path, *, verify: bool, bias_rest: bool = False
+    seed: int,
+    tmp: Path,
+    *,
+    verify: bool,
+    bias_rest: bool = False,
+    onset: dict[str, str] | None = None,
 ) -> dict[str, float | str]:
     """One random motor at the paper's collection: interp, paper method and floor; with
     ``bias_rest``, also the CLI's default path: the same collection with the bias read at rest
     (the same sensor-noise seed, so the same readings), its tables built with DATA.csv's
     ``bias`` column (``rest``: the load it holds restored, :mod:`torquemap.linearize.bias`) and
-    without it (``rest_plain``: the rows as measured, what an older file gives)."""
+    without it (``rest_plain``: the rows as measured, what an older file gives). ``onset``:
+    ``build_tables``' onset-law keywords for the interp tables (``--onset-form``,
+    ``--onset-search``; default: its defaults)."""
+    law = {} if onset is None else onset
     bench = paper_bench(seed)
     rig = bench.rig
     spec = rig.motor_spec(ramping=bench.ramping)
@@ -216,9 +226,16 @@ def family_row(
     # (:mod:`torquemap.linearize.bias`); ``interp_rows`` the rows as measured (an older
     # three-column file, and this benchmark before the column)
     tables = {
-        "interp": build_tables(spec, data.position, data.level, data.torque, bias=data.bias),
+        "interp": build_tables(
+            spec,
+            data.position,
+            data.level,
+            data.torque,
+            bias=data.bias,
+            **law,  # type: ignore[arg-type]
+        ),
         "paper": build_tables(spec, data.position, data.level, data.torque, method="paper"),
-        "interp_rows": build_tables(spec, data.position, data.level, data.torque),
+        "interp_rows": build_tables(spec, data.position, data.level, data.torque, **law),  # type: ignore[arg-type]
     }
     tables["floor"] = floor_tables(rig, spec, tables["interp"])
     row["warnings"] = " | ".join(tables["interp"].warnings)
@@ -320,13 +337,21 @@ def family_tables(rows: list[dict[str, float | str]], *, verify: bool) -> None:
         rest_tables(rows, verify=verify)
 
 
-def family(seeds: list[int], *, verify: bool, bias_rest: bool = False) -> None:
+def family(
+    seeds: list[int],
+    *,
+    verify: bool,
+    bias_rest: bool = False,
+    onset: dict[str, str] | None = None,
+) -> None:
     """The random-motor section."""
     start = time.perf_counter()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for seed in seeds:
-            rows.append(family_row(seed, Path(tmp), verify=verify, bias_rest=bias_rest))
+            rows.append(
+                family_row(seed, Path(tmp), verify=verify, bias_rest=bias_rest, onset=onset)
+            )
             print(f"  seed {seed} done ({time.perf_counter() - start:.0f} s)", file=sys.stderr)
     family_tables(rows, verify=verify)
     print(f"({len(seeds)} motors in {time.perf_counter() - start:.0f} s)")
@@ -467,14 +492,29 @@ def main() -> int:
         help="random motors: also the CLI's default collection, the bias read at rest, its "
         "tables with and without DATA.csv's bias column (a second collection per motor)",
     )
+    parser.add_argument(
+        "--onset-form",
+        choices=("power", "amplifier"),
+        help="random motors: build_tables' onset_form for the interp tables (default: its own)",
+    )
+    parser.add_argument(
+        "--onset-search",
+        choices=("all", "measured"),
+        help="random motors: build_tables' onset_search for the interp tables (default: its own)",
+    )
     args = parser.parse_args()
+    onset = {
+        key: value
+        for key, value in (("onset_form", args.onset_form), ("onset_search", args.onset_search))
+        if value is not None
+    }
     seeds = list(range(args.first_seed, args.first_seed + args.motors))
     if args.motors < 0:
         parser.error("--motors must be >= 0")
     if not (args.quick or args.no_joints):
         joints_section()
     if seeds:  # --motors 0: the four joints alone
-        family(seeds, verify=not args.quick, bias_rest=args.bias_rest)
+        family(seeds, verify=not args.quick, bias_rest=args.bias_rest, onset=onset)
     return 0
 
 

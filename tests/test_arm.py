@@ -25,6 +25,10 @@ from torquemap.model import InertiaModel, JointModel, Model, PdtvLine, pdtv_torq
 from torquemap.robot import Joint, Robot
 from torquemap.robots.urdf import UrdfArm, urdf_arm
 
+# one worker runs the module (pytest -n 2 --dist loadgroup), so its module fixture `bench`
+# is built once, not once per worker
+pytestmark = pytest.mark.xdist_group("arm")
+
 TWO_LINK = Path(__file__).parent / "data" / "arm" / "two_link.urdf"
 GEAR = (60.0, 40.0)
 KT = 0.1

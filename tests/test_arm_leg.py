@@ -25,6 +25,10 @@ from torquemap.robots.urdf import urdf_arm
 from torquemap.sim import arm as sim
 from torquemap.sim import leg
 
+# one worker runs the module (pytest -n 2 --dist loadgroup), so its module fixture `bench`
+# is built once, not once per worker
+pytestmark = pytest.mark.xdist_group("arm_leg")
+
 FREE, TASK = 6.0, 5.0  # [s] of flight (whole traversals of excite's schedule: 14.5 s), stepping
 
 

@@ -30,6 +30,10 @@ from torquemap.sim.actuator import (
     simulate_sweep,
 )
 
+# one worker runs the module (pytest -n 2 --dist loadgroup), so its module fixture `stand`
+# is built once, not once per worker
+pytestmark = pytest.mark.xdist_group("cogging")
+
 
 @dataclass(frozen=True)
 class Stand:

@@ -21,6 +21,10 @@ from torquemap.linearize.export import (
 from torquemap.linearize.motor import motor_spec
 from torquemap.linearize.tables import TableSet, build_tables
 
+# one worker runs the module (pytest -n 2 --dist loadgroup), so its module fixture `tables`
+# is built once, not once per worker
+pytestmark = pytest.mark.xdist_group("export")
+
 
 def make_tables(n: int = 512, actuation_bits: int | None = None) -> TableSet:
     spec = motor_spec(

@@ -32,6 +32,10 @@ from torquemap.io import read_table, write_table, write_toml
 from torquemap.sim.bench import robot_document, truth_document
 from torquemap.sim.scara import default_bench
 
+# one worker runs test_fuzz_cli and test_fuzz_cli_more (pytest -n 2 --dist loadgroup), so
+# the session fixture `clean` (every command's clean run) is built once, not once per worker
+pytestmark = pytest.mark.xdist_group("fuzz_cli")
+
 #: Examples per property; raise it for a longer hunt, e.g. TORQUEMAP_FUZZ_EXAMPLES=500.
 EXAMPLES = int(os.environ.get("TORQUEMAP_FUZZ_EXAMPLES", "25"))
 FUZZ = settings(

@@ -29,6 +29,10 @@ from torquemap.io import read_table, write_table, write_toml
 from torquemap.linearize.export import load_tables
 from torquemap.robot import robot_from_dict
 
+# one worker runs test_fuzz_cli and test_fuzz_cli_more (pytest -n 2 --dist loadgroup), so
+# the session fixture `clean` (every command's clean run) is built once, not once per worker
+pytestmark = pytest.mark.xdist_group("fuzz_cli")
+
 # -- the bad inputs ------------------------------------------------------------------------------
 
 

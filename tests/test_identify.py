@@ -14,6 +14,10 @@ from torquemap.io import Log, write_toml
 from torquemap.model import FrictionModel, PdtvLine, friction_torque, load_model, model_to_dict
 from torquemap.robot import robot_from_dict
 
+# one worker runs the module (pytest -n 2 --dist loadgroup), so its module fixture `result`
+# is built once, not once per worker
+pytestmark = pytest.mark.xdist_group("identify")
+
 J_TRUE = 2e-4
 FRICTION = FrictionModel(coulomb_positive=0.05, coulomb_negative=0.06, viscous=0.004)
 LINES = (

@@ -20,6 +20,10 @@ from torquemap.io import Log
 from torquemap.model import PdtvLine, pdtv_torque
 from torquemap.robot import robot_from_dict
 
+# one worker runs the module (pytest -n 2 --dist loadgroup), so its module fixture `delayed`
+# is built once, not once per worker
+pytestmark = pytest.mark.xdist_group("identify_whole")
+
 LAW = StribeckFriction(
     coulomb_positive=0.05,
     coulomb_negative=0.06,

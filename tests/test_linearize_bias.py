@@ -154,9 +154,18 @@ def cogging_rig(tmp_path_factory: pytest.TempPathFactory) -> dict[str, object]:
     return out
 
 
+@pytest.fixture(scope="module")
+def restored_tables(cogging_rig: dict[str, object]) -> TableSet:
+    """The tables built from ``cogging_rig``'s rows read with the bias at rest, the load at rest
+    restored from the bias column (two tests read them; read-only)."""
+    rest: LinearizeData = cogging_rig["data_False"]  # type: ignore[assignment]
+    spec: MotorSpec = cogging_rig["spec"]  # type: ignore[assignment]
+    return build_tables(spec, rest.position, rest.level, rest.torque, bias=rest.bias)
+
+
 @pytest.mark.xdist_group("bias_rig")
 def test_the_rest_bias_is_restored_to_what_an_open_contact_reads(
-    cogging_rig: dict[str, object],
+    cogging_rig: dict[str, object], restored_tables: TableSet
 ) -> None:
     rest: LinearizeData = cogging_rig["data_False"]  # type: ignore[assignment]
     opened: LinearizeData = cogging_rig["data_True"]  # type: ignore[assignment]
@@ -180,8 +189,7 @@ def test_the_rest_bias_is_restored_to_what_an_open_contact_reads(
     se = rig.settings.noise / np.sqrt(100)
     assert_allclose(rest.torque + check.restore, opened.torque, atol=5 * se)
     # the tables: restored, as good as the open contact's (within 10 %), far better than not
-    kw = {"bias": rest.bias}
-    restored = build_tables(spec, rest.position, rest.level, rest.torque, **kw)  # type: ignore[arg-type]
+    restored = restored_tables  # build_tables(..., bias=rest.bias)
     plain = build_tables(spec, rest.position, rest.level, rest.torque)
     open_tables = build_tables(spec, opened.position, opened.level, opened.torque)
     assert _apmd(rig, restored) < 1.1 * _apmd(rig, open_tables)
@@ -333,7 +341,7 @@ def test_build_takes_the_bias_weight_from_an_adaptive_record(tmp_path: Path) -> 
 
 @pytest.mark.xdist_group("bias_rig")
 def test_evaluate_says_a_verification_read_at_rest_is_not_the_joints_torque(
-    cogging_rig: dict[str, object], capsys: pytest.CaptureFixture[str]
+    cogging_rig: dict[str, object], restored_tables: TableSet, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """A verification through tables that restore the load at rest, read with the bias at
     rest, measures the torque above the torque at rest: worse than the same tables verified
@@ -341,8 +349,7 @@ def test_evaluate_says_a_verification_read_at_rest_is_not_the_joints_torque(
     verification's bias column; on an open contact it is silent."""
     tmp: Path = cogging_rig["tmp"]  # type: ignore[assignment]
     spec: MotorSpec = cogging_rig["spec"]  # type: ignore[assignment]
-    rest: LinearizeData = cogging_rig["data_False"]  # type: ignore[assignment]
-    tables = build_tables(spec, rest.position, rest.level, rest.torque, bias=rest.bias)
+    tables = restored_tables  # build_tables(..., bias=rest.bias) of the rows read at rest
     save = tmp / "restored.npz"
     save_tables(save, tables)
     write_toml(tmp / "mv.toml", motor_to_dict(spec))

@@ -15,6 +15,10 @@ from torquemap.cli.main import main
 from torquemap.io import read_log, write_table, write_toml
 from torquemap.model import load_model
 
+# one worker runs the module (pytest -n 2 --dist loadgroup), so its module fixture `files`
+# is built once, not once per worker
+pytestmark = pytest.mark.xdist_group("new_user")
+
 
 @pytest.fixture(scope="module")
 def files(tmp_path_factory: pytest.TempPathFactory) -> Path:

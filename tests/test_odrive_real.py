@@ -14,6 +14,10 @@ from torquemap.cli.main import main
 from torquemap.model import load_model
 from torquemap.pdtv_map import pdtv_map
 
+# one worker runs the module (pytest -n 2 --dist loadgroup), so its module fixture `odrive`
+# is built once, not once per worker
+pytestmark = pytest.mark.xdist_group("odrive_real")
+
 DATA = Path(__file__).parent / "data" / "odrive"
 ROBOT = """[robot]
 name = "odrive-bldc"

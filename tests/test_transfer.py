@@ -18,6 +18,10 @@ from torquemap.linearize.tables import LinearizeData, read_data
 from torquemap.linearize.transfer import TransferResult, transfer_characterisation
 from torquemap.sim.rig import SimRig, sim_rig
 
+# one worker runs the module (pytest -n 2 --dist loadgroup), so its module fixture `joints`
+# is built once, not once per worker
+pytestmark = pytest.mark.xdist_group("transfer")
+
 GAINS = (1.06, 0.95, 1.02)  # the second joint's phase gains over the first's
 
 

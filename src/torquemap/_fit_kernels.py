@@ -900,13 +900,71 @@ def segment_medians(
     v: NDArray[np.float64], starts: NDArray[np.intp], stops: NDArray[np.intp]
 ) -> NDArray[np.float64]:
     """The median of each segment ``v[starts[s]:stops[s]]`` (non-empty), the mean of the two
-    middle values of an even count: the value numpy's sorted order gives."""
+    middle values of an even count: the value numpy's sorted order gives (the two order
+    statistics found by selection, a segment holding a NaN sorted as numpy sorts it)."""
     out = np.empty(starts.size)
+    longest = 0
     for s in range(starts.size):
-        seg = np.sort(v[starts[s] : stops[s]])
-        m = seg.size
-        out[s] = 0.5 * (seg[(m - 1) // 2] + seg[m // 2])
+        longest = max(longest, stops[s] - starts[s])
+    buf = np.empty(longest)
+    for s in range(starts.size):
+        m = stops[s] - starts[s]
+        nan = False
+        for i in range(m):
+            x = v[starts[s] + i]
+            buf[i] = x
+            nan = nan or x != x
+        if nan:  # numpy's order, NaNs last
+            seg = np.sort(v[starts[s] : stops[s]])
+            out[s] = 0.5 * (seg[(m - 1) // 2] + seg[m // 2])
+            continue
+        # the order statistics by selection (Hoare's quickselect), not a sort: the same values
+        half = m // 2
+        _select(buf, m, half)
+        upper = buf[half]
+        lower = upper
+        if m % 2 == 0:  # the largest of the values left of ``half``: the order statistic below
+            lower = buf[0]
+            for i in range(1, half):
+                if buf[i] > lower:
+                    lower = buf[i]
+        out[s] = 0.5 * (lower + upper)
     return out
+
+
+@jit
+def _select(buf: NDArray[np.float64], m: int, k: int) -> None:
+    """Reorder ``buf[:m]`` (no NaN) so that ``buf[k]`` holds its ``k``-th smallest value, the
+    values before it not larger and those after not smaller (quickselect, median-of-three
+    pivots)."""
+    lo, hi = 0, m - 1
+    while hi > lo:
+        mid = (lo + hi) // 2
+        # median of three to buf[mid]
+        if buf[mid] < buf[lo]:
+            buf[mid], buf[lo] = buf[lo], buf[mid]
+        if buf[hi] < buf[lo]:
+            buf[hi], buf[lo] = buf[lo], buf[hi]
+        if buf[hi] < buf[mid]:
+            buf[hi], buf[mid] = buf[mid], buf[hi]
+        pivot = buf[mid]
+        i, j = lo, hi
+        while i <= j:
+            while buf[i] < pivot:
+                i += 1
+            while buf[j] > pivot:
+                j -= 1
+            if i <= j:
+                buf[i], buf[j] = buf[j], buf[i]
+                i += 1
+                j -= 1
+        # buf[lo:j + 1] <= pivot <= buf[i:hi + 1], and lo..hi between j and i equal the pivot
+        if k <= j:
+            hi = j
+        elif k >= i:
+            lo = i
+        else:
+            return
 
 
 @jit

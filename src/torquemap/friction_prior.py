@@ -206,7 +206,19 @@ def search_curve(
     def shapes(c: list[tuple[float, float]]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         return stribeck_shape(x, *c[0]), stribeck_shape(x, *c[1])
 
-    best = objective(precision)[0]
+    # the objective of each pair of curves, evaluated once: the rounds and the gains come back
+    # to pairs already tried (the objective is a function of the precision alone, and the
+    # precision of no curve is ``precision`` itself, curve_precision's copy of it)
+    tried_pairs: dict[tuple[tuple[float, float], ...], tuple[float, NDArray[np.float64]]] = {}
+
+    def at(c: list[tuple[float, float]]) -> tuple[float, NDArray[np.float64]]:
+        key = tuple(c)
+        if key not in tried_pairs:
+            tried_pairs[key] = objective(curve_precision(precision, offset, k, shapes(c), spread))
+        return tried_pairs[key]
+
+    tried_pairs[((0.0, 2.0), (0.0, 2.0))] = objective(precision)
+    best = tried_pairs[((0.0, 2.0), (0.0, 2.0))][0]
     for _ in range(rounds):
         moved = False
         for side in (0, 1):
@@ -215,9 +227,7 @@ def search_curve(
             for candidate in grid:
                 trial = list(chosen)
                 trial[side] = candidate
-                value, coef = objective(
-                    curve_precision(precision, offset, k, shapes(trial), spread)
-                )
+                value, coef = at(trial)
                 if not value < best - 1e-12 * abs(best):
                     continue
                 phi = shapes(trial)[side]
@@ -231,13 +241,12 @@ def search_curve(
         if chosen[side][0] > 0:
             trial = list(chosen)
             trial[side] = (0.0, 2.0)
-            without = objective(curve_precision(precision, offset, k, shapes(trial), spread))
-            gains[side] = without[0] - best
+            gains[side] = at(trial)[0] - best
     for side in (0, 1):
         if chosen[side][0] > 0 and gains[side] < min_gain:
             chosen[side] = (0.0, 2.0)
     if any(c[0] == 0 for c in chosen) and gains != [0.0, 0.0]:
-        best = objective(curve_precision(precision, offset, k, shapes(chosen), spread))[0]
+        best = at(chosen)[0]
     out = curve_precision(precision, offset, k, shapes(chosen), spread)
     result = StribeckPrior(
         velocity=(chosen[0][0], chosen[1][0]),

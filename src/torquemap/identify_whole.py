@@ -879,9 +879,9 @@ def _prior(
 def _scaled_solve(matrix: NDArray[np.float64], vector: NDArray[np.float64]) -> NDArray[np.float64]:
     """``matrix^-1 vector`` of a symmetric positive (semi)definite ``matrix``, its rows and
     columns scaled to unit diagonal first (a tiny ridge keeps unexcited columns at 0)."""
-    d = np.sqrt(np.maximum(np.diag(matrix), 1e-300))
-    scaled = matrix / np.outer(d, d)
-    scaled[np.diag_indices_from(scaled)] += 1e-12
+    d = np.sqrt(np.maximum(np.diagonal(matrix), 1e-300))
+    scaled = matrix / np.multiply.outer(d, d)
+    scaled.flat[:: scaled.shape[0] + 1] += 1e-12  # the diagonal
     return np.asarray(np.linalg.solve(scaled, vector / d) / d)
 
 
@@ -916,7 +916,16 @@ class _Trial:
     bread: NDArray[np.float64]
     residual: NDArray[np.float64]
     weights: NDArray[np.float64]
-    objective: float
+    prior: NDArray[np.float64]
+    #: The design's product over the kept rows that :func:`_irls` built (another fit on the
+    #: same design and rows reuses it)
+    gram: _Gram | None = None
+
+    @property
+    def objective(self) -> float:
+        """The penalised weighted sum of squares the fit minimised (formed when asked)."""
+        r = self.residual
+        return float(np.sum(self.weights * r * r) + self.coef @ self.prior @ self.coef)
 
 
 def _psolve(
@@ -983,18 +992,22 @@ class _Solver:
             normal = gram(w) + prior
         else:
             normal = a.T @ (a * w[:, None]) + prior
-        d = np.sqrt(np.maximum(np.diag(normal), 0.0))
+        d = np.sqrt(np.maximum(np.diagonal(normal), 0.0))
         d = np.where(d > 0, d, 1.0)
-        scaled = normal / np.outer(d, d)
-        scaled[np.diag_indices_from(scaled)] += 1e-12
+        dd = np.multiply.outer(d, d)
+        scaled = normal / dd
+        scaled.flat[:: scaled.shape[0] + 1] += 1e-12  # the diagonal
         self.a, self.w, self.prior = a, w, prior
-        self.bread = np.linalg.pinv(scaled, rcond=1e-12, hermitian=True) / np.outer(d, d)
+        self.bread = np.linalg.pinv(scaled, rcond=1e-12, hermitian=True) / dd
 
     def __call__(self, y: NDArray[np.float64]) -> _Trial:
-        coef = self.bread @ (self.a.T @ (self.w * y))
+        coef = self.coef(y)
         r = y - self.a @ coef
-        obj = float(np.sum(self.w * r * r) + coef @ self.prior @ coef)
-        return _Trial(coef=coef, bread=self.bread, residual=r, weights=self.w, objective=obj)
+        return _Trial(coef=coef, bread=self.bread, residual=r, weights=self.w, prior=self.prior)
+
+    def coef(self, y: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The coefficients of :meth:`__call__`'s fit alone (the same numbers)."""
+        return np.asarray(self.bread @ (self.a.T @ (self.w * y)), dtype=np.float64)
 
 
 def _irls(
@@ -1006,6 +1019,7 @@ def _irls(
     *,
     keep: NDArray[np.float64],
     clusters: NDArray[np.int64],
+    gram: _Gram | None = None,
 ) -> _Trial:
     """Huber reweighting of :func:`_psolve` on the rows with ``keep`` 1 (the others 0).
 
@@ -1016,19 +1030,28 @@ def _irls(
     Huber's threshold would otherwise lose the weight of all its rows, and the prior would
     pull it further (random robot 17 of the family, joint a: a pass at -1.83 rad/s weighted
     0.30, its table 1.5 mN m off the truth there; 0.73 mN m with the median taken out).
+
+    ``gram``: an earlier fit's (:attr:`_Trial.gram`), used when it is of the same design
+    ``a`` and ``keep`` (the same numbers as building it again); the fit returned carries its
+    own.
     """
-    gram = _Gram(a, keep)  # every weight is Huber's times ``keep``: 1 on most kept rows
+    if gram is None or gram.a is not a or not np.array_equal(gram.base, keep):
+        gram = _Gram(a, keep)  # every weight is Huber's times ``keep``: 1 on most kept rows
     trial = _Solver(a, w * keep, prior, gram)(y)
     inside = keep > 0
+    groups = clusters[inside]
+    kept = trial.residual[inside]
     for _ in range(iterations):
         local = trial.residual.copy()
-        local[inside] -= cluster_medians(trial.residual[inside], clusters[inside])
+        local[inside] -= cluster_medians(kept, groups)
         scale = mad_scale(local[inside])
         new = _Solver(a, huber_weights(local, scale) * keep, prior, gram)(y)
-        moved = float(np.max(np.abs(new.residual - trial.residual)[inside], initial=0.0))
-        trial = new
-        if moved < 1e-3 * mad_scale(trial.residual[inside]):
+        now = new.residual[inside]
+        moved = float(np.max(np.abs(now - kept), initial=0.0))
+        trial, kept = new, now
+        if moved < 1e-3 * mad_scale(kept):
             break
+    trial.gram = gram
     return trial
 
 
@@ -1354,7 +1377,7 @@ def fit_joint_whole(
         plain_fit, plain_precision = fit, precision
         _, curve, precision = searched
         prior = embed(m0, noise)
-        fit = _irls(a, y, fit.weights, prior, keep=keep, clusters=rows.clusters)
+        fit = _irls(a, y, fit.weights, prior, keep=keep, clusters=rows.clusters, gram=fit.gram)
         if stribeck_prior == "select" and any(v > 0 for v in curve.velocity):
             # per direction, the prior whose fit better predicts the rows it did not see
             floor = max(low_speed_floor(resolution, w0), speeds[0])
@@ -1381,7 +1404,19 @@ def fit_joint_whole(
                 precision = _centred_precision(plain_precision, speeds, level, curve)
             prior = embed(m0, noise)
             if curve is not None and not all(choice.curved):
-                fit = _irls(a, y, plain_fit.weights, prior, keep=keep, clusters=rows.clusters)
+                fit = _irls(
+                    a,
+                    y,
+                    plain_fit.weights,
+                    prior,
+                    keep=keep,
+                    clusters=rows.clusters,
+                    gram=plain_fit.gram,
+                )
+        plain_fit.gram = None
+    # the Gram products were for the fits above: they hold this design, which later fits
+    # replace
+    fit.gram = None
 
     def refit(
         orders: Sequence[tuple[float, bool]],
@@ -1691,8 +1726,11 @@ def _choose_prior_slowest(
             phi = stribeck_shape(np.asarray(speeds), alt.velocity[side], alt.exponent[side])
             shapes = (phi, np.zeros(k)) if side == 0 else (np.zeros(k), phi)
             centred = curve_precision(table, 0, k, shapes, SPREAD * max(level, 1e-12))
+            shared = _Gram(a, kept)  # both fits' design and rows
             fits = [
-                _irls(a, y, plain.weights, embedded(t), keep=kept, clusters=rows.clusters)
+                _irls(
+                    a, y, plain.weights, embedded(t), keep=kept, clusters=rows.clusters, gram=shared
+                )
                 for t in (table, centred)
             ]
             r0, r1 = (y[held] - a[held] @ f.coef for f in fits)
@@ -2000,8 +2038,7 @@ def pass_interpolation_error(
             if int(held.sum()) < LOO_MIN_ROWS:
                 continue
             solver = _Solver(a, base * ~held, prior, gram)
-            loo = solver(y)
-            error = friction_at(loo.coef, s, sign) - friction_at(fit.coef, s, sign)
+            error = friction_at(solver.coef(y), s, sign) - friction_at(fit.coef, s, sign)
             row = functional(s, sign)
             spreads.append(math.sqrt(max(noise * float(row @ solver.bread @ row), 0.0)))
             others = [math.log(x) for x in groups if x != s]
@@ -2116,7 +2153,7 @@ def _dissipative(
         bread=fit.bread,
         residual=r,
         weights=w,
-        objective=float(np.sum(w * r * r) + coef @ prior @ coef),
+        prior=prior,
     )
     # the posterior standard deviation (``noise``: the residual's variance with the rows'
     # correlation, as in the prior's scale)

@@ -69,6 +69,11 @@ from torquemap.robust import robust_scale
 CommandScaling = Literal["linear", "log"]
 Method = Literal["interp", "paper"]
 DataKind = Literal["characterisation", "verification"]
+#: Which positions' cells the onset law's search reads: ``"all"`` (the forward model at every
+#: position, interpolated between the measured ones) or ``"measured"`` (the measured positions
+#: alone: between them the forward model is an interpolation of their curves, not readings at
+#: those positions' ramp shares).
+OnsetSearch = Literal["all", "measured"]
 
 DEFAULT_LOG_CURVATURE = 4.0
 
@@ -712,6 +717,15 @@ def _check_coverage(
         )
 
 
+def _measured_positions(
+    pos: NDArray[np.int64], pw: NDArray[np.float64], n: int
+) -> NDArray[np.bool_]:
+    """The positions a block was measured at (a row at pulse width 0), shape (n,)."""
+    out = np.zeros(n, dtype=bool)
+    out[np.unique(pos[pw == 0])] = True
+    return out
+
+
 def _cells(
     pos: NDArray[np.int64],
     col: NDArray[np.int64],
@@ -1109,6 +1123,7 @@ def build_tables(
     onset: bool = True,
     onset_form: OnsetForm = "power",
     onset_censored: CensoredUse = "none",
+    onset_search: OnsetSearch = "all",
     handover: bool = True,
     detent: bool = True,
     surface: bool = True,
@@ -1178,6 +1193,13 @@ def build_tables(
         position's first reliable one: ``"score"`` or ``"ties"``
         (:func:`torquemap.linearize.onset.fit_onset`'s ``censored``). ``"none"`` by default
         (docs/linearize.md, "stop 35 (L38)").
+    onset_search
+        With ``onset``: the positions whose cells the law's search over dead zones, exponents
+        and curves reads (:data:`OnsetSearch`): ``"all"`` or ``"measured"`` (the positions a
+        block was measured at; between them the forward model interpolates their curves,
+        which at a ramp's cross-fades are not the law at the shares there:
+        :func:`torquemap.linearize.onset.fit_onset`'s ``search``). Each position's gains and
+        friction are still solved wherever it has cells.
     handover
         ``"interp"`` only: between measured positions where one phase's ramp switches on or
         off, read that phase at its own actuation (:mod:`torquemap.linearize.handover`) when
@@ -1302,6 +1324,8 @@ def build_tables(
         raise ValueError(f"command_scaling must be 'linear' or 'log', got {command_scaling!r}")
     if method not in ("interp", "paper"):
         raise ValueError(f"method must be 'interp' or 'paper', got {method!r}")
+    if onset_search not in ("all", "measured"):
+        raise ValueError(f"onset_search must be 'all' or 'measured', got {onset_search!r}")
     if command_scaling == "log" and not log_curvature > 0:
         raise ValueError(f"log_curvature must be > 0, got {log_curvature}")
     if not bias_weight >= 0:
@@ -1413,6 +1437,7 @@ def build_tables(
                 actuation_max=spec.actuation_max,
                 form=onset_form,
                 censored=onset_censored,
+                search=None if onset_search == "all" else _measured_positions(pos, pw, n),
             )
             fine, _ = extend_below(
                 fine,
