@@ -75,6 +75,7 @@ from torquemap.smooth_rows import RowSmoother
 from torquemap.uncertainty import LOWPASS_ENB, residual_table
 from torquemap.whole_delay import (
     DelayProfile,
+    confirms,
     delay_profile,
     huber_cost,
     interval_around,
@@ -1312,7 +1313,9 @@ def fit_joint_whole(
             )
             d2, interval2, note2 = judge_delay(check, reference_delay, max_delay)
             interval2 = interval_around(interval2, d2, grid_step, max_delay)
-            if not interval2[0] <= d <= interval2[1]:
+            # the first delay outside the check's interval and worse on its rows than that
+            # profile accepts (its coarse grid may step over a narrow minimum: random robot 368)
+            if not confirms(check_cost, d, check, d2, interval2, check_dof):
                 d, delay_interval, note = d2, interval2, note2
                 delay_cost, dof = check_cost, check_dof
         warnings += note
