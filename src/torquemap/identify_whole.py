@@ -126,8 +126,9 @@ DELAY_SEARCH: Literal["grid", "refine"] = "refine"
 #: profile where the table holds those rows. ``"check"``: that profile, checked by a second one
 #: on the rows the friction table is fitted on (no sample of their window slower than half the
 #: slowest pass; when they span at least :data:`DELAY_MIN_WINDOWS` windows); when the first's
-#: delay lies outside the second's interval, the slow rows' misfit moved it and the second's
-#: delay is kept. ``"kept"``: the second profile alone (measured, not kept: its fewer rows
+#: delay lies outside the second's interval and the second's cost there is worse than its
+#: profile accepts (:func:`~torquemap.whole_delay.confirms`), the slow rows' misfit moved it
+#: and the second's delay is kept. ``"kept"``: the second profile alone (measured, not kept: its fewer rows
 #: leave the delay a few ms less precise, and a few ms cost the force more than they seem:
 #: random robot 342, joint b 56.9 ms against 55.3 and the truth 54, 1.50x -> 2.51x the oracle).
 #: On random robot 330 the slowest pass (0.51 rad/s, a third of the log) was a stick-slip
