@@ -6,6 +6,7 @@ import dataclasses
 import functools
 import itertools
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -50,6 +51,18 @@ def robot(gear: float = 1.0, counts: int = 8000) -> object:
             },
         }
     )
+
+
+def write_motor_files(folder: Path, log: Log) -> None:
+    """``log`` as ``folder``/sweep.csv and the one-motor robot of :func:`robot` as
+    ``folder``/robot.toml, the files a user hands to ``torquemap identify``."""
+    from torquemap.io import write_table, write_toml
+
+    columns = {"t": log.t, "q_m": log.q[:, 0], "tau_m": log.motor_torque[:, 0]}
+    write_table(folder / "sweep.csv", columns)
+    joint = {"gear_ratio": 1.0, "torque_constant": 0.1, "encoder_counts_per_rev": 8000}
+    robot_file = {"robot": {"name": "motor", "kinematics": "none"}, "joints": {"m": joint}}
+    write_toml(folder / "robot.toml", robot_file)
 
 
 def simulate(
@@ -960,15 +973,10 @@ def test_identify_low_speed_rows_option_reaches_the_fit(tmp_path) -> None:  # ty
     # ramps the model file's observed speed comes down from half the slowest pass (0.5 rad/s);
     # `--no-low-speed-rows` keeps it there
     from torquemap.cli.main import main
-    from torquemap.io import write_table, write_toml
     from torquemap.model import load_model
 
     log = simulate(law=SLOW_STRIBECK, speeds=(1.0, 2.0, 4.0), ramp=0.4)
-    columns = {"t": log.t, "q_m": log.q[:, 0], "tau_m": log.motor_torque[:, 0]}
-    write_table(tmp_path / "sweep.csv", columns)
-    joint = {"gear_ratio": 1.0, "torque_constant": 0.1, "encoder_counts_per_rev": 8000}
-    robot_file = {"robot": {"name": "motor", "kinematics": "none"}, "joints": {"m": joint}}
-    write_toml(tmp_path / "robot.toml", robot_file)
+    write_motor_files(tmp_path, log)
     seen = {}
     for key, extra in enumerate(([], ["--low-speed-rows"], ["--no-low-speed-rows"])):
         out = tmp_path / f"m{key}.toml"

@@ -8,7 +8,7 @@ import dataclasses
 
 import numpy as np
 from numpy.testing import assert_allclose
-from test_identify_whole import robot, simulate
+from test_identify_whole import robot, simulate, write_motor_files
 
 from torquemap.friction_law import StribeckFriction
 from torquemap.identify import identify_model
@@ -128,14 +128,9 @@ def test_identify_stribeck_prior_option_reaches_the_fit(tmp_path) -> None:  # ty
     # `identify --stribeck-prior` is the keyword stribeck_prior=True: the model file records
     # the curve only with the flag
     from torquemap.cli.main import main
-    from torquemap.io import write_table, write_toml
 
     log = simulate(law=LAW, ramp=0.02, speeds=(0.5, 1.5, 5.0, 15.0), noise=3e-4, seed=4)
-    columns = {"t": log.t, "q_m": log.q[:, 0], "tau_m": log.motor_torque[:, 0]}
-    write_table(tmp_path / "sweep.csv", columns)
-    joint = {"gear_ratio": 1.0, "torque_constant": 0.1, "encoder_counts_per_rev": 8000}
-    robot_file = {"robot": {"name": "motor", "kinematics": "none"}, "joints": {"m": joint}}
-    write_toml(tmp_path / "robot.toml", robot_file)
+    write_motor_files(tmp_path, log)
     seen = {}
     for extra in ([], ["--stribeck-prior"]):
         out = tmp_path / f"m{len(extra)}.toml"

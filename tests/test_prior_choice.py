@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_identify_whole import robot, simulate
+from test_identify_whole import robot, simulate, write_motor_files
 
 from torquemap.friction_law import StribeckFriction
 from torquemap.identify import identify_model
@@ -113,15 +113,10 @@ def test_identify_choose_prior_option_reaches_the_fit(tmp_path) -> None:  # type
     # `identify` chooses by default (stribeck_prior="select", as `--choose-prior`): the model
     # file records the choice; `--no-choose-prior` keeps the smoothness prior and records none
     from torquemap.cli.main import main
-    from torquemap.io import write_table, write_toml
     from torquemap.model import load_model
 
     log = simulate(law=DROP, ramp=0.03, speeds=(0.75, 1.25, 2.1, 3.5, 6.0), noise=0.002)
-    columns = {"t": log.t, "q_m": log.q[:, 0], "tau_m": log.motor_torque[:, 0]}
-    write_table(tmp_path / "sweep.csv", columns)
-    joint = {"gear_ratio": 1.0, "torque_constant": 0.1, "encoder_counts_per_rev": 8000}
-    robot_file = {"robot": {"name": "motor", "kinematics": "none"}, "joints": {"m": joint}}
-    write_toml(tmp_path / "robot.toml", robot_file)
+    write_motor_files(tmp_path, log)
     seen = {}
     for key, extra in enumerate((["--no-choose-prior"], ["--choose-prior"], [])):
         out = tmp_path / f"m{key}.toml"
