@@ -77,10 +77,11 @@ def simulate(
     speeds: tuple[float, ...] = (0.5, 2.0, 8.0),
     creep: float = 0.0,
     noise: float = 0.005,
+    lines: tuple[PdtvLine, ...] = LINES,
 ) -> Log:
     """Passes at ``speeds`` [rad/s] (0.5-8) both ways with raised-cosine ramps through rest; the torque read
     ``delay`` late; ``gravity`` [N m, motor side] times cos of the joint angle; ramps of
-    ``ramp`` [s]; white noise of sd ``noise`` [N m] on the torque."""
+    ``ramp`` [s]; white noise of sd ``noise`` [N m] on the torque; PDTV ``lines``."""
     rng = np.random.default_rng(seed)
     rate = 1000.0
     h = 1.0 / rate
@@ -101,7 +102,7 @@ def simulate(
     t = np.arange(w.size) * h
     acc = np.gradient(w, h)
     theta = np.concatenate(([0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * h)))
-    tau = J * acc + law.torque(w) + pdtv_torque(theta, LINES)  # type: ignore[attr-defined]
+    tau = J * acc + law.torque(w) + pdtv_torque(theta, lines)  # type: ignore[attr-defined]
     tau += gravity * np.cos(theta / gear)
     tau[slow:] += creep * np.sign(w[slow:])  # what the law does not hold while creeping
     tau = np.interp(t - delay, t, tau) + rng.normal(0.0, noise, t.size)
@@ -361,6 +362,75 @@ def test_lines_found_in_the_residual_are_kept_only_if_the_fit_holds_them() -> No
     lines = res.model.joints["m"].pdtv
     assert [line.order for line in lines] == [2.0, 7.0]
     assert_allclose([line.amplitude for line in lines], [0.02, 0.01], rtol=0.01)
+
+
+def test_a_handed_down_line_the_whole_fit_inflates_is_left_out(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    # the mechanism of random robot 363 (docs/estimation.md, "Stop 41 (F53)"): a torque ripple
+    # slow in time (0.48 Hz, 3 mN m) that the log's 1 kHz samples alias onto the columns of
+    # order 785 on the 8 rad/s rows (785 x 8 rad/s is 999.52 Hz); the pass method hands that
+    # order down at 0.1 mN m (injected here), and refitted over every row it takes up the
+    # ripple. The truth has no 785 line, and a weak true one at 13 CPR (0.3 mN m, a tenth of
+    # the torque noise's sd) that the pass method picks
+    import torquemap.identify_whole as iw
+
+    weak = PdtvLine(order=13.0, amplitude=3e-4, phase=0.7)
+    base = simulate(seed=5, lines=(*LINES, weak), counts=2**16)
+    ripple = 0.003 * np.cos(2 * np.pi * (1000.0 - 785.0 * 8.0 / (2 * np.pi)) * base.t)
+    log = dataclasses.replace(base, motor_torque=base.motor_torque + ripple[:, None])
+    fit_joint_whole = iw.fit_joint_whole
+    handed: dict[float, tuple[float, float]] = {}
+
+    def handing(pieces, orders, **kw):  # type: ignore[no-untyped-def]
+        handed.update(kw["handed"])
+        kw["handed"] = {**kw["handed"], 785.0: (1e-4, 3e-5)}
+        return fit_joint_whole(pieces, [*orders, 785.0], **kw)
+
+    monkeypatch.setattr(iw, "fit_joint_whole", handing)
+    amplitudes = {}
+    for rule in ("inflated", "all"):
+        monkeypatch.setattr(iw, "HANDED_LINES", rule)
+        res = identify_model(robot(counts=2**16), [log], friction="whole")
+        lines = res.model.joints["m"].pdtv
+        amplitudes[rule] = {line.order: line.amplitude for line in lines}
+        left_out = res.model.notes["joints"]["m"].get("pdtv_left_out", [])
+        assert left_out == ([785.0] if rule == "inflated" else [])
+    # fitted over every row, the spurious order takes up the ripple: 28x the passes' amplitude
+    assert amplitudes["all"][785.0] > 20 * 1e-4
+    assert 785.0 not in amplitudes["inflated"]
+    # the weak true line is handed down and kept, within 2 of the passes' standard errors
+    se = handed[13.0][1]
+    assert abs(amplitudes["inflated"][13.0] - weak.amplitude) < 2 * se
+    # the strong ones too (the ripple leaks 4 % into 7 CPR in both fits)
+    assert_allclose([amplitudes["inflated"][o] for o in (2.0, 7.0)], [0.02, 0.01], rtol=0.05)
+
+
+def test_unearned_lines_leave_out_an_inflated_line_and_keep_a_smaller_one() -> None:
+    from scipy import stats
+
+    from torquemap.identify_whole import _unearned_lines
+
+    # four handed-down lines, each fitted at amplitude 1 along cos with standard error s
+    # (identity covariance times s^2), the passes' estimate A_p with standard error 0.1;
+    # the one-sided limit at 0.01 / 4 is z = 2.807
+    z = float(stats.norm.isf(0.01 / 4))
+    s = 0.1
+    orders = [(1.0, False), (2.0, False), (3.0, True), (4.0, False), (5.0, False)]
+    names = ["inertia.constant", *(f"x{i}" for i in range(12))]
+    coef = np.r_[1e-4, 1.0, 0.0, 1.0, 0.0, 5.0, 0.0, 5.0, 0.0, 0.02, 0.0, 1.0, 0.0]
+    cov = np.eye(coef.size) * s**2
+    combined = math.hypot(s, 0.1)
+    handed = {
+        1.0: (1.0 - (z + 0.1) * combined, 0.1),  # just beyond the limit: out
+        2.0: (1.0 - (z - 0.1) * combined, 0.1),  # just inside: kept
+        3.0: (0.0, 0.1),  # directional: not tested
+        4.0: (0.0, 0.1),  # 0.02 +- 0.1: not held, not inflated: kept
+        5.0: (3.0, 0.1),  # the whole fit finds it smaller: kept
+    }
+    assert _unearned_lines(orders, handed, names, coef, cov, 4) == [1.0]
+    # with the Wald test too, the line the fit does not hold goes as well
+    assert _unearned_lines(orders, handed, names, coef, cov, 4, held=True) == [1.0, 4.0]
+    # an order the passes did not estimate is kept untested
+    assert _unearned_lines(orders, {}, names, coef, cov, 4) == []
 
 
 def test_one_steady_speed_tells_a_level_not_a_slope() -> None:

@@ -1292,6 +1292,7 @@ def _identify_whole(
             pass_speeds=[p.speed for _, p in res.passes],
             low_speed_rows=low_speed_rows,
             stribeck_prior=stribeck_prior,
+            handed=_handed_lines(res),
         )
         # the pass method's friction law is replaced: its warnings (a Stribeck term it could
         # not use, a Coulomb level it clipped) no longer describe the model
@@ -1339,6 +1340,19 @@ def _identify_whole(
         joint_notes[name]["uncertainty"]["tones"] = [[x.frequency, x.amplitude] for x in found]
     model = Model(robot=rb, joints=new_joints, notes=notes)
     return Identification(model=model, joints=results, warnings=tuple(warnings)), signals
+
+
+def _handed_lines(res: JointIdentification) -> dict[float, tuple[float, float]]:
+    """The pass method's PDTV lines (both directions together): order [CPR] -> (amplitude,
+    standard error) [N m], which the whole fit tests its own against
+    (:func:`torquemap.identify_whole._unearned_lines`)."""
+    h = res.harmonics
+    if h is None:
+        return {}
+    return {
+        float(o): (float(a), float(s))
+        for o, a, s in zip(h.order, h.amplitude, h.amplitude_se, strict=True)
+    }
 
 
 def _determined_inertia(res: JointIdentification) -> tuple[float, float] | None:
@@ -1424,6 +1438,7 @@ def _whole_notes(fit: Any, resolution: float) -> dict[str, Any]:
         "friction_observed_speed": float(fit.observed_speed),
         "velocity_resolution": float(resolution),
         "gravity_torque": float(fit.gravity_torque),
+        **({"pdtv_left_out": [float(o) for o in fit.left_out]} if fit.left_out else {}),
         "uncertainty": {
             "parameters": list(fit.names),
             "covariance": [[float(x) for x in row] for row in fit.covariance],

@@ -44,7 +44,7 @@ import dataclasses
 import functools
 import itertools
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Literal, cast
 
@@ -226,6 +226,19 @@ PRIOR_CHOICE_ROWS = "slowest"
 #: family's robots 261-280: robot 278 5.96x the oracle against 12.2x, but 89.6 % of its
 #: errors within 2 sigma; docs/identification.md).
 LEFT_OUT_OBSERVED = "half"
+#: The PDTV lines handed down by the pass method (stop 41, F53): ``"inflated"``, a line whose
+#: whole-fit amplitude exceeds the pass method's beyond their combined standard error (one-sided,
+#: at :data:`HANDED_FALSE_ALARM` shared among the handed-down lines) is left out of the whole
+#: fit (:func:`_unearned_lines`); ``"held"``, also a line the whole fit does not hold (Wald test
+#: on its two columns with the rows' cluster covariance), measured and not kept: it drops the
+#: small lines that stand in for a true line the passes alias (random robot 367, 4.91x ->
+#: 5.60x the oracle); ``"all"``, every handed-down line is fitted (before stop 41). Random
+#: robot 363: orders 470-486 CPR the pass method picked at 0.1 mN m came out at 2-6 mN m
+#: (docs/estimation.md, "Stop 41 (F53)").
+HANDED_LINES: Literal["inflated", "held", "all"] = "inflated"
+#: False-alarm level of the handed-down lines' tests, shared among them (that of the search
+#: for missed lines, :func:`_missed_orders`, and of its Wald test, :func:`_held_lines`).
+HANDED_FALSE_ALARM = 0.01
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -322,6 +335,8 @@ class WholeFit:
         With ``stribeck_prior="select"``, the choice between the plain and the curve-centred
         prior per direction and its held-out gains (:class:`torquemap.prior_choice.PriorChoice`),
         or None (not asked, or no curve found).
+    left_out
+        Handed-down PDTV orders [CPR] the fit left out (:data:`HANDED_LINES`).
     """
 
     names: tuple[str, ...]
@@ -343,6 +358,7 @@ class WholeFit:
     interpolation: dict[str, object] | None = None
     prior_curve: StribeckPrior | None = None
     prior_choice: PriorChoice | None = None
+    left_out: tuple[float, ...] = ()
 
     @property
     def zero_velocity(self) -> float:
@@ -1112,6 +1128,7 @@ def fit_joint_whole(
     pass_speeds: Sequence[float] = (),
     low_speed_rows: bool | None = None,
     stribeck_prior: bool | Literal["select"] | None = None,
+    handed: Mapping[float, tuple[float, float]] | None = None,
 ) -> WholeFit:
     """Fit one joint's friction table, inertia, PDTV and torque delay to whole logs.
 
@@ -1189,6 +1206,11 @@ def fit_joint_whole(
         curve-centred prior only where, with the slowest pass left out, its fit predicts that
         pass better (:mod:`torquemap.prior_choice`, :func:`_choose_prior_slowest`). None:
         :data:`STRIBECK_PRIOR` (``"select"``).
+    handed
+        The pass method's estimate of each of ``orders``: order [CPR] -> (amplitude, its
+        standard error) [N m]. With :data:`HANDED_LINES` ``"test"``, a line stays only if the
+        whole fit does not inflate it beyond this amplitude (:func:`_unearned_lines`);
+        orders not in it are kept untested. None: every order is kept.
 
     Returns
     -------
@@ -1440,6 +1462,23 @@ def fit_joint_whole(
             _irls(design, y, fit.weights, precision, keep=keep, clusters=rows.clusters),
         )
 
+    # the lines handed down by the pass method earn their place: refitted over every row, an
+    # order the rows do not resolve where the joint moves fast (aliased at the log's samples)
+    # takes up whatever else its columns correlate with (random robot 363: 0.1 mN m in the
+    # passes, 2-6 mN m here)
+    left_out: list[float] = []
+    if handed is not None and HANDED_LINES != "all" and both:
+        tested = sum(1 for o, _ in both if o in handed)
+        for _ in range(3):
+            cov_h = cluster_covariance(a, fit.residual, fit.weights, fit.bread, rows.clusters)
+            out = _unearned_lines(
+                both, handed, fixed_names, fit.coef, cov_h, tested, held=HANDED_LINES == "held"
+            )
+            if not out:
+                break
+            left_out += out
+            both = [(o, dd) for o, dd in both if o not in out]
+            fixed, fixed_names, a, prior, fit = refit(both)
     # lines the pass method missed: the spectrum of the whole fit's residual over the motor
     # angle (every row, not only the passes)
     if max_order >= 1:
@@ -1451,7 +1490,10 @@ def fit_joint_whole(
         step = step[step > 0]
         resolved = math.pi / (2.0 * float(np.percentile(step, 90))) if step.size else 0.0
         missed = _missed_orders(
-            theta[inside], fit.residual[inside], [o for o, _ in both], min(max_order, resolved)
+            theta[inside],
+            fit.residual[inside],
+            [*(o for o, _ in both), *left_out],
+            min(max_order, resolved),
         )
         # a line that does not go through MIN_PERIODS periods within a typical run of one
         # direction is, inside each run, a slow trend: the fit cannot tell it from friction
@@ -1630,6 +1672,7 @@ def fit_joint_whole(
         interpolation=interpolation,
         prior_curve=curve,
         prior_choice=choice,
+        left_out=tuple(sorted(left_out)),
     )
 
 
@@ -2307,6 +2350,58 @@ def _held_lines(
         if chi > limit:
             held.append(order)
     return held
+
+
+def _unearned_lines(
+    orders: Sequence[tuple[float, bool]],
+    handed: Mapping[float, tuple[float, float]],
+    names: Sequence[str],
+    coef: NDArray[np.float64],
+    cov: NDArray[np.float64],
+    tested: int,
+    false_alarm: float = HANDED_FALSE_ALARM,
+    *,
+    held: bool = False,
+) -> list[float]:
+    """The handed-down ``orders`` [CPR] a whole fit does not keep.
+
+    A line (both directions together) is left out when its amplitude ``A`` exceeds the pass
+    method's ``A_p`` (``handed[order]``, with standard error ``s_p``) beyond their combined
+    uncertainty: ``(A - A_p) / sqrt(s^2 + s_p^2)`` above the normal quantile (one-sided),
+    ``s`` the standard error of ``A`` (``cov`` along the coefficients' direction); with
+    ``held``, also when its cosine and sine coefficients do not differ from zero (Wald test,
+    chi-square with 2 degrees of freedom on ``cov``). Each test at ``false_alarm`` divided
+    among the ``tested`` handed-down lines. One-sided because the failure it catches is a
+    column that takes up something else (an order the rows do not resolve where the joint
+    moves fast, aliased at the log's samples), which inflates the line; a line the whole fit
+    finds smaller than the passes is the whole fit's estimate (the passes' standard error
+    assumes white noise: random robot 363's true 21 CPR line, 5.60 mN m, is 5.78 +- 0.03 in
+    the passes and 5.66 +- 0.03 in the whole fit). Orders not in ``handed``, and directional
+    ones, are kept. ``names`` are the fit's fixed columns (inertia, then two PDTV columns per
+    order, four per directional one).
+    """
+    first = sum(1 for n in names if n.startswith("inertia."))
+    per = [4 if d else 2 for _, d in orders]
+    starts = first + np.concatenate(([0], np.cumsum(per)))
+    share = false_alarm / max(tested, 1)
+    limit = float(stats.chi2.isf(share, 2))
+    agree = float(stats.norm.isf(share))
+    out: list[float] = []
+    for i, (order, directional) in enumerate(orders):
+        if directional or order not in handed:
+            continue
+        j = int(starts[i])
+        c = coef[j : j + 2]
+        cc = cov[j : j + 2, j : j + 2]
+        chi = float(c @ np.linalg.pinv(cc) @ c)
+        amp = float(np.hypot(*c))
+        u = c / amp if amp > 0 else np.full(2, math.sqrt(0.5))
+        var = max(float(u @ cc @ u), 0.0)
+        pass_amp, pass_se = handed[order]
+        excess = (amp - pass_amp) / math.sqrt(max(var + pass_se**2, 1e-300))
+        if excess > agree or (held and not chi > limit):
+            out.append(order)
+    return out
 
 
 def _run_revolutions(rows: _Rows) -> float:
