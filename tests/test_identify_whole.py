@@ -364,7 +364,7 @@ def test_lines_found_in_the_residual_are_kept_only_if_the_fit_holds_them() -> No
     assert_allclose([line.amplitude for line in lines], [0.02, 0.01], rtol=0.01)
 
 
-def test_a_handed_down_line_the_whole_fit_inflates_is_left_out(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+def test_a_handed_down_line_the_whole_fit_inflates_is_held_at_the_passes(monkeypatch) -> None:  # type: ignore[no-untyped-def]
     # the mechanism of random robot 363 (docs/estimation.md, "Stop 41 (F53)"): a torque ripple
     # slow in time (0.48 Hz, 3 mN m) that the log's 1 kHz samples alias onto the columns of
     # order 785 on the 8 rad/s rows (785 x 8 rad/s is 999.52 Hz); the pass method hands that
@@ -378,58 +378,62 @@ def test_a_handed_down_line_the_whole_fit_inflates_is_left_out(monkeypatch) -> N
     ripple = 0.003 * np.cos(2 * np.pi * (1000.0 - 785.0 * 8.0 / (2 * np.pi)) * base.t)
     log = dataclasses.replace(base, motor_torque=base.motor_torque + ripple[:, None])
     fit_joint_whole = iw.fit_joint_whole
-    handed: dict[float, tuple[float, float]] = {}
+    handed: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+    spurious = (np.array([0.0, 1e-4]), np.eye(2) * 3e-5**2)
 
     def handing(pieces, orders, **kw):  # type: ignore[no-untyped-def]
         handed.update(kw["handed"])
-        kw["handed"] = {**kw["handed"], 785.0: (1e-4, 3e-5)}
+        kw["handed"] = {**kw["handed"], 785.0: spurious}
         return fit_joint_whole(pieces, [*orders, 785.0], **kw)
 
     monkeypatch.setattr(iw, "fit_joint_whole", handing)
     amplitudes = {}
-    for rule in ("inflated", "all"):
+    for rule in ("hold", "drop", "all"):
         monkeypatch.setattr(iw, "HANDED_LINES", rule)
         res = identify_model(robot(counts=2**16), [log], friction="whole")
         lines = res.model.joints["m"].pdtv
         amplitudes[rule] = {line.order: line.amplitude for line in lines}
-        left_out = res.model.notes["joints"]["m"].get("pdtv_left_out", [])
-        assert left_out == ([785.0] if rule == "inflated" else [])
-    # fitted over every row, the spurious order takes up the ripple: 28x the passes' amplitude
+        held = res.model.notes["joints"]["m"].get("pdtv_held", [])
+        assert held == ([] if rule == "all" else [785.0])
+    # refitted over every row, the spurious order takes up the ripple: 28x the passes'
     assert amplitudes["all"][785.0] > 20 * 1e-4
-    assert 785.0 not in amplitudes["inflated"]
-    # the weak true line is handed down and kept, within 2 of the passes' standard errors
-    se = handed[13.0][1]
-    assert abs(amplitudes["inflated"][13.0] - weak.amplitude) < 2 * se
-    # the strong ones too (the ripple leaks 4 % into 7 CPR in both fits)
-    assert_allclose([amplitudes["inflated"][o] for o in (2.0, 7.0)], [0.02, 0.01], rtol=0.05)
+    # held at the passes' estimate (truth 0), or left out
+    assert amplitudes["hold"][785.0] == pytest.approx(1e-4, rel=1e-12)
+    assert 785.0 not in amplitudes["drop"]
+    # the weak true line is handed down and refitted, within 2 of the passes' standard errors
+    se = math.sqrt(handed[13.0][1][0, 0])
+    assert abs(amplitudes["hold"][13.0] - weak.amplitude) < 2 * se
+    # the strong ones too (the ripple leaks 4 % into 7 CPR in every fit)
+    assert_allclose([amplitudes["hold"][o] for o in (2.0, 7.0)], [0.02, 0.01], rtol=0.05)
 
 
-def test_unearned_lines_leave_out_an_inflated_line_and_keep_a_smaller_one() -> None:
+def test_unearned_lines_are_those_the_whole_fit_inflates() -> None:
     from scipy import stats
 
     from torquemap.identify_whole import _unearned_lines
 
-    # four handed-down lines, each fitted at amplitude 1 along cos with standard error s
-    # (identity covariance times s^2), the passes' estimate A_p with standard error 0.1;
-    # the one-sided limit at 0.01 / 4 is z = 2.807
+    # five handed-down lines fitted at amplitude 1 (or 0.02) along cos with standard error
+    # 0.1 (identity covariance times 0.01), the passes' estimates along sin with standard
+    # error 0.1: the one-sided limit at 0.01 / 4 tested lines is z = 2.807
     z = float(stats.norm.isf(0.01 / 4))
-    s = 0.1
     orders = [(1.0, False), (2.0, False), (3.0, True), (4.0, False), (5.0, False)]
     names = ["inertia.constant", *(f"x{i}" for i in range(12))]
     coef = np.r_[1e-4, 1.0, 0.0, 1.0, 0.0, 5.0, 0.0, 5.0, 0.0, 0.02, 0.0, 1.0, 0.0]
-    cov = np.eye(coef.size) * s**2
-    combined = math.hypot(s, 0.1)
+    cov = np.eye(coef.size) * 0.01
+    combined = math.hypot(0.1, 0.1)
+
+    def passes(amplitude: float) -> tuple[np.ndarray, np.ndarray]:
+        return np.array([0.0, amplitude]), np.eye(2) * 0.01
+
     handed = {
-        1.0: (1.0 - (z + 0.1) * combined, 0.1),  # just beyond the limit: out
-        2.0: (1.0 - (z - 0.1) * combined, 0.1),  # just inside: kept
-        3.0: (0.0, 0.1),  # directional: not tested
-        4.0: (0.0, 0.1),  # 0.02 +- 0.1: not held, not inflated: kept
-        5.0: (3.0, 0.1),  # the whole fit finds it smaller: kept
+        1.0: passes(1.0 - (z + 0.1) * combined),  # just beyond the limit
+        2.0: passes(1.0 - (z - 0.1) * combined),  # just inside
+        3.0: passes(0.0),  # directional: not tested
+        4.0: passes(0.0),  # 0.02 +- 0.1: not inflated (nor held by a Wald test)
+        5.0: passes(3.0),  # the whole fit finds it smaller
     }
     assert _unearned_lines(orders, handed, names, coef, cov, 4) == [1.0]
-    # with the Wald test too, the line the fit does not hold goes as well
-    assert _unearned_lines(orders, handed, names, coef, cov, 4, held=True) == [1.0, 4.0]
-    # an order the passes did not estimate is kept untested
+    # an order the passes did not estimate is not tested
     assert _unearned_lines(orders, {}, names, coef, cov, 4) == []
 
 

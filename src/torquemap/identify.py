@@ -1342,17 +1342,16 @@ def _identify_whole(
     return Identification(model=model, joints=results, warnings=tuple(warnings)), signals
 
 
-def _handed_lines(res: JointIdentification) -> dict[float, tuple[float, float]]:
-    """The pass method's PDTV lines (both directions together): order [CPR] -> (amplitude,
-    standard error) [N m], which the whole fit tests its own against
+def _handed_lines(
+    res: JointIdentification,
+) -> dict[float, tuple[NDArray[np.float64], NDArray[np.float64]]]:
+    """The pass method's PDTV lines (both directions together): order [CPR] -> (cosine and
+    sine coefficients [N m], their covariance), which the whole fit tests its own against
     (:func:`torquemap.identify_whole._unearned_lines`)."""
     h = res.harmonics
     if h is None:
         return {}
-    return {
-        float(o): (float(a), float(s))
-        for o, a, s in zip(h.order, h.amplitude, h.amplitude_se, strict=True)
-    }
+    return {float(o): (h.cos_sin[i], h.covariance[i]) for i, o in enumerate(h.order)}
 
 
 def _determined_inertia(res: JointIdentification) -> tuple[float, float] | None:
@@ -1438,7 +1437,7 @@ def _whole_notes(fit: Any, resolution: float) -> dict[str, Any]:
         "friction_observed_speed": float(fit.observed_speed),
         "velocity_resolution": float(resolution),
         "gravity_torque": float(fit.gravity_torque),
-        **({"pdtv_left_out": [float(o) for o in fit.left_out]} if fit.left_out else {}),
+        **({"pdtv_held": [float(o) for o in fit.held_lines]} if fit.held_lines else {}),
         "uncertainty": {
             "parameters": list(fit.names),
             "covariance": [[float(x) for x in row] for row in fit.covariance],

@@ -226,16 +226,16 @@ PRIOR_CHOICE_ROWS = "slowest"
 #: family's robots 261-280: robot 278 5.96x the oracle against 12.2x, but 89.6 % of its
 #: errors within 2 sigma; docs/identification.md).
 LEFT_OUT_OBSERVED = "half"
-#: The PDTV lines handed down by the pass method (stop 41, F53): ``"inflated"``, a line whose
-#: whole-fit amplitude exceeds the pass method's beyond their combined standard error (one-sided,
-#: at :data:`HANDED_FALSE_ALARM` shared among the handed-down lines) is left out of the whole
-#: fit (:func:`_unearned_lines`); ``"held"``, also a line the whole fit does not hold (Wald test
-#: on its two columns with the rows' cluster covariance), measured and not kept: it drops the
-#: small lines that stand in for a true line the passes alias (random robot 367, 4.91x ->
-#: 5.60x the oracle); ``"all"``, every handed-down line is fitted (before stop 41). Random
-#: robot 363: orders 470-486 CPR the pass method picked at 0.1 mN m came out at 2-6 mN m
-#: (docs/estimation.md, "Stop 41 (F53)").
-HANDED_LINES: Literal["inflated", "held", "all"] = "inflated"
+#: The PDTV lines handed down by the pass method (stop 41, F53): a line whose whole-fit
+#: amplitude exceeds the pass method's beyond their combined standard error (one-sided, at
+#: :data:`HANDED_FALSE_ALARM` shared among the handed-down lines; :func:`_unearned_lines`) is,
+#: with ``"hold"``, held at the pass method's estimate (the fit on the rows that resolve it)
+#: and not refitted; with ``"drop"``, left out (measured, not kept: random robot 325's true
+#: 27 CPR line, 5.64 mN m, is 5.68 +- 0.01 in the whole fit and 5.62 +- 0.01 in the passes,
+#: and went: 2.18x -> 3.02x the oracle); ``"all"``, every handed-down line is refitted over
+#: every row (before stop 41). Random robot 363: orders 470-486 CPR the pass method picked at
+#: 0.1 mN m came out at 2-6 mN m (docs/estimation.md, "Stop 41 (F53)").
+HANDED_LINES: Literal["hold", "drop", "all"] = "hold"
 #: False-alarm level of the handed-down lines' tests, shared among them (that of the search
 #: for missed lines, :func:`_missed_orders`, and of its Wald test, :func:`_held_lines`).
 HANDED_FALSE_ALARM = 0.01
@@ -335,8 +335,9 @@ class WholeFit:
         With ``stribeck_prior="select"``, the choice between the plain and the curve-centred
         prior per direction and its held-out gains (:class:`torquemap.prior_choice.PriorChoice`),
         or None (not asked, or no curve found).
-    left_out
-        Handed-down PDTV orders [CPR] the fit left out (:data:`HANDED_LINES`).
+    held_lines
+        Handed-down PDTV orders [CPR] held at the pass method's estimate, or left out
+        (:data:`HANDED_LINES`).
     """
 
     names: tuple[str, ...]
@@ -358,7 +359,7 @@ class WholeFit:
     interpolation: dict[str, object] | None = None
     prior_curve: StribeckPrior | None = None
     prior_choice: PriorChoice | None = None
-    left_out: tuple[float, ...] = ()
+    held_lines: tuple[float, ...] = ()
 
     @property
     def zero_velocity(self) -> float:
@@ -1128,7 +1129,7 @@ def fit_joint_whole(
     pass_speeds: Sequence[float] = (),
     low_speed_rows: bool | None = None,
     stribeck_prior: bool | Literal["select"] | None = None,
-    handed: Mapping[float, tuple[float, float]] | None = None,
+    handed: Mapping[float, tuple[NDArray[np.float64], NDArray[np.float64]]] | None = None,
 ) -> WholeFit:
     """Fit one joint's friction table, inertia, PDTV and torque delay to whole logs.
 
@@ -1207,10 +1208,11 @@ def fit_joint_whole(
         pass better (:mod:`torquemap.prior_choice`, :func:`_choose_prior_slowest`). None:
         :data:`STRIBECK_PRIOR` (``"select"``).
     handed
-        The pass method's estimate of each of ``orders``: order [CPR] -> (amplitude, its
-        standard error) [N m]. With :data:`HANDED_LINES` ``"test"``, a line stays only if the
-        whole fit does not inflate it beyond this amplitude (:func:`_unearned_lines`);
-        orders not in it are kept untested. None: every order is kept.
+        The pass method's estimate of each of ``orders`` (both directions together): order
+        [CPR] -> (cosine and sine coefficients [N m], shape (2,), their covariance, shape
+        (2, 2)). A line the whole fit inflates beyond it (:func:`_unearned_lines`) is held at
+        it (:data:`HANDED_LINES`); orders not in it are fitted untested. None: every order is
+        fitted.
 
     Returns
     -------
@@ -1466,17 +1468,28 @@ def fit_joint_whole(
     # order the rows do not resolve where the joint moves fast (aliased at the log's samples)
     # takes up whatever else its columns correlate with (random robot 363: 0.1 mN m in the
     # passes, 2-6 mN m here)
-    left_out: list[float] = []
+    held_lines: list[float] = []
+    held_names: list[str] = []
+    held_coef: list[NDArray[np.float64]] = []
+    held_cov: list[NDArray[np.float64]] = []
     if handed is not None and HANDED_LINES != "all" and both:
         tested = sum(1 for o, _ in both if o in handed)
         for _ in range(3):
             cov_h = cluster_covariance(a, fit.residual, fit.weights, fit.bread, rows.clusters)
-            out = _unearned_lines(
-                both, handed, fixed_names, fit.coef, cov_h, tested, held=HANDED_LINES == "held"
-            )
+            out = _unearned_lines(both, handed, fixed_names, fit.coef, cov_h, tested)
             if not out:
                 break
-            left_out += out
+            held_lines += out
+            if HANDED_LINES == "hold":
+                # the line's torque at the pass method's estimate leaves the torque fitted
+                cols, names_o = _fixed_columns(
+                    rows, [(o, False) for o in out], elbow_term=False, inertia=False
+                )
+                c = np.concatenate([np.asarray(handed[o][0], dtype=np.float64) for o in out])
+                y = y - cols @ c
+                held_names += names_o
+                held_coef.append(c)
+                held_cov += [np.asarray(handed[o][1], dtype=np.float64) for o in out]
             both = [(o, dd) for o, dd in both if o not in out]
             fixed, fixed_names, a, prior, fit = refit(both)
     # lines the pass method missed: the spectrum of the whole fit's residual over the motor
@@ -1492,7 +1505,7 @@ def fit_joint_whole(
         missed = _missed_orders(
             theta[inside],
             fit.residual[inside],
-            [*(o for o, _ in both), *left_out],
+            [*(o for o, _ in both), *held_lines],
             min(max_order, resolved),
         )
         # a line that does not go through MIN_PERIODS periods within a typical run of one
@@ -1623,6 +1636,16 @@ def fit_joint_whole(
         )
     names = [*fixed_names, *(f"friction.{x}" for x in law.linear_parameter_names)]
     coef = np.r_[fit.coef[:m], law.linear_parameters()]
+    if held_names:
+        # the lines held at the pass method's estimate, with its covariance, after the fitted
+        # parameters (uncorrelated with them)
+        p0 = coef.size
+        names += held_names
+        coef = np.r_[coef, np.concatenate(held_coef)]
+        cov = np.pad(cov, ((0, len(held_names)), (0, len(held_names))))
+        for i, block in enumerate(held_cov):
+            cov[p0 + 2 * i : p0 + 2 * i + 2, p0 + 2 * i : p0 + 2 * i + 2] = block
+        final_orders = sorted([*final_orders, *((o, False) for o in held_lines)])
     if pass_inertia is not None:
         # the held inertia is a parameter of the model like the fitted ones, with its variance
         names.insert(0, "inertia.constant")
@@ -1672,7 +1695,7 @@ def fit_joint_whole(
         interpolation=interpolation,
         prior_curve=curve,
         prior_choice=choice,
-        left_out=tuple(sorted(left_out)),
+        held_lines=tuple(sorted(held_lines)),
     )
 
 
@@ -2354,52 +2377,45 @@ def _held_lines(
 
 def _unearned_lines(
     orders: Sequence[tuple[float, bool]],
-    handed: Mapping[float, tuple[float, float]],
+    handed: Mapping[float, tuple[NDArray[np.float64], NDArray[np.float64]]],
     names: Sequence[str],
     coef: NDArray[np.float64],
     cov: NDArray[np.float64],
     tested: int,
     false_alarm: float = HANDED_FALSE_ALARM,
-    *,
-    held: bool = False,
 ) -> list[float]:
-    """The handed-down ``orders`` [CPR] a whole fit does not keep.
+    """The handed-down ``orders`` [CPR] whose whole-fit amplitude exceeds the pass method's.
 
-    A line (both directions together) is left out when its amplitude ``A`` exceeds the pass
-    method's ``A_p`` (``handed[order]``, with standard error ``s_p``) beyond their combined
-    uncertainty: ``(A - A_p) / sqrt(s^2 + s_p^2)`` above the normal quantile (one-sided),
-    ``s`` the standard error of ``A`` (``cov`` along the coefficients' direction); with
-    ``held``, also when its cosine and sine coefficients do not differ from zero (Wald test,
-    chi-square with 2 degrees of freedom on ``cov``). Each test at ``false_alarm`` divided
-    among the ``tested`` handed-down lines. One-sided because the failure it catches is a
-    column that takes up something else (an order the rows do not resolve where the joint
-    moves fast, aliased at the log's samples), which inflates the line; a line the whole fit
-    finds smaller than the passes is the whole fit's estimate (the passes' standard error
-    assumes white noise: random robot 363's true 21 CPR line, 5.60 mN m, is 5.78 +- 0.03 in
-    the passes and 5.66 +- 0.03 in the whole fit). Orders not in ``handed``, and directional
-    ones, are kept. ``names`` are the fit's fixed columns (inertia, then two PDTV columns per
-    order, four per directional one).
+    A line (both directions together) with whole-fit amplitude ``A`` (standard error ``s``,
+    ``cov`` along its coefficients' direction) and pass amplitude ``A_p`` (``handed[order]``:
+    coefficients and covariance; standard error ``s_p`` the same way) is returned when
+    ``(A - A_p) / sqrt(s^2 + s_p^2)`` exceeds the normal quantile at ``false_alarm`` divided
+    among the ``tested`` handed-down lines (one-sided). One-sided because the failure it
+    catches is a column that takes up something else (an order the rows do not resolve where
+    the joint moves fast, aliased at the log's samples into a slow column), which inflates the
+    line; a line the whole fit finds smaller is the whole fit's estimate. Orders not in
+    ``handed``, and directional ones, are not returned. ``names`` are the fit's fixed columns
+    (inertia, then two PDTV columns per order, four per directional one).
     """
     first = sum(1 for n in names if n.startswith("inertia."))
     per = [4 if d else 2 for _, d in orders]
     starts = first + np.concatenate(([0], np.cumsum(per)))
-    share = false_alarm / max(tested, 1)
-    limit = float(stats.chi2.isf(share, 2))
-    agree = float(stats.norm.isf(share))
+    limit = float(stats.norm.isf(false_alarm / max(tested, 1)))
+
+    def amplitude(c: NDArray[np.float64], cc: NDArray[np.float64]) -> tuple[float, float]:
+        amp = float(np.hypot(*c))
+        u = c / amp if amp > 0 else np.full(2, math.sqrt(0.5))
+        return amp, max(float(u @ cc @ u), 0.0)
+
     out: list[float] = []
     for i, (order, directional) in enumerate(orders):
         if directional or order not in handed:
             continue
         j = int(starts[i])
-        c = coef[j : j + 2]
-        cc = cov[j : j + 2, j : j + 2]
-        chi = float(c @ np.linalg.pinv(cc) @ c)
-        amp = float(np.hypot(*c))
-        u = c / amp if amp > 0 else np.full(2, math.sqrt(0.5))
-        var = max(float(u @ cc @ u), 0.0)
-        pass_amp, pass_se = handed[order]
-        excess = (amp - pass_amp) / math.sqrt(max(var + pass_se**2, 1e-300))
-        if excess > agree or (held and not chi > limit):
+        amp, var = amplitude(coef[j : j + 2], cov[j : j + 2, j : j + 2])
+        c_p, cov_p = handed[order]
+        amp_p, var_p = amplitude(np.asarray(c_p, dtype=np.float64), np.asarray(cov_p))
+        if (amp - amp_p) / math.sqrt(max(var + var_p, 1e-300)) > limit:
             out.append(order)
     return out
 
