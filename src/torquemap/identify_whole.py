@@ -1643,8 +1643,8 @@ def fit_joint_whole(
         names += held_names
         coef = np.r_[coef, np.concatenate(held_coef)]
         cov = np.pad(cov, ((0, len(held_names)), (0, len(held_names))))
-        for i, block in enumerate(held_cov):
-            cov[p0 + 2 * i : p0 + 2 * i + 2, p0 + 2 * i : p0 + 2 * i + 2] = block
+        for i, pass_cov in enumerate(held_cov):
+            cov[p0 + 2 * i : p0 + 2 * i + 2, p0 + 2 * i : p0 + 2 * i + 2] = pass_cov
         final_orders = sorted([*final_orders, *((o, False) for o in held_lines)])
     if pass_inertia is not None:
         # the held inertia is a parameter of the model like the fitted ones, with its variance
