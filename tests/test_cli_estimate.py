@@ -246,7 +246,28 @@ def test_a_log_that_folds_the_supply_ripple_onto_zero_says_so(
     sound = out["flag"] == 0
     err = np.abs(np.c_[out["fx"] - truth["fx"][::20], out["fy"] - truth["fy"][::20]])[sound]
     sigma = np.c_[out["fx_sigma"], out["fy_sigma"]][sound]
-    assert 0.90 <= float(np.mean(err <= 2 * sigma)) <= 0.99
+    assert float(np.mean(err <= 2 * sigma)) >= 0.90
+    # how wide the tone makes the sigma, exactly: the same log through the model without its
+    # tones, and the joint sigmas' difference in quadrature against the closed form of a line
+    # of unknown phase folded onto 0 Hz, amplitude / sqrt 2 (the low-pass's gain 1 there), at
+    # the joint (the gear ratio). A folded line is a bounded error (|A cos phase| <= A), so
+    # the share within 2 sigma has no upper bound to test: one noise realisation read 98.5 %,
+    # another 99.1 %
+    doc = tomllib.loads(scara_model.read_text())
+    for j in doc["identification"]["joints"].values():
+        j["uncertainty"]["tones"] = []
+    import tomli_w
+
+    bare = tmp_path / "no_tones.toml"
+    bare.write_text(tomli_w.dumps(doc))
+    plain = _run(bare, tmp_path / "slow.csv", tmp_path / "p.csv")
+    assert np.array_equal(plain["fx"], out["fx"], equal_nan=True)  # the answer is the same
+    for name, joint in joints.items():
+        gear = doc["joints"][name]["gear_ratio"]
+        (amplitude,) = [a for _, a in joint["uncertainty"]["tones"]]
+        with_tone, without = out[f"tau_ext_{name}_sigma"], plain[f"tau_ext_{name}_sigma"]
+        added = np.sqrt(with_tone**2 - without**2)[np.isfinite(with_tone)]
+        np.testing.assert_allclose(added, gear * amplitude / np.sqrt(2.0), rtol=1e-6)
     # at the sweeps' own rate the ripple stays far above the band: no such line
     capsys.readouterr()
     _run(scara_model, scara_bench / "circle.csv", tmp_path / "f.csv")

@@ -383,3 +383,31 @@ def test_a_typed_row_is_refused_and_reordered_rows_get_no_false_step(
     assert "th pulse width" not in err
     # and the denoiser, which reads the blocks from the row order, skipped with a word
     assert "the rows are not in the collection's order" in err
+
+
+def test_a_phase_wired_backwards_is_named(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Stop 41 (Q49): the default BLDC rig with its phase 2 wired backwards, collected
+    through the motor file of the rig wired right: build names the wiring, not a dead phase
+    alone."""
+    from torquemap.sim.rig import brushless_dc_rig
+
+    spec = brushless_dc_rig(rng=0).motor_spec(ramping="wide")
+    motor = BrushlessDcMotor()
+    gains = (motor.phase_gain[0], -motor.phase_gain[1], motor.phase_gain[2])
+    rig = brushless_dc_rig(rng=0, motor=dataclasses.replace(motor, phase_gain=gains))
+    # the truth: where phase 2 alone is driven, the motor pushes the negative way
+    alone = np.flatnonzero((spec.ramp[:, 1] == 1.0) & (spec.ramp[:, [0, 2]].max(axis=1) == 0))
+    assert alone.size and float(rig.true_torque(int(alone[alone.size // 2]), [0, 200, 0])) < 0
+    data = tmp_path / "data.csv"
+    settings = CollectionSettings(progress=False, position_step=8, level_step=8)
+    collect_characterisation(rig, spec, data, settings)
+    write_toml(tmp_path / "motor.toml", motor_to_dict(spec))
+    status = main(["linearize", "build", str(tmp_path / "motor.toml"), str(data), "-o",
+                   str(tmp_path / "t.npz")])  # fmt: skip
+    err = capsys.readouterr().err.strip()
+    # before: "phase 2 never produced torque (...)", with no word of the wiring
+    assert status == 2 and "\n" not in err
+    assert err.startswith(f"torquemap: error: {data}: phase 2 never produced torque")
+    assert "wired the way round the others are" in err

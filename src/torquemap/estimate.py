@@ -630,6 +630,7 @@ def estimate_forces(
     reversal_band: float | Mapping[str, float] | None = None,
     check_robot: bool = True,
     answers_only: bool = False,
+    check_delay: bool = True,
 ) -> ForceEstimate:
     """Estimate the external joint torques and end-effector force from a log.
 
@@ -682,6 +683,10 @@ def estimate_forces(
         Compute only what the output table holds (:func:`forces_columns`): ``filtered`` is
         NaN for the joints whose ``motor_external`` it is not (``model`` method, joints with
         PDTV lines), sparing their low-pass, and ``passes`` is empty (except for ``paper``).
+    check_delay
+        Warn where the log's torque channel lags by another delay than identification found
+        (:func:`torquemap.task_delay.task_delay_warnings`, on the longest piece; not when
+        ``channel_delay`` is given or for ``raw``).
 
     Returns
     -------
@@ -824,6 +829,11 @@ def estimate_forces(
     warnings += fast_task_warnings(model, out["velocity"])
     warnings += one_direction_task_warnings(model, out["velocity"])
     warnings += torque_scale_warnings(model, log.motor_torque)
+    if check_delay and channel_delay is None and method != "raw":
+        from torquemap.task_delay import task_delay_warnings
+
+        longest = max(clean.pieces, key=lambda piece: piece.log.t[-1] - piece.log.t[0])
+        warnings += task_delay_warnings(model, longest.log, window=win, cutoff=cutoff)
     warnings += unidentified_joint_warnings(model)
     gear = np.array([j.gear_ratio for j in robot.joints])
     tau_ext = -out["external"] * gear

@@ -816,9 +816,13 @@ class _LocalTorques:
         self.pieces: list[Piece] = []
         self.at: list[NDArray[np.intp]] = []
         self.smoothers: list[RowSmoother] = []
-        for p, r, a, b in zip(rows.pieces, rows.rows, edges[:-1], edges[1:], strict=True):
-            mine = r[index[(index >= a) & (index < b)] - a]
-            whole = RowSmoother.build(p.t, mine, rows.window)
+        for p, r, sm, a, b in zip(
+            rows.pieces, rows.rows, rows.smoothers, edges[:-1], edges[1:], strict=True
+        ):
+            place = index[(index >= a) & (index < b)] - a
+            mine = r[place]
+            # the piece's smoother's weights of these rows (``build`` of them, bit for bit)
+            whole = sm.subset(place, mine, rows.window)
             op = whole.operator
             read = np.zeros(p.t.size, dtype=bool)
             read[op.indices] = True
@@ -991,9 +995,9 @@ class _Gram:
         if s.size == 0:
             return self.gram.copy()
         d = diff[s]
-        part = self.a[s]
+        part = np.take(self.a, s, axis=0)
         if np.all(d > 0):
-            part = part * np.sqrt(d)[:, None]
+            np.multiply(part, np.sqrt(d)[:, None], out=part)  # in place: the same numbers
             return self.gram - part.T @ part
         return self.gram - part.T @ (part * d[:, None])
 
@@ -1990,9 +1994,10 @@ def _prior_held_knots(
         rows.at(lambda p: p.velocity if p.friction_velocity is None else p.friction_velocity)
     )
     near = np.zeros(fv.size, dtype=bool)
-    for x in steady_speeds:
-        if x:
-            near |= np.abs(np.log(np.maximum(fv, 1e-300) / abs(x))) < math.log(ANCHOR_GAP)
+    floor = np.maximum(fv, 1e-300)
+    # each speed once (both directions' passes share their speeds): the same rows
+    for x in dict.fromkeys(abs(float(x)) for x in steady_speeds if x):
+        near |= np.abs(np.log(floor / x)) < math.log(ANCHOR_GAP)
     wa = w * ~near
     out = []
     for start in (m, m + k):

@@ -37,11 +37,15 @@ class RowSmoother:
     starts
         Per row, the first sample of its weights when they lie on consecutive samples (every
         row whose window ends before the piece's last sample), else -1, shape (rows,).
+    spans
+        Per row, the first sample of its window and one past its last, each shape (rows,)
+        (:meth:`build`'s; None for a smoother made otherwise): what :meth:`subset` reads.
     """
 
     t: NDArray[np.float64]
     operator: sparse.csr_matrix
     starts: NDArray[np.intp]
+    spans: tuple[NDArray[np.intp], NDArray[np.intp]] | None = None
 
     @classmethod
     def build(cls, t: NDArray[np.float64], rows: NDArray[np.intp], window: float) -> RowSmoother:
@@ -68,13 +72,47 @@ class RowSmoother:
         from torquemap._fit_kernels import curvature_weights, run_starts
 
         width = int((hi - lo).max()) if rows.size else 1
-        data, index = curvature_weights(
-            t, rows.astype(np.intp), lo.astype(np.intp), hi.astype(np.intp), width
-        )
+        lo, hi = lo.astype(np.intp), hi.astype(np.intp)
+        data, index = curvature_weights(t, rows.astype(np.intp), lo, hi, width)
         operator = sparse.csr_matrix(
             (data, index, np.arange(0, data.size + 1, width)), shape=(rows.size, n)
         )
-        return cls(t=t, operator=operator, starts=run_starts(operator.indptr, operator.indices))
+        return cls(
+            t=t,
+            operator=operator,
+            starts=run_starts(operator.indptr, operator.indices),
+            spans=(lo, hi),
+        )
+
+    def subset(self, index: NDArray[np.intp], rows: NDArray[np.intp], window: float) -> RowSmoother:
+        """The smoother of this one's rows ``index`` (positions among its rows, increasing;
+        ``rows`` their samples, ``window`` [s] the window it was built for) alone:
+        ``build(t, rows, window)``, bit for bit. A row's window and weights do not depend on
+        the other rows, only the slots per row do (the widest window's, shorter ones padded
+        with zero weights on the last sample): when the rows' widest window is as wide as
+        this smoother's, their weights are read from this one's; otherwise (or for a
+        smoother not made by :meth:`build`) they are built again."""
+        from torquemap._fit_kernels import run_starts
+
+        op = self.operator
+        count = op.shape[0]
+        width = int(op.indptr[1] - op.indptr[0]) if count else 1
+        if self.spans is None or index.size == 0 or op.nnz != count * width:
+            return RowSmoother.build(self.t, rows, window)
+        lo, hi = self.spans[0][index], self.spans[1][index]
+        if int((hi - lo).max()) != width:
+            return RowSmoother.build(self.t, rows, window)
+        data = op.data.reshape(count, width)[index].ravel()
+        cols = op.indices.reshape(count, width)[index].ravel()
+        operator = sparse.csr_matrix(
+            (data, cols, np.arange(0, data.size + 1, width)), shape=(index.size, op.shape[1])
+        )
+        return RowSmoother(
+            t=self.t,
+            operator=operator,
+            starts=run_starts(operator.indptr, operator.indices),
+            spans=(lo, hi),
+        )
 
     def __call__(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """The smoothed ``x`` (n, m) at the rows, shape (rows, m)."""

@@ -227,7 +227,8 @@ class _Job:
     stretches ``(from, to, gap length)`` [s] next to gaps just outside it, flagged
     ``FLAG_GAP``; ``whole``: the block is the whole log (its refusal is the batch's);
     ``call``: the call of ``_drain_groups`` that planned it; ``result``: the pool's future,
-    when a pool computes it.
+    when a pool computes it; ``first``: the first block planned (the one whose delay is
+    checked against the model's, :mod:`torquemap.task_delay`).
     """
 
     log: Log
@@ -238,6 +239,7 @@ class _Job:
     gap: float
     call: int
     result: Future[ForceEstimate | InputError] | None = None
+    first: bool = False
 
 
 class ForceEstimator:
@@ -602,17 +604,25 @@ class ForceEstimator:
             joint_names=self.model.robot.joint_names,
             path=self.path,
         )
-        whole = self._planned == 0 and lo == 0 and hi == self._rows
+        first = self._planned == 0
+        whole = first and lo == 0 and hi == self._rows
         self._planned += 1
         return _Job(
-            log=log, a=a - lo, b=b - lo, edges=tuple(edges), whole=whole, gap=gap, call=self._calls
+            log=log,
+            a=a - lo,
+            b=b - lo,
+            edges=tuple(edges),
+            whole=whole,
+            gap=gap,
+            call=self._calls,
+            first=first,
         )
 
     def _compute(self, job: _Job) -> ForceEstimate | InputError:
         """The batch estimate of a block (run in the pool's threads when there is one); an
         ``InputError`` is returned, for :meth:`_answer` to judge in the blocks' order."""
         try:
-            return estimate_forces(self.model, job.log, **self._options)
+            return estimate_forces(self.model, job.log, **self._options, check_delay=job.first)
         except InputError as exc:
             return exc
 

@@ -689,7 +689,10 @@ def _check_phases(
         if best <= floor:
             raise InputError(
                 f"phase {k + 1} never produced torque (largest {best:.3g} N m over "
-                f"{int(alone.sum())} rows where it leads; noise floor {floor:.3g} N m)",
+                f"{int(alone.sum())} rows where it leads; noise floor {floor:.3g} N m): is "
+                "it connected, and, on a permanent-magnet (BLDC) motor, wired the way round "
+                "the others are? A phase wired backwards pushes the negative way, which the "
+                "rig does not read",
                 path=path,
             )
 

@@ -1,0 +1,78 @@
+"""A task log whose torque channel lags by another delay than the identification logs'
+(torquemap.task_delay): warned, naming the log's own delay; a task logged alike is not.
+
+The 1-DoF motor of tests/test_identify_delay.py, swept with no delay and identified by the
+whole-log fit; the task is the same back-and-forth motion under a constant external torque,
+its torque channel reporting 120 ms late (a task logged over a host or a bus, the sweeps from
+the drive's buffer). The external torque the estimate gives is scored against the one
+simulated.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+from test_identify_delay import ROBOT, simulate
+
+from torquemap.estimate import estimate_forces
+from torquemap.identify import identify_model
+from torquemap.io import Log
+from torquemap.model import Model
+from torquemap.robot import robot_from_dict
+
+LOAD = 0.02  # [N m] constant external torque on the task (motor side, gear 1)
+TASK_DELAY = 0.12  # [s]
+
+
+@pytest.fixture(scope="module")
+def model() -> Model:
+    sweep = simulate(np.random.default_rng(1), delay=0.0)
+    return identify_model(robot_from_dict(ROBOT), [sweep]).model
+
+
+def task(delay: float) -> Log:
+    log = simulate(np.random.default_rng(2), delay=delay)
+    # the motor holds the load as well: the torque it reports carries it (the load pushes
+    # the joint negative, the motor answers positive)
+    return Log(
+        t=log.t,
+        q=log.q,
+        motor_torque=log.motor_torque + LOAD,
+        joint_names=log.joint_names,
+        path="task.csv",
+    )
+
+
+def _error(model: Model, log: Log) -> tuple[float, list[str]]:
+    est = estimate_forces(model, log)
+    tau_ext = est.tau_ext[:, 0]
+    ok = est.flag == 0
+    # the estimate's sign: tau_ext is the external torque on the joint (the load, -LOAD)
+    err = tau_ext[ok] + LOAD
+    return float(np.sqrt(np.mean(err**2))), [w for w in est.warnings if "lags" in w]
+
+
+def test_a_task_logged_with_another_delay_is_warned_naming_its_delay(model: Model) -> None:
+    delay = float(model.notes["joints"]["m"]["channel_delay"])
+    assert abs(delay) < 0.01  # the sweeps' own delay, 0
+    matched, quiet = _error(model, task(0.0))
+    late, said = _error(model, task(TASK_DELAY))
+    assert quiet == []
+    assert len(said) == 1
+    found = re.search(r"lags its position by about (-?\d+) ms", said[0])
+    assert found is not None and abs(int(found.group(1)) / 1000 - TASK_DELAY) <= 0.02
+    assert "task.csv" not in said[0]  # the path is the CLI's to add
+    # the harm the line speaks of: the external torque is off by several times its error
+    # on the task logged alike
+    assert late > 3.0 * matched
+
+
+def test_no_line_when_the_delay_is_given_or_the_model_has_no_interval(model: Model) -> None:
+    log = task(TASK_DELAY)
+    est = estimate_forces(model, log, channel_delay={"m": TASK_DELAY})
+    assert not [w for w in est.warnings if "lags" in w]
+    notes = dict(model.notes, joints={"m": {"channel_delay": 0.0}})
+    bare = Model(robot=model.robot, joints=model.joints, notes=notes)
+    assert not [w for w in estimate_forces(bare, log).warnings if "lags" in w]
