@@ -181,8 +181,9 @@ def hidden_wave_advice(amplitude: float, anchors: ArrayLike, positions_per_cycle
     return (
         f"the rows between measured positions read a torque at rest of {amplitude:.3g} N m "
         f"repeating every {2 * s} table positions that the measured positions do not see "
-        f"(they sit at its zeros): cogging sampled twice a period, read from the rows the "
-        f"rig's compliance moved between them; collect again measuring every "
+        f"(they sit at its zeros; cogging sampled twice a period, or what the model misses "
+        f"between them), read from the rows the rig's compliance moved there; collect again "
+        f"measuring every "
         f"{_nth(max(s // 2, 1))} position (position step {max(s // 2, 1)})"
     )
 
