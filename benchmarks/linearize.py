@@ -7,7 +7,8 @@ verification runs: for iterating), ``--motors N --first-seed S`` for other membe
 ``--bias-rest`` to measure the CLI's default path beside them: the same collection with the bias
 read at rest, its tables built with DATA.csv's ``bias`` column and without it;
 ``--onset-form`` / ``--onset-search`` to build the random motors' interp tables with another
-onset law (``build_tables``' keywords; docs/linearize.md, "stop 40 (L44)").
+onset law (``build_tables``' keywords; docs/linearize.md, "stop 40 (L44)"), ``--nyquist`` with
+another use of the torque at rest's Nyquist wave (docs/linearize.md, "stop 41 (L45)").
 
 Random motors (``torquemap.sim.family.paper_bench``): each collected at the paper's settings (10
 readings a row, every 4th table position and pulse width) with the bias read on an open contact
@@ -202,14 +203,14 @@ def family_row(
     *,
     verify: bool,
     bias_rest: bool = False,
-    onset: dict[str, str] | None = None,
+    onset: dict[str, object] | None = None,
 ) -> dict[str, float | str]:
     """One random motor at the paper's collection: interp, paper method and floor; with
     ``bias_rest``, also the CLI's default path: the same collection with the bias read at rest
     (the same sensor-noise seed, so the same readings), its tables built with DATA.csv's
     ``bias`` column (``rest``: the load it holds restored, :mod:`torquemap.linearize.bias`) and
     without it (``rest_plain``: the rows as measured, what an older file gives). ``onset``:
-    ``build_tables``' onset-law keywords for the interp tables (``--onset-form``,
+    ``build_tables``' keywords for the interp tables (``--onset-form``, ``--nyquist``,
     ``--onset-search``; default: its defaults)."""
     law = {} if onset is None else onset
     bench = paper_bench(seed)
@@ -342,7 +343,7 @@ def family(
     *,
     verify: bool,
     bias_rest: bool = False,
-    onset: dict[str, str] | None = None,
+    onset: dict[str, object] | None = None,
 ) -> None:
     """The random-motor section."""
     start = time.perf_counter()
@@ -502,12 +503,20 @@ def main() -> int:
         choices=("all", "measured"),
         help="random motors: build_tables' onset_search for the interp tables (default: its own)",
     )
+    parser.add_argument(
+        "--nyquist",
+        choices=("warned", "tested"),
+        help="random motors: build_tables' nyquist for the interp tables, 'warned' (True) or "
+        "'tested' (default: its own; docs/linearize.md, 'stop 41 (L45)')",
+    )
     args = parser.parse_args()
-    onset = {
+    onset: dict[str, object] = {
         key: value
         for key, value in (("onset_form", args.onset_form), ("onset_search", args.onset_search))
         if value is not None
     }
+    if args.nyquist is not None:
+        onset["nyquist"] = True if args.nyquist == "warned" else "tested"
     seeds = list(range(args.first_seed, args.first_seed + args.motors))
     if args.motors < 0:
         parser.error("--motors must be >= 0")

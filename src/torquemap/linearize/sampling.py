@@ -152,6 +152,42 @@ def check_position_sampling(
     return SamplingCheck(int(steps[0]), top, noise, bool(undersampled))
 
 
+def hidden_wave_advice(amplitude: float, anchors: ArrayLike, positions_per_cycle: int) -> str:
+    """What to collect when the rows between the measured positions read a ripple of two
+    measured positions a period that the measured positions themselves sit on the zeros of
+    (:func:`torquemap.linearize.surface.hidden_wave`).
+
+    Parameters
+    ----------
+    amplitude
+        The ripple's amplitude between the measured positions [N m].
+    anchors
+        The measured positions, evenly spaced, ascending, shape (K,).
+    positions_per_cycle
+        ``P``.
+
+    Returns
+    -------
+    str
+        One line.
+
+    Examples
+    --------
+    >>> hidden_wave_advice(0.16, np.arange(0, 128, 4), 128)[:60]
+    'the rows between measured positions read a torque at rest of'
+    """
+    a = np.asarray(anchors, dtype=np.int64)
+    s = int(positions_per_cycle) // max(a.size, 1)
+    return (
+        f"the rows between measured positions read a torque at rest of {amplitude:.3g} N m "
+        f"repeating every {2 * s} table positions that the measured positions do not see "
+        f"(they sit at its zeros; cogging sampled twice a period, or what the model misses "
+        f"between them), read from the rows the rig's compliance moved there; collect again "
+        f"measuring every "
+        f"{_nth(max(s // 2, 1))} position (position step {max(s // 2, 1)})"
+    )
+
+
 def check_stated_cogging(cogging_periods: int, anchors: ArrayLike, positions_per_cycle: int) -> str:
     """What to collect when the motor file's cogging is sampled at most twice a period.
 

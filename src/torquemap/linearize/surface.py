@@ -46,6 +46,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.optimize import nnls
 from scipy.sparse.linalg import spsolve
+from scipy.stats import f as f_distribution
 
 from torquemap.linearize.detent import loo_press
 from torquemap.linearize.gaps import check_gaps, fourier_design
@@ -62,6 +63,8 @@ TOLERANCE = 1e-3
 # 0.05 to 0.2 N m, 60 draws) the statistic spread from -33 to +37 (sd about 17): 50 is three
 # of those spreads
 COUPLING_F = 50.0
+#: The level of :func:`hidden_wave`'s F test (the Nyquist wave between the anchors).
+NYQUIST_LEVEL = 1e-3
 #: Pulse-width units between the knots of ``phi``.
 PHI_KNOT_STEP = 2
 
@@ -92,6 +95,12 @@ class SurfaceFit:
         The F statistic of the coupling term (0 unless ``coupling="checked"``): the fall in the cells' sum of
         squared misfits from the fit without it, over the coupled fit's residual variance;
         ``kappa`` is kept only where it exceeds :data:`COUPLING_F`, else the fit without it.
+    nyquist_f, nyquist_dof
+        With ``nyquist``: the F statistic of the Nyquist wave between the anchors (its two
+        columns of :func:`rest_basis`) given the final ``phi``, against the fit without them,
+        and the data's degrees of freedom (:func:`hidden_wave`); 0 otherwise.
+    nyquist_amplitude
+        With ``nyquist``: the wave's amplitude between the anchors [N m]; 0 otherwise.
     """
 
     phi: NDArray[np.float64]
@@ -102,6 +111,9 @@ class SurfaceFit:
     series: RestSeries | None = None
     coupling: float = 0.0
     coupling_f: float = 0.0
+    nyquist_f: float = 0.0
+    nyquist_dof: int = 0
+    nyquist_amplitude: float = 0.0
 
 
 def _second_difference(n: int) -> sp.csr_matrix:
@@ -204,6 +216,21 @@ def _interpolate_rest(rest: NDArray[np.float64], anchors: NDArray[np.int64], n: 
     return RestSeries(out, tuple(kept), tuple(amplitude.tolist()), float(noise))
 
 
+def carried_shape(rest: NDArray[np.float64], anchors: NDArray[np.int64]) -> NDArray[np.float64]:
+    """``o`` less its cyclic linear interpolation through the anchors: zero at the anchors, the
+    shape its series carries between them (``fit_surface``'s ``carried``), shape (P,).
+
+    Examples
+    --------
+    >>> np.round(carried_shape(np.array([0.0, 1.0, 0.0, -1.0]), np.array([0, 2])), 6).tolist()
+    [0.0, 1.0, 0.0, -1.0]
+    """
+    n = rest.size
+    ext = np.concatenate([anchors - n, anchors, anchors + n])
+    out: NDArray[np.float64] = rest - np.interp(np.arange(n), ext, np.tile(rest[anchors], 3))
+    return out
+
+
 def rest_basis(anchors: NDArray[np.int64], n: int) -> sp.csr_matrix | None:
     """``o`` on every position from its values at the ``K`` anchors and one more harmonic.
 
@@ -297,6 +324,7 @@ def _fit_once(
     smoothness: float = 1.0,
     anchors: NDArray[np.int64] | None = None,
     nyquist: bool = False,
+    carried: NDArray[np.float64] | None = None,
     coupling: bool = False,
 ) -> SurfaceFit:
     """One fit of the structured surface (:func:`fit_surface`), ``kappa`` free or 0."""
@@ -319,7 +347,10 @@ def _fit_once(
     indicator = sp.csr_matrix((np.ones(cp.size), (np.arange(cp.size), cp)), shape=(cp.size, n))
     nf = n
     basis = rest_basis(anchors, n) if nyquist else None
+    fixed = np.zeros(cp.size)
     if basis is not None:
+        if carried is not None:
+            fixed = indicator @ carried
         indicator = (indicator @ basis).tocsr()
         nf = basis.shape[1]
     d2 = _second_difference(n)
@@ -357,13 +388,13 @@ def _fit_once(
             [sp.csr_matrix((nf, n * m)), sp.identity(nf, format="csr") * 1e-6], format="csr"
         )
         full = sp.vstack([design, pen, ridge], format="csc")
-        rhs = np.concatenate([target[idx], np.zeros(n * m + nf)])
+        rhs = np.concatenate([target[idx] - fixed[idx], np.zeros(n * m + nf)])
         lhs = (full.T @ full).tocsc()
         lhs = lhs + sp.identity(lhs.shape[0], format="csc") * 1e-9
         sol = spsolve(lhs, full.T @ rhs)
         gain = sol[: n * m].reshape(n, m)
         coef_o = sol[n * m :]
-        o_cells = indicator @ coef_o
+        o_cells = indicator @ coef_o + fixed
         # phi given S and o: each cell touches two knots per active phase
         g = gain[cp] * share  # (cells, m)
         dphi = np.zeros((idx.size, knots))
@@ -410,7 +441,10 @@ def _fit_once(
         if abs(last - sse) <= TOLERANCE * sse:
             break
         last = sse
+    wave_f, wave_dof, wave_amp = 0.0, 0, 0.0
     if basis is not None:
+        wave_f, wave_dof = _wave_f(full, rhs, sol, idx.size)
+        wave_amp = float(np.hypot(coef_o[-2], coef_o[-1]))
         # the series through the anchors as without the term, plus the term between them
         k = anchors.size
         series = _interpolate_rest(np.asarray(basis @ coef_o), anchors, n)
@@ -428,7 +462,45 @@ def _fit_once(
         offset=offset,
         series=series,
         coupling=kappa,
+        nyquist_f=wave_f,
+        nyquist_dof=wave_dof,
+        nyquist_amplitude=wave_amp,
     )
+
+
+def _wave_f(
+    full: sp.csc_matrix, rhs: NDArray[np.float64], sol: NDArray[np.float64], cells: int
+) -> tuple[float, int]:
+    """F statistic of the last two columns (the Nyquist wave of :func:`rest_basis`) in the
+    penalised least squares ``full @ x = rhs`` whose first ``cells`` rows are the data: the
+    fall in the penalised sum of squares from the fit without them, per column, over the data
+    rows' residual variance with them; and that variance's degrees of freedom (the cells less
+    the columns, at least half the cells: the gains' columns are penalised)."""
+    keep = full[:, :-2]
+    lhs = (keep.T @ keep).tocsc() + sp.identity(keep.shape[1], format="csc") * 1e-9
+    without = spsolve(lhs, keep.T @ rhs)
+    sse_with = float(np.sum((full @ sol - rhs) ** 2))
+    sse_without = float(np.sum((keep @ without - rhs) ** 2))
+    data = full[:cells] @ sol - rhs[:cells]
+    dof = max(cells - full.shape[1], cells // 2, 1)
+    return (sse_without - sse_with) / 2.0 / max(float(data @ data) / dof, 1e-300), dof
+
+
+def hidden_wave(fit: SurfaceFit) -> bool:
+    """Whether a fit with ``nyquist`` holds a wave between the anchors beyond its noise: its F
+    statistic above the F(2, dof) distribution's quantile at :data:`NYQUIST_LEVEL`.
+
+    Examples
+    --------
+    >>> z = np.zeros(1)
+    >>> hidden_wave(SurfaceFit(z, z[:, None], z, 0.0, z, nyquist_f=40.0, nyquist_dof=2000))
+    True
+    >>> hidden_wave(SurfaceFit(z, z[:, None], z, 0.0, z, nyquist_f=4.0, nyquist_dof=2000))
+    False
+    """
+    if fit.nyquist_dof < 1:
+        return False
+    return bool(fit.nyquist_f > f_distribution.ppf(1.0 - NYQUIST_LEVEL, 2, fit.nyquist_dof))
 
 
 def fit_surface(
@@ -445,6 +517,7 @@ def fit_surface(
     smoothness: float = 1.0,
     anchors: NDArray[np.int64] | None = None,
     nyquist: bool = False,
+    carried: NDArray[np.float64] | None = None,
     coupling: bool | Literal["checked"] = False,
 ) -> SurfaceFit:
     """Fit the structured surface to the measured cells of a (position, level) grid.
@@ -481,6 +554,11 @@ def fit_surface(
         carried by the anchors' series. For cogging the anchors sample twice a period or
         less (:func:`torquemap.linearize.sampling.check_position_sampling`); ignored unless
         the anchors are evenly spaced and even in number.
+    carried
+        With ``nyquist``: a shape of ``o`` between the anchors held fixed inside the fit (zero
+        at the anchors), shape (P,): the series a fit without the wave carried between them
+        (:func:`carried_shape`), so that the wave, and :func:`hidden_wave`'s test of it, hold
+        only what that series misses. None: the anchors' linear interpolation alone.
     coupling
         Also fit the phases' mutual saturation: phase ``k``'s torque is
         ``S_k phi(a_k) (1 - kappa sum_{j != k} phi(a_j))`` (shared iron: two phases on give
@@ -506,6 +584,7 @@ def fit_surface(
         smoothness=smoothness,
         anchors=anchors,
         nyquist=nyquist,
+        carried=carried,
     )
     if coupling != "checked":
         return _fit_once(grid, levels, ramp, coupling=bool(coupling), **kwargs)

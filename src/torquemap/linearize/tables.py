@@ -60,10 +60,18 @@ from torquemap.linearize.sampling import (
     MATTERS,
     check_position_sampling,
     check_stated_cogging,
+    hidden_wave_advice,
     unheld_gap_advice,
 )
 from torquemap.linearize.sign import check_torque_sign, pulse_width_hint
-from torquemap.linearize.surface import SurfaceFit, fit_surface, surface_prediction
+from torquemap.linearize.surface import (
+    SurfaceFit,
+    carried_shape,
+    fit_surface,
+    hidden_wave,
+    rest_basis,
+    surface_prediction,
+)
 from torquemap.robust import robust_scale
 
 CommandScaling = Literal["linear", "log"]
@@ -864,6 +872,7 @@ def _surface_forward(
     *,
     knee: bool = True,
     nyquist: bool = False,
+    carried: NDArray[np.float64] | None = None,
     pool: bool = False,
     track: bool = False,
     raw: NDArray[np.float64] | None = None,
@@ -894,6 +903,7 @@ def _surface_forward(
         exponent=onset_law[1],
         curve=onset_law[2],
         nyquist=nyquist,
+        carried=carried,
         coupling=coupling,
     )
     pred = surface_prediction(fit, ramp, levels)
@@ -1133,7 +1143,7 @@ def build_tables(
     knee: bool = True,
     pool: bool = False,
     track: bool = False,
-    nyquist: bool = True,
+    nyquist: bool | Literal["tested"] = True,
     coupling: bool | Literal["checked"] = True,
     held: bool | Literal["model"] = "model",
     held_mask: ArrayLike | None = None,
@@ -1241,7 +1251,14 @@ def build_tables(
         surface is fitted again with the torque at rest between measured positions read as
         their interpolation plus the measured positions' Nyquist harmonic, from every row
         (:func:`torquemap.linearize.surface.rest_basis`; the rows the rig's compliance moved
-        between the measured positions read the harmonic's phase).
+        between the measured positions read the harmonic's phase). ``"tested"``: also where
+        the measured positions do not show it (they can sit at the ripple's zeros: family
+        motor 327, 16 cogging periods over 128 positions measured every 4th), the surface is
+        fitted again with the harmonic between them, the series the first fit carried there
+        held fixed (:func:`torquemap.linearize.surface.carried_shape`), and kept, with a
+        warning, where the harmonic lowers the misfit beyond the F test of
+        :func:`torquemap.linearize.surface.hidden_wave` (docs/linearize.md, "stop 41
+        (L45)"). False: never.
     coupling
         ``"interp"`` only, where the structured surface is used: fit the phases' mutual
         saturation with it (each phase's torque times ``1 - kappa`` times the sum of the other
@@ -1496,6 +1513,16 @@ def build_tables(
                         # the rows the compliance moved between them (surface.rest_basis)
                         modelled, fitted = surface_forward(nyquist=True)
                         fine = np.where(np.isnan(fine), np.nan, modelled)
+                elif nyquist == "tested" and rest_basis(anchors, n) is not None:
+                    # the measured positions can sit on the ripple's zeros and see nothing:
+                    # the wave kept where the rows between them read it beyond their noise
+                    waved, trial = surface_forward(
+                        nyquist=True, carried=carried_shape(fitted.rest, anchors)
+                    )
+                    if hidden_wave(trial):
+                        modelled, fitted = waved, trial
+                        fine = np.where(np.isnan(fine), np.nan, modelled)
+                        warnings.append(hidden_wave_advice(trial.nyquist_amplitude, anchors, n))
                 if fitted.series is not None:
                     unheld, period = fitted.series.unheld_at(
                         anchors, matters=MATTERS * torque_max / cmax
