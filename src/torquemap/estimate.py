@@ -911,8 +911,8 @@ def estimate_forces(
 #: the time from it, :func:`torquemap.uncertainty.bridge_departure`; the law's is its
 #: parameters', sign and extrapolation spread at those speeds). ``"choose"`` measured on robots
 #: 381-400 / held-out 401-420: median ratio 2.20x -> 2.20x / 2.27x -> 1.77x, worst 61.44x ->
-#: 24.18x / 11.92x -> 11.92x; not the default yet (robots 261-280 unchecked, 391's 2-sigma share
-#: 91.8 -> 100 %). docs/estimation.md, "Stop 41 (F54)".
+#: 24.18x / 11.92x -> 11.92x (261-280: 1.55x -> 1.52x, 11.98x); not the default (391's 2-sigma
+#: share 91.8 -> 100 %; 420 and 268 lose). docs/estimation.md, "Stop 41 (F54)".
 END_RUNS: Literal["hold", "law", "choose"] = "hold"
 
 
