@@ -760,9 +760,7 @@ def estimate_forces(
     passes: list[list[Pass]] = [[] for _ in range(nj)]
     any_pass = False
     for piece in clean.pieces:
-        part = _estimate_piece(
-            model,
-            piece.log,
+        piece_kw: dict[str, Any] = dict(
             method=method,
             cutoff=cutoff,
             window=win,
@@ -773,6 +771,9 @@ def estimate_forces(
             reversal_band=reversal_band,
             answers_only=answers_only,
         )
+        part = _estimate_piece(model, piece.log, **piece_kw)
+        if END_RUNS != "hold" and method == "model" and bridge_reversals > 0:
+            part = _choose_end_runs(model, piece.log, part, piece_kw, mode=END_RUNS)
         rows = piece.rows
         # consecutive rows (no repeated stamp dropped): a slice, not a gather, per column
         at: slice | NDArray[np.int64] = rows
@@ -912,6 +913,105 @@ def estimate_forces(
     )
 
 
+#: What a whole-fit joint's run below its reversal band at an end of the log (or of a piece)
+#: answers where the joint slides above its law's transition (``TRANSITION_SPAN`` widths):
+#: ``"hold"`` (the answer next to the run, held: main's), ``"law"`` (the model's friction law
+#: read there, only the transition held) or ``"choose"`` (per run, the one whose sigma is the
+#: smaller over the run: the hold's grows with the neighbouring answer's rate of change times
+#: the time from it, :func:`torquemap.uncertainty.bridge_departure`; the law's is its
+#: parameters', sign and extrapolation spread at those speeds). ``"choose"`` measured on robots
+#: 381-400 / held-out 401-420: median ratio 2.20x -> 2.20x / 2.27x -> 1.77x, worst 61.44x ->
+#: 24.18x / 11.92x -> 11.92x (261-280: 1.55x -> 1.52x, 11.98x); not the default (391's 2-sigma
+#: share 91.8 -> 100 %; 420 and 268 lose). docs/estimation.md, "Stop 41 (F54)".
+END_RUNS: Literal["hold", "law", "choose"] = "hold"
+
+
+def law_end_runs(
+    model: Model,
+    t: NDArray[np.float64],
+    velocity: NDArray[np.float64],
+    rest: NDArray[np.float64],
+    *,
+    window: float,
+) -> tuple[dict[int, NDArray[np.bool_]], dict[int, list[tuple[int, int]]]]:
+    """The reversal masks with the law read in the runs at the ends of a piece.
+
+    For each whole-fit joint ``k``, every run of ``rest[:, k] > 0`` that touches the piece's
+    start or end and in which the joint slides above its law's transition
+    (``TRANSITION_SPAN`` widths, motor ``velocity`` [rad/s], widened by half the
+    differentiator ``window`` [s] as :func:`reversal_mask` does) keeps only the transition in
+    the mask. Returns the new masks (joints with such runs only) and those runs' ``(start,
+    stop)`` rows.
+
+    Examples
+    --------
+    >>> from torquemap.friction_law import StribeckFriction
+    >>> from torquemap.model import JointModel
+    >>> from torquemap.robot import robot_from_dict
+    >>> rb = robot_from_dict({"robot": {"name": "m", "kinematics": "none"}, "joints": {"a": {
+    ...     "gear_ratio": 1.0, "torque_constant": 0.1, "encoder_counts_per_rev": 4096}}})
+    >>> law = StribeckFriction(coulomb_positive=0.1, coulomb_negative=0.1, zero_velocity=0.01)
+    >>> notes = {"joints": {"a": {"friction_fit": "whole", "friction_observed_speed": 2.0}}}
+    >>> m = Model(robot=rb, joints={"a": JointModel(friction=law)}, notes=notes)
+    >>> t = np.arange(10) * 0.1
+    >>> v = np.array([0.0, 0.0, 1, 1, 1, 5, 5, 5, 5, 5])[:, None]
+    >>> masks, runs = law_end_runs(m, t, v, (v < 2.0).astype(float), window=0.01)
+    >>> masks[0].astype(int).tolist(), runs[0]
+    ([1, 1, 0, 0, 0, 0, 0, 0, 0, 0], [(0, 5)])
+    """
+    whole = whole_fit_joints(model)
+    masks: dict[int, NDArray[np.bool_]] = {}
+    runs: dict[int, list[tuple[int, int]]] = {}
+    n = t.size
+    for k, name in enumerate(model.robot.joint_names):
+        if name not in whole or name not in model.joints or n == 0:
+            continue
+        inside = np.nan_to_num(rest[:, k]) > 0
+        width = TRANSITION_SPAN * _law_width(model.joints[name].friction)
+        narrow = reversal_mask(t, velocity[:, k], band=width, window=window) & inside
+        mask = inside.copy()
+        chosen = []
+        for a, b in _gap_runs(inside):
+            if (a == 0 or b == n) and not narrow[a:b].all():
+                mask[a:b] = narrow[a:b]
+                chosen.append((int(a), int(b)))
+        if chosen:
+            masks[k] = mask
+            runs[k] = chosen
+    return masks, runs
+
+
+def _choose_end_runs(
+    model: Model,
+    log: Log,
+    part: _PieceEstimate,
+    piece_kw: Mapping[str, Any],
+    *,
+    mode: str,
+) -> _PieceEstimate:
+    """``part`` with the law read in its end runs (:func:`law_end_runs`): in every such run
+    (``mode == "law"``) or in those where the law's sigma is the smaller over the run
+    (``"choose"``, root mean square over the run's samples)."""
+    arrays = part.arrays
+    masks, runs = law_end_runs(
+        model, log.t, arrays["velocity"], arrays["rest"], window=float(piece_kw["window"])
+    )
+    if not masks:
+        return part
+    alt = _estimate_piece(model, log, **piece_kw, rest_override=masks).arrays
+    out = {key: value.copy() for key, value in arrays.items()}
+    for k, chosen in runs.items():
+        for a, b in chosen:
+            if mode == "choose":
+                held = float(np.sqrt(np.mean(arrays["sigma"][a:b, k] ** 2)))
+                law = float(np.sqrt(np.mean(alt["sigma"][a:b, k] ** 2)))
+                if not law < held:
+                    continue
+            for key in ("rest", "filtered", "external", "sigma"):
+                out[key][a:b, k] = alt[key][a:b, k]
+    return dataclasses.replace(part, arrays=out)
+
+
 def _covers(rows: NDArray[np.int64], n: int) -> bool:
     """Whether a piece's rows are every row ``0 .. n - 1`` of the log, in order."""
     return bool(rows.size == n and (n == 0 or (int(rows[0]) == 0 and int(rows[-1]) == n - 1)))
@@ -988,8 +1088,12 @@ def _estimate_piece(
     channel_delay: Mapping[str, float] | None,
     reversal_band: float | Mapping[str, float] | None,
     answers_only: bool = False,
+    rest_override: Mapping[int, NDArray[np.bool_]] | None = None,
 ) -> _PieceEstimate:
-    """:func:`estimate_forces` on one piece of a log (no gap, sound samples)."""
+    """:func:`estimate_forces` on one piece of a log (no gap, sound samples).
+
+    ``rest_override``: per joint index, the reversal mask to use instead of the band's
+    (:func:`_law_end_runs`)."""
     robot = model.robot
     delays = identified_delays(model) if channel_delay is None else dict(channel_delay)
     if any(delays.values()):
@@ -1018,6 +1122,8 @@ def _estimate_piece(
         rest = np.zeros(n, dtype=bool)
         if max(jm.friction.static_levels()) > 0:
             rest = reversal_mask(log.t, velocity[:, k], band=w0, window=window)
+            if rest_override is not None and k in rest_override:
+                rest = rest_override[k]
             if joint.name not in whole:
                 flag[rest] |= FLAG_LOW_SPEED
         rests.append(rest)
