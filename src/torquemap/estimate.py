@@ -921,9 +921,10 @@ def estimate_forces(
 #: the time from it, :func:`torquemap.uncertainty.bridge_departure`; the law's is its
 #: parameters', sign and extrapolation spread at those speeds). ``"choose"`` measured on robots
 #: 381-400 / held-out 401-420: median ratio 2.20x -> 2.20x / 2.27x -> 1.77x, worst 61.44x ->
-#: 24.18x / 11.92x -> 11.92x (261-280: 1.55x -> 1.52x, 11.98x); not the default (391's 2-sigma
-#: share 91.8 -> 100 %; 420 and 268 lose). docs/estimation.md, "Stop 41 (F54)".
-END_RUNS: Literal["hold", "law", "choose"] = "hold"
+#: 24.18x / 11.92x -> 11.92x (261-280: 1.55x -> 1.52x, 11.98x); the default since stop 41
+#: (the lead: the forces are better or equal on every set's median and worst; 391's 2-sigma
+#: share 91.8 -> 100 %, 420 and 268 lose). docs/estimation.md, "Stop 41 (F54)".
+END_RUNS: Literal["hold", "law", "choose"] = "choose"
 
 
 def law_end_runs(

@@ -1143,7 +1143,7 @@ def build_tables(
     knee: bool = True,
     pool: bool = False,
     track: bool = False,
-    nyquist: bool | Literal["tested"] = True,
+    nyquist: bool | Literal["tested"] = "tested",
     coupling: bool | Literal["checked"] = True,
     held: bool | Literal["model"] = "model",
     held_mask: ArrayLike | None = None,
@@ -1258,7 +1258,8 @@ def build_tables(
         held fixed (:func:`torquemap.linearize.surface.carried_shape`), and kept, with a
         warning, where the harmonic lowers the misfit beyond the F test of
         :func:`torquemap.linearize.surface.hidden_wave` (docs/linearize.md, "stop 41
-        (L45)"). False: never.
+        (L45)"); the default since stop 41. ``True``: only where the measured positions show
+        it (the default before). False: never.
     coupling
         ``"interp"`` only, where the structured surface is used: fit the phases' mutual
         saturation with it (each phase's torque times ``1 - kappa`` times the sum of the other
