@@ -18,6 +18,7 @@ the misfit above the cut-off at the model's delay with its least.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 
@@ -111,13 +112,7 @@ def task_delay_warnings(model: Model, log: Log, *, window: float, cutoff: float)
     if n > MAX_SAMPLES:
         start = (n - MAX_SAMPLES) // 2
         sl = slice(start, start + MAX_SAMPLES)
-        log = Log(
-            t=log.t[sl],
-            q=log.q[sl],
-            motor_torque=log.motor_torque[sl],
-            joint_names=log.joint_names,
-            path=log.path,
-        )
+        log = dataclasses.replace(log, t=log.t[sl], q=log.q[sl], motor_torque=log.motor_torque[sl])
     t = log.t
     if t.size < 16:
         return []
