@@ -76,3 +76,29 @@ def test_no_line_when_the_delay_is_given_or_the_model_has_no_interval(model: Mod
     notes = dict(model.notes, joints={"m": {"channel_delay": 0.0}})
     bare = Model(robot=model.robot, joints=model.joints, notes=notes)
     assert not [w for w in estimate_forces(bare, log).warnings if "lags" in w]
+
+
+def _flip_lines(model: Model, log: Log) -> list[str]:
+    return [w for w in estimate_forces(model, log).warnings if "sign reversed" in w]
+
+
+def test_a_task_logged_with_its_current_negated_is_warned(model: Model) -> None:
+    right = task(0.0)
+    negated = Log(
+        t=right.t,
+        q=right.q,
+        motor_torque=-right.motor_torque,
+        joint_names=right.joint_names,
+        path="task.csv",
+    )
+    assert _flip_lines(model, right) == []
+    said = _flip_lines(model, negated)
+    assert len(said) == 1 and "negate i_m" in said[0]
+    # the harm the line speaks of: the estimate off by about twice the model's torque, many
+    # times the error of the task logged alike
+    assert _error(model, negated)[0] > 10.0 * _error(model, right)[0]
+    # a model without a delay interval (no delay line possible) still gets the sign line
+    notes = dict(model.notes, joints={"m": {"channel_delay": 0.0}})
+    bare = Model(robot=model.robot, joints=model.joints, notes=notes)
+    assert len(_flip_lines(bare, negated)) == 1
+    assert _flip_lines(bare, right) == []

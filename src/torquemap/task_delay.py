@@ -14,6 +14,12 @@ cut-off and takes what lies above it for the model's misfit, and a torque shifte
 motion it answers adds to that misfit in proportion to the motion's acceleration and friction
 reversals. :func:`task_delay_warnings` scans the delay on a grid about the model's and compares
 the misfit above the cut-off at the model's delay with its least.
+
+The same scan tells a task log whose current's sign is flipped against the identification
+logs' (a drive, a wiring or a logger that reverses one joint): above the cut-off the torque is
+then the model's negated, which the misfit with the torque negated shows. Before, such a log
+gave forces off by twice the model's torque (167.6 % of the spring on a random SCARA of the
+family), exit 0 and no word.
 """
 
 from __future__ import annotations
@@ -82,7 +88,10 @@ def task_delay_warnings(model: Model, log: Log, *, window: float, cutoff: float)
     ``1 / cutoff`` at each end (the high-pass is applied once to the torque and once to the
     model's torque, and the filtered torque shifted: a filter commutes with a shift). A line is written where the least lies at a delay ``d`` outside
     ``[lo - w, hi + w]`` (``w = hi - lo``: twice the interval's reach) and the misfit at ``d0``
-    is at least ``COST_RATIO`` times that least.
+    is at least ``COST_RATIO`` times that least. A joint whose least misfit with the torque
+    negated is ``COST_RATIO`` times below the least without gets a line saying its current's
+    sign is flipped instead (checked on every joint, with or without an interval; the scan is
+    then about the model's delay, or 0).
 
     Parameters
     ----------
@@ -99,14 +108,14 @@ def task_delay_warnings(model: Model, log: Log, *, window: float, cutoff: float)
     Returns
     -------
     list of str
-        The warnings (empty when the delays agree, or the log is too short to tell).
+        The warnings (empty when the delays and signs agree, or the log is too short to tell).
     """
     from torquemap.delay import shift_channel
     from torquemap.estimate import _signal
 
     intervals = delay_intervals(model)
-    names = [j.name for j in model.robot.joints]
-    if not intervals or not any(n in intervals for n in names):
+    names = [j.name for j in model.robot.joints if j.name in model.joints]
+    if not names:
         return []
     n = log.t.size
     if n > MAX_SAMPLES:
@@ -124,11 +133,11 @@ def task_delay_warnings(model: Model, log: Log, *, window: float, cutoff: float)
     first, last = np.flatnonzero(inner_mask)[[0, -1]]
     inner = slice(int(first), int(last) + 1)
     t_est, angle, velocity, _ = _signal(model, log, window=window)
+    index = {j.name: k for k, j in enumerate(model.robot.joints)}
     out: list[str] = []
-    for k, name in enumerate(names):
-        if name not in intervals or name not in model.joints:
-            continue
-        d0, lo, hi = intervals[name]
+    for name in names:
+        k = index[name]
+        d0, lo, hi = intervals.get(name, (_model_delay(model, name), math.nan, math.nan))
         tau = log.motor_torque[:, k]
         lines = model.joints[name].pdtv
         # the model's no-load torque at each sample: what the estimation signal subtracted
@@ -140,12 +149,19 @@ def task_delay_warnings(model: Model, log: Log, *, window: float, cutoff: float)
         high_model = _high_band(t, no_load, cutoff)[inner]
 
         grid = d0 + np.arange(-SPAN, SPAN + STEP / 2, STEP)
-        costs = np.array(
-            [
-                np.mean((shift_channel(t, high_tau, float(d))[inner] - high_model) ** 2)
-                for d in (*grid, d0)
-            ]
-        )
+        costs = np.empty(grid.size + 1)
+        # with the torque negated: mean((-a - b)^2) = mean((a - b)^2) + 4 mean(a b)
+        negated = np.empty(grid.size + 1)
+        for i, d in enumerate((*grid, d0)):
+            shifted = shift_channel(t, high_tau, float(d))[inner]
+            costs[i] = np.mean((shifted - high_model) ** 2)
+            negated[i] = costs[i] + 4.0 * float(np.dot(shifted, high_model)) / shifted.size
+        flipped = _flipped_line(name, costs[:-1], negated[:-1], cutoff)
+        if flipped is not None:
+            out.append(flipped)
+            continue
+        if name not in intervals:
+            continue
         at_model, costs = float(costs[-1]), costs[:-1]
         best = int(np.argmin(costs))
         d, least = float(grid[best]), float(costs[best])
@@ -165,3 +181,30 @@ def task_delay_warnings(model: Model, log: Log, *, window: float, cutoff: float)
             "both alike, or identify from no-load logs recorded the way this one was"
         )
     return out
+
+
+def _model_delay(model: Model, name: str) -> float:
+    """The torque channel delay [s] the model records for joint ``name`` (0 if none)."""
+    joints = model.notes.get("joints", {})
+    entry = joints.get(name) if isinstance(joints, Mapping) else None
+    d = entry.get("channel_delay") if isinstance(entry, Mapping) else None
+    return float(d) if isinstance(d, int | float) and math.isfinite(d) else 0.0
+
+
+def _flipped_line(
+    name: str, costs: NDArray[np.float64], negated: NDArray[np.float64], cutoff: float
+) -> str | None:
+    """The warning for a joint whose torque above ``cutoff`` the model answers far better
+    negated (the least misfit over the delays, ``negated`` against ``costs``, by at least
+    :data:`COST_RATIO`), else None."""
+    least, least_negated = float(np.min(costs)), float(np.min(negated))
+    if not (least_negated > 0 and least >= COST_RATIO * least_negated):
+        return None
+    return (
+        f"joint {name}: above the {cutoff:g} Hz cut-off the log's torque is the model's with "
+        f"its sign reversed (the torque the model leaves is {least / least_negated:.2g} times "
+        f"what it leaves with i_{name} negated): is the current's sign flipped in this log "
+        "against the identification logs' (a drive, wiring or logger that reverses it)? "
+        f"tau_ext_{name} and the forces are off by about twice the model's torque; negate "
+        f"i_{name} (or tau_{name}) in this log (docs/formats.md)"
+    )
