@@ -102,3 +102,43 @@ def test_a_task_logged_with_its_current_negated_is_warned(model: Model) -> None:
     bare = Model(robot=model.robot, joints=model.joints, notes=notes)
     assert len(_flip_lines(bare, negated)) == 1
     assert _flip_lines(bare, right) == []
+
+
+def test_the_check_given_the_estimates_derivatives_is_the_one_that_differentiates(
+    model: Model, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from torquemap import estimate as E
+    from torquemap import filters
+    from torquemap.sanitize import sanitize_log
+    from torquemap.task_delay import task_delay_warnings
+
+    window = E.model_window(model)
+    for log in (task(TASK_DELAY), task(0.0)):
+        own = task_delay_warnings(model, log, window=window, cutoff=2.0)
+        _, _, _, acceleration = E._signal(model, log, window=window)
+        velocity = E._signal(model, log, window=window)[2]
+        modulation = model.robot.arm.inertia_modulation(log.q)
+        with monkeypatch.context() as m:
+            # given the derivatives, the check differentiates nothing
+            def refuse(*args: object, **kwargs: object) -> None:
+                raise AssertionError("differentiated again")
+
+            m.setattr(E, "differentiate_rates", refuse)
+            m.setattr(filters, "differentiate_rates", refuse)
+            given = task_delay_warnings(
+                model, log, window=window, cutoff=2.0, rates=(velocity, acceleration, modulation)
+            )
+        assert given == own
+        # and the estimate (its own derivatives handed over) reports the line of its
+        # sanitised piece's check, differentiated again
+        piece = sanitize_log(log, window=window).pieces[0].log
+        again = task_delay_warnings(model, piece, window=window, cutoff=2.0)
+        assert [w for w in estimate_forces(model, log).warnings if "lags" in w] == again
+    assert task_delay_warnings(model, task(TASK_DELAY), window=window, cutoff=2.0)
+    # derivatives that are not the log's change the answer: they are what the check reads
+    log = task(TASK_DELAY)
+    zero = np.zeros_like(log.q)
+    modulation = model.robot.arm.inertia_modulation(log.q)
+    assert task_delay_warnings(
+        model, log, window=window, cutoff=2.0, rates=(zero, zero, modulation)
+    ) != task_delay_warnings(model, log, window=window, cutoff=2.0)

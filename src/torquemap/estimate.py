@@ -759,6 +759,11 @@ def estimate_forces(
     warnings += model_gravity_warnings(model)
     passes: list[list[Pass]] = [[] for _ in range(nj)]
     any_pass = False
+    # the delay check scans the longest piece: its derivatives kept from its estimate
+    delay_check = check_delay and channel_delay is None and method != "raw"
+    longest = max(clean.pieces, key=lambda piece: piece.log.t[-1] - piece.log.t[0])
+    longest_rates: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None
+    longest_rates = None
     for piece in clean.pieces:
         piece_kw: dict[str, Any] = dict(
             method=method,
@@ -774,6 +779,9 @@ def estimate_forces(
         part = _estimate_piece(model, piece.log, **piece_kw)
         if END_RUNS != "hold" and method == "model" and bridge_reversals > 0:
             part = _choose_end_runs(model, piece.log, part, piece_kw, mode=END_RUNS)
+        if delay_check and piece is longest and part.shared is not None:
+            kept = part.shared
+            longest_rates = (kept.velocity, kept.acceleration, kept.modulation)
         rows = piece.rows
         # consecutive rows (no repeated stamp dropped): a slice, not a gather, per column
         at: slice | NDArray[np.int64] = rows
@@ -830,11 +838,12 @@ def estimate_forces(
     warnings += fast_task_warnings(model, out["velocity"])
     warnings += one_direction_task_warnings(model, out["velocity"])
     warnings += torque_scale_warnings(model, log.motor_torque)
-    if check_delay and channel_delay is None and method != "raw":
+    if delay_check:
         from torquemap.task_delay import task_delay_warnings
 
-        longest = max(clean.pieces, key=lambda piece: piece.log.t[-1] - piece.log.t[0])
-        warnings += task_delay_warnings(model, longest.log, window=win, cutoff=cutoff)
+        warnings += task_delay_warnings(
+            model, longest.log, window=win, cutoff=cutoff, rates=longest_rates
+        )
     warnings += unidentified_joint_warnings(model)
     gear = np.array([j.gear_ratio for j in robot.joints])
     tau_ext = -out["external"] * gear
@@ -999,7 +1008,11 @@ def _choose_end_runs(
     )
     if not masks:
         return part
-    alt = _estimate_piece(model, log, **piece_kw, rest_override=masks).arrays
+    # the same piece with other masks: what the masks do not change is taken from ``part``,
+    # and only the joints whose runs are read are computed
+    alt = _estimate_piece(
+        model, log, **piece_kw, rest_override=masks, shared=part.shared, joints=sorted(runs)
+    ).arrays
     out = {key: value.copy() for key, value in arrays.items()}
     for k, chosen in runs.items():
         for a, b in chosen:
@@ -1068,12 +1081,39 @@ def _force_sigma(
 
 
 @dataclass(frozen=True, slots=True, eq=False)
+class _Shared:
+    """What a piece's estimate computes that its reversal masks do not change, for a second
+    estimate of the same piece with other masks (:func:`_choose_end_runs`) and the delay
+    check (:func:`torquemap.task_delay.task_delay_warnings`).
+
+    ``log``: the piece with its torque channels' delays undone; ``modulation``: the arm's
+    inertia modulation at ``log.q``; ``t_est``, ``angle``, ``velocity``, ``acceleration``:
+    :func:`_signal` of ``log``; per joint index, ``phasors`` (cos and sin of the motor angle)
+    and ``residuals`` (``t_est`` less PDTV) of the joints with lines, ``extra`` (the noise
+    excess) and ``sigma_terms`` (:func:`torquemap.uncertainty.joint_sigma`'s terms that do not
+    depend on ``bridged``); ``coupling``: the planar coupling level (``None`` when none)."""
+
+    log: Log
+    modulation: NDArray[np.float64]
+    t_est: NDArray[np.float64]
+    angle: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+    acceleration: NDArray[np.float64]
+    phasors: dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]]
+    residuals: dict[int, NDArray[np.float64]]
+    extra: dict[int, float]
+    sigma_terms: dict[int, dict[str, Any]]
+    coupling: NDArray[np.float64] | None
+
+
+@dataclass(frozen=True, slots=True, eq=False)
 class _PieceEstimate:
     arrays: dict[str, NDArray[np.float64]]
     flag: NDArray[np.int64]
     passes: tuple[tuple[Pass, ...], ...]
     any_pass: bool
     warnings: tuple[str, ...]
+    shared: _Shared | None = None
 
 
 def _estimate_piece(
@@ -1090,24 +1130,37 @@ def _estimate_piece(
     reversal_band: float | Mapping[str, float] | None,
     answers_only: bool = False,
     rest_override: Mapping[int, NDArray[np.bool_]] | None = None,
+    shared: _Shared | None = None,
+    joints: Sequence[int] | None = None,
 ) -> _PieceEstimate:
     """:func:`estimate_forces` on one piece of a log (no gap, sound samples).
 
     ``rest_override``: per joint index, the reversal mask to use instead of the band's
-    (:func:`_law_end_runs`)."""
+    (:func:`_law_end_runs`). ``shared``: an earlier estimate's :class:`_Shared` of the same
+    piece with the same options (its terms are taken, not computed again: the same numbers).
+    ``joints``: the joint indices whose answers are computed (default all; the others' are
+    NaN, without passes or rest)."""
     robot = model.robot
-    delays = identified_delays(model) if channel_delay is None else dict(channel_delay)
-    if any(delays.values()):
-        from torquemap.delay import shift_channel
+    if shared is None:
+        delays = identified_delays(model) if channel_delay is None else dict(channel_delay)
+        if any(delays.values()):
+            from torquemap.delay import shift_channel
 
-        tau = log.motor_torque.copy()
-        for k, name in enumerate(robot.joint_names):
-            if delays.get(name, 0.0):
-                tau[:, k] = shift_channel(log.t, tau[:, k], delays[name])
-        log = dataclasses.replace(log, motor_torque=tau)
-    modulation = robot.arm.inertia_modulation(log.q)
-    t_est, angle, velocity, acceleration = _signal(model, log, window=window, modulation=modulation)
+            tau = log.motor_torque.copy()
+            for k, name in enumerate(robot.joint_names):
+                if delays.get(name, 0.0):
+                    tau[:, k] = shift_channel(log.t, tau[:, k], delays[name])
+            log = dataclasses.replace(log, motor_torque=tau)
+        modulation = robot.arm.inertia_modulation(log.q)
+        t_est, angle, velocity, acceleration = _signal(
+            model, log, window=window, modulation=modulation
+        )
+    else:
+        log, modulation = shared.log, shared.modulation
+        t_est, angle, velocity = shared.t_est, shared.angle, shared.velocity
+        acceleration = shared.acceleration
     n, nj = t_est.shape
+    todo = set(range(nj)) if joints is None else set(joints)
     warnings: list[str] = []
     flag = np.zeros(n, dtype=np.int64)
     all_passes: list[tuple[Pass, ...]] = []
@@ -1121,10 +1174,15 @@ def _estimate_piece(
         jm = model.joints[joint.name]
         w0 = max(bands[joint.name], 1e-9)
         rest = np.zeros(n, dtype=bool)
+        if k not in todo:
+            rests.append(rest)
+            all_passes.append(())
+            continue
         if max(jm.friction.static_levels()) > 0:
-            rest = reversal_mask(log.t, velocity[:, k], band=w0, window=window)
             if rest_override is not None and k in rest_override:
                 rest = rest_override[k]
+            else:
+                rest = reversal_mask(log.t, velocity[:, k], band=w0, window=window)
             if joint.name not in whole:
                 flag[rest] |= FLAG_LOW_SPEED
         rests.append(rest)
@@ -1171,20 +1229,24 @@ def _estimate_piece(
 
     # every low-pass of the piece in one call (the filter and its checks run once)
     jobs: list[tuple[NDArray[np.float64], int]] = []
-    lined = [k for k, j in enumerate(robot.joints) if model.joints[j.name].pdtv]
+    lined = [k for k, j in enumerate(robot.joints) if model.joints[j.name].pdtv and k in todo]
     # ``filtered`` of a joint with lines is not an answer of the model method
     unfiltered = set(lined) if answers_only and method == "model" else set()
     smoothed_at: dict[int, int] = {}
     if method != "raw":
         for k in range(nj):
-            if k not in unfiltered:
+            if k not in unfiltered and k in todo:
                 smoothed_at[k] = len(jobs)
                 jobs.append((t_est[:, k], k))
     first_external = len(jobs)
     # cos and sin of each lined joint's motor angle, for its PDTV and its sigma's regressor
     phasors: dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
     residuals: dict[int, NDArray[np.float64]] = {}  # t_est less PDTV, for the noise level
-    if method == "model":
+    if shared is not None:
+        phasors, residuals = shared.phasors, shared.residuals
+        for k in lined if method == "model" else ():
+            jobs.append((residuals[k], k))
+    elif method == "model":
         for k in lined:
             lines = model.joints[robot.joints[k].name].pdtv
             theta = np.ascontiguousarray(angle[:, k])
@@ -1253,6 +1315,9 @@ def _estimate_piece(
                     f"passes of {min_revolutions:g} motor revolutions and keep their PDTV"
                 )
     sigma = np.full((n, nj), np.nan)
+    coupling = None
+    extras: dict[int, float] = {} if shared is None else shared.extra
+    sigma_terms: dict[int, dict[str, Any]] = {} if shared is None else shared.sigma_terms
     if method == "model":
         from torquemap import uncertainty
         from torquemap._estimate_kernels import hypot_into
@@ -1266,7 +1331,9 @@ def _estimate_piece(
 
         rate = 1.0 / nominal_step(log.t) if n > 1 else math.nan
         coupling = None
-        if uncertainty.COUPLING:
+        if shared is not None:
+            coupling = shared.coupling
+        elif uncertainty.COUPLING:
             coupling = uncertainty.coupling_level(
                 model,
                 t=log.t,
@@ -1276,20 +1343,27 @@ def _estimate_piece(
                 cutoff=cutoff,
             )
         # the median step, once for every joint's noise level
-        median_step = float(np.median(np.diff(log.t))) if n > 1 else None
+        median_step = None
+        if shared is None:
+            median_step = float(np.median(np.diff(log.t))) if n > 1 else None
         for k, joint in enumerate(robot.joints):
-            # white noise this log holds beyond the identification logs' (a slower logger);
-            # with WHITE_EXCESS only its white part (the same level above 20 Hz and an eighth
-            # of the rate; measured, off)
-            excess = white_noise_excess if uncertainty.WHITE_EXCESS else noise_excess
-            extra = excess(
-                model,
-                joint.name,
-                t=log.t,
-                residual=residuals.get(k, t_est[:, k]),
-                velocity=velocity[:, k],
-                step=median_step,
-            )
+            if k not in todo:
+                continue
+            if shared is not None:
+                extra = shared.extra[k]
+            else:
+                # white noise this log holds beyond the identification logs' (a slower
+                # logger); with WHITE_EXCESS only its white part (the same level above 20 Hz
+                # and an eighth of the rate; measured, off)
+                excess = white_noise_excess if uncertainty.WHITE_EXCESS else noise_excess
+                extras[k] = extra = excess(
+                    model,
+                    joint.name,
+                    t=log.t,
+                    residual=residuals.get(k, t_est[:, k]),
+                    velocity=velocity[:, k],
+                    step=median_step,
+                )
             # the widening terms by the compiled hypot (within an ulp of numpy's, a third of
             # its time), in one contiguous column written once
             column = np.array(
@@ -1306,6 +1380,7 @@ def _estimate_piece(
                     phasor=phasors.get(k),
                     extra_psd=extra,
                     support=window,
+                    terms=sigma_terms.setdefault(k, {}),
                 ),
                 dtype=np.float64,
             )
@@ -1340,6 +1415,20 @@ def _estimate_piece(
         passes=tuple(all_passes),
         any_pass=any_pass,
         warnings=tuple(warnings),
+        shared=shared
+        or _Shared(
+            log=log,
+            modulation=modulation,
+            t_est=t_est,
+            angle=angle,
+            velocity=velocity,
+            acceleration=acceleration,
+            phasors=phasors,
+            residuals=residuals,
+            extra=extras,
+            sigma_terms=sigma_terms,
+            coupling=coupling,
+        ),
     )
 
 

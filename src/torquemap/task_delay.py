@@ -78,7 +78,14 @@ def _high_band(
     return x - lowpass(t, x, cutoff=cutoff)
 
 
-def task_delay_warnings(model: Model, log: Log, *, window: float, cutoff: float) -> list[str]:
+def task_delay_warnings(
+    model: Model,
+    log: Log,
+    *,
+    window: float,
+    cutoff: float,
+    rates: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None = None,
+) -> list[str]:
     """One line per joint whose task log lags by another delay than identification found.
 
     For each joint with an identified delay ``d0`` and interval ``[lo, hi]``, the torque
@@ -104,6 +111,13 @@ def task_delay_warnings(model: Model, log: Log, *, window: float, cutoff: float)
         Differentiator window [s].
     cutoff
         The estimate's low-pass cut-off [Hz].
+    rates
+        ``(velocity, acceleration, modulation)``, each shape (n, nj): the motor velocity
+        [rad/s] and acceleration [rad/s^2] differentiated with ``window`` over the whole
+        ``log``, and the arm's inertia modulation [-] at ``log.q``, when the caller has them
+        (the estimate's own, :func:`torquemap.estimate._signal`). Taken where the scan covers
+        the whole log (at most ``MAX_SAMPLES`` samples): the same numbers as without them, no
+        differentiation. A longer log's middle is differentiated on its own, as without them.
 
     Returns
     -------
@@ -118,10 +132,14 @@ def task_delay_warnings(model: Model, log: Log, *, window: float, cutoff: float)
     if not names:
         return []
     n = log.t.size
+    if rates is not None and any(x.shape != log.q.shape for x in rates):
+        raise ValueError(f"rates of shape {[x.shape for x in rates]} for a log of {log.q.shape}")
     if n > MAX_SAMPLES:
         start = (n - MAX_SAMPLES) // 2
         sl = slice(start, start + MAX_SAMPLES)
         log = dataclasses.replace(log, t=log.t[sl], q=log.q[sl], motor_torque=log.motor_torque[sl])
+        # the middle's own derivatives differ from the whole log's near its ends: not taken
+        rates = None
     t = log.t
     if t.size < 16:
         return []
@@ -132,7 +150,21 @@ def task_delay_warnings(model: Model, log: Log, *, window: float, cutoff: float)
         return []
     first, last = np.flatnonzero(inner_mask)[[0, -1]]
     inner = slice(int(first), int(last) + 1)
-    t_est, angle, velocity, _ = _signal(model, log, window=window)
+    if rates is None:
+        t_est, angle, velocity, _ = _signal(model, log, window=window)
+    else:
+        from torquemap.filters import Rates
+
+        v, a, modulation = rates
+        given = [
+            Rates(
+                velocity=np.ascontiguousarray(v[:, k]), acceleration=np.ascontiguousarray(a[:, k])
+            )
+            for k in range(v.shape[1])
+        ]
+        t_est, angle, velocity, _ = _signal(
+            model, log, window=window, modulation=modulation, rates=given
+        )
     index = {j.name: k for k, j in enumerate(model.robot.joints)}
     out: list[str] = []
     for name in names:

@@ -694,6 +694,7 @@ def joint_sigma(
     phasor: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
     extra_psd: float = 0.0,
     support: float = 0.0,
+    terms: dict[str, Any] | None = None,
 ) -> NDArray[np.float64]:
     """One standard deviation [N m, motor side] of a joint's external-torque estimate.
 
@@ -705,6 +706,9 @@ def joint_sigma(
     ``support`` [s]: the window either side of a bridged run whose mean estimation's bridge
     takes (:func:`torquemap.estimate.bridge_gaps`), for the parameters' variance bridged as
     the torque is (:func:`bridged_parameter_variance`, :data:`BRIDGED_VARIANCE`).
+    ``terms``: the terms that do not depend on ``bridged`` (the parameters' variance where it
+    is not bridged, the table's levels), kept in it by a call with an empty dict and taken
+    from it by a later call with the same arguments but ``bridged`` (the same numbers).
 
     NaN everywhere when the model holds no uncertainty for the joint (a model identified by
     the pass method, or written by hand).
@@ -751,6 +755,8 @@ def joint_sigma(
         var = bridged_parameter_variance(
             names, cov, bridged=bridged, support=support, runs=runs, **kw
         )
+    elif terms is not None and "var" in terms:
+        var = terms["var"]
     else:
         var = parameter_variance(names, cov, phasor=phasor, **kw)
         slowest = _slowest(entry)
@@ -788,6 +794,8 @@ def joint_sigma(
                 full = parameter_variance(names, full_cov, phasor=phasor, **kw)
                 share = np.clip(lowpass(t, below.astype(np.float64), cutoff=cutoff), 0.0, 1.0)
                 var = share * full + (1.0 - share) * var
+        if terms is not None:
+            terms["var"] = var
     psd = float(table.get("residual_psd", 0.0))
     extra = extra_psd if math.isfinite(extra_psd) and extra_psd > 0 else 0.0
     noise = np.full(n, (max(psd, 0.0) + extra) * LOWPASS_ENB * cutoff)
@@ -798,16 +806,24 @@ def joint_sigma(
     misfit_level = None
     # the table's extrapolation spread, unless the extrapolation sigma stands for it
     spread_from = _slowest(entry) if below_sd is None else 0.0
-    fused = _table_levels(
-        law,
-        measured,
-        t=t,
-        velocity=velocity,
-        cutoff=cutoff,
-        width=width,
-        slowest=spread_from,
-        acceleration=acceleration,
-    )
+    # the fused levels are shared between a piece's two estimates (E56) only where they do
+    # not depend on the extrapolation option
+    shared = terms is not None and below_sd is None
+    if shared and terms is not None and "fused" in terms:
+        fused = terms["fused"]
+    else:
+        fused = _table_levels(
+            law,
+            measured,
+            t=t,
+            velocity=velocity,
+            cutoff=cutoff,
+            width=width,
+            slowest=spread_from,
+            acceleration=acceleration,
+        )
+        if shared and terms is not None:
+            terms["fused"] = fused
     if fused is not None:
         # misfit and sign levels side by side, as the low-pass below takes them
         level = fused[:, -1]
@@ -841,6 +857,8 @@ def joint_sigma(
         assert bridged is not None
         level = bridge_gaps(t, level, bridged, longest=math.inf, ends=True, runs=runs)
     if fused is not None and (runs or form is not None):
+        if terms is not None:
+            fused = fused.copy()  # the kept levels stay as they were
         fused[:, -1] = level
     if misfit_level is None:
         sign = lowpass(t, level, cutoff=cutoff)
