@@ -505,9 +505,10 @@ def main() -> int:
     )
     parser.add_argument(
         "--nyquist",
-        choices=("warned", "tested"),
-        help="random motors: build_tables' nyquist for the interp tables, 'warned' (True) or "
-        "'tested' (default: its own; docs/linearize.md, 'stop 41 (L45)')",
+        choices=("warned", "tested", "off"),
+        help="random motors: build_tables' nyquist for the interp tables, 'warned' (True), "
+        "'tested' or 'off' (False) (default: its own, 'tested'; docs/linearize.md, 'stop 41 "
+        "(L45)')",
     )
     args = parser.parse_args()
     onset: dict[str, object] = {
@@ -516,7 +517,7 @@ def main() -> int:
         if value is not None
     }
     if args.nyquist is not None:
-        onset["nyquist"] = True if args.nyquist == "warned" else "tested"
+        onset["nyquist"] = {"warned": True, "tested": "tested", "off": False}[args.nyquist]
     seeds = list(range(args.first_seed, args.first_seed + args.motors))
     if args.motors < 0:
         parser.error("--motors must be >= 0")

@@ -9,7 +9,7 @@ import argparse
 import json
 import math
 import sys
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal
 
 from torquemap.cli.argtypes import float_in, int_in
 from torquemap.cli.helptext import described
@@ -18,6 +18,9 @@ from torquemap.cli.outputs import C_HEADER, JSON, NPZ, check_outputs, warn_cut_l
 if TYPE_CHECKING:
     from torquemap.linearize.motor import MotorSpec
     from torquemap.linearize.tables import DataKind, LinearizeData
+
+#: ``linearize build --nyquist``: the choice and ``build_tables``' ``nyquist`` it selects
+NYQUIST: dict[str, bool | Literal["tested"]] = {"tested": "tested", "on": True, "off": False}
 
 
 def _weight(text: str) -> float:
@@ -138,6 +141,17 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         "bias readings over its readings per row (default: from the collection's record "
         "DATA.csv.collect.json beside the data, else 10, the collection's default)",
     )
+    build.add_argument(
+        "--nyquist",
+        choices=tuple(NYQUIST),
+        default="tested",
+        help="interp, where the structured surface is used: fit the torque at rest between "
+        "measured positions as their interpolation plus their Nyquist harmonic. tested "
+        "(default): where the measured positions' torque at rest alternates (cogging sampled "
+        "twice a period, warned) and where the rows between them read the harmonic beyond "
+        "their noise (an F test at level 0.001, warned); on: only where the measured "
+        "positions alternate (the default before stop 41); off: never",
+    )
     build.set_defaults(handler=_build)
 
     evaluate = sub.add_parser(
@@ -222,6 +236,7 @@ def _build(args: argparse.Namespace) -> int:
             actuation_bits=args.actuation_bits,
             bias=data.bias,
             bias_open=_record_settings(args.data).get("bias_open") is True,
+            nyquist=NYQUIST[args.nyquist],
             path=args.data,
         ),
     )
