@@ -111,7 +111,8 @@ def test_joint_sigma_from_kept_terms_is_the_recomputed_one(bench: tuple[Model, A
         bridged[1000:1200] = True
         terms: dict[str, Any] = {}
         plain = joint_sigma(model, name, bridged=None, terms=terms, **args)
-        assert set(terms) == {"var", "fused"}
+        assert set(terms) == {"var", "below_sd"} | {k for k in terms if k.startswith("fused@")}
+        assert len(terms) == 3
         kept = {key: None if v is None else v.copy() for key, v in terms.items()}
         fresh = joint_sigma(model, name, bridged=bridged, **args)
         reused = joint_sigma(model, name, bridged=bridged, terms=terms, **args)

@@ -757,6 +757,7 @@ def joint_sigma(
         )
     elif terms is not None and "var" in terms:
         var = terms["var"]
+        below_sd = terms.get("below_sd")
     else:
         var = parameter_variance(names, cov, phasor=phasor, **kw)
         slowest = _slowest(entry)
@@ -796,6 +797,7 @@ def joint_sigma(
                 var = share * full + (1.0 - share) * var
         if terms is not None:
             terms["var"] = var
+            terms["below_sd"] = below_sd
     psd = float(table.get("residual_psd", 0.0))
     extra = extra_psd if math.isfinite(extra_psd) and extra_psd > 0 else 0.0
     noise = np.full(n, (max(psd, 0.0) + extra) * LOWPASS_ENB * cutoff)
@@ -806,11 +808,11 @@ def joint_sigma(
     misfit_level = None
     # the table's extrapolation spread, unless the extrapolation sigma stands for it
     spread_from = _slowest(entry) if below_sd is None else 0.0
-    # the fused levels are shared between a piece's two estimates (E56) only where they do
-    # not depend on the extrapolation option
-    shared = terms is not None and below_sd is None
-    if shared and terms is not None and "fused" in terms:
-        fused = terms["fused"]
+    # the fused levels are shared between a piece's two estimates (E56), keyed by the speed
+    # their extrapolation spread starts from (the extrapolation option sets it to 0)
+    fused_key = f"fused@{spread_from!r}"
+    if terms is not None and fused_key in terms:
+        fused = terms[fused_key]
     else:
         fused = _table_levels(
             law,
@@ -822,8 +824,8 @@ def joint_sigma(
             slowest=spread_from,
             acceleration=acceleration,
         )
-        if shared and terms is not None:
-            terms["fused"] = fused
+        if terms is not None:
+            terms[fused_key] = fused
     if fused is not None:
         # misfit and sign levels side by side, as the low-pass below takes them
         level = fused[:, -1]
