@@ -27,7 +27,6 @@ import functools
 import hashlib
 import inspect
 import os
-import pickle
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -36,9 +35,10 @@ import pytest
 
 
 def _canonical(value: Any) -> Any:
-    """``value`` as plain, picklable data equal for equal arguments: a dataclass as its fields
-    (``path`` left out), an array as its dtype, shape and bytes, a NumPy scalar as the Python
-    number (a motor file read back holds ``int`` where the simulator's spec holds ``int64``)."""
+    """``value`` as plain data (tuples, bytes, numbers, strings), equal for equal arguments: a
+    dataclass as its fields (``path`` left out), an array as its dtype, shape and bytes, a NumPy
+    scalar as the Python number (a motor file read back holds ``int`` where the simulator's
+    spec holds ``int64``)."""
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         fields = [(f.name, getattr(value, f.name)) for f in dataclasses.fields(value)]
         return (type(value).__qualname__, *((k, _canonical(v)) for k, v in fields if k != "path"))
@@ -53,11 +53,29 @@ def _canonical(value: Any) -> Any:
     return value
 
 
+def _feed(digest: Any, value: Any) -> None:
+    """Feed the canonical ``value`` to ``digest`` by value alone (a pickle would also encode
+    which of its parts are one object, so equal arguments could differ)."""
+    if isinstance(value, tuple):
+        digest.update(b"(%d" % len(value))
+        for part in value:
+            _feed(digest, part)
+        digest.update(b")")
+    elif isinstance(value, bytes):
+        digest.update(b"b%d:" % len(value) + value)
+    else:
+        text = repr(value).encode()  # str, int, float (repr round-trips), bool, None
+        digest.update(b"r%d:" % len(text) + text)
+
+
 def _key(signature: inspect.Signature, args: tuple[Any, ...], kwargs: dict[str, Any]) -> str:
     bound = signature.bind(*args, **kwargs)
     bound.apply_defaults()
-    named = sorted((k, _canonical(v)) for k, v in bound.arguments.items() if k != "path")
-    return hashlib.sha256(pickle.dumps(named, protocol=5)).hexdigest()
+    digest = hashlib.sha256()
+    for name in sorted(bound.arguments):
+        if name != "path":
+            _feed(digest, (name, _canonical(bound.arguments[name])))
+    return digest.hexdigest()
 
 
 def _log(line: str) -> None:

@@ -19,10 +19,6 @@ from torquemap.linearize.tables import build_tables, read_data
 from torquemap.sim.motors import VariableReluctanceMotor
 from torquemap.sim.rig import SimRig, variable_reluctance_rig
 
-#: conftest.py's ``_reused_builds`` (tests/_reuse.py): each distinct table build of this
-#: module runs once; the CLI builds the ``limit`` rows the library test did
-REUSE_BUILDS = True
-
 # one worker runs the module (pytest -n 2 --dist loadgroup), so its module fixture `collected`
 # is built once, not once per worker
 pytestmark = pytest.mark.xdist_group("linearize_sampling")
