@@ -33,6 +33,9 @@ from typing import Any  # noqa: E402
 
 import pytest  # noqa: E402
 
+# the autouse fixture of the modules that set REUSE_BUILDS: their table builds, computed once
+from _reuse import _reused_builds  # noqa: E402, F401
+
 from torquemap import progress  # noqa: E402
 
 

@@ -21,6 +21,10 @@ from torquemap.linearize.tables import build_tables, read_data
 from torquemap.sim.family import random_bench
 from torquemap.sim.rig import SimRig, sim_rig
 
+#: conftest.py's ``_reused_builds`` (tests/_reuse.py): each distinct table build of this
+#: module runs once; the library builds the rows the CLI did
+REUSE_BUILDS = True
+
 SETTINGS = CollectionSettings(readings=4, position_step=16, level_step=32, progress=False)
 RUN = {"fraction": 0.9, "row_readings": 4}
 HEADER = "position,pulse_width,torque,bias"

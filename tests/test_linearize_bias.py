@@ -32,6 +32,11 @@ from torquemap.linearize.tables import LinearizeData, TableSet, build_tables, re
 from torquemap.sim.motors import BrushlessDcMotor
 from torquemap.sim.rig import SimRig, brushless_dc_rig
 
+#: conftest.py's ``_reused_builds`` (tests/_reuse.py): each distinct table build of this
+#: module runs once; the CLI builds the rows ``restored_tables`` and
+#: ``plain`` read (the bias column dropped)
+REUSE_BUILDS = True
+
 N = 128
 PERIODS = 12
 

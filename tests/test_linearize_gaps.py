@@ -28,6 +28,10 @@ from torquemap.linearize.tables import LinearizeData, TableSet, build_tables, re
 from torquemap.sim.family import random_bench
 from torquemap.sim.rig import SimRig
 
+#: conftest.py's ``_reused_builds`` (tests/_reuse.py): each distinct table build of this
+#: module runs once; the CLI builds the thinned rows the library test did
+REUSE_BUILDS = True
+
 pytestmark = pytest.mark.xdist_group("linearize_gaps")
 
 #: The measured positions kept: those of an adaptive collection of the same motor (every 2nd

@@ -21,6 +21,13 @@ from torquemap.linearize.motor import MotorSpec, motor_spec, ramp_function, ramp
 from torquemap.linearize.surface import fit_surface, surface_prediction
 from torquemap.linearize.tables import build_tables, ramp_share_step
 
+#: conftest.py's ``_reused_builds`` (tests/_reuse.py): each distinct table build of this
+#: module runs once; three tests build the default tables of
+#: ``_collection(spec, noise=0.01, seed=1)``
+REUSE_BUILDS = True
+# one worker runs the module (pytest -n 2 --dist loadgroup), so the builds are shared
+pytestmark = pytest.mark.xdist_group("linearize_surface")
+
 A = 255
 N = 128
 DEAD = 20.0

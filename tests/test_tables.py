@@ -22,6 +22,12 @@ from torquemap.linearize.tables import (
     torque_from_command,
 )
 
+#: conftest.py's ``_reused_builds`` (tests/_reuse.py): each distinct table build of this
+#: module runs once; two tests build the default tables of ``quadratic_data(spec)``
+REUSE_BUILDS = True
+# one worker runs the module (pytest -n 2 --dist loadgroup), so the builds are shared
+pytestmark = pytest.mark.xdist_group("tables")
+
 A = 255  # full-scale pulse width
 
 

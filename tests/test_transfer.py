@@ -18,6 +18,10 @@ from torquemap.linearize.tables import LinearizeData, read_data
 from torquemap.linearize.transfer import TransferResult, transfer_characterisation
 from torquemap.sim.rig import SimRig, sim_rig
 
+#: conftest.py's ``_reused_builds`` (tests/_reuse.py): each distinct table build of this
+#: module runs once; the CLI transfers what ``joints`` and ``auto`` did
+REUSE_BUILDS = True
+
 # one worker runs the module (pytest -n 2 --dist loadgroup), so its module fixture `joints`
 # is built once, not once per worker
 pytestmark = pytest.mark.xdist_group("transfer")
