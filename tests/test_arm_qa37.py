@@ -105,13 +105,20 @@ GEAR = (60.0, 40.0)
 COULOMB = (0.03, 0.02)
 
 
+@pytest.fixture(scope="module")
+def free_1() -> Log:
+    """``_simulate(_arm(), 1, gear=GEAR, coulomb=COULOMB)``: the free log with no lag that three
+    tests read (each simulated it alike before: 0.55 s each)."""
+    return _simulate(_arm(), 1, gear=GEAR, coulomb=COULOMB)[0]
+
+
 @pytest.mark.parametrize("lag", [0.0, 0.01])
-def test_a_current_lag_is_warned(lag: float) -> None:
+def test_a_current_lag_is_warned(lag: float, free_1: Log) -> None:
     """Currents read 10 ms after the angles: identify says so, with the lag, and estimate
     repeats it (before: no word; on a UR3 bench a 5 ms lag raised the force error 3-8 times,
     and a 30 ms one was refused blaming the robot file's gravity). Without a lag, no warning."""
     arm = _arm()
-    free, _ = _simulate(arm, 1, gear=GEAR, coulomb=COULOMB, lag=lag)
+    free = free_1 if lag == 0.0 else _simulate(arm, 1, gear=GEAR, coulomb=COULOMB, lag=lag)[0]
     result = _identified(arm, GEAR, free)
     said = [w for w in result.warnings if "their joint angles by about" in w]
     if lag == 0.0:
@@ -159,13 +166,12 @@ def test_a_large_negative_friction_is_still_refused() -> None:
         _identified(arm, GEAR, free)
 
 
-def test_gravity_upside_down_is_named() -> None:
+def test_gravity_upside_down_is_named(free_1: Log) -> None:
     """A robot file whose gravity points up (+9.81 where the arm's is -9.81): the rigid-body
     torque is the URDF's times a negative gain, which was warned as "a gear ratio or torque
     constant in the robot file is too small" (a UR3 bench: -1.10 and -1.23, forces 8-11 N off);
     now the warning asks about the gravity's sign, and estimate repeats it."""
-    arm = _arm()
-    free, _ = _simulate(arm, 1, gear=GEAR, coulomb=COULOMB)
+    arm, free = _arm(), free_1
     upside = urdf_arm(TWO_LINK, ["shoulder", "elbow"], end_effector="tool", gravity=(0, 9.81, 0))
     result = _identified(upside, GEAR, free)
     said = [w for w in result.warnings if "times the URDF's" in w]
@@ -295,13 +301,12 @@ def test_swapped_columns_of_a_seven_axis_arm_are_warned(panda: dict[str, object]
     assert any(said in w for w in estimate_arm(model, swapped).warnings)
 
 
-def test_a_flipped_current_on_an_arm_is_refused_naming_the_log() -> None:
+def test_a_flipped_current_on_an_arm_is_refused_naming_the_log(free_1: Log) -> None:
     """The elbow's current logged with its sign flipped: refused, naming the log (before, stop
     39: no file named) and the flipped sign as a cause."""
     import dataclasses
 
-    arm = _arm()
-    free, _ = _simulate(arm, 1, gear=GEAR, coulomb=COULOMB)
+    arm, free = _arm(), free_1
     flipped = dataclasses.replace(free, motor_torque=free.motor_torque * np.array([1.0, -1.0]))
     with pytest.raises(InputError, match="negative in both directions") as caught:
         _identified(arm, GEAR, flipped)

@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
+import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pytest
 from conftest import WHOLE_MODEL
 
+from torquemap import progress
 from torquemap.cli.main import main
 from torquemap.io import read_table, write_table
 from torquemap.sim.score import common_mask, force_error
@@ -23,6 +28,30 @@ def identified(scara_passes: Path) -> Path:
 def _run(model: Path, log: Path, out: Path, *extra: str) -> dict[str, np.ndarray]:
     assert main(["estimate", str(model), str(log), "-o", str(out), *extra]) == 0
     return read_table(out)
+
+
+@dataclass(frozen=True)
+class Answered:
+    """A run of ``estimate``: the table it wrote and what it printed to stderr."""
+
+    table: dict[str, np.ndarray]
+    err: str
+
+
+@pytest.fixture(scope="module")
+def whole_circle(
+    scara_bench: Path, scara_model: Path, tmp_path_factory: pytest.TempPathFactory
+) -> Answered:
+    """``torquemap estimate`` of the whole-fit model on the bench's circle, every option at its
+    default, run once for the five tests that read it (each ran it alike before: the same
+    command, so the same table and messages). Its tests carry ``WHOLE_MODEL``, so one worker
+    runs them and this once."""
+    out = tmp_path_factory.mktemp("whole_circle") / "forces.csv"
+    err = io.StringIO()
+    with pytest.MonkeyPatch.context() as patch, contextlib.redirect_stderr(err):
+        patch.setattr(progress, "SHOW_AFTER", math.inf)  # as every test has it (conftest)
+        table = _run(scara_model, scara_bench / "circle.csv", out)
+    return Answered(table, err.getvalue())
 
 
 def test_methods_rank_as_the_paper_says(
@@ -155,6 +184,7 @@ def test_reversal_band_option(
     scara_bench: Path,
     identified: Path,
     scara_model: Path,
+    whole_circle: Answered,
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
 ) -> None:
@@ -168,7 +198,7 @@ def test_reversal_band_option(
     assert not (low(default) & ~low(wide)).any()
     # a model identified from whole logs knows friction through zero: slow samples keep an
     # answer (never flagged), but a wider band bridges more of them
-    whole = _run(scara_model, circle, tmp_path / "wd.csv")
+    whole = whole_circle.table
     whole_wide = _run(scara_model, circle, tmp_path / "ww.csv", "--reversal-band", "5")
     assert not low(whole).any() and not low(whole_wide).any()
     assert np.max(np.abs(whole["fx"] - whole_wide["fx"])) > 1e-3
@@ -183,12 +213,12 @@ def test_reversal_band_option(
 
 @WHOLE_MODEL
 def test_every_sample_answered_with_honest_sigmas(
-    scara_bench: Path, scara_model: Path, tmp_path: Path
+    scara_bench: Path, whole_circle: Answered
 ) -> None:
     # issue 12: forces wherever the robot moves or rests, flag only what cannot be answered,
     # and one standard deviation per sample: the true error within 2 sigma on 90 to 99 %
     truth = read_table(scara_bench / "truth.csv")
-    out = _run(scara_model, scara_bench / "circle.csv", tmp_path / "s.csv")  # whole-log model
+    out = whole_circle.table  # whole-log model
     assert {"tau_ext_a_sigma", "tau_ext_b_sigma", "fx_sigma", "fy_sigma"} <= set(out)
     sound = out["flag"] == 0
     assert sound.mean() > 0.95
@@ -224,7 +254,11 @@ def test_a_log_polled_slower_than_the_sweeps_widens_its_sigmas(
 
 @WHOLE_MODEL
 def test_a_log_that_folds_the_supply_ripple_onto_zero_says_so(
-    scara_bench: Path, scara_model: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    scara_bench: Path,
+    scara_model: Path,
+    whole_circle: Answered,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     # the bench's drives carry a 300 Hz ripple (a 50 Hz rectifier's) in their currents; read
     # every 20th sample (100 Hz) the ripple lands on 0 Hz and reads as a constant load: 58 % of
@@ -269,20 +303,18 @@ def test_a_log_that_folds_the_supply_ripple_onto_zero_says_so(
         added = np.sqrt(with_tone**2 - without**2)[np.isfinite(with_tone)]
         np.testing.assert_allclose(added, gear * amplitude / np.sqrt(2.0), rtol=1e-6)
     # at the sweeps' own rate the ripple stays far above the band: no such line
-    capsys.readouterr()
-    _run(scara_model, scara_bench / "circle.csv", tmp_path / "f.csv")
-    assert "folds it to" not in capsys.readouterr().err
+    assert "folds it to" not in whole_circle.err
 
 
 @WHOLE_MODEL
 def test_paper_bench_every_sample_within_3_percent(
-    scara_bench: Path, scara_model: Path, tmp_path: Path
+    scara_bench: Path, whole_circle: Answered
 ) -> None:
     # every sample scored, standstill at both ends included: under 3 % of the 3.5 N spring
     # (0.1027 N measured, 2.93 %; 0.1212 N before the table between passes far apart was
     # drawn through the passes' knots too, torquemap.between_passes: a strict xfail then)
     truth = read_table(scara_bench / "truth.csv")
-    out = _run(scara_model, scara_bench / "circle.csv", tmp_path / "s.csv")
+    out = whole_circle.table
     assert force_error(np.c_[out["fx"], out["fy"]], np.c_[truth["fx"], truth["fy"]]).rms < 0.105
 
 
@@ -325,7 +357,11 @@ def test_logs_of_another_robot_too_slow_or_too_sparse(
 
 @WHOLE_MODEL
 def test_a_log_cut_in_motion_says_its_ends_are_unsound(
-    scara_bench: Path, scara_model: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    scara_bench: Path,
+    scara_model: Path,
+    whole_circle: Answered,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     # the circle cut to 10-18 s, mid-motion: within 0.1 s of its ends the forces were 1.19 N
     # RMS off against 0.044 N on the same samples of the whole circle, with exit 0 and no word
@@ -334,9 +370,9 @@ def test_a_log_cut_in_motion_says_its_ends_are_unsound(
     t = np.asarray(circle["t"])
     cut = (t >= 10.0) & (t < 18.0)
     write_table(tmp_path / "cut.csv", {k: np.asarray(v)[cut] for k, v in circle.items()})
+    whole = whole_circle.table
+    assert "in motion" not in whole_circle.err  # rest to rest
     capsys.readouterr()
-    whole = _run(scara_model, scara_bench / "circle.csv", tmp_path / "whole.csv")
-    assert "in motion" not in capsys.readouterr().err  # rest to rest
     part = _run(scara_model, tmp_path / "cut.csv", tmp_path / "cut_forces.csv")
     err = capsys.readouterr().err
     assert "the log starts and ends in motion" in err and "record from rest to rest" in err

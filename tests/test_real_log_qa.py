@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from torquemap.errors import InputError
-from torquemap.identify import identify_model
+from torquemap.identify import Identification, identify_model
 from torquemap.io import log_from_columns
 from torquemap.robot import Joint, Robot
 
@@ -45,8 +45,15 @@ def _identify(cols: dict[str, np.ndarray]) -> tuple[str, ...]:
     return identify_model(ONE, [log_from_columns(cols, ONE, path="sweep.csv")]).warnings
 
 
-def test_a_clean_sweep_draws_no_sign_or_unit_warning() -> None:
-    assert not [w for w in _identify(_sweep()) if "opposes" in w or " A in the median" in w]
+@pytest.fixture(scope="module")
+def clean() -> Identification:
+    """``identify_model`` of the clean sweep (``_sweep()``), which four tests read (each
+    identified it alike before)."""
+    return identify_model(ONE, [log_from_columns(_sweep(), ONE, path="sweep.csv")])
+
+
+def test_a_clean_sweep_draws_no_sign_or_unit_warning(clean: Identification) -> None:
+    assert not [w for w in clean.warnings if "opposes" in w or " A in the median" in w]
 
 
 def test_a_current_of_the_wrong_sign_is_refused() -> None:
@@ -84,11 +91,11 @@ def test_a_one_way_sweep_of_the_wrong_sign_is_warned() -> None:
     assert "negate i_m" in said[0]
 
 
-def test_a_current_in_milliamperes_is_warned() -> None:
+def test_a_current_in_milliamperes_is_warned(clean: Identification) -> None:
     # Before (stop 39): the real ODrive sweep in mA identified 13 N m of friction on a
     # 0.04 N m/A hobby motor, no word; its median pass needs 0.2 A here, 200 in mA.
     cols = _sweep()
-    assert not [w for w in _identify(cols) if " A in the median" in w]
+    assert not [w for w in clean.warnings if " A in the median" in w]  # _identify(cols)
     cols["i_m"] = cols["i_m"] * 1000.0
     said = [w for w in _identify(cols) if " A in the median" in w]
     assert len(said) == 1
@@ -153,12 +160,12 @@ def test_a_unit_in_a_column_name_is_named(names: tuple[str, ...], says: str) -> 
         log_from_columns(renamed, ONE, path="sweep.csv")
 
 
-def test_a_torque_constant_edited_after_identification_is_refused() -> None:
+def test_a_torque_constant_edited_after_identification_is_refused(clean: Identification) -> None:
     # Before (stop 39): the ODrive model with torque_constant 0.04 -> 0.4 by hand gave exit 0,
     # tau_ext_a RMS 0.28 N m on its own sweep (1.7 mN m as identified), no word.
     from torquemap.model import model_from_dict, model_to_dict
 
-    model = identify_model(ONE, [log_from_columns(_sweep(), ONE, path="sweep.csv")]).model
+    model = clean.model
     document = model_to_dict(model)
     assert document["identification"]["joints"]["m"]["torque_constant"] == 0.1
     model_from_dict(document, path="model.toml")  # as written: fine
@@ -302,12 +309,14 @@ def test_a_log_too_short_without_a_gap_is_not_told_to_avoid_gaps() -> None:
     assert no_stretch_message(gapped, 0.05).endswith("record without gaps longer than 0.125 s")
 
 
-def test_degrees_under_a_robot_file_in_rad_show_a_sub_revolution_line() -> None:
+def test_degrees_under_a_robot_file_in_rad_show_a_sub_revolution_line(
+    clean: Identification,
+) -> None:
     # Before (stop 39): the real ODrive sweep in degrees (fractional counts: no whole-count
     # test applies) under position_unit = "rad" gave exit 0, its 7 CPR cogging at 0.123 CPR.
     said = "its strongest PDTV line sits at"
     cols = _sweep()
-    assert not [w for w in _identify(cols) if said in w]
+    assert not [w for w in clean.warnings if said in w]  # _identify(cols)
     cols["q_m"] = np.degrees(cols["q_m"])
     found = [w for w in _identify(cols) if said in w]
     assert len(found) == 1
