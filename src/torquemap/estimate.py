@@ -684,7 +684,8 @@ def estimate_forces(
         NaN for the joints whose ``motor_external`` it is not (``model`` method, joints with
         PDTV lines), sparing their low-pass, and ``passes`` is empty (except for ``paper``).
     check_delay
-        Warn where the log's torque channel lags by another delay than identification found
+        Warn where the log's torque channel lags by another delay than identification found,
+        or where a joint's current has the sign opposite to the identification logs'
         (:func:`torquemap.task_delay.task_delay_warnings`, on the longest piece; not when
         ``channel_delay`` is given or for ``raw``).
 

@@ -103,7 +103,8 @@ def task_delay_warnings(
     Parameters
     ----------
     model
-        The model (its notes give the delays; a model without them gets no line).
+        The model (its notes give the delays; a model without them gets no delay line, only
+        the sign check).
     log
         One piece of the task log without gaps (sanitised); its middle ``MAX_SAMPLES`` are
         used.
