@@ -104,6 +104,31 @@ def test_a_task_logged_with_its_current_negated_is_warned(model: Model) -> None:
     assert _flip_lines(bare, right) == []
 
 
+def test_the_sign_is_checked_when_the_user_gives_the_delay(model: Model) -> None:
+    late = task(TASK_DELAY)
+    negated = Log(
+        t=late.t,
+        q=late.q,
+        motor_torque=-late.motor_torque,
+        joint_names=late.joint_names,
+        path="task.csv",
+    )
+    given = {"m": TASK_DELAY}
+    flips = [
+        [
+            w
+            for w in estimate_forces(model, log, channel_delay=given).warnings
+            if "sign reversed" in w
+        ]
+        for log in (late, negated)
+    ]
+    assert flips[0] == []
+    assert len(flips[1]) == 1 and "negate i_m" in flips[1][0]
+    # and still no delay line: the user's delay is the one undone
+    est = estimate_forces(model, negated, channel_delay=given)
+    assert not [w for w in est.warnings if "lags" in w]
+
+
 def test_the_check_given_the_estimates_derivatives_is_the_one_that_differentiates(
     model: Model, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -686,8 +686,8 @@ def estimate_forces(
     check_delay
         Warn where the log's torque channel lags by another delay than identification found,
         or where a joint's current has the sign opposite to the identification logs'
-        (:func:`torquemap.task_delay.task_delay_warnings`, on the longest piece; not when
-        ``channel_delay`` is given or for ``raw``).
+        (:func:`torquemap.task_delay.task_delay_warnings`, on the longest piece; with
+        ``channel_delay`` given, the sign only; not for ``raw``).
 
     Returns
     -------
@@ -761,7 +761,7 @@ def estimate_forces(
     passes: list[list[Pass]] = [[] for _ in range(nj)]
     any_pass = False
     # the delay check scans the longest piece: its derivatives kept from its estimate
-    delay_check = check_delay and channel_delay is None and method != "raw"
+    delay_check = check_delay and method != "raw"
     longest = max(clean.pieces, key=lambda piece: piece.log.t[-1] - piece.log.t[0])
     longest_rates: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None
     longest_rates = None
@@ -843,7 +843,12 @@ def estimate_forces(
         from torquemap.task_delay import task_delay_warnings
 
         warnings += task_delay_warnings(
-            model, longest.log, window=win, cutoff=cutoff, rates=longest_rates
+            model,
+            longest.log,
+            window=win,
+            cutoff=cutoff,
+            rates=longest_rates,
+            channel_delay=channel_delay,
         )
     warnings += unidentified_joint_warnings(model)
     gear = np.array([j.gear_ratio for j in robot.joints])

@@ -85,6 +85,7 @@ def task_delay_warnings(
     window: float,
     cutoff: float,
     rates: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None = None,
+    channel_delay: Mapping[str, float] | None = None,
 ) -> list[str]:
     """One line per joint whose task log lags by another delay than identification found.
 
@@ -98,7 +99,9 @@ def task_delay_warnings(
     is at least ``COST_RATIO`` times that least. A joint whose least misfit with the torque
     negated is ``COST_RATIO`` times below the least without gets a line saying its current's
     sign is flipped instead (checked on every joint, with or without an interval; the scan is
-    then about the model's delay, or 0).
+    then about the model's delay, or 0). With ``channel_delay`` (the user's delays, which the
+    estimate undoes instead of the model's) only the sign is checked, the scan about those
+    delays.
 
     Parameters
     ----------
@@ -119,6 +122,10 @@ def task_delay_warnings(
         (the estimate's own, :func:`torquemap.estimate._signal`). Taken where the scan covers
         the whole log (at most ``MAX_SAMPLES`` samples): the same numbers as without them, no
         differentiation. A longer log's middle is differentiated on its own, as without them.
+    channel_delay
+        Delay [s] per joint name given by the user (``estimate --channel-delay``): the sign
+        check's scan is centred there (a joint not named: the model's delay) and no delay line
+        is written.
 
     Returns
     -------
@@ -171,6 +178,8 @@ def task_delay_warnings(
     for name in names:
         k = index[name]
         d0, lo, hi = intervals.get(name, (_model_delay(model, name), math.nan, math.nan))
+        if channel_delay is not None and name in channel_delay:
+            d0 = float(channel_delay[name])
         tau = log.motor_torque[:, k]
         lines = model.joints[name].pdtv
         # the model's no-load torque at each sample: what the estimation signal subtracted
@@ -193,7 +202,7 @@ def task_delay_warnings(
         if flipped is not None:
             out.append(flipped)
             continue
-        if name not in intervals:
+        if name not in intervals or channel_delay is not None:
             continue
         at_model, costs = float(costs[-1]), costs[:-1]
         best = int(np.argmin(costs))
