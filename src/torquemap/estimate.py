@@ -2163,7 +2163,7 @@ def one_direction_task_warnings(model: Model, velocity: NDArray[np.float64]) -> 
     >>> one_direction_task_warnings(m, np.linspace(-2.0, 2.0, 100)[:, None])[0][:58]
     'joint a: 50% of the samples move in the negative direction'
     """
-    from torquemap.identify_whole import one_direction_note
+    from torquemap.friction_law import one_direction_note  # not identify_whole: scipy.stats
 
     notes = model.notes.get("warnings", [])
     said = [str(w) for w in notes] if isinstance(notes, list | tuple) else []
