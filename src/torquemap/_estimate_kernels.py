@@ -175,3 +175,135 @@ def table_sigma_levels(
             if per_acceleration > 0:
                 y = _hypot(y, per_acceleration * abs(acceleration[i]))
             out[i, 0] = y
+
+
+@jit
+def _pairwise_sum(a: NDArray[np.float64], n: int) -> float:
+    """numpy's pairwise sum of ``a[:n]`` (``DOUBLE_pairwise_sum``: sequential below 8
+    values, eight accumulators up to 128, halves above), the operations in its order."""
+    if n < 8:
+        res = -0.0
+        for i in range(n):
+            res += a[i]
+        return res
+    if n <= 128:
+        r0, r1, r2, r3 = a[0], a[1], a[2], a[3]
+        r4, r5, r6, r7 = a[4], a[5], a[6], a[7]
+        i = 8
+        while i < n - (n % 8):
+            r0 += a[i]
+            r1 += a[i + 1]
+            r2 += a[i + 2]
+            r3 += a[i + 3]
+            r4 += a[i + 4]
+            r5 += a[i + 5]
+            r6 += a[i + 6]
+            r7 += a[i + 7]
+            i += 8
+        res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+        while i < n:
+            res += a[i]
+            i += 1
+        return float(res)
+    n2 = n // 2
+    n2 -= n2 % 8
+    return _pairwise_sum(a, n2) + _pairwise_sum(a[n2:], n - n2)
+
+
+@jit
+def _mean(a: NDArray[np.float64], n: int) -> float:
+    """``a[:n].mean()`` as numpy computes it (a reduction from 0.0, then the division)."""
+    return (0.0 + _pairwise_sum(a, n)) / n
+
+
+@jit
+def _left(t: NDArray[np.float64], x: float) -> int:
+    """``np.searchsorted(t, x, side="left")``."""
+    lo, hi = 0, t.size
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if t[mid] < x:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@jit
+def _right(t: NDArray[np.float64], x: float) -> int:
+    """``np.searchsorted(t, x, side="right")``."""
+    lo, hi = 0, t.size
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if t[mid] <= x:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@jit
+def bridge_runs(
+    t: NDArray[np.float64],
+    values: NDArray[np.float64],
+    gaps: NDArray[np.bool_],
+    starts: NDArray[np.int64],
+    stops: NDArray[np.int64],
+    longest: float,
+    support: float,
+    ends: bool,
+    tie: float,
+    out: NDArray[np.float64],
+) -> None:
+    """The runs ``starts[r]:stops[r]`` of :func:`torquemap.estimate.bridge_gaps` bridged in
+    ``out`` (a copy of ``values``), in place: each side's mean of its samples that are not
+    gaps (numpy's pairwise sum), and ``np.interp`` of the run's times between the sides
+    (its formula and its NaN cases), the operations of the numpy code in its order."""
+    n = t.size
+    scratch_t = np.empty(n)
+    scratch_v = np.empty(n)
+    xs = np.empty(2)
+    ys = np.empty(2)
+    for r in range(starts.size):
+        a, b = starts[r], stops[r]
+        if t[b - 1] - t[a] > longest or ((a == 0 or b == n) and not ends):
+            continue
+        origin = t[a]
+        m = 0
+        for side in range(2):
+            if side == 0:
+                if a == 0:
+                    continue
+                lo = min(_left(t, t[a - 1] - support - tie), a - 1)
+                hi = a
+            else:
+                if b >= n:
+                    continue
+                lo = b
+                hi = max(_right(t, t[b] + support + tie), b + 1)
+            k = 0
+            for i in range(lo, hi):
+                if not gaps[i]:
+                    scratch_t[k] = t[i] - origin
+                    scratch_v[k] = values[i]
+                    k += 1
+            xs[m] = _mean(scratch_t, k)
+            ys[m] = _mean(scratch_v, k)
+            m += 1
+        if m == 1:
+            out[a:b] = ys[0]  # interp of one point: its value, left, right and at it
+            continue
+        slope = (ys[1] - ys[0]) / (xs[1] - xs[0])
+        for i in range(a, b):
+            x = t[i] - origin
+            if x < xs[0]:
+                out[i] = ys[0]
+            elif x >= xs[1] or xs[0] == x:
+                out[i] = ys[1] if x >= xs[1] else ys[0]
+            else:
+                y = slope * (x - xs[0]) + ys[0]
+                if y != y:
+                    y = slope * (x - xs[1]) + ys[1]
+                    if y != y and ys[0] == ys[1]:
+                        y = ys[0]
+                out[i] = y

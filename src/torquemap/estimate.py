@@ -391,22 +391,32 @@ def bridge_gaps(
     >>> bridge_gaps(t, np.array([9.0, 9, 2, 3, 4, 9]), gaps, longest=5, ends=True).tolist()
     [2.0, 2.0, 2.0, 3.0, 4.0, 4.0]
     """
-    out = values.copy()
+    from torquemap._estimate_kernels import bridge_runs
+
+    out = np.array(values, dtype=np.float64)
     if gaps.all():
         return out
     # ties (a sample exactly ``support`` away) are in, to a hundredth of a step, and times are
     # taken from the run's start: the same answer for stamps from zero or Unix-epoch seconds
     tie = 0.01 * float(t[-1] - t[0]) / max(t.size - 1, 1)
-    for a, b in _gap_runs(gaps) if runs is None else runs:
-        if t[b - 1] - t[a] > longest or ((a == 0 or b == gaps.size) and not ends):
-            continue
-        origin = t[a]
-        sides_t, sides_v = [], []
-        for side in _run_sides(t, a, b, support=support, tie=tie):
-            keep = ~gaps[side]
-            sides_t.append((t[side][keep] - origin).mean())
-            sides_v.append(values[side][keep].mean())
-        out[a:b] = np.interp(t[a:b] - origin, sides_t, sides_v)
+    pairs = _gap_runs(gaps) if runs is None else runs
+    if not pairs:
+        return out
+    # each side's mean of the samples it keeps and np.interp between them (_run_sides'
+    # samples), compiled: the numpy loop's operations in its order, bit for bit
+    bounds = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    bridge_runs(
+        np.ascontiguousarray(t, dtype=np.float64),
+        np.ascontiguousarray(values, dtype=np.float64),
+        np.ascontiguousarray(gaps, dtype=np.bool_),
+        np.ascontiguousarray(bounds[:, 0]),
+        np.ascontiguousarray(bounds[:, 1]),
+        float(longest),
+        float(support),
+        bool(ends),
+        tie,
+        out,
+    )
     return out
 
 
@@ -2168,7 +2178,7 @@ def one_direction_task_warnings(model: Model, velocity: NDArray[np.float64]) -> 
     >>> one_direction_task_warnings(m, np.linspace(-2.0, 2.0, 100)[:, None])[0][:58]
     'joint a: 50% of the samples move in the negative direction'
     """
-    from torquemap.identify_whole import one_direction_note
+    from torquemap.friction_law import one_direction_note  # not identify_whole: scipy.stats
 
     notes = model.notes.get("warnings", [])
     said = [str(w) for w in notes] if isinstance(notes, list | tuple) else []

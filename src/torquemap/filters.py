@@ -287,7 +287,7 @@ def _acceleration_uniform(x: NDArray[np.float64], h: float, length: int) -> NDAr
 
     half = length // 2
     even = _savgol_lags(length, h)[2]
-    heads = _savgol_kernels(length, 2, h)[1:]
+    heads = _savgol_ends(length, 2, h)
     columns = x[:, None] if x.ndim == 1 else x
     outputs = []
     for k in range(columns.shape[1]):
@@ -316,7 +316,7 @@ def _savgol_columns(
 
     half = length // 2
     smooth, odd, even = _savgol_lags(length, h)
-    heads = [_savgol_kernels(length, d, h)[1:] for d in (0, 1, 2)]
+    heads = [_savgol_ends(length, d, h) for d in (0, 1, 2)]
     columns = x[:, None] if x.ndim == 1 else x
     outputs: list[list[NDArray[np.float64]]] = [[], [], []]
     for k in range(columns.shape[1]):
@@ -393,20 +393,29 @@ def _savgol_uniform(
     return out
 
 
-@functools.lru_cache(maxsize=64)
 def _savgol_kernels(
     length: int, deriv: int, h: float
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """The centred kernel of :func:`_savgol_uniform` and the first and last windows' rows
-    (designed once per length, derivative and step: the inertia fit smooths hundreds of
-    short stretches with the same filter)."""
-    from scipy import signal
+    """The centred kernel of :func:`_savgol_uniform` (``scipy.signal.savgol_coeffs``'s, bit for
+    bit) and the first and last windows' rows (:func:`_savgol_ends`)."""
+    from torquemap._signal_design import savgol_coeffs
 
+    head, tail = _savgol_ends(length, deriv, h)
+    kernel = np.asarray(savgol_coeffs(length, 2, deriv=deriv, delta=h), dtype=np.float64)
+    return kernel, head, tail
+
+
+@functools.lru_cache(maxsize=64)
+def _savgol_ends(
+    length: int, deriv: int, h: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The first and last windows' rows of a quadratic Savitzky-Golay fit (designed once per
+    length, derivative and step: the inertia fit smooths hundreds of short stretches with the
+    same filter)."""
     half = length // 2
     s = np.arange(length, dtype=np.float64) - half
     fit = np.linalg.pinv(np.vander(s, 3, increasing=True))  # (3, length): 1, s, s^2 from x
     head_s, tail_s = s[:half], s[half + 1 :]
-    kernel = np.asarray(signal.savgol_coeffs(length, 2, deriv=deriv, delta=h, use="conv"))
     if deriv == 0:
         head = fit[0][None, :] + head_s[:, None] * fit[1] + head_s[:, None] ** 2 * fit[2]
         tail = fit[0][None, :] + tail_s[:, None] * fit[1] + tail_s[:, None] ** 2 * fit[2]
@@ -415,9 +424,9 @@ def _savgol_kernels(
         tail = (fit[1][None, :] + 2.0 * tail_s[:, None] * fit[2][None, :]) / h
     else:
         head = tail = np.repeat(2.0 * fit[2][None, :] / h**2, half, axis=0)
-    for a in (kernel, head, tail):
+    for a in (head, tail):
         a.setflags(write=False)
-    return kernel, head, tail
+    return head, tail
 
 
 def smooth_as_acceleration(t: ArrayLike, x: ArrayLike, *, window: float) -> NDArray[np.float64]:
@@ -711,9 +720,9 @@ def _butter_lowpass(order: int, cutoff: float, fs: float) -> tuple[NDArray[np.fl
     Designed once per (order, cut-off, rate): a log in blocks filters every piece of every
     block with the same filter, and the design costs as much as filtering 20 k samples.
     """
-    from scipy import signal
+    from torquemap._signal_design import butter_lowpass_sos
 
-    sos = np.asarray(signal.butter(order, cutoff, btype="low", fs=fs, output="sos"))
+    sos = butter_lowpass_sos(order, cutoff, fs)  # scipy.signal.butter's, bit for bit
     sos.setflags(write=False)
     padlen = 3 * (2 * len(sos) + 1 - min(int((sos[:, 2] == 0).sum()), int((sos[:, 5] == 0).sum())))
     return sos, padlen
@@ -721,10 +730,11 @@ def _butter_lowpass(order: int, cutoff: float, fs: float) -> tuple[NDArray[np.fl
 
 @functools.lru_cache(maxsize=64)
 def _initial_state(sos: bytes) -> NDArray[np.float64]:
-    """``scipy.signal.sosfilt_zi`` of one section (given as its bytes: a cache key)."""
-    from scipy import signal
+    """``scipy.signal.sosfilt_zi`` of one section (given as its bytes: a cache key), bit for
+    bit."""
+    from torquemap._signal_design import sosfilt_zi
 
-    zi = np.ascontiguousarray(signal.sosfilt_zi(np.frombuffer(sos).reshape(1, 6)))
+    zi = np.ascontiguousarray(sosfilt_zi(np.frombuffer(sos).reshape(1, 6)))
     zi.setflags(write=False)
     return np.asarray(zi, dtype=np.float64)
 

@@ -292,6 +292,21 @@ class StribeckFriction(_LinearLaw):
             raise InputError(f"{where} {exc.message}", path=path) from None
 
 
+def one_direction_note(way: str) -> str:
+    """The warning (after ``"joint <name>: "``) of a joint the logs never moved in direction
+    ``way`` (``"positive"`` or ``"negative"``), whose table takes the other's levels
+    (:mod:`torquemap.identify_whole`); estimation reads it back
+    (:func:`torquemap.estimate.one_direction_task_warnings`).
+
+    Examples
+    --------
+    >>> one_direction_note("negative")
+    "never moved in the negative direction: it takes the positive direction's friction"
+    """
+    other = "positive" if way == "negative" else "negative"
+    return f"never moved in the {way} direction: it takes the {other} direction's friction"
+
+
 def coulomb_levels_valid(positive: float, negative: float) -> bool:
     """Whether a law's Coulomb magnitudes [N m] can be read from a model file: both >= 0, or
     one negative (an offset) with a positive sum (a friction band that dissipates)."""

@@ -55,7 +55,7 @@ from scipy import optimize, sparse, stats
 from torquemap.between_passes import Method, redraw_law, redraw_law_by_direction
 from torquemap.errors import InputError
 from torquemap.filters import dilate, lowpass
-from torquemap.friction_law import SpeedTableFriction
+from torquemap.friction_law import SpeedTableFriction, one_direction_note
 from torquemap.friction_prior import (
     SPREAD,
     StribeckPrior,
@@ -2246,14 +2246,6 @@ def _dissipative(
             "(gravity, a spring) or be misaligned"
         )
     return bounded, note
-
-
-def one_direction_note(way: str) -> str:
-    """The warning (after ``"joint <name>: "``) of a joint the logs never moved in direction
-    ``way`` (``"positive"`` or ``"negative"``), whose table takes the other's levels; estimation
-    reads it back (:func:`torquemap.estimate.one_direction_task_warnings`)."""
-    other = "positive" if way == "negative" else "negative"
-    return f"never moved in the {way} direction: it takes the {other} direction's friction"
 
 
 def _law(
