@@ -338,3 +338,54 @@ def test_a_torque_held_at_rest_is_no_gravity() -> None:
             assert not c.warns, c.message()
             # no gravity: noise, under half the warning level
             assert c.share < 0.5 * WARN_SHARE, c
+
+
+def test_the_gravity_test_reads_the_speed_levels_it_is_handed(
+    logs: dict[str, Log], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # stop 43 (I63): check_no_load hands each piece's 99th speed percentile to _test_joint,
+    # which computed it again; the check with the levels recomputed (the old path) is the same
+    import torquemap.vertical as vertical
+
+    original = vertical._test_joint
+    seen: list[tuple[object, object]] = []
+
+    def both(*args: object, **kwargs: object) -> object:
+        handed = original(*args, **kwargs)  # type: ignore[arg-type]
+        again = original(*args[:5])  # type: ignore[arg-type]
+        seen.append((handed, again))
+        return handed
+
+    monkeypatch.setattr(vertical, "_test_joint", both)
+    checks = check_no_load(truth_model(), [logs["vertical"]], window=0.05)  # type: ignore[arg-type]
+    assert len(seen) == 2 and any(c.significant for c in checks)
+    for handed, again in seen:
+        for field in dataclasses.fields(handed):  # type: ignore[arg-type]
+            x, y = getattr(handed, field.name), getattr(again, field.name)
+            assert x == y or (isinstance(x, float) and math.isnan(x) and math.isnan(y))
+
+
+def test_identify_reads_the_speed_percentiles_once(
+    logs: dict[str, Log], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # stop 43 (I63): identify_model hands the joints' speed percentiles to the pass method and
+    # the whole fit, which computed them each; with them recomputed there (the old path) the
+    # model is the same, number for number
+    import torquemap.identify as ident
+    from torquemap.model import model_to_dict
+
+    robot = truth_model().robot  # type: ignore[attr-defined]
+    handed = model_to_dict(identify_model(robot, [logs["horizontal"]]).model)
+    passes, whole = ident._identify_passes, ident._identify_whole
+
+    def passes_old(*args: object, **kwargs: object) -> object:
+        kwargs.pop("p99", None)
+        return passes(*args, **kwargs)  # type: ignore[arg-type]
+
+    def whole_old(*args: object, **kwargs: object) -> object:
+        kwargs.pop("p99", None)
+        return whole(*args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(ident, "_identify_passes", passes_old)
+    monkeypatch.setattr(ident, "_identify_whole", whole_old)
+    assert model_to_dict(identify_model(robot, [logs["horizontal"]]).model) == handed

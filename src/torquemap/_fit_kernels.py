@@ -896,6 +896,36 @@ def search_increasing(
 
 
 @jit
+def dilate_mask(t: NDArray[np.float64], mask: NDArray[np.bool_], reach: float) -> NDArray[np.bool_]:
+    """:func:`torquemap.filters.dilate`: the samples of non-decreasing ``t`` [s] within
+    ``reach`` >= 0 [s] of a sample of ``mask``, by one forward walk.
+
+    Per marked sample ``j`` the samples from the first with ``t >= t[j] - reach`` to the
+    last with ``t <= t[j] + reach`` (the keys formed and compared as ``numpy.searchsorted``
+    compares them, :func:`search_increasing`), each marked once: the same samples as the
+    numpy code's counts of covering intervals, without its four arrays of the log's length.
+    """
+    n = t.size
+    out = np.zeros(n, dtype=np.bool_)
+    lo = 0
+    hi = 0
+    filled = 0
+    for j in range(n):
+        if not mask[j]:
+            continue
+        key_lo = t[j] - reach
+        key_hi = t[j] + reach
+        while lo < n and t[lo] < key_lo:
+            lo += 1
+        while hi < n and t[hi] <= key_hi:
+            hi += 1
+        for i in range(max(lo, filled), hi):
+            out[i] = True
+        filled = max(filled, hi)
+    return out
+
+
+@jit
 def segment_medians(
     v: NDArray[np.float64], starts: NDArray[np.intp], stops: NDArray[np.intp]
 ) -> NDArray[np.float64]:

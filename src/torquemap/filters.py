@@ -532,6 +532,14 @@ def dilate(t: NDArray[np.float64], mask: NDArray[np.bool_], reach: float) -> NDA
     >>> dilate(t, t == 4.0, 1.5).astype(int).tolist()
     [0, 0, 0, 1, 1, 1, 0, 0, 0, 0]
     """
+    if reach >= 0:  # one compiled walk: the same samples (tests/test_whole_speed_i63.py)
+        from torquemap._fit_kernels import dilate_mask
+
+        return dilate_mask(
+            np.ascontiguousarray(t, dtype=np.float64),
+            np.ascontiguousarray(mask, dtype=np.bool_),
+            float(reach),
+        )
     bad = np.flatnonzero(mask)
     if bad.size == 0:
         return np.asarray(mask, dtype=bool).copy()

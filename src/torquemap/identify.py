@@ -170,6 +170,14 @@ def _derivatives(log: Log, robot: Robot, window: float) -> list[Derivatives]:
     return out
 
 
+def _speed_p99(derivs: Sequence[Sequence[Derivatives]], joints: int) -> list[float]:
+    """Per joint, the 99th percentile of its absolute motor speed [rad/s] over every piece."""
+    return [
+        float(np.percentile(np.concatenate([np.abs(d[k].velocity) for d in derivs]), 99))
+        for k in range(joints)
+    ]
+
+
 def _still_mask(deriv: Sequence[Derivatives], k: int, p99: Sequence[float]) -> NDArray[np.bool_]:
     """Samples where every joint but ``k`` is still (slower than 5 % of joint k's speed)."""
     ok = np.ones(deriv[0].velocity.size, dtype=bool)
@@ -193,6 +201,7 @@ def _identify_passes(
     channel_delay: float | Literal["auto"] = "auto",
     derivatives: Sequence[Sequence[Derivatives]] | None = None,
     check: bool = True,
+    p99: Sequence[float] | None = None,
 ) -> Identification:
     """:func:`identify_model` with ``friction="passes"`` on logs already sanitised.
 
@@ -202,7 +211,8 @@ def _identify_passes(
     ``tau + lag * dtau/dt`` before PDTV and inertia. ``derivatives``: those of the logs'
     motor angles when already computed (a torque channel's delay undone leaves them as they
     are). ``check``: warn for each joint whose pass model explains the whole sweep, ramps
-    included, significantly worse than a free law (:mod:`torquemap.pass_check`).
+    included, significantly worse than a free law (:mod:`torquemap.pass_check`). ``p99``:
+    :func:`_speed_p99` of ``derivatives`` when already computed.
     """
     model_in = robot if isinstance(robot, Model) else None
     rb = robot.robot if isinstance(robot, Model) else robot
@@ -212,10 +222,8 @@ def _identify_passes(
     for name in names:
         rb.joint(name)
     derivs = [_derivatives(log, rb, window) for log in logs] if derivatives is None else derivatives
-    p99 = [
-        float(np.percentile(np.concatenate([np.abs(d[k].velocity) for d in derivs]), 99))
-        for k in range(len(rb.joints))
-    ]
+    if p99 is None or derivatives is None:
+        p99 = _speed_p99(derivs, len(rb.joints))
     results: dict[str, JointIdentification] = {}
     new_joints: dict[str, JointModel] = (
         dict(model_in.joints) if model_in else {j.name: JointModel() for j in rb.joints}
@@ -269,6 +277,7 @@ def _identify_passes(
                 channel_delay=0.0,
                 derivatives=derivs,
                 check=False,
+                p99=p99,
             )
             joints_out = {
                 n: dataclasses.replace(r, channel_delay=delays.get(n, 0.0))
@@ -1117,6 +1126,7 @@ def identify_model(
             raise InputError(no_stretch_message(log.t, window), path=log.path)
     # the pieces' motor-angle derivatives, once: the pass fit and the vertical-arm check
     derivs = [_derivatives(piece, rb, window) for piece in pieces]
+    p99 = _speed_p99(derivs, len(rb.joints))  # the pass method's and the whole fit's
     base = _identify_passes(
         robot,
         pieces,
@@ -1130,6 +1140,7 @@ def identify_model(
         channel_delay=channel_delay,
         derivatives=derivs,
         check=friction == "passes",
+        p99=p99,
     )
     one = logs[0].path if len(logs) == 1 else None
     signs = check_pass_torques(
@@ -1171,6 +1182,7 @@ def identify_model(
             derivatives=derivs,
             low_speed_rows=low_speed_rows,
             stribeck_prior=stribeck_prior,
+            p99=p99,
         )
     # a vertical arm (gravity), for every friction method: torquemap.vertical
     from torquemap.vertical import checked_identification
@@ -1210,18 +1222,18 @@ def _identify_whole(
     derivatives: Sequence[Sequence[Derivatives]],
     low_speed_rows: bool | None = None,
     stribeck_prior: bool | Literal["select"] | None = None,
+    p99: Sequence[float] | None = None,
 ) -> tuple[Identification, dict[str, list[ResidualPiece]]]:
     """The whole-log fit of every joint the pass method identified, and the model's no-load
     residuals on ``pieces`` (:func:`torquemap.vertical.no_load_residuals`, every piece), which
-    the noise levels and the vertical-arm check share."""
+    the noise levels and the vertical-arm check share. ``p99``: :func:`_speed_p99` of
+    ``derivatives`` when already computed."""
     from torquemap import identify_whole as iw
 
     derivs = derivatives
     nj = len(rb.joints)
-    p99 = [
-        float(np.percentile(np.concatenate([np.abs(d[k].velocity) for d in derivs]), 99))
-        for k in range(nj)
-    ]
+    if p99 is None:
+        p99 = _speed_p99(derivs, nj)
     top = [
         float(np.max(np.concatenate([np.abs(d[k].velocity) for d in derivs]))) for k in range(nj)
     ]

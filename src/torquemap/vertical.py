@@ -318,8 +318,10 @@ def check_no_load(
         pieces = [
             p for p in residuals.get(joint.name, []) if float(p.t[-1] - p.t[0]) >= 3.0 / CUTOFF
         ]
-        top = max((float(np.percentile(np.abs(p.velocity), 99)) for p in pieces), default=0.0)
-        for p in pieces:
+        levels = [float(np.percentile(np.abs(p.velocity), 99)) for p in pieces]
+        top = max(levels, default=0.0)
+        tested: list[float] = []  # the levels of the pieces in ``rows``
+        for p, level in zip(pieces, levels, strict=True):
             if p.free is not None and lines == jm.pdtv:  # computed already, of these lines
                 residual = p.free
             else:
@@ -330,7 +332,8 @@ def check_no_load(
             except InputError:
                 continue
             rows.append((p.t, p.q, p.velocity, v_low, low))
-        out.append(_test_joint(model, joint.name, k, rows, planar))
+            tested.append(level)
+        out.append(_test_joint(model, joint.name, k, rows, planar, tested))
     return tuple(out)
 
 
@@ -375,12 +378,18 @@ def _test_joint(
     k: int,
     pieces: list[tuple[NDArray[np.float64], ...]],
     planar: bool,
+    levels: Sequence[float] | None = None,
 ) -> GravityCheck:
+    """The gravity test of joint ``name`` on ``pieces`` (time, joint angles, speed, low-passed
+    speed, low-passed residual); ``levels``: each piece's 99th percentile of the absolute
+    speed when already computed."""
     coulomb = _coulomb(model, name)
     none = GravityCheck(joint=name, torque=0.0, significant=False, coulomb=coulomb, samples=0)
     if not pieces:
         return none
-    top = max(float(np.percentile(np.abs(p[2]), 99)) for p in pieces)
+    if levels is None:
+        levels = [float(np.percentile(np.abs(p[2]), 99)) for p in pieces]
+    top = max(levels)
     if not top > 0:
         return none
     cols, ys, clusters, visited = [], [], [], []
