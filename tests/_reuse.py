@@ -16,11 +16,17 @@ transfer.py: they reach no result and no warning; the CLI prefixes the file name
 warnings it prints itself). A call that raises is not kept: it raises afresh every time, with
 its own file name.
 
+A module with ``REUSE_BUILDS = "session"`` keeps them in ``SESSION`` instead, one memo for the
+test process (an xdist worker's): the demo fixture (conftest.py, ``demo_run``) builds the
+tutorial's rig tables in it, and test_tutorial's ``linearize build`` of the same rows, with the
+same options, then reads them (both run on one worker, ``xdist_group("demo")``).
+
 ``REUSE_LOG=FILE`` appends ``hit`` or ``miss``, the function and the test to FILE.
 """
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import dataclasses
 import functools
@@ -102,26 +108,48 @@ def memoised(function: Callable[..., Any], kept: dict[str, Any]) -> Callable[...
         kept[key] = copy.deepcopy(result)
         return result
 
+    once._memoised = True  # type: ignore[attr-defined]
     return once
+
+
+#: The builds kept for the whole test process (module docstring): ``REUSE_BUILDS = "session"``
+#: and the demo fixture.
+SESSION: dict[str, Any] = {}
+
+
+def _real(function: Any) -> Any:
+    """``function`` less any memo around it (a memo inside another module's memo)."""
+    while getattr(function, "_memoised", False):
+        function = function.__wrapped__
+    return function
+
+
+@contextlib.contextmanager
+def reused(kept: dict[str, Any], *modules: Any) -> Iterator[None]:
+    """While open, ``build_tables`` and ``transfer_characterisation`` are computed once per key
+    into ``kept``: in their own modules (which the CLI imports them from when it runs) and in
+    ``modules`` (a test module binds them when imported)."""
+    from torquemap.linearize import tables, transfer
+
+    build = memoised(_real(tables.build_tables), kept)
+    move = memoised(_real(transfer.transfer_characterisation), kept)
+    with pytest.MonkeyPatch.context() as patch:
+        for module in (tables, transfer, *modules):
+            if _real(getattr(module, "build_tables", None)) is build.__wrapped__:
+                patch.setattr(module, "build_tables", build)
+            if _real(getattr(module, "transfer_characterisation", None)) is move.__wrapped__:
+                patch.setattr(module, "transfer_characterisation", move)
+        yield
 
 
 @pytest.fixture(scope="module", autouse=True)
 def _reused_builds(request: pytest.FixtureRequest) -> Iterator[None]:
     """In a module with ``REUSE_BUILDS = True``: its table builds and transfers, computed once
-    (this module's docstring); elsewhere nothing."""
-    if not getattr(request.module, "REUSE_BUILDS", False):
+    (this module's docstring); with ``REUSE_BUILDS = "session"`` once for the test process;
+    elsewhere nothing."""
+    mode = getattr(request.module, "REUSE_BUILDS", False)
+    if not mode:
         yield
         return
-    from torquemap.linearize import tables, transfer
-
-    kept: dict[str, Any] = {}
-    build = memoised(tables.build_tables, kept)
-    move = memoised(transfer.transfer_characterisation, kept)
-    with pytest.MonkeyPatch.context() as patch:
-        # the CLI imports both names when it runs; a test module binds them when imported
-        for module in (tables, transfer, request.module):
-            if getattr(module, "build_tables", None) is build.__wrapped__:
-                patch.setattr(module, "build_tables", build)
-            if getattr(module, "transfer_characterisation", None) is move.__wrapped__:
-                patch.setattr(module, "transfer_characterisation", move)
+    with reused(SESSION if mode == "session" else {}, request.module):
         yield

@@ -34,7 +34,7 @@ from typing import Any  # noqa: E402
 import pytest  # noqa: E402
 
 # the autouse fixture of the modules that set REUSE_BUILDS: their table builds, computed once
-from _reuse import _reused_builds  # noqa: E402, F401
+from _reuse import SESSION, _reused_builds, reused  # noqa: E402, F401
 
 from torquemap import progress  # noqa: E402
 
@@ -246,7 +246,8 @@ def demo_run(
     models ``identify`` wrote for the session (``scara_model``, ``scara_passes``; the demo
     keeps only their ``model``), read back when the log is the bench's sweep sample for sample,
     with the log's path the demo read (the models it writes are then the same byte for byte).
-    Everything else runs as in ``make demo``.
+    Its table builds are kept for the worker's session (``tests/_reuse.py``): test_tutorial's
+    ``linearize build`` of the VR rig is the same call. Everything else runs as in ``make demo``.
     """
     import dataclasses
 
@@ -293,7 +294,13 @@ def demo_run(
 
     folder = tmp_path_factory.mktemp("demo_run")
     out, err = io.StringIO(), io.StringIO()
-    with pytest.MonkeyPatch.context() as patch, _tutorial().working_directory(folder):
+    # its table builds kept for test_tutorial, whose ``linearize build`` of the VR rig is the
+    # same call (tests/_reuse.py; REUSE_LOG names the hits)
+    with (
+        reused(SESSION),
+        pytest.MonkeyPatch.context() as patch,
+        _tutorial().working_directory(folder),
+    ):
         patch.setattr(sim_bench, "write_scara_bench", bench_copy)
         patch.setattr(sim_rig, "write_rig_data", rig_copy)
         patch.setattr(demo_module, "identify_model", identify_read)

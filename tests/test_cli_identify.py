@@ -13,6 +13,10 @@ from torquemap.cli.main import main
 from torquemap.io import read_table, write_table, write_toml
 from torquemap.model import load_model
 
+# one worker runs the module, so its module fixture (a sweep and its identification) is built
+# once (stop 43: built on both workers, 0.85 + 0.81 s)
+pytestmark = pytest.mark.xdist_group("cli_identify")
+
 
 @pytest.fixture(scope="module")
 def bench(tmp_path_factory: pytest.TempPathFactory) -> Path:

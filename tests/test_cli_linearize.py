@@ -574,32 +574,39 @@ def test_nyquist_option_reaches_the_tables(
     # the measured positions, read by the rows the rig's compliance moved between them. The
     # sampling check is silent there, so "on" (stop 40's default) and "off" give the same
     # tables; "tested" (the default) keeps the wave and says so once
+    from _reuse import reused
     from test_linearize_hidden_wave import _apmd, _collection, _hidden, _spec
 
+    from torquemap.linearize import tables as tables_module
     from torquemap.linearize.motor import motor_to_dict
-    from torquemap.linearize.tables import build_tables
 
-    spec = _spec()
-    pos, pw, tau = _collection(spec, _hidden, noise=0.02, seed=4)
-    write_toml(tmp_path / "motor.toml", motor_to_dict(spec))
-    write_table(tmp_path / "data.csv", {"position": pos, "pulse_width": pw, "torque": tau})
-    d = str(tmp_path)
-    argv = ["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv"]
-    hidden = "do not see"
-    built = {}
-    for choice in ("default", "tested", "on", "off"):
-        flag = [] if choice == "default" else ["--nyquist", choice]
-        assert main([*argv, "-o", f"{d}/{choice}.npz", *flag]) == 0
-        tables = load_tables(tmp_path / f"{choice}.npz")
-        built[choice] = tables.phases
-        assert capsys.readouterr().err.count(hidden) == (choice in ("default", "tested"))
-    # the same tables as the API's keyword from the rows of the file
-    data = read_table(tmp_path / "data.csv")
-    rows = (data["position"].astype(np.int64), data["pulse_width"], data["torque"])
-    for choice, keyword in (("tested", "tested"), ("off", False)):
-        assert np.array_equal(built[choice], build_tables(spec, *rows, nyquist=keyword).phases)
-    assert np.array_equal(built["default"], built["tested"])
-    assert np.array_equal(built["on"], built["off"])
-    # against the closed form's torque law the wave helps (measured APMD 1.3 % against 3.6 %)
-    cmax = tables.command_max
-    assert _apmd(_hidden, built["tested"], cmax) < 0.6 * _apmd(_hidden, built["off"], cmax)
+    # tests/_reuse.py: a build with the same rows and options as an earlier one of this test
+    # (the default spelt out; the API's keyword on the rows the CLI read) is computed once;
+    # an option the CLI failed to pass would be another key, so a build of its own, and the
+    # comparisons below would catch it
+    with reused({}):
+        build_tables = tables_module.build_tables
+        spec = _spec()
+        pos, pw, tau = _collection(spec, _hidden, noise=0.02, seed=4)
+        write_toml(tmp_path / "motor.toml", motor_to_dict(spec))
+        write_table(tmp_path / "data.csv", {"position": pos, "pulse_width": pw, "torque": tau})
+        d = str(tmp_path)
+        argv = ["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv"]
+        hidden = "do not see"
+        built = {}
+        for choice in ("default", "tested", "on", "off"):
+            flag = [] if choice == "default" else ["--nyquist", choice]
+            assert main([*argv, "-o", f"{d}/{choice}.npz", *flag]) == 0
+            tables = load_tables(tmp_path / f"{choice}.npz")
+            built[choice] = tables.phases
+            assert capsys.readouterr().err.count(hidden) == (choice in ("default", "tested"))
+        # the same tables as the API's keyword from the rows of the file
+        data = read_table(tmp_path / "data.csv")
+        rows = (data["position"].astype(np.int64), data["pulse_width"], data["torque"])
+        for choice, keyword in (("tested", "tested"), ("off", False)):
+            assert np.array_equal(built[choice], build_tables(spec, *rows, nyquist=keyword).phases)
+        assert np.array_equal(built["default"], built["tested"])
+        assert np.array_equal(built["on"], built["off"])
+        # against the closed form's torque law the wave helps (measured APMD 1.3 % against 3.6 %)
+        cmax = tables.command_max
+        assert _apmd(_hidden, built["tested"], cmax) < 0.6 * _apmd(_hidden, built["off"], cmax)

@@ -85,6 +85,7 @@ def delayed():  # type: ignore[no-untyped-def]
     return identify_model(robot_from_dict(ROBOT), [log], friction="passes")
 
 
+@pytest.mark.xdist_group("delayed")  # delayed, built once
 def test_pass_method_recovers_a_long_delay(delayed) -> None:  # type: ignore[no-untyped-def]
     d = delayed.model.notes["joints"]["m"]["channel_delay"]
     # the log's period is 3 ms; the trial grid's step 12.5 ms is refined by a parabola: two
@@ -92,6 +93,7 @@ def test_pass_method_recovers_a_long_delay(delayed) -> None:  # type: ignore[no-
     assert_allclose(d, DELAY, atol=0.006)
 
 
+@pytest.mark.xdist_group("delayed")  # delayed, built once
 def test_pass_method_with_a_long_delay_recovers_friction_and_inertia(delayed) -> None:  # type: ignore[no-untyped-def]
     jm = delayed.model.joints["m"]
     v = np.array([-46.5, -7.94, -1.36, 1.36, 7.94, 46.5])

@@ -246,6 +246,7 @@ def test_cli_build_warns_naming_the_file_and_reads_older_files(
     assert err == "" and "re-zeroed" not in out
 
 
+@pytest.mark.xdist_group("bias_rig")  # cogging_rig, built once
 def test_build_does_not_advise_an_open_contact_to_a_collection_that_read_it_open(
     cogging_rig: dict[str, object], capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -144,6 +144,7 @@ def _build_error(motor: Path, data: Path, out: Path, capsys: pytest.CaptureFixtu
     return err[0]
 
 
+@pytest.mark.xdist_group("qa36_rigs")  # rigs, built once
 def test_linearize_build_on_another_motors_data_says_so(
     rigs: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -167,6 +168,7 @@ def test_linearize_build_on_another_motors_data_says_so(
     assert "(the data reach 508): data from another motor?" in err
 
 
+@pytest.mark.xdist_group("qa36_rigs")  # rigs, built once
 def test_linearize_evaluate_of_part_of_the_cycle_says_so(
     rigs: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

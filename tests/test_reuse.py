@@ -60,3 +60,27 @@ def test_a_raising_call_is_not_kept_and_a_result_is_not_shared() -> None:
     got["out"][:] = -5.0  # a test that changes what it got
     np.testing.assert_array_equal(build(spec, np.array([1, 2]))["out"], [10.0, 20.0])
     assert len(calls) == 3
+
+
+def test_a_memo_inside_another_wraps_the_function_itself() -> None:
+    # the demo fixture opens a session memo while a module's memo may be open: the inner one
+    # computes with the real function (not through the outer memo, whose dict it must not
+    # fill), and closing each restores what was there
+    from _reuse import _real, reused
+
+    from torquemap.linearize import tables, transfer
+
+    real_build, real_move = tables.build_tables, transfer.transfer_characterisation
+    outer: dict[str, Any] = {}
+    with reused(outer):
+        wrapped = tables.build_tables
+        assert wrapped is not real_build and wrapped.__wrapped__ is real_build
+        with reused({}):
+            assert tables.build_tables is not wrapped
+            assert tables.build_tables.__wrapped__ is real_build
+            assert transfer.transfer_characterisation.__wrapped__ is real_move
+            assert _real(tables.build_tables) is real_build
+        assert tables.build_tables is wrapped
+    assert tables.build_tables is real_build
+    assert transfer.transfer_characterisation is real_move
+    assert not outer

@@ -16,6 +16,9 @@ from torquemap.identify import identify_model
 from torquemap.model import Model
 from torquemap.uncertainty import interpolation_sigma
 
+# one worker runs the module, so its module fixture (two identifications) is built once
+pytestmark = pytest.mark.xdist_group("robot242_like")
+
 LAW = StribeckFriction(
     coulomb_positive=0.027,
     coulomb_negative=0.022,

@@ -38,6 +38,10 @@ from torquemap.sim.scara import (
 from torquemap.sim.scara_family import MIN_SIN_ELBOW, RANGES, random_bench
 from torquemap.sim.trajectory import circle_reference, sweep_reference
 
+# one worker runs the module, so its module fixtures (the draws, a short random bench) are
+# built once
+pytestmark = pytest.mark.xdist_group("scara_family")
+
 SEEDS = range(24)
 
 LUGRE = Friction(

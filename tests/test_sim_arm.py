@@ -12,10 +12,15 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 from torquemap.sim import arm as sim
 
-pytestmark = pytest.mark.skipif(
-    next(iter(Path(sim.sys.prefix).glob("lib/python3*/site-packages/cmeel.prefix")), None) is None,
-    reason="example-robot-data not installed",
-)
+pytestmark = [
+    pytest.mark.skipif(
+        next(iter(Path(sim.sys.prefix).glob("lib/python3*/site-packages/cmeel.prefix")), None)
+        is None,
+        reason="example-robot-data not installed",
+    ),
+    # one worker runs the module, so its module fixture (the simulated Panda) is built once
+    pytest.mark.xdist_group("sim_arm"),
+]
 
 
 class _Pin:

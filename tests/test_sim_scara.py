@@ -32,6 +32,10 @@ from torquemap.sim.scara import (
 )
 from torquemap.sim.trajectory import Reference, circle_reference, sweep_reference, trapezoid
 
+# one worker runs the module, so its module fixtures (the truth and logs read from the bench,
+# a short sweep simulated) are built once
+pytestmark = pytest.mark.xdist_group("sim_scara")
+
 RATIOS = np.array([100.0, 80.0])
 
 

@@ -17,6 +17,10 @@ from torquemap.io import iter_log_chunks, read_log, read_table
 from torquemap.model import Model, load_model
 from torquemap.stream import _concatenate, estimate_in_chunks, settling_time
 
+# one worker runs the module, so its module fixtures (the model, the circle, the batch
+# estimate) are built once
+pytestmark = pytest.mark.xdist_group("stream")
+
 
 @pytest.fixture(scope="module")
 def model(scara_identified: Ran) -> Model:

@@ -22,6 +22,9 @@ from torquemap.io import Log
 from torquemap.model import Model
 from torquemap.robot import robot_from_dict
 
+# one worker runs the module, so its module fixture (a sweep's identification) is built once
+pytestmark = pytest.mark.xdist_group("task_delay")
+
 LOAD = 0.02  # [N m] constant external torque on the task (motor side, gear 1)
 TASK_DELAY = 0.12  # [s]
 

@@ -21,6 +21,10 @@ from torquemap.io import read_table
 # one worker runs the demo for both files (conftest.py)
 pytestmark = pytest.mark.xdist_group("demo")
 
+#: tests/_reuse.py: ``linearize build rig/motor.toml rig/data.csv`` reads the tables the demo
+#: built from the same rows with the same options (the demo fixture keeps them for the session)
+REUSE_BUILDS = "session"
+
 DOCS = Path(__file__).parents[1] / "docs"
 
 
