@@ -1046,7 +1046,7 @@ def test_speed_dips_in_closed_form() -> None:
 
 
 def test_low_speed_dips_leave_slow_ramps_as_they_are(monkeypatch) -> None:  # type: ignore[no-untyped-def]
-    # LOW_SPEED_DIPS (an option) leaves out the low-speed rows of a pass that sticks and slips;
+    # LOW_SPEED_DIPS (the default) leaves out the low-speed rows of a pass that sticks and slips;
     # slow ramps hold no dip, so the table they measure below the slowest pass is the default's
     # to the bit
     import torquemap.identify_whole as iw

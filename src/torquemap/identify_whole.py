@@ -26,8 +26,9 @@ exponent searched outside the linear fit (:mod:`torquemap.friction_prior`).
 The table is fitted on rows whose window stays above half the slowest pass, and on slower
 rows where the motion is slow but steady (:data:`LOW_SPEED_ROWS`: a run of one direction above
 the transition and the velocity's quantisation, the speed within the window spread by at most
-two knot steps, a small inertial torque): slow ramps and slow stretches measure the law below
-the slowest pass; a sweep's ramps from rest, which cross those speeds within a window, do not.
+two knot steps, a small inertial torque, not in a dip between two slips,
+:data:`LOW_SPEED_DIPS`): slow ramps and slow stretches measure the law below the slowest pass;
+a sweep's ramps from rest, which cross those speeds within a window, do not.
 
 Both sides of the regression are seen through the same filter: the differentiated acceleration
 is the true one smoothed by the differentiator's kernel ``K``, so the torque and every other
@@ -198,9 +199,10 @@ LOW_SPEED_INERTIAL = 0.1
 #: (:func:`speed_dips`), the slow phase of a pass that sticks and slips. Friction with memory
 #: (bristles, a LuGre law) lags its steady law there: random robot 434, joint b, reads 14-23 %
 #: under its steady law at 0.07-0.28 rad/s in such phases, and the table fitted to them put
-#: the force 14x the oracle's error off (docs/estimation.md, "Stop 43 (F64)"). A slow ramp
-#: (a speed that only rises or only falls within the span) is kept.
-LOW_SPEED_DIPS = False
+#: the force 14x the oracle's error off; left out, 2.40x (docs/estimation.md, "Stop 43
+#: (F64)"). A slow ramp (a speed that only rises or only falls within the span) is kept. True
+#: (the default since stop 43); False: every low-speed row as before.
+LOW_SPEED_DIPS = True
 #: Whether the table's smoothness prior is centred on a generalized Stribeck curve per
 #: direction (:mod:`torquemap.friction_prior`) rather than on ``a + b log s``: True, False, or
 #: ``"select"`` (the default since stop 39): per direction, the curve only where, with the
@@ -620,7 +622,8 @@ def _low_speed_rows(
     one direction above ``floor`` [rad/s] lasting ``RUN_WINDOWS`` windows (of ``window`` [s];
     no sample within a window slower than ``floor``, by the differentiated or the friction
     velocity), the friction speed within the row's window spread by at most
-    ``LOW_SPEED_SPREAD``, and the row's ``inertial`` torque [N m] at most ``limit`` [N m]."""
+    ``LOW_SPEED_SPREAD``, the row's ``inertial`` torque [N m] at most ``limit`` [N m], and
+    (:data:`LOW_SPEED_DIPS`) the row not in a dip of the speed (:func:`speed_dips`)."""
     out = []
     for p, r in zip(rows.pieces, rows.rows, strict=True):
         slow = _unsteady(p.t, p.velocity, floor, window)
