@@ -1024,6 +1024,44 @@ def test_slow_ramps_measure_friction_below_the_slowest_pass(monkeypatch) -> None
     assert np.sqrt(np.mean(with_ramps**2)) < 0.2 * np.sqrt(np.mean(prior_alone**2))
 
 
+def test_speed_dips_in_closed_form() -> None:
+    # a dip: faster than LOW_SPEED_SPREAD (3.24) times the row's speed both before and after it
+    # within the span; a ramp (only rising or only falling) never dips
+    import torquemap.identify_whole as iw
+
+    t = np.linspace(0.0, 1.0, 1001)
+    rows = np.arange(0, 1001, 10)
+    assert not iw.speed_dips(t, 0.1 + 2.0 * t, rows, 0.2).any()
+    assert not iw.speed_dips(t, 2.1 - 2.0 * t, rows, 0.2).any()
+    # slips to 2.1 rad/s at |t - 0.5| > 0.1, a slow phase at 0.1 rad/s between them: the rows
+    # at 0.4 < t < 0.6 dip (a slip within 0.2 s on both sides); at 0.5 +- 0.1 exactly the
+    # slip after (before) lies at the span's edge
+    slip = 0.1 + 2.0 * (np.abs(t - 0.5) > 0.1)
+    dips = iw.speed_dips(t, slip, rows, 0.2)
+    slow = np.abs(t[rows] - 0.5) < 0.1 - 1e-9
+    assert np.array_equal(dips, slow)
+    # 3.2 x the row's speed is not enough, 3.3 x is
+    assert not iw.speed_dips(t, 0.1 + 0.22 * (np.abs(t - 0.5) > 0.1), rows, 0.2).any()
+    assert iw.speed_dips(t, 0.1 + 0.23 * (np.abs(t - 0.5) > 0.1), rows, 0.2).sum() == slow.sum()
+
+
+def test_low_speed_dips_leave_slow_ramps_as_they_are(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    # LOW_SPEED_DIPS (the default) leaves out the low-speed rows of a pass that sticks and slips;
+    # slow ramps hold no dip, so the table they measure below the slowest pass is the default's
+    # to the bit
+    import torquemap.identify_whole as iw
+
+    log = simulate(law=SLOW_STRIBECK, speeds=(1.0, 2.0, 4.0), ramp=0.4)
+    laws = {}
+    for on in (False, True):
+        monkeypatch.setattr(iw, "LOW_SPEED_DIPS", on)
+        res = identify_model(robot(), [log], max_order=20, friction="whole")
+        seen = res.model.notes["joints"]["m"]["friction_observed_speed"]
+        assert 0.15 < seen < 0.25  # the ramps determine the table below half the slowest pass
+        laws[on] = res.model.joints["m"].friction.linear_parameters()
+    assert np.array_equal(laws[False], laws[True])
+
+
 def test_the_whole_fit_fits_inertia_where_the_pass_method_finds_no_ramp(monkeypatch) -> None:  # type: ignore[no-untyped-def]
     # slow ramps whose acceleration does not stand out of the passes' speed ripple give the
     # pass method no ramp (random robot 70 of the family with ramps of 0.4 s to its slowest
