@@ -495,7 +495,7 @@ def main() -> int:
     )
     parser.add_argument(
         "--onset-form",
-        choices=("power", "amplifier"),
+        choices=("power", "amplifier", "choose"),
         help="random motors: build_tables' onset_form for the interp tables (default: its own)",
     )
     parser.add_argument(

@@ -610,3 +610,30 @@ def test_nyquist_option_reaches_the_tables(
         # against the closed form's torque law the wave helps (measured APMD 1.3 % against 3.6 %)
         cmax = tables.command_max
         assert _apmd(_hidden, built["tested"], cmax) < 0.6 * _apmd(_hidden, built["off"], cmax)
+
+
+def test_onset_form_option_reaches_the_tables(tmp_path: Path) -> None:
+    # the one-phase convex amplifier of test_onset_choose written as MOTOR.toml and DATA.csv:
+    # --onset-form choose gives the API's onset_form="choose" tables (there the amplifier's),
+    # which differ from the default's (the power law's)
+    from test_onset_choose import N, _rows
+
+    from torquemap.linearize.motor import motor_spec, motor_to_dict
+    from torquemap.linearize.tables import build_tables
+
+    spec = motor_spec("m1", phases=1, positions_per_cycle=N, equilibrium_positions=(0,))
+    _, pos, pw, tau = _rows(1.5, 1.0, 0)
+    write_toml(tmp_path / "motor.toml", motor_to_dict(spec))
+    write_table(tmp_path / "data.csv", {"position": pos, "pulse_width": pw, "torque": tau})
+    d = str(tmp_path)
+    argv = ["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv"]
+    built = {}
+    for choice in ("default", "choose"):
+        flag = [] if choice == "default" else ["--onset-form", choice]
+        assert main([*argv, "-o", f"{d}/{choice}.npz", *flag]) == 0
+        built[choice] = load_tables(tmp_path / f"{choice}.npz").phases
+    data = read_table(tmp_path / "data.csv")
+    rows = (data["position"].astype(np.int64), data["pulse_width"], data["torque"])
+    assert np.array_equal(built["choose"], build_tables(spec, *rows, onset_form="choose").phases)
+    assert np.array_equal(built["default"], build_tables(spec, *rows).phases)
+    assert not np.array_equal(built["choose"], built["default"])

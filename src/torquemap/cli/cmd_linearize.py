@@ -152,6 +152,15 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         "their noise (an F test at level 0.001, warned); on: only where the measured "
         "positions alternate (the default before stop 41); off: never",
     )
+    build.add_argument(
+        "--onset-form",
+        choices=("power", "amplifier", "choose"),
+        default="power",
+        help="interp: the onset law below the smallest torque the rig reads. power (default): "
+        "max(a - d, 0)^n; amplifier: the amplifier's curved current past its dead zone; "
+        "choose: the amplifier's form where it predicts each measured position's lowest "
+        "readable row, held out, better than the power law (docs/linearize.md, stop 43)",
+    )
     build.set_defaults(handler=_build)
 
     evaluate = sub.add_parser(
@@ -237,6 +246,7 @@ def _build(args: argparse.Namespace) -> int:
             bias=data.bias,
             bias_open=_record_settings(args.data).get("bias_open") is True,
             nyquist=NYQUIST[args.nyquist],
+            onset_form=args.onset_form,
             path=args.data,
         ),
     )

@@ -54,7 +54,7 @@ CURRENT_EXPONENTS = np.array([1.0, 2.0])
 #: The onset law's forms: ``"power"`` ``max(a - d, 0)^n`` with ``n`` free, ``"amplifier"``
 #: ``i(a)^n`` with the amplifier's current ``i`` a curve ``c`` past the dead zone and ``n``
 #: 1 or 2.
-OnsetForm = Literal["power", "amplifier"]
+OnsetForm = Literal["power", "amplifier", "choose"]
 #: How :func:`fit_onset` uses the censored readings (below each position's first reliable one):
 #: ``"none"`` not at all, ``"score"`` added to every law's score, ``"ties"`` to choose among the
 #: laws that fit the window nearly as well as the best (within :data:`TIE_TOLERANCE`).
@@ -63,6 +63,11 @@ CensoredUse = Literal["none", "score", "ties"]
 TIE_TOLERANCE = 1.05
 #: Fewest readings in a position's window for it to be fitted.
 MIN_POINTS = 3
+#: ``"choose"``: the amplifier's curve taken only where its held-out prediction is better by
+#: more than this many standard errors of the mean difference (a one-sided 2-sigma test).
+CHOICE_SE = 2.0
+#: ``"choose"``'s choices; the first is the default law.
+CHOICES: tuple[Literal["power", "amplifier"], ...] = ("power", "amplifier")
 #: Cells the search over dead zones and exponents runs on (spread over the positions).
 SEARCH_CELLS = 4000
 
@@ -189,6 +194,7 @@ def fit_onset(
     censored: CensoredUse = "none",
     search: NDArray[np.bool_] | None = None,
     exponents: NDArray[np.float64] | None = None,
+    measured: NDArray[np.bool_] | None = None,
 ) -> OnsetFit:
     """Fit the onset law to each position's curve between ``readable`` and ``upper`` [N m].
 
@@ -213,6 +219,13 @@ def fit_onset(
         zone ``d``, and ``n`` 1 (torque ~ current) or 2 (~ current squared): the onset's
         curvature then need not come from the dead zone. ``d``, ``c`` and ``n`` searched
         jointly over every position (one amplifier, shared by every phase and position).
+        ``"choose"``: the ``"power"`` law unless the ``"amplifier"`` form predicts readings
+        it was not fitted to better: at each position with more than :data:`MIN_POINTS`
+        readings in the window, its lowest one (the reading nearest the friction zone, where
+        the law is used) is held out, both forms are searched and solved on the rest and
+        predict it, and the amplifier's law (searched on the whole window) is taken when the
+        mean difference of the squared errors (amplifier less power) is below
+        ``-CHOICE_SE`` standard errors (docs/linearize.md, "stop 43 (L61)").
     censored
         Also score each law on the censored readings: at every position, the readings below
         its first reliable one (``< readable``) are censored: they bound the sensed torque
@@ -235,25 +248,73 @@ def fit_onset(
         The ``"power"`` form's exponents searched (None: :data:`EXPONENTS`). From 1 (no
         infinite slope at the dead zone) it reads a concave amplifier's dead zone where the
         default grid puts it near 0 (tests/test_onset_exponent.py); not the default (stop 38).
+    measured
+        ``"choose"`` only: the positions whose rows were measured, shape (P,) (None: every
+        position). The choice's held-out test fits and predicts on these alone: between them
+        ``forward`` interpolates their curves, so a held-out reading would also sit in its
+        neighbours' cells.
 
     Returns
     -------
     OnsetFit
         ``d``, ``n``, ``c`` and per-position gains and friction.
     """
-    if form not in ("power", "amplifier"):
-        raise ValueError(f"form must be 'power' or 'amplifier', got {form!r}")
+    if form not in ("power", "amplifier", "choose"):
+        raise ValueError(f"form must be 'power', 'amplifier' or 'choose', got {form!r}")
     if censored not in ("none", "score", "ties"):
         raise ValueError(f"censored must be 'none', 'score' or 'ties', got {censored!r}")
     n_pos, m = ramp.shape
     inside = np.isfinite(forward) & (forward >= readable) & (forward <= upper)
     enough = inside.sum(axis=1) >= MIN_POINTS
     inside &= enough[:, None]
+    top = float(actuation_max)
+    searched = enough if search is None else enough & np.asarray(search, dtype=bool)
+    if not searched.any():
+        searched = enough
+    if form == "choose":
+        # the power law unless the amplifier's form predicts each measured position's lowest
+        # reading in the window, held out, significantly better
+        mine = enough if measured is None else enough & np.asarray(measured, dtype=bool)
+        chosen = _choose(forward, levels, ramp, inside, mine, readable, top, censored)
+        d, n, c = _search(
+            forward, levels, ramp, inside, searched, readable, top, chosen, censored, exponents
+        )
+    else:
+        d, n, c = _search(
+            forward, levels, ramp, inside, searched, readable, top, form, censored, exponents
+        )
     cp, cj = np.nonzero(inside)
     y = forward[cp, cj]
     u = levels[cj]
     r = ramp[cp]
-    top = float(actuation_max)
+    coef, _ = _solve_cells(cp, _cell_design(u, r, d, n, top, c), y, n_pos)
+    active = ramp > 0
+    gain = coef[:, :m] * active
+    ok = enough & np.all(gain >= 0.0, axis=1) & np.any(gain > 0.0, axis=1)
+    gain = np.where(ok[:, None], gain, np.nan)
+    friction = np.where(ok, coef[:, m], np.nan)
+    return OnsetFit(dead_zone=d, exponent=n, gain=gain, friction=friction, fitted=ok, curve=c)
+
+
+def _search(
+    forward: NDArray[np.float64],
+    levels: NDArray[np.float64],
+    ramp: NDArray[np.float64],
+    inside: NDArray[np.bool_],
+    searched: NDArray[np.bool_],
+    readable: float,
+    top: float,
+    form: str,
+    censored: CensoredUse,
+    exponents: NDArray[np.float64] | None = None,
+) -> tuple[float, float, float]:
+    """The law ``(d, n, c)`` of one form searched on the window's cells ``inside`` (P, J) at
+    the positions ``searched`` (P,), as :func:`fit_onset` describes."""
+    n_pos = ramp.shape[0]
+    cp, cj = np.nonzero(inside)
+    y = forward[cp, cj]
+    u = levels[cj]
+    r = ramp[cp]
     if form == "amplifier":
         exponents, curves = CURRENT_EXPONENTS, CURVES
     else:
@@ -262,9 +323,6 @@ def fit_onset(
     reliable = np.isfinite(forward) & (forward >= readable)
     first = np.where(reliable.any(axis=1), np.argmax(reliable, axis=1), forward.shape[1])
     below = (np.arange(forward.shape[1])[None, :] < first[:, None]) & np.isfinite(forward)
-    searched = enough if search is None else enough & np.asarray(search, dtype=bool)
-    if not searched.any():
-        searched = enough
     qp, qj = np.nonzero(below & searched[:, None]) if censored != "none" else (cp[:0], cj[:0])
     qu, qr, qy = levels[qj], ramp[qp], np.maximum(forward[qp, qj], 0.0)
     tried: list[tuple[float, float, float, float]] = []
@@ -306,13 +364,63 @@ def fit_onset(
             near = [k for k, t in enumerate(tried) if t[0] <= least * TIE_TOLERANCE]
             k = min(near, key=lambda k: (excess[k], tried[k][0]))
             _, d, n, c = tried[k]
-    coef, _ = _solve_cells(cp, _cell_design(u, r, d, n, top, c), y, n_pos)
-    active = ramp > 0
-    gain = coef[:, :m] * active
-    ok = enough & np.all(gain >= 0.0, axis=1) & np.any(gain > 0.0, axis=1)
-    gain = np.where(ok[:, None], gain, np.nan)
-    friction = np.where(ok, coef[:, m], np.nan)
-    return OnsetFit(dead_zone=d, exponent=n, gain=gain, friction=friction, fitted=ok, curve=c)
+    return d, n, c
+
+
+def _choose(
+    forward: NDArray[np.float64],
+    levels: NDArray[np.float64],
+    ramp: NDArray[np.float64],
+    inside: NDArray[np.bool_],
+    mine: NDArray[np.bool_],
+    readable: float,
+    top: float,
+    censored: CensoredUse,
+) -> str:
+    """The ``"choose"`` form's choice among :data:`CHOICES` by a held-out test.
+
+    At each position of ``mine`` with more than :data:`MIN_POINTS` readings in the window
+    ``inside`` (P, J), the lowest reading is held out. Each form is searched and solved on the
+    rest of the window at the positions ``mine`` alone, and predicts the held-out readings.
+    A form other than the first is taken when the mean difference of its squared errors from
+    the first's is below ``-CHOICE_SE`` of its standard errors; among those, the least mean
+    squared error."""
+    n_pos = ramp.shape[0]
+    train = inside & mine[:, None]
+    lowest = np.argmax(train, axis=1)
+    heldp = np.flatnonzero(mine & (train.sum(axis=1) > MIN_POINTS))
+    if heldp.size < 2:
+        return CHOICES[0]
+    hj = lowest[heldp]
+    train[heldp, hj] = False
+    train &= (train.sum(axis=1) >= MIN_POINTS)[:, None]
+    cp, cj = np.nonzero(train)
+    err = []
+    for form in CHOICES:
+        d, n, c = _search(
+            forward,
+            levels,
+            ramp,
+            train,
+            np.asarray(train.any(axis=1)),
+            readable,
+            top,
+            form,
+            censored,
+        )
+        coef, _ = _solve_cells(
+            cp, _cell_design(levels[cj], ramp[cp], d, n, top, c), forward[cp, cj], n_pos
+        )
+        design = _cell_design(levels[hj], ramp[heldp], d, n, top, c)
+        err.append(np.sum(design * coef[heldp], axis=1) - forward[heldp, hj])
+    first = err[0]
+    best, least = CHOICES[0], float(np.mean(first**2))
+    for form, e in zip(CHOICES[1:], err[1:], strict=True):
+        diff = e**2 - first**2
+        se = float(np.std(diff, ddof=1)) / np.sqrt(diff.size)
+        if np.mean(diff) < -CHOICE_SE * se and float(np.mean(e**2)) < least:
+            best, least = form, float(np.mean(e**2))
+    return best
 
 
 def onset_curve(

@@ -1199,8 +1199,10 @@ def build_tables(
     onset_form
         With ``onset``: the law's form (:func:`torquemap.linearize.onset.fit_onset`):
         ``"power"`` (``max(a - d, 0)^n``) or ``"amplifier"`` (the amplifier's curved current
-        past its dead zone, torque ~ current or ~ current squared). ``"power"`` by default
-        (docs/linearize.md, "stop 35 (L37)").
+        past its dead zone, torque ~ current or ~ current squared), or ``"choose"``: the
+        amplifier's form only where it predicts each measured position's lowest reading in the
+        window, held out, better than the power law (docs/linearize.md, "stop 43 (L61)").
+        ``"power"`` by default (docs/linearize.md, "stop 35 (L37)").
     onset_censored
         With ``onset``: also score the law's search on the censored readings below each
         position's first reliable one: ``"score"`` or ``"ties"``
@@ -1459,6 +1461,7 @@ def build_tables(
                 form=onset_form,
                 censored=onset_censored,
                 search=None if onset_search == "all" else _measured_positions(pos, pw, n),
+                measured=_measured_positions(pos, pw, n) if onset_form == "choose" else None,
             )
             fine, _ = extend_below(
                 fine,
