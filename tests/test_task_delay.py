@@ -10,6 +10,7 @@ simulated.
 
 from __future__ import annotations
 
+import dataclasses
 import re
 
 import numpy as np
@@ -81,19 +82,18 @@ def test_no_line_when_the_delay_is_given_or_the_model_has_no_interval(model: Mod
     assert not [w for w in estimate_forces(bare, log).warnings if "lags" in w]
 
 
+def _negated(log: Log) -> Log:
+    """``log`` with its current's sign reversed (a drive or logger that flips it)."""
+    return dataclasses.replace(log, motor_torque=-log.motor_torque)
+
+
 def _flip_lines(model: Model, log: Log) -> list[str]:
     return [w for w in estimate_forces(model, log).warnings if "sign reversed" in w]
 
 
 def test_a_task_logged_with_its_current_negated_is_warned(model: Model) -> None:
     right = task(0.0)
-    negated = Log(
-        t=right.t,
-        q=right.q,
-        motor_torque=-right.motor_torque,
-        joint_names=right.joint_names,
-        path="task.csv",
-    )
+    negated = _negated(right)
     assert _flip_lines(model, right) == []
     said = _flip_lines(model, negated)
     assert len(said) == 1 and "negate i_m" in said[0]
@@ -109,13 +109,7 @@ def test_a_task_logged_with_its_current_negated_is_warned(model: Model) -> None:
 
 def test_the_sign_is_checked_when_the_user_gives_the_delay(model: Model) -> None:
     late = task(TASK_DELAY)
-    negated = Log(
-        t=late.t,
-        q=late.q,
-        motor_torque=-late.motor_torque,
-        joint_names=late.joint_names,
-        path="task.csv",
-    )
+    negated = _negated(late)
     given = {"m": TASK_DELAY}
     flips = [
         [
