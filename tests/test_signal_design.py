@@ -13,7 +13,7 @@ from conftest import WHOLE_MODEL
 from scipy import signal
 
 from torquemap import _signal_design as design
-from torquemap.filters import _butter_lowpass, _initial_state, _savgol_kernels, lowpass
+from torquemap.filters import _butter_lowpass, _initial_state, lowpass
 
 
 @pytest.mark.parametrize("order", range(1, 9))
@@ -43,22 +43,11 @@ def test_initial_state_of_any_sections_is_scipys() -> None:
         np.testing.assert_array_equal(design.sosfilt_zi(sos), signal.sosfilt_zi(sos))
 
 
-@pytest.mark.parametrize("deriv", [0, 1, 2, 3])
-def test_savgol_coeffs_are_scipys_bit_for_bit(deriv: int) -> None:
-    for length in range(3, 402, 2):
-        for h in (1e-3, 5e-4, 0.00123, 1.0, 2e-4):
-            ours = design.savgol_coeffs(length, 2, deriv=deriv, delta=h)
-            theirs = signal.savgol_coeffs(length, 2, deriv=deriv, delta=h, use="conv")
-            np.testing.assert_array_equal(ours, theirs)
-
-
 def test_designs_reject_what_they_do_not_cover() -> None:
     with pytest.raises(ValueError):
         design.butter_lowpass_sos(0, 10.0, 1000.0)
     with pytest.raises(ValueError):
         design.butter_lowpass_sos(2, 500.0, 1000.0)
-    with pytest.raises(ValueError):
-        design.savgol_coeffs(4, 2)
 
 
 def test_lowpass_filters_as_scipy_does() -> None:
@@ -74,10 +63,6 @@ def test_lowpass_filters_as_scipy_does() -> None:
         )
     sos, _ = _butter_lowpass(2, 17.0, 1000.0)
     np.testing.assert_array_equal(_initial_state(sos.tobytes()), signal.sosfilt_zi(sos))
-    kernel, _, _ = _savgol_kernels(31, 1, 1e-3)
-    np.testing.assert_array_equal(
-        kernel, signal.savgol_coeffs(31, 2, deriv=1, delta=1e-3, use="conv")
-    )
 
 
 @WHOLE_MODEL

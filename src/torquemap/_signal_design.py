@@ -2,17 +2,17 @@
 
 ``import scipy.signal`` costs about 1.6 s of CPU per process with scipy 1.17 (it parses the
 docstrings of every function it wraps, and imports ``scipy.stats``), paid by every command that
-filters, where the estimate needs three small designs. These are scipy's own algorithms
-(scipy 1.17.1, ``scipy/signal/_filter_design.py``, ``_signaltools.py`` and
-``_savitzky_golay.py``; BSD-3-Clause, Copyright (c) 2001-2002 Enthought, Inc. and 2003-2024
-SciPy Developers), restricted to the cases torquemap asks for and written with the same
-numpy operations in the same order, so that they give scipy's coefficients bit for bit
+filters, where the estimate needs two small designs: the Butterworth low-pass and its initial
+state (the Savitzky-Golay weights are torquemap's own closed forms, ``filters._savgol_lags``).
+These are scipy's own algorithms (scipy 1.17.1, ``scipy/signal/_filter_design.py`` and
+``_signaltools.py``; BSD-3-Clause, Copyright (c) 2001-2002 Enthought, Inc. and 2003-2024 SciPy
+Developers), restricted to the cases torquemap asks for and written with the same numpy
+operations in the same order, so that they give scipy's coefficients bit for bit
 (tests/test_signal_design.py checks them against ``scipy.signal``).
 """
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
@@ -244,31 +244,3 @@ def _lfilter_zi(b: NDArray[np.float64], a: NDArray[np.float64]) -> NDArray[np.fl
     minus = np.asarray(np.eye(n - 1) - companion.T, dtype=np.result_type(a, b))
     rhs = b[1:] - a[1:] * b[0]
     return np.asarray(np.linalg.solve(minus, rhs), dtype=np.float64)
-
-
-def savgol_coeffs(
-    length: int, polyorder: int, *, deriv: int = 0, delta: float = 1.0
-) -> NDArray[np.float64]:
-    """``scipy.signal.savgol_coeffs(length, polyorder, deriv=deriv, delta=delta,
-    use="conv")`` for an odd ``length``: the convolution kernel of a Savitzky-Golay filter
-    (by ``scipy.linalg.lstsq``, as scipy computes it).
-
-    Examples
-    --------
-    >>> savgol_coeffs(5, 2).round(6).tolist()
-    [-0.085714, 0.342857, 0.485714, 0.342857, -0.085714]
-    """
-    from scipy.linalg import lstsq
-
-    if length % 2 != 1 or not 0 <= polyorder < length:
-        raise ValueError("length must be odd and polyorder in [0, length)")
-    if deriv > polyorder:
-        return np.zeros(length, dtype=np.float64)
-    pos = length // 2
-    x = np.flip(np.arange(-pos, length - pos, dtype=np.float64))
-    order = np.reshape(np.arange(polyorder + 1, dtype=np.float64), (-1, 1))
-    design = x**order
-    y = np.zeros(polyorder + 1, dtype=np.float64)
-    y[deriv] = float(math.factorial(deriv)) / delta**deriv
-    rcond = np.finfo(design.dtype).eps * max(design.shape[-1], design.shape[-2])
-    return np.asarray(lstsq(design, y, cond=rcond)[0])

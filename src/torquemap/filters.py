@@ -195,7 +195,7 @@ def _differentiate_uniform(x: NDArray[np.float64], h: float, length: int) -> Der
 
     The same local quadratic fit (centred windows, and at the ends the first and last window,
     scipy's ``mode="interp"``), computed by convolution instead of per-sample normal equations
-    (:func:`_savgol_uniform`).
+    (:func:`_savgol_columns`).
     """
     position, velocity, acceleration = _savgol_columns(x, h, length, with_position=True)
     return Derivatives(position=position, velocity=velocity, acceleration=acceleration)
@@ -309,8 +309,8 @@ def _savgol_columns(
 
     The centred windows by the compiled kernel (:func:`torquemap._kernels.savgol_fit`: every
     output in one pass, from the local differences of samples ``k`` either side, closed-form
-    weights :func:`_savgol_lags`); the first and last windows as :func:`_savgol_uniform` does
-    them (scipy's ``mode="interp"``).
+    weights :func:`_savgol_lags`); the first and last windows' fits evaluated at their outer
+    halves (:func:`_savgol_ends`, scipy's ``mode="interp"``).
     """
     from torquemap._kernels import savgol_fit
 
@@ -364,45 +364,6 @@ def _savgol_lags(
     odd = k / (h * s2)
     even = 2.0 * (k**2 - s2 / n) / (h * h * (s4 - s2 * s2 / n))
     return smooth, odd, even
-
-
-def _savgol_uniform(
-    x: NDArray[np.float64], h: float, length: int, derivs: tuple[int, ...]
-) -> list[NDArray[np.float64]]:
-    """Savitzky-Golay quadratic fits of ``length`` samples, derivatives ``derivs`` (0 to 2).
-
-    scipy's ``savgol_filter(mode="interp")``: centred windows by direct (not FFT) convolution
-    (``numpy.convolve``, several times faster than ``scipy.ndimage``'s correlation for these
-    lengths), and the first and last windows' fits evaluated at their outer halves. Equal to
-    it to rounding (the sums run in another order).
-    """
-    half = length // 2
-    columns = x[:, None] if x.ndim == 1 else x
-    out: list[NDArray[np.float64]] = []
-    for deriv in derivs:
-        kernel, head, tail = _savgol_kernels(length, deriv, h)
-        result = np.empty(columns.shape)
-        for k in range(columns.shape[1]):
-            y = columns[:, k] - columns[0, k]
-            result[half:-half, k] = np.convolve(y, kernel, mode="valid")
-            result[:half, k] = head @ y[:length]
-            result[-half:, k] = tail @ y[-length:]
-            if deriv == 0:
-                result[:, k] += columns[0, k]
-        out.append(result[:, 0] if x.ndim == 1 else result)
-    return out
-
-
-def _savgol_kernels(
-    length: int, deriv: int, h: float
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """The centred kernel of :func:`_savgol_uniform` (``scipy.signal.savgol_coeffs``'s, bit for
-    bit) and the first and last windows' rows (:func:`_savgol_ends`)."""
-    from torquemap._signal_design import savgol_coeffs
-
-    head, tail = _savgol_ends(length, deriv, h)
-    kernel = np.asarray(savgol_coeffs(length, 2, deriv=deriv, delta=h), dtype=np.float64)
-    return kernel, head, tail
 
 
 @functools.lru_cache(maxsize=64)

@@ -123,9 +123,9 @@ def task_delay_warnings(
         the whole log (at most ``MAX_SAMPLES`` samples): the same numbers as without them, no
         differentiation. A longer log's middle is differentiated on its own, as without them.
     channel_delay
-        Delay [s] per joint name given by the user (``estimate --channel-delay``): the sign
-        check's scan is centred there (a joint not named: the model's delay) and no delay line
-        is written.
+        Delay [s] per joint name given by the user (``estimate --channel-delay``), undone by
+        the estimate instead of the model's (a joint not named: none): the sign check's scan
+        is centred there and no delay line is written.
 
     Returns
     -------
@@ -133,9 +133,11 @@ def task_delay_warnings(
         The warnings (empty when the delays and signs agree, or the log is too short to tell).
     """
     from torquemap.delay import shift_channel
-    from torquemap.estimate import _signal
+    from torquemap.estimate import _signal, identified_delays
 
     intervals = delay_intervals(model)
+    # the delays the estimate undoes: the model's, or the user's (a joint not named: none)
+    undone = identified_delays(model) if channel_delay is None else dict(channel_delay)
     names = [j.name for j in model.robot.joints if j.name in model.joints]
     if not names:
         return []
@@ -177,9 +179,9 @@ def task_delay_warnings(
     out: list[str] = []
     for name in names:
         k = index[name]
-        d0, lo, hi = intervals.get(name, (_model_delay(model, name), math.nan, math.nan))
-        if channel_delay is not None and name in channel_delay:
-            d0 = float(channel_delay[name])
+        d0, lo, hi = intervals.get(name, (math.nan, math.nan, math.nan))
+        if channel_delay is not None or name not in intervals:
+            d0 = float(undone.get(name, 0.0))
         tau = log.motor_torque[:, k]
         lines = model.joints[name].pdtv
         # the model's no-load torque at each sample: what the estimation signal subtracted
@@ -223,14 +225,6 @@ def task_delay_warnings(
             "both alike, or identify from no-load logs recorded the way this one was"
         )
     return out
-
-
-def _model_delay(model: Model, name: str) -> float:
-    """The torque channel delay [s] the model records for joint ``name`` (0 if none)."""
-    joints = model.notes.get("joints", {})
-    entry = joints.get(name) if isinstance(joints, Mapping) else None
-    d = entry.get("channel_delay") if isinstance(entry, Mapping) else None
-    return float(d) if isinstance(d, int | float) and math.isfinite(d) else 0.0
 
 
 def _flipped_line(
