@@ -203,6 +203,16 @@ LOW_SPEED_INERTIAL = 0.1
 #: (F64)"). A slow ramp (a speed that only rises or only falls within the span) is kept. True
 #: (the default since stop 43); False: every low-speed row as before.
 LOW_SPEED_DIPS = True
+#: Whether a run of low-speed rows (contiguous in a piece) is left out where any of its rows
+#: reads friction that does not oppose the motion: the torque less the fit's other terms
+#: (inertia, PDTV) of the sign opposite to the friction velocity's by more than
+#: ``2`` residual scales (:func:`dissipative_runs`). No friction law is that (the fit holds
+#: its table >= 0), so the run reads something the model lacks (a load, a lag, a stuck
+#: servo), not the law: random robot 441, joint b, creeps at -0.55 rad/s for 0.2 s while its
+#: torque ramps from -0.05 to +0.11 N m; five of those rows held the negative table at 0
+#: below 1 rad/s (truth 0.10 N m motor side; docs/estimation.md, "Stop 44 (F68)"). True (the
+#: default); False: the runs are kept as before.
+LOW_SPEED_READING = True
 #: Whether the table's smoothness prior is centred on a generalized Stribeck curve per
 #: direction (:mod:`torquemap.friction_prior`) rather than on ``a + b log s``: True, False, or
 #: ``"select"`` (the default since stop 39): per direction, the curve only where, with the
@@ -633,6 +643,36 @@ def _low_speed_rows(
             ok &= ~speed_dips(p.t, _friction_speed(p), r, RUN_WINDOWS * window)
         out.append(ok)
     return np.concatenate(out) & (inertial <= limit) if out else np.zeros(0, dtype=bool)
+
+
+def dissipative_runs(
+    velocity: NDArray[np.float64],
+    reading: NDArray[np.float64],
+    candidate: NDArray[np.bool_],
+    tolerance: float,
+) -> NDArray[np.bool_]:
+    """``candidate`` (the rows of one piece, in order) without every run of consecutive
+    candidate rows in which some row reads non-dissipative friction:
+    ``sign(velocity) * reading < -tolerance`` (``velocity`` [rad/s], ``reading`` and
+    ``tolerance`` [N m]: the torque less the fit's other terms, and its allowance for noise).
+
+    Examples
+    --------
+    >>> v = -np.ones(8)
+    >>> f = np.array([-1.0, -1.0, -1.0, 0.5, -1.0, -1.0, -1.0, -1.0])
+    >>> c = np.array([1, 1, 1, 1, 1, 0, 1, 1], dtype=bool)
+    >>> dissipative_runs(v, f, c, 0.1).astype(int).tolist()
+    [0, 0, 0, 0, 0, 0, 1, 1]
+    """
+    out = np.asarray(candidate, dtype=bool).copy()
+    if not out.any():
+        return out
+    wrong = np.sign(velocity) * reading < -tolerance
+    edges = np.flatnonzero(np.diff(np.r_[0, out.astype(np.int8), 0]))
+    for a, b in zip(edges[::2], edges[1::2], strict=True):
+        if wrong[a:b].any():
+            out[a:b] = False
+    return out
 
 
 def _delay_rows(rows: _Rows, max_rows: int) -> NDArray[np.intp] | None:
@@ -1439,6 +1479,20 @@ def fit_joint_whole(
             if inertia and fit.coef[0] > 0:
                 inertial = fit.coef[0] * np.abs(rows.at(lambda p: p.acceleration))
             low = _low_speed_rows(rows, low_floor, window, inertial, LOW_SPEED_INERTIAL * level)
+            if LOW_SPEED_READING:
+                # a run of them whose torque, less the fit's other terms, does not oppose the
+                # motion reads no friction law (docs/estimation.md, "Stop 44 (F68)")
+                reading = y - fixed @ fit.coef[: fixed.shape[1]]
+                tolerance = 2.0 * mad_scale(fit.residual[keep > 0])
+                fv = rows.at(_friction_speed)
+                low = low & ~(keep > 0)
+                parts = np.cumsum([0, *(r.size for r in rows.rows)])
+                low = np.concatenate(
+                    [
+                        dissipative_runs(fv[i:j], reading[i:j], low[i:j], tolerance)
+                        for i, j in itertools.pairwise(parts)
+                    ]
+                )
             if np.any(low & (keep == 0)):
                 keep = ((keep > 0) | low).astype(np.float64)
                 fit = _irls(a, y, keep, prior, keep=keep, clusters=rows.clusters)
