@@ -2,9 +2,10 @@
 
 Random robot 441 of the family (docs/estimation.md, "Stop 44 (F68)"): joint b creeps at
 -0.55 rad/s for 0.2 s while its torque ramps from -0.05 to +0.11 N m, a reading no friction law
-is; five of those rows held the negative table at 0 below 1 rad/s. Here a one-motor sweep with
-slow ramps (which measure the law below the slowest pass) and slow stretches in which a load the
-model lacks ramps the torque through zero.
+is (the torque lies inside the static band, where the joint should stick; the simulator's
+integrator lets it slide); five of those rows held the negative table at 0 below 1 rad/s. Here a
+one-motor sweep with slow ramps (which measure the law below the slowest pass) and slow stretches
+in which a load the model lacks ramps the torque through zero: the same reading.
 """
 
 from __future__ import annotations
