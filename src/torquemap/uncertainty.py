@@ -75,6 +75,18 @@ GAP_INTERIOR = False
 #: dev 381-400 median ratio 2.20x -> 2.02x (389 5.58x -> 1.60x, 392 4.36x -> 15.54x), check
 #: 261-280 worst 11.98x -> 30.04x (278); docs/estimation.md, "Stop 42 (F55)".
 LAW_BELOW: Literal["parameters", "extrapolation"] = "parameters"
+#: The share [-] of a speed table's departure from the chord between the steady passes around
+#: each speed (:func:`torquemap.pass_chord.chord_spread`) that :func:`joint_sigma` adds as one
+#: standard deviation, a level like the sign term; 0: off (the default). ``1 / sqrt 2``: the
+#: RMS error of a table when the truth is the table or the chord alike. Measured, not the
+#: default (stop 44, F69; docs/estimation.md "Stop 44 (F69)"): random robot 453 66.9 -> 96.2 %
+#: of the force errors within 2 sigma and dev 390 87.5 -> 90.9 %, but held-out 441, 444, 454
+#: and 468 leave [90, 99] % upwards (97.9 -> 100.0 % at most) and no held-out robot comes in.
+CHORD_SPREAD = 0.0
+#: Which chords :func:`torquemap.pass_chord.chord_spread` measures the table against:
+#: ``"dry"`` (the dry level's) or ``"both"`` (the larger departure from the dry level's and
+#: the whole level's).
+CHORD_LEVELS: Literal["dry", "both"] = "dry"
 #: Whether estimation widens each joint's sigma by the rigid-body coupling torque its answer
 #: leaves in (:func:`coupling_level`, stop 34).
 COUPLING = True
@@ -852,13 +864,17 @@ def joint_sigma(
     if form is not None:
         # the table's interpolation between its passes, measured by leaving each out
         level = np.hypot(level, form)
+    chord = _chord_level(law, entry, velocity=velocity, width=width)
+    if chord is not None:
+        # the table's departure from the chord between the passes around the speed
+        level = np.hypot(level, chord)
     if runs:
         # a bridged sample's answer is the line between its run's ends: friction does not
         # enter it, so neither do its sign nor the law's parameters; its variance is the line
         # between the ends' variances (the load's departure from a line is added by estimation)
         assert bridged is not None
         level = bridge_gaps(t, level, bridged, longest=math.inf, ends=True, runs=runs)
-    if fused is not None and (runs or form is not None):
+    if fused is not None and (runs or form is not None or chord is not None):
         if terms is not None:
             fused = fused.copy()  # the kept levels stay as they were
         fused[:, -1] = level
@@ -1250,6 +1266,25 @@ def interpolation_sigma(
         q = interpolation_gaps(x, anchors)
         out += share * 0.5 * curvature * q
     return out
+
+
+def _chord_level(
+    law: Any, entry: Any, *, velocity: NDArray[np.float64], width: float
+) -> NDArray[np.float64] | None:
+    """:data:`CHORD_SPREAD` times :func:`torquemap.pass_chord.chord_spread` of a joint's table
+    between its passes (``entry["speeds"]``, signed); None when it is 0, the law is not a
+    table or the notes hold no passes."""
+    from torquemap.friction_law import SpeedTableFriction
+    from torquemap.pass_chord import chord_spread
+
+    speeds = entry.get("speeds") if isinstance(entry, Mapping) else None
+    share = float(CHORD_SPREAD)
+    if not (share > 0 and isinstance(law, SpeedTableFriction) and isinstance(speeds, list)):
+        return None
+    passes = [float(x) for x in speeds if isinstance(x, int | float) and math.isfinite(x)]
+    if not passes:
+        return None
+    return share * chord_spread(law, velocity, width, passes, chords=CHORD_LEVELS)
 
 
 def _interpolation_level(
