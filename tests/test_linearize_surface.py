@@ -16,9 +16,10 @@ import pytest
 from numpy.typing import NDArray
 
 from torquemap.linearize.export import load_tables, save_tables
+from torquemap.linearize.gaps import fourier_design
 from torquemap.linearize.metrics import apmd_report
 from torquemap.linearize.motor import MotorSpec, motor_spec, ramp_function, ramped_actuation
-from torquemap.linearize.surface import fit_surface, surface_prediction
+from torquemap.linearize.surface import _Columns, fit_surface, surface_prediction
 from torquemap.linearize.tables import build_tables, ramp_share_step
 
 #: conftest.py's ``_reused_builds`` (tests/_reuse.py): each distinct table build of this
@@ -320,3 +321,18 @@ def test_the_nyquist_term_changes_nothing_where_the_cogging_is_held() -> None:
     np.testing.assert_array_equal(
         with_term.phases, build_tables(spec, pos, pw, tau, nyquist=False).phases
     )
+
+
+def test_the_rest_series_columns_are_fourier_designs_bit_for_bit() -> None:
+    """The harmonic search's columns, computed once (stop 44, B71), against the design built
+    for each trial as before: equal, not close (the tables of the benchmark's motors were
+    the same byte for byte)."""
+    for n, step in ((128, 4), (512, 4), (192, 8), (384, 5)):
+        x = np.arange(3, n, step, dtype=np.float64)
+        top = (x.size - 1) // 2
+        columns = _Columns(x, top, n)
+        rng = np.random.default_rng(n)
+        for size in (1, 2, 5, top):
+            harmonics = [int(h) for h in rng.permutation(np.arange(1, top + 1))[:size]]
+            want = fourier_design(x, harmonics, n)
+            assert columns.design(harmonics).tobytes() == want.tobytes()

@@ -31,6 +31,9 @@ The estimate is made level by level, between the positions holding data at that 
 rig's compliance moves the high-torque rows of a block off its target position), from a
 preliminary model on every pulse width for the values at ``alpha u``, ``beta u`` and ``rho u``.
 
+Both steps run as one compiled loop over the cells (:mod:`torquemap._handover_kernels`, the
+same floating-point operations as the numpy code they replaced, bit for bit).
+
 This module never imports the simulator.
 """
 
@@ -73,84 +76,18 @@ class HandoverCheck:
         return self.t_statistic > SIGNIFICANCE
 
 
-def _value(row: NDArray[np.float64], v: float) -> float:
-    """``row`` (on the pulse widths 0 .. len - 1) at the real pulse width ``v``."""
-    top = row.size - 1
-    x = min(max(v, 0.0), float(top))
-    i = min(int(x), top - 1)
-    f = x - i
-    return float(row[i] * (1.0 - f) + row[i + 1] * f)
-
-
-def _contribution(
-    high: NDArray[np.float64], low: NDArray[np.float64], hi: float, lo: float, v: float
-) -> float:
-    """``T(v)`` from ``D = high - low``: ``T(hi u) - T(lo u) = D(u)``, ``T(0) = 0``."""
-    first = v / hi
-    if lo <= 0.0 or first < 0.25:
-        return _value(high, first) - _value(low, first)
-    ratio = lo / hi
-    # the terms of the telescoping sum, down to a quarter pulse width (at most 64)
-    count = min(64, 1 + int(np.ceil(np.log(0.25 / first) / np.log(ratio))))
-    arg = np.minimum(first * ratio ** np.arange(max(count, 1)), float(high.size - 1))
-    x = np.arange(high.size, dtype=np.float64)
-    return float(np.sum(np.interp(arg, x, high) - np.interp(arg, x, low)))
-
-
-def _changed_phase(
-    ra: NDArray[np.float64], rb: NDArray[np.float64], r: NDArray[np.float64]
-) -> int | None:
-    """The one phase whose share differs among the three positions (None if not one), with
-    the middle share between the outer two and the outer two different."""
-    changed = (np.abs(ra - r) > SHARE_TOL) | (np.abs(rb - r) > SHARE_TOL)
-    if int(changed.sum()) != 1:
-        return None
-    k = int(np.flatnonzero(changed)[0])
-    al, be, rho = ra[k], rb[k], r[k]
-    if abs(al - be) <= SHARE_TOL:
-        return None
-    if not min(al, be) - SHARE_TOL <= rho <= max(al, be) + SHARE_TOL:
-        return None
-    return k
-
-
-def _estimate(
+def _contiguous(
+    mean: NDArray[np.float64],
+    levels: NDArray[np.float64],
     fine: NDArray[np.float64],
     ramp: NDArray[np.float64],
-    pa: int,
-    pb: int,
-    p: int,
-    k: int,
-    sa: float,
-    sb: float,
-    u: float,
-    wb: float,
-) -> float:
-    al, be, rho = float(ramp[pa, k]), float(ramp[pb, k]), float(ramp[p, k])
-    high, low = (fine[pb], fine[pa]) if be > al else (fine[pa], fine[pb])
-    hi, lo = max(al, be), min(al, be)
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The arrays as the kernels of :mod:`torquemap._handover_kernels` take them."""
 
-    def t(v: float) -> float:
-        return _contribution(high, low, hi, lo, v)
+    def c(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.ascontiguousarray(x, dtype=np.float64)
 
-    return (1.0 - wb) * (sa - t(al * u)) + wb * (sb - t(be * u)) + t(rho * u)
-
-
-def _runs(mean: NDArray[np.float64], max_gap: int, skip: int) -> list[tuple[int, int, int, int]]:
-    """(level column, a, b, index of a) for every pair of data positions at one level with
-    ``skip`` data positions between them and at most ``max_gap`` positions apart."""
-    n, levels = mean.shape
-    out = []
-    for j in range(levels):
-        have = np.flatnonzero(np.isfinite(mean[:, j]))
-        if have.size < skip + 2:
-            continue
-        for i, pa in enumerate(have):
-            pb = int(have[(i + 1 + skip) % have.size])
-            span = (pb - int(pa)) % n
-            if 1 < span <= max_gap + 1:
-                out.append((j, int(pa), pb, i))
-    return out
+    return c(mean), c(levels), c(fine), c(ramp)
 
 
 def check_handover(
@@ -183,32 +120,16 @@ def check_handover(
     HandoverCheck
         The comparison.
     """
-    n = mean.shape[0]
-    lin: list[float] = []
-    ray: list[float] = []
-    for j, pa, pb, i in _runs(mean, max_gap + 1, 1):
-        have = np.flatnonzero(np.isfinite(mean[:, j]))
-        p = int(have[(i + 1) % have.size])
-        k = _changed_phase(ramp[pa], ramp[pb], ramp[p])
-        if k is None:
-            continue
-        al, be, rho = ramp[pa, k], ramp[pb, k], ramp[p, k]
-        if not min(al, be) + SHARE_TOL < rho < max(al, be) - SHARE_TOL:
-            continue
-        wb = ((p - pa) % n) / ((pb - pa) % n)
-        sa, sb, truth = float(mean[pa, j]), float(mean[pb, j]), float(mean[p, j])
-        est = _estimate(fine, ramp, pa, pb, p, k, sa, sb, float(levels[j]), wb)
-        if not np.isfinite(est):  # the preliminary model does not reach that far
-            continue
-        lin.append((1.0 - wb) * sa + wb * sb - truth)
-        ray.append(est - truth)
-    if not lin:
+    from torquemap._handover_kernels import check_errors
+
+    lin, ray = check_errors(*_contiguous(mean, levels, fine, ramp), int(max_gap))
+    if not lin.size:
         return HandoverCheck(0, 0.0, 0.0, 0.0)
     a, b = np.square(lin), np.square(ray)
     d = a - b
     spread = float(np.std(d, ddof=1)) if d.size > 2 else 0.0
     t = float(np.mean(d) / (spread / np.sqrt(d.size))) if spread > 0 else 0.0
-    return HandoverCheck(len(lin), float(np.sqrt(a.mean())), float(np.sqrt(b.mean())), t)
+    return HandoverCheck(int(lin.size), float(np.sqrt(a.mean())), float(np.sqrt(b.mean())), t)
 
 
 def fill_handover(
@@ -245,21 +166,7 @@ def fill_handover(
     >>> float(grid[1, 0]), n  # 4**2 + 2**2, where the linear interpolation gives 24
     (20.0, 1)
     """
-    n = mean.shape[0]
-    out = mean.copy()
-    filled = 0
-    for j, pa, pb, _ in _runs(mean, max_gap, 0):
-        span = (pb - pa) % n
-        for step in range(1, span):
-            p = (pa + step) % n
-            k = _changed_phase(ramp[pa], ramp[pb], ramp[p])
-            if k is None:
-                continue
-            est = _estimate(
-                fine, ramp, pa, pb, p, k, float(mean[pa, j]), float(mean[pb, j]),
-                float(levels[j]), step / span,
-            )  # fmt: skip
-            if np.isfinite(est):  # else left to the linear interpolation
-                out[p, j] = est
-                filled += 1
-    return out, filled
+    from torquemap._handover_kernels import fill
+
+    out, filled = fill(*_contiguous(mean, levels, fine, ramp), int(max_gap))
+    return out, int(filled)

@@ -155,12 +155,31 @@ class RestSeries:
         return test.unheld, float(period)
 
 
-def _leverage(x: NDArray[np.float64], harmonics: list[int], n: int) -> NDArray[np.float64]:
-    """Variance of the series' prediction at every position, in units of one sample's."""
-    design = fourier_design(x, harmonics, n)
-    every = fourier_design(np.arange(n, dtype=np.float64), harmonics, n)
+class _Columns:
+    """The columns of :func:`torquemap.linearize.gaps.fourier_design` over positions ``p`` for
+    the harmonics 1 .. ``top``, computed once (the same products and cosines, element for
+    element): :meth:`design` is ``fourier_design(p, harmonics, n)`` bit for bit, without the
+    trigonometry of every trial's design again."""
+
+    def __init__(self, p: NDArray[np.float64], top: int, n: int) -> None:
+        table = fourier_design(p, range(1, top + 1), n)
+        self.ones = table[:, :1]
+        self.cos = table[:, 1 : top + 1]
+        self.sin = table[:, top + 1 :]
+
+    def design(self, harmonics: list[int]) -> NDArray[np.float64]:
+        """``fourier_design(p, harmonics, n)``."""
+        h = np.asarray(harmonics, dtype=np.int64) - 1
+        return np.concatenate([self.ones, self.cos[:, h], self.sin[:, h]], axis=1)
+
+
+def _leverage(columns: _Columns, harmonics: list[int], every: _Columns) -> NDArray[np.float64]:
+    """Variance of the series' prediction at every position, in units of one sample's
+    (``columns``: the anchors', ``every``: every position's)."""
+    design = columns.design(harmonics)
+    at_every = every.design(harmonics)
     inverse = np.linalg.pinv(design.T @ design)
-    out: NDArray[np.float64] = np.einsum("ij,jk,ik->i", every, inverse, every)
+    out: NDArray[np.float64] = np.einsum("ij,jk,ik->i", at_every, inverse, at_every)
     return out
 
 
@@ -180,24 +199,26 @@ def _interpolate_rest(rest: NDArray[np.float64], anchors: NDArray[np.int64], n: 
     top = (anchors.size - 1) // 2
     kept: list[int] = []
     best, coef = loo_press(np.ones((x.size, 1)), y)
+    columns = _Columns(x, top, n)
+    every = _Columns(np.arange(n, dtype=np.float64), top, n)
     while 2 * len(kept) + 3 < anchors.size:
         trials = []
         for h in range(1, top + 1):
             if h in kept:
                 continue
-            d = fourier_design(x, [*kept, h], n)
+            d = columns.design([*kept, h])
             sol, *_ = np.linalg.lstsq(d, y, rcond=None)
             rr = y - d @ sol
             trials.append((float(rr @ rr), h))
         chosen = None
         for _, h in sorted(trials):
-            lev = _leverage(x, [*kept, h], n)
+            lev = _leverage(columns, [*kept, h], every)
             if lev.max() <= LEVERAGE_MAX:
                 chosen = h
                 break
         if chosen is None:
             break
-        press, sol = loo_press(fourier_design(x, [*kept, chosen], n), y)
+        press, sol = loo_press(columns.design([*kept, chosen]), y)
         if not press < best:
             break
         best, coef = press, sol
@@ -362,6 +383,12 @@ def _fit_once(
     def phi_at(values: NDArray[np.float64]) -> NDArray[np.float64]:
         return values[jj] * (1 - ww) + values[np.minimum(jj + 1, knots - 1)] * ww
 
+    # the penalty rows below the data (the same in every round): S_k's curvature, o's ridge
+    pen = sp.hstack([pen_s, sp.csr_matrix((n * m, nf))], format="csr")
+    ridge = sp.hstack(
+        [sp.csr_matrix((nf, n * m)), sp.identity(nf, format="csr") * 1e-6], format="csr"
+    )
+    penalties = sp.vstack([pen, ridge], format="csr")
     gain = np.zeros((n, m))
     kappa = 0.0
     coef_o = np.zeros(nf)
@@ -383,11 +410,7 @@ def _fit_once(
         vals = f[idx].ravel()
         design_s = sp.csr_matrix((vals, (rows, cols)), shape=(idx.size, n * m))
         design = sp.hstack([design_s, indicator[idx]], format="csr")
-        pen = sp.hstack([pen_s, sp.csr_matrix((n * m, nf))], format="csr")
-        ridge = sp.hstack(
-            [sp.csr_matrix((nf, n * m)), sp.identity(nf, format="csr") * 1e-6], format="csr"
-        )
-        full = sp.vstack([design, pen, ridge], format="csc")
+        full = sp.vstack([design, penalties], format="csc")
         rhs = np.concatenate([target[idx] - fixed[idx], np.zeros(n * m + nf)])
         lhs = (full.T @ full).tocsc()
         lhs = lhs + sp.identity(lhs.shape[0], format="csc") * 1e-9
