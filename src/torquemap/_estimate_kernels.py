@@ -307,3 +307,97 @@ def bridge_runs(
                     if y != y and ys[0] == ys[1]:
                         y = ys[0]
                 out[i] = y
+
+
+@jit
+def _side_slope(
+    t: NDArray[np.float64],
+    estimate: NDArray[np.float64],
+    bridged: NDArray[np.bool_],
+    lo: float,
+    hi: float,
+    xs: NDArray[np.float64],
+    ys: NDArray[np.float64],
+) -> tuple[int, float]:
+    """The least-squares slope of ``estimate`` against ``t - lo`` over the samples in ``[lo,
+    hi]`` that are not ``bridged``, in closed form about the means (two passes). Returns
+    ``(1, slope)``, ``(0, nan)`` below three samples, or ``(-1, nan)`` where the closed form
+    does not stand for ``np.polyfit`` (a value not finite, the times all equal)."""
+    i0 = _left(t, lo)
+    i1 = _right(t, hi)
+    k = 0
+    for i in range(i0, i1):
+        if not bridged[i]:
+            xs[k] = t[i] - lo
+            ys[k] = estimate[i]
+            k += 1
+    if k < 3:
+        return 0, math.nan
+    sx = 0.0
+    sy = 0.0
+    for j in range(k):
+        sx += xs[j]
+        sy += ys[j]
+    if not math.isfinite(sy):
+        return -1, math.nan
+    mx = sx / k
+    my = sy / k
+    sxx = 0.0
+    sxy = 0.0
+    for j in range(k):
+        dx = xs[j] - mx
+        sxx += dx * dx
+        sxy += dx * (ys[j] - my)
+    if not (sxx > 0.0 and math.isfinite(sxy)):
+        return -1, math.nan
+    return 1, sxy / sxx
+
+
+@jit
+def departure_runs(
+    t: NDArray[np.float64],
+    estimate: NDArray[np.float64],
+    bridged: NDArray[np.bool_],
+    starts: NDArray[np.int64],
+    stops: NDArray[np.int64],
+    span: float,
+    out: NDArray[np.float64],
+) -> bool:
+    """:func:`torquemap.uncertainty.bridge_departure` of the runs ``starts[r]:stops[r]``
+    into ``out`` (zeros), in place: each side's slope by :func:`_side_slope` (within an ulp
+    or so of ``np.polyfit``'s, which solves by LAPACK's SVD), the chord's parabola or the
+    end run's line in numpy's order of operations. False (``out`` part written) where a side
+    holds a value that is not finite or times all equal: the caller then takes
+    ``np.polyfit``'s path."""
+    n = t.size
+    xs = np.empty(n)
+    ys = np.empty(n)
+    slopes = np.empty(2)
+    for r in range(starts.size):
+        a, b = starts[r], stops[r]
+        ta = t[a - 1] if a > 0 else t[a]
+        tb = t[b] if b < n else t[b - 1]
+        d = max(tb - ta, 1e-12)
+        reach = min(0.5 * d, span)
+        m = 0
+        for side in range(2):
+            if side == 0:
+                status, slope = _side_slope(t, estimate, bridged, ta - reach, ta, xs, ys)
+            else:
+                status, slope = _side_slope(t, estimate, bridged, tb, tb + reach, xs, ys)
+            if status < 0:
+                return False
+            if status > 0:
+                slopes[m] = slope
+                m += 1
+        if m == 0:
+            continue
+        if a > 0 and b < n and m == 2:
+            c = abs(slopes[1] - slopes[0])
+            for i in range(a, b):
+                out[i] = c * (t[i] - ta) * (tb - t[i]) / (2.0 * d)
+        else:
+            c = abs(slopes[0])
+            for i in range(a, b):
+                out[i] = c * (t[i] - ta) if b == n else c * (tb - t[i])
+    return True

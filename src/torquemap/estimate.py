@@ -1029,7 +1029,8 @@ def _choose_end_runs(
     alt = _estimate_piece(
         model, log, **piece_kw, rest_override=masks, shared=part.shared, joints=sorted(runs)
     ).arrays
-    out = {key: value.copy() for key, value in arrays.items()}
+    written = ("rest", "filtered", "external", "sigma")
+    out = {key: value.copy() if key in written else value for key, value in arrays.items()}
     for k, chosen in runs.items():
         for a, b in chosen:
             if mode == "choose":
@@ -1037,7 +1038,7 @@ def _choose_end_runs(
                 law = float(np.sqrt(np.mean(alt["sigma"][a:b, k] ** 2)))
                 if not law < held:
                     continue
-            for key in ("rest", "filtered", "external", "sigma"):
+            for key in written:
                 out[key][a:b, k] = alt[key][a:b, k]
     return dataclasses.replace(part, arrays=out)
 
@@ -1409,7 +1410,8 @@ def _estimate_piece(
             if coupling is not None:
                 # the other joint's inertia and the Coriolis torques Eq 7 leaves in the answer
                 hypot_into(column, np.ascontiguousarray(coupling[:, k], dtype=np.float64), column)
-            folded = _folded_tones(model, joint.name, rate, cutoff, column)
+            # a second estimate's warnings are not read (:func:`_choose_end_runs`): no median
+            folded = _folded_tones(model, joint.name, rate, cutoff, column, warn=shared is None)
             if folded is not None:
                 sd, line = folded
                 hypot_into(column, np.full(n, sd), column)
@@ -1453,12 +1455,18 @@ TONE_REPORT = 0.1
 
 
 def _folded_tones(
-    model: Model, joint: str, rate: float, cutoff: float, sigma: NDArray[np.float64]
+    model: Model,
+    joint: str,
+    rate: float,
+    cutoff: float,
+    sigma: NDArray[np.float64],
+    *,
+    warn: bool = True,
 ) -> tuple[float, str] | None:
     """The standard deviation [N m, motor side] the model's tones add to this log's estimate of
     ``joint`` once folded to the log's ``rate`` [Hz] (:func:`torquemap.tones.folded_sd`), and a
-    warning when it widens the median ``sigma`` by more than :data:`TONE_REPORT`; None when
-    none folds into the band."""
+    warning when it widens the median ``sigma`` by more than :data:`TONE_REPORT` (``warn``
+    false: no warning, and no median taken); None when none folds into the band."""
     from torquemap.robust import exact_median
     from torquemap.tones import folded, folded_sd
     from torquemap.uncertainty import model_tones
@@ -1469,6 +1477,8 @@ def _folded_tones(
     sd = folded_sd(tones, rate, cutoff)
     if not sd > 0:
         return None
+    if not warn:
+        return sd, ""
     # numpy's nanmedian: the median of the values that are not NaN
     base = exact_median(sigma[~np.isnan(sigma)]) if np.isfinite(sigma).any() else 0.0
     if math.hypot(base, sd) <= (1.0 + TONE_REPORT) * base:

@@ -1613,11 +1613,38 @@ def bridge_departure(
     >>> round(float(bridge_departure(t, load, bridged, cutoff=2.0).max()), 3)  # 1 * 1 / 8
     0.125
     """
+    from torquemap._estimate_kernels import departure_runs
     from torquemap.estimate import _gap_runs
 
     out = np.zeros(t.size)
     span = 1.0 / max(cutoff, 1e-12)
-    for a, b in _gap_runs(bridged) if runs is None else runs:
+    runs = _gap_runs(bridged) if runs is None else runs
+    if not runs:
+        return out
+    # one compiled pass: the sides' slopes in closed form (np.polyfit's to an ulp or so)
+    starts = np.array([a for a, _ in runs], dtype=np.int64)
+    stops = np.array([b for _, b in runs], dtype=np.int64)
+    values = np.ascontiguousarray(estimate, dtype=np.float64)
+    mask = np.ascontiguousarray(bridged, dtype=np.bool_)
+    times = np.ascontiguousarray(t, dtype=np.float64)
+    if departure_runs(times, values, mask, starts, stops, span, out):
+        return out
+    # a side with a value that is not finite or with equal times: np.polyfit's answer
+    return _bridge_departure_polyfit(t, estimate, bridged, span=span, runs=runs)
+
+
+def _bridge_departure_polyfit(
+    t: NDArray[np.float64],
+    estimate: NDArray[np.float64],
+    bridged: NDArray[np.bool_],
+    *,
+    span: float,
+    runs: Sequence[tuple[int, int]],
+) -> NDArray[np.float64]:
+    """:func:`bridge_departure` by ``np.polyfit`` per side (the path before stop 44), for the
+    cases the compiled pass leaves to it."""
+    out = np.zeros(t.size)
+    for a, b in runs:
         ta = float(t[a - 1]) if a > 0 else float(t[a])
         tb = float(t[b]) if b < t.size else float(t[b - 1])
         d = max(tb - ta, 1e-12)
