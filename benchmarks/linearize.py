@@ -6,7 +6,7 @@ Run: ``.venv/bin/python benchmarks/linearize.py`` (the four joints, then 20 rand
 verification runs: for iterating), ``--motors N --first-seed S`` for other members of the family,
 ``--bias-rest`` to measure the CLI's default path beside them: the same collection with the bias
 read at rest, its tables built with DATA.csv's ``bias`` column and without it;
-``--onset-form`` / ``--onset-search`` to build the random motors' interp tables with another
+``--onset-form`` / ``--onset-search`` / ``--onset-window`` to build the random motors' interp tables with another
 onset law (``build_tables``' keywords; docs/linearize.md, "stop 40 (L44)"), ``--nyquist`` with
 another use of the torque at rest's Nyquist wave (docs/linearize.md, "stop 41 (L45)").
 
@@ -499,6 +499,12 @@ def main() -> int:
         help="random motors: build_tables' onset_form for the interp tables (default: its own)",
     )
     parser.add_argument(
+        "--onset-window",
+        choices=("choose",),
+        help="random motors: build_tables' onset_window for the interp tables (default: its "
+        "own, 0.3; docs/linearize.md, 'stop 44 (L67)')",
+    )
+    parser.add_argument(
         "--onset-search",
         choices=("all", "measured"),
         help="random motors: build_tables' onset_search for the interp tables (default: its own)",
@@ -513,7 +519,11 @@ def main() -> int:
     args = parser.parse_args()
     onset: dict[str, object] = {
         key: value
-        for key, value in (("onset_form", args.onset_form), ("onset_search", args.onset_search))
+        for key, value in (
+            ("onset_form", args.onset_form),
+            ("onset_search", args.onset_search),
+            ("onset_window", args.onset_window),
+        )
         if value is not None
     }
     if args.nyquist is not None:

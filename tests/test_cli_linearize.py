@@ -637,3 +637,31 @@ def test_onset_form_option_reaches_the_tables(tmp_path: Path) -> None:
     assert np.array_equal(built["choose"], build_tables(spec, *rows, onset_form="choose").phases)
     assert np.array_equal(built["default"], build_tables(spec, *rows).phases)
     assert not np.array_equal(built["choose"], built["default"])
+
+
+def test_onset_window_option_reaches_the_tables(tmp_path: Path) -> None:
+    # the four-phase closed form of test_onset_window (torque ~ current^2, the amplifier's
+    # curve c = 1 past a dead zone of 23, seed 1), where the choice takes the 0.15 window
+    # (measured t = -3.2): --onset-window choose gives the API's onset_window="choose" tables,
+    # which differ from the default's
+    from test_onset_window import _collection, _spec
+
+    from torquemap.linearize.motor import motor_to_dict
+    from torquemap.linearize.tables import build_tables
+
+    spec = _spec()
+    pos, pw, tau = _collection(spec, (23.0, 1.0, 2.0), seed=1)
+    write_toml(tmp_path / "motor.toml", motor_to_dict(spec))
+    write_table(tmp_path / "data.csv", {"position": pos, "pulse_width": pw, "torque": tau})
+    d = str(tmp_path)
+    argv = ["linearize", "build", f"{d}/motor.toml", f"{d}/data.csv"]
+    built = {}
+    for choice in ("default", "choose"):
+        assert main([*argv, "-o", f"{d}/{choice}.npz", "--onset-window", choice]) == 0
+        built[choice] = load_tables(tmp_path / f"{choice}.npz").phases
+    data = read_table(tmp_path / "data.csv")
+    rows = (data["position"].astype(np.int64), data["pulse_width"], data["torque"])
+    api = build_tables(spec, *rows, onset_window="choose")
+    assert api.onset_window == 0.15
+    assert np.array_equal(built["choose"], api.phases)
+    assert not np.array_equal(built["choose"], built["default"])

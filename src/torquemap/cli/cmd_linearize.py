@@ -161,6 +161,15 @@ def register(subparsers: argparse._SubParsersAction[Any]) -> None:
         "choose: the amplifier's form where it predicts each measured position's lowest "
         "readable row, held out, better than the power law (docs/linearize.md, stop 43)",
     )
+    build.add_argument(
+        "--onset-window",
+        choices=("default", "choose"),
+        default="default",
+        help="interp: the onset law's fitting window. default: up to 0.3 of the "
+        "position-independent torque; choose: 0.3 or 0.15, the narrower only where its law "
+        "predicts the lowest readable rows of measured positions left out of the structured "
+        "surface significantly better (slower: 8 more surface fits; docs/linearize.md, stop 44)",
+    )
     build.set_defaults(handler=_build)
 
     evaluate = sub.add_parser(
@@ -213,6 +222,7 @@ def _build(args: argparse.Namespace) -> int:
     from torquemap.linearize.export import write_outputs
     from torquemap.linearize.motor import load_motor
     from torquemap.linearize.tables import build_tables, read_data
+    from torquemap.linearize.window import WINDOWS
 
     files = [(args.out, NPZ), (args.c_header, C_HEADER)]
     check_outputs(files, [args.motor, args.data])
@@ -247,6 +257,7 @@ def _build(args: argparse.Namespace) -> int:
             bias_open=_record_settings(args.data).get("bias_open") is True,
             nyquist=NYQUIST[args.nyquist],
             onset_form=args.onset_form,
+            onset_window="choose" if args.onset_window == "choose" else WINDOWS[0],
             path=args.data,
         ),
     )

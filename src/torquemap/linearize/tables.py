@@ -72,6 +72,7 @@ from torquemap.linearize.surface import (
     rest_basis,
     surface_prediction,
 )
+from torquemap.linearize.window import WINDOWS, OnsetWindow, choose_window
 from torquemap.robust import robust_scale
 
 CommandScaling = Literal["linear", "log"]
@@ -178,6 +179,9 @@ class TableSet:
         Harmonics of the bias column's smooth drift the rows were re-zeroed on
         (:mod:`torquemap.linearize.bias`); -1 when they were used as measured (no ``bias``
         column, or a bias whose drift could not be told from a load). Not saved.
+    onset_window
+        The onset law's window top used, as a fraction of the position-independent torque
+        (``build_tables``' ``onset_window``; NaN: no onset law). Not saved.
     """
 
     phases: NDArray[np.int64]
@@ -205,6 +209,7 @@ class TableSet:
     surface: bool = False
     warnings: tuple[str, ...] = ()
     bias_drift: int = -1
+    onset_window: float = float("nan")
 
     @property
     def command_max(self) -> int:
@@ -860,6 +865,23 @@ def _row_noise(pw: NDArray[np.float64], tau: NDArray[np.float64]) -> float:
     return robust_scale(zero)
 
 
+def _surface_grid(
+    spec: MotorSpec,
+    pos: NDArray[np.int64],
+    pw: NDArray[np.float64],
+    tau: NDArray[np.float64],
+    levels: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """The surface's cells: each (position, level)'s mean row, monotone in the level by
+    isotonic regression, shape (P, J); NaN where not measured."""
+    col = np.searchsorted(levels, pw).astype(np.int64)
+    mean, count = _cells(pos, col, tau, (spec.positions_per_cycle, levels.size))
+    for p in np.flatnonzero(count.sum(axis=1)):
+        have = count[p] > 0
+        mean[p, have] = isotonic_regression(mean[p, have], weights=count[p, have]).x
+    return mean
+
+
 def _surface_forward(
     spec: MotorSpec,
     pos: NDArray[np.int64],
@@ -888,10 +910,7 @@ def _surface_forward(
     (:mod:`torquemap.linearize.knee_track`)."""
     n = spec.positions_per_cycle
     col = np.searchsorted(levels, pw)
-    mean, count = _cells(pos, col.astype(np.int64), tau, (n, levels.size))
-    for p in np.flatnonzero(count.sum(axis=1)):
-        have = count[p] > 0
-        mean[p, have] = isotonic_regression(mean[p, have], weights=count[p, have]).x
+    mean = _surface_grid(spec, pos, pw, tau, levels)
     ramp = np.asarray(spec.ramp, dtype=np.float64)
     fit = fit_surface(
         mean,
@@ -1137,6 +1156,7 @@ def build_tables(
     onset_form: OnsetForm = "power",
     onset_censored: CensoredUse = "none",
     onset_search: OnsetSearch = "all",
+    onset_window: OnsetWindow = WINDOWS[0],
     handover: bool = True,
     detent: bool = True,
     surface: bool = True,
@@ -1215,6 +1235,14 @@ def build_tables(
         which at a ramp's cross-fades are not the law at the shares there:
         :func:`torquemap.linearize.onset.fit_onset`'s ``search``). Each position's gains and
         friction are still solved wherever it has cells.
+    onset_window
+        With ``onset``: the top of the law's fitting window, as a fraction of the
+        position-independent torque (0.3 by default), or ``"choose"``: among
+        :data:`torquemap.linearize.window.WINDOWS`, where the structured surface is used, the
+        narrower window's law only where it predicts the lowest readings of measured positions
+        left out of the surface (fold by fold) significantly better
+        (:func:`torquemap.linearize.window.choose_window`; docs/linearize.md, "stop 44 (L67)").
+        Elsewhere ``"choose"`` keeps the default.
     handover
         ``"interp"`` only: between measured positions where one phase's ramp switches on or
         off, read that phase at its own actuation (:mod:`torquemap.linearize.handover`) when
@@ -1347,6 +1375,8 @@ def build_tables(
         raise ValueError(f"command_scaling must be 'linear' or 'log', got {command_scaling!r}")
     if method not in ("interp", "paper"):
         raise ValueError(f"method must be 'interp' or 'paper', got {method!r}")
+    if onset_window != "choose" and not 0.0 < float(onset_window) <= 1.0:
+        raise ValueError(f"onset_window must be in (0, 1] or 'choose', got {onset_window!r}")
     if onset_search not in ("all", "measured"):
         raise ValueError(f"onset_search must be 'all' or 'measured', got {onset_search!r}")
     if command_scaling == "log" and not log_curvature > 0:
@@ -1442,6 +1472,7 @@ def build_tables(
         "log_curvature": log_curvature,
     }
     surface_used = False
+    window = float("nan")
     warnings: list[str] = [weak] if weak else []
     noisy = noise_advice(measured_noise, torque_max / cmax)
     if method == "interp":
@@ -1451,18 +1482,38 @@ def build_tables(
             sigma = _row_noise(pw, raw_tau)
             readable = max(3.0 * sigma, 1e-6 * float(np.max(np.abs(raw_tau))))
             fine = _fine(forward, levels, spec.actuation_max)
-            fit = fit_onset(
+            onset_fit = functools.partial(
+                fit_onset,
                 forward,
                 levels,
                 ramp,
                 readable=readable,
-                upper=0.3 * torque_max,
                 actuation_max=spec.actuation_max,
                 form=onset_form,
                 censored=onset_censored,
                 search=None if onset_search == "all" else _measured_positions(pos, pw, n),
                 measured=_measured_positions(pos, pw, n) if onset_form == "choose" else None,
             )
+            window = WINDOWS[0] if onset_window == "choose" else float(onset_window)
+            fit = onset_fit(upper=window * torque_max)
+            if (
+                onset_window == "choose"
+                and surface
+                and ramp_share_step(ramp, np.unique(pos[pw == 0])) > SURFACE_SHARE_STEP
+            ):
+                # the window whose law predicts measured positions left out of the surface
+                # (torquemap.linearize.window)
+                fits = [fit] + [onset_fit(upper=w * torque_max) for w in WINDOWS[1:]]
+                choice = choose_window(
+                    _surface_grid(spec, pos, pw, tau, levels),
+                    levels,
+                    ramp,
+                    [(f.dead_zone, f.exponent, f.curve) for f in fits],
+                    readable=readable,
+                    actuation_max=spec.actuation_max,
+                    coupling=coupling,
+                )
+                fit, window = fits[choice.index], WINDOWS[choice.index]
             fine, _ = extend_below(
                 fine,
                 fit,
@@ -1505,7 +1556,9 @@ def build_tables(
                         compliance=compliance_from_blocks(rows_pos, rows_pw, rows_tau, n),
                     )
                     if (marks != dropped).any():
-                        return build_tables(**{**arguments, "held_mask": marks})
+                        # the window chosen (if asked) kept: the choice reads the rows as read
+                        again = {**arguments, "held_mask": marks, "onset_window": window}
+                        return build_tables(**again)
                 fine = np.where(np.isnan(fine), np.nan, modelled)
                 check = check_position_sampling(
                     fitted.rest, anchors, n, torque_per_count=torque_max / cmax
@@ -1603,6 +1656,7 @@ def build_tables(
         surface=surface_used,
         warnings=tuple(warnings),
         bias_drift=bias_drift,
+        onset_window=window,
     )
 
 
