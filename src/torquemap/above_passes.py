@@ -33,7 +33,7 @@ __all__ = ["HOLD_SHARE", "HOLD_TOLERANCE", "hold_share", "redraw_above"]
 #: Relative distance from a pass's mean speed within which a sample holds the speed.
 HOLD_TOLERANCE = 0.25
 #: Least share of a pass's samples that hold its speed for the pass to anchor the table above it
-#: (random family 461-480: steady passes 85-100 %, stick-slip passes 16-65 %, the transients of
+#: (random family 461-480: steady passes 76-100 %, stick-slip passes 16-65 %, the transients of
 #: robot 479 8-19 %; a stick-slip pass is slow, never the fastest, so the rule does not touch it
 #: where it acts).
 HOLD_SHARE = 0.5
