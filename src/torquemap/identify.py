@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from torquemap._callable import make_callable as _make_callable
+from torquemap.above_passes import HOLD_SHARE, hold_share
 from torquemap.errors import InputError
 from torquemap.filters import (
     Derivatives,
@@ -1302,6 +1303,11 @@ def _identify_whole(
             steady_speeds=[abs(p.speed) for _, p in res.passes],
             held_inertia=_determined_inertia(res),
             pass_speeds=[p.speed for _, p in res.passes],
+            held_speeds=[
+                p.speed
+                for li, p in res.passes
+                if hold_share(derivs[li][k].velocity[p.start : p.stop], p.speed) >= HOLD_SHARE
+            ],
             low_speed_rows=low_speed_rows,
             stribeck_prior=stribeck_prior,
             handed=_handed_lines(res),

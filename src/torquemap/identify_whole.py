@@ -53,6 +53,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import optimize, sparse, stats
 
+from torquemap.above_passes import redraw_above
 from torquemap.between_passes import Method, redraw_law, redraw_law_by_direction
 from torquemap.errors import InputError
 from torquemap.filters import dilate, lowpass
@@ -164,6 +165,10 @@ REDRAW_BY_DIRECTION = True
 #: monotone cubic through the passes a dip below them), so the table takes their mean and
 #: their difference enters the covariance (docs/identification.md).
 REDRAWN_WEIGHT = 0.5
+#: Whether the table's knots above each direction's fastest pass that holds its speed are
+#: redrawn along the secant of the two fastest such passes, like those between passes far apart
+#: (:mod:`torquemap.above_passes`; the fit's ``held_speeds``; docs/estimation.md, "Stop 44 (F72)").
+ABOVE_PASSES = True
 #: A knot between passes is redrawn when the rows away from the passes hold less than this
 #: share of the prior's information on it (family sweeps, ramps whose window reaches rest:
 #: 1e-24 to 0.13; slow ramps of 0.4 s: 0.24 under a quadratic drag, 4-8 under a steep
@@ -1220,6 +1225,7 @@ def fit_joint_whole(
     steady_speeds: Sequence[float] = (),
     held_inertia: tuple[float, float] | None = None,
     pass_speeds: Sequence[float] = (),
+    held_speeds: Sequence[float] | None = None,
     low_speed_rows: bool | None = None,
     stribeck_prior: bool | Literal["select"] | None = None,
     handed: Mapping[float, tuple[NDArray[np.float64], NDArray[np.float64]]] | None = None,
@@ -1287,6 +1293,11 @@ def fit_joint_whole(
     pass_speeds
         Signed motor speeds [rad/s] of the steady passes, for the leave-one-pass-out error of
         the table between passes (:func:`pass_interpolation_error`); empty: not measured.
+    held_speeds
+        Signed motor speeds [rad/s] of the passes that hold their speed
+        (:func:`torquemap.above_passes.hold_share`): with :data:`ABOVE_PASSES`, the table above
+        each direction's fastest one is redrawn (:func:`torquemap.above_passes.redraw_above`)
+        where the table is redrawn between passes. None: not redrawn.
     low_speed_rows
         Fit the table also on the rows below half the slowest pass where the motion is slow
         but steady (slow ramps, slow stretches; docs/identification.md, "Friction below the
@@ -1716,6 +1727,10 @@ def fit_joint_whole(
             redrawn = redraw_law_by_direction(law, pass_speeds, method, held=by_prior)
         else:
             redrawn = redraw_law(law, [abs(x) for x in steady_speeds], method, held=by_prior)
+        if ABOVE_PASSES and held_speeds is not None:
+            # above the fastest pass that holds its speed the rows are transients (docs/
+            # estimation.md, "Stop 44 (F72)")
+            redrawn = redraw_above(redrawn, held_speeds)
         # the fit's own knots are a second estimate there: the table takes the weighted mean,
         # and the distance from it to either is a model-form variance, fully correlated along
         # each direction's table
