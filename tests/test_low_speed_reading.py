@@ -12,13 +12,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_identify_whole import LINES, J, robot
 
 from torquemap.friction_law import StribeckFriction
 from torquemap.identify import identify_model
 from torquemap.identify_whole import dissipative_runs
 from torquemap.io import Log
-from torquemap.model import PdtvLine, pdtv_torque
-from torquemap.robot import robot_from_dict
+from torquemap.model import pdtv_torque
 
 pytestmark = pytest.mark.xdist_group("identify_whole")
 
@@ -32,18 +32,6 @@ LAW = StribeckFriction(
     zero_velocity=0.02,
     transition="smooth",
 )
-LINES = (
-    PdtvLine(order=2.0, amplitude=0.02, phase=0.3),
-    PdtvLine(order=7.0, amplitude=0.01, phase=-1),
-)
-J = 2e-4
-
-
-def robot() -> object:
-    joint = {"gear_ratio": 1.0, "torque_constant": 0.1, "encoder_counts_per_rev": 8000}
-    return robot_from_dict(
-        {"robot": {"name": "motor", "kinematics": "none"}, "joints": {"m": joint}}
-    )
 
 
 def simulate(stretches: int, seed: int = 3) -> Log:

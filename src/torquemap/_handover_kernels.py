@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from torquemap._estimate_kernels import _pairwise_sum
 from torquemap._jit import jit
 from torquemap.linearize.handover import SHARE_TOL
 
@@ -46,31 +47,9 @@ def interp_unit(x: float, fp: NDArray[np.float64]) -> float:
 
 @jit
 def pairwise_sum(a: NDArray[np.float64], n: int) -> float:
-    """``numpy.sum(a[:n])`` for ``n <= 128``: numpy's pairwise summation (from 0.0 in order
-    below 8 terms, else eight running sums added in pairs, then the remainder in order)."""
-    if n < 8:
-        res = 0.0
-        for i in range(n):
-            res += a[i]
-        return res
-    r0, r1, r2, r3 = a[0], a[1], a[2], a[3]
-    r4, r5, r6, r7 = a[4], a[5], a[6], a[7]
-    i = 8
-    while i < n - (n % 8):
-        r0 += a[i]
-        r1 += a[i + 1]
-        r2 += a[i + 2]
-        r3 += a[i + 3]
-        r4 += a[i + 4]
-        r5 += a[i + 5]
-        r6 += a[i + 6]
-        r7 += a[i + 7]
-        i += 8
-    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-    while i < n:
-        res += a[i]
-        i += 1
-    return float(res)
+    """``numpy.sum(a[:n])``: numpy's reduction adds its pairwise sum
+    (:func:`torquemap._estimate_kernels._pairwise_sum`) to the identity 0.0."""
+    return 0.0 + _pairwise_sum(a, n)
 
 
 @jit
@@ -156,6 +135,17 @@ def estimate(
 
 
 @jit
+def finite_rows(mean: NDArray[np.float64], j: int, have: NDArray[np.int64]) -> int:
+    """The positions whose level ``j`` is measured, in order, into ``have``; their count."""
+    size = 0
+    for q in range(mean.shape[0]):
+        if np.isfinite(mean[q, j]):
+            have[size] = q
+            size += 1
+    return size
+
+
+@jit
 def check_errors(
     mean: NDArray[np.float64],
     levels: NDArray[np.float64],
@@ -173,11 +163,7 @@ def check_errors(
     have = np.empty(n, dtype=np.int64)
     count = 0
     for j in range(levels_n):
-        size = 0
-        for q in range(n):
-            if np.isfinite(mean[q, j]):
-                have[size] = q
-                size += 1
+        size = finite_rows(mean, j, have)
         if size < 3:
             continue
         for i in range(size):
@@ -219,11 +205,7 @@ def fill(
     have = np.empty(n, dtype=np.int64)
     filled = 0
     for j in range(levels_n):
-        size = 0
-        for q in range(n):
-            if np.isfinite(mean[q, j]):
-                have[size] = q
-                size += 1
+        size = finite_rows(mean, j, have)
         if size < 2:
             continue
         for i in range(size):
