@@ -33,6 +33,7 @@ This module never imports the simulator.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -413,14 +414,38 @@ def _choose(
         )
         design = _cell_design(levels[hj], ramp[heldp], d, n, top, c)
         err.append(np.sum(design * coef[heldp], axis=1) - forward[heldp, hj])
-    first = err[0]
-    best, least = CHOICES[0], float(np.mean(first**2))
-    for form, e in zip(CHOICES[1:], err[1:], strict=True):
-        diff = e**2 - first**2
+    return CHOICES[paired_choice(err)[0]]
+
+
+def paired_choice(errors: Sequence[NDArray[np.float64]]) -> tuple[int, tuple[float, ...]]:
+    """The candidate taken by a held-out test on the prediction ``errors`` of each candidate at
+    the same held-out readings [N m], the default first: another is taken when the mean
+    difference of its squared errors from the default's is below ``-CHOICE_SE`` of its standard
+    errors (one-sided); among those, the least mean squared error.
+
+    Returns
+    -------
+    int, tuple of float
+        The index taken (0: the default) and each candidate's mean difference over its standard
+        error (0 for the default, or where the difference does not vary).
+
+    Examples
+    --------
+    >>> paired_choice([np.array([1.0, 1.0, 1.0]), np.array([0.5, 0.4, 0.6])])[0]
+    1
+    >>> paired_choice([np.array([1.0, 0.1, 1.0]), np.array([0.9, 0.2, 0.9])])[0]
+    0
+    """
+    first = errors[0] ** 2
+    index, least = 0, float(np.mean(first))
+    ts = [0.0]
+    for i, e in enumerate(errors[1:], start=1):
+        diff = e**2 - first
         se = float(np.std(diff, ddof=1)) / np.sqrt(diff.size)
+        ts.append(float(np.mean(diff)) / se if se > 0 else 0.0)
         if np.mean(diff) < -CHOICE_SE * se and float(np.mean(e**2)) < least:
-            best, least = form, float(np.mean(e**2))
-    return best
+            index, least = i, float(np.mean(e**2))
+    return index, tuple(ts)
 
 
 def onset_curve(

@@ -15,7 +15,8 @@ surface is fitted to the rest under the candidate law, and it predicts the left-
 lowest :data:`LOWEST` cells that read torque (at least ``readable``), the cells nearest the
 friction zone. A candidate other than the first (the default window) is taken only when the
 mean paired difference of its squared errors from the default's is below ``-CHOICE_SE``
-standard errors (one-sided, as :func:`torquemap.linearize.onset.fit_onset`'s ``"choose"``).
+standard errors (one-sided: :func:`torquemap.linearize.onset.paired_choice`, the test of
+``fit_onset``'s ``"choose"``).
 
 This module never imports the simulator.
 """
@@ -28,7 +29,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from torquemap.linearize.onset import CHOICE_SE
+from torquemap.linearize.onset import paired_choice
 from torquemap.linearize.surface import fit_surface, surface_prediction
 
 #: The windows' tops tried, as fractions of the position-independent torque; the first is the
@@ -152,15 +153,6 @@ def choose_window(
             at = fold == f
             err[at] = pred[cp[at], cj[at]] - grid[cp[at], cj[at]]
         errors.append(err)
-    first = errors[0] ** 2
-    index, least = 0, float(np.mean(first))
-    ts = [0.0]
-    for i, e in enumerate(errors[1:], start=1):
-        diff = e**2 - first
-        se = float(np.std(diff, ddof=1)) / np.sqrt(diff.size)
-        t = float(np.mean(diff)) / se if se > 0 else 0.0
-        ts.append(t)
-        if t < -CHOICE_SE and float(np.mean(e**2)) < least:
-            index, least = i, float(np.mean(e**2))
+    index, ts = paired_choice(errors)
     mse = tuple(float(np.mean(e**2)) for e in errors)
-    return WindowChoice(index, mse, tuple(ts), int(cp.size))
+    return WindowChoice(index, mse, ts, int(cp.size))
